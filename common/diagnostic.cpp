@@ -1,0 +1,111 @@
+// Rendering of compiler-style diagnostics (see diagnostic.h).
+#include "common/diagnostic.h"
+
+#include <algorithm>
+#include <string>
+
+namespace rtplc {
+
+void DiagnosticList::add(Severity s, SourcePos pos, std::string msg, uint32_t length) {
+  if (s == Severity::kError) ++errors_;
+  if (s == Severity::kWarning) ++warnings_;
+  if (items_.size() >= kMaxRecorded) return;
+  items_.push_back(Diagnostic{s, pos, length == 0 ? 1 : length, std::move(msg)});
+}
+
+void DiagnosticList::error(SourcePos pos, std::string msg, uint32_t length) {
+  add(Severity::kError, pos, std::move(msg), length);
+}
+void DiagnosticList::warning(SourcePos pos, std::string msg, uint32_t length) {
+  add(Severity::kWarning, pos, std::move(msg), length);
+}
+void DiagnosticList::note(SourcePos pos, std::string msg, uint32_t length) {
+  add(Severity::kNote, pos, std::move(msg), length);
+}
+
+std::string_view source_line(std::string_view source, uint32_t line) {
+  if (line == 0) return {};
+  size_t start = 0;
+  for (uint32_t l = 1; l < line; ++l) {
+    size_t nl = source.find('\n', start);
+    if (nl == std::string_view::npos) return {};
+    start = nl + 1;
+  }
+  size_t end = source.find('\n', start);
+  if (end == std::string_view::npos) end = source.size();
+  std::string_view s = source.substr(start, end - start);
+  if (!s.empty() && s.back() == '\r') s.remove_suffix(1);
+  return s;
+}
+
+std::string DiagnosticList::render(std::string_view file_name, std::string_view source,
+                                   bool color) const {
+  const char* bold = color ? "\x1b[1m" : "";
+  const char* red = color ? "\x1b[1;31m" : "";
+  const char* magenta = color ? "\x1b[1;35m" : "";
+  const char* cyan = color ? "\x1b[1;36m" : "";
+  const char* green = color ? "\x1b[1;32m" : "";
+  const char* reset = color ? "\x1b[0m" : "";
+  std::string out;
+  for (const Diagnostic& d : items_) {
+    const char* kind = d.severity == Severity::kError     ? "error"
+                       : d.severity == Severity::kWarning ? "warning"
+                                                          : "note";
+    const char* kc = d.severity == Severity::kError     ? red
+                     : d.severity == Severity::kWarning ? magenta
+                                                        : cyan;
+    out += bold;
+    out += file_name;
+    if (d.pos.line > 0) {
+      out += ':' + std::to_string(d.pos.line) + ':' + std::to_string(d.pos.col);
+    }
+    out += ": ";
+    out += reset;
+    out += kc;
+    out += kind;
+    out += ": ";
+    out += reset;
+    out += bold;
+    out += d.message;
+    out += reset;
+    out += '\n';
+    std::string_view text = source_line(source, d.pos.line);
+    if (d.pos.line > 0 && d.pos.col > 0) {
+      std::string ln = std::to_string(d.pos.line);
+      out += ' ' + ln + " | ";
+      // Tabs are kept so the caret lines up with what the user's editor shows.
+      out += text;
+      out += '\n';
+      out += ' ' + std::string(ln.size(), ' ') + " | ";
+      size_t col = std::min<size_t>(d.pos.col - 1, text.size());
+      for (size_t i = 0; i < col; ++i) out += text[i] == '\t' ? '\t' : ' ';
+      out += green;
+      out += '^';
+      size_t width = std::max<size_t>(1, d.length);
+      if (col + width > text.size() && text.size() > col) width = text.size() - col;
+      for (size_t i = 1; i < width; ++i) out += '~';
+      out += reset;
+      out += '\n';
+    }
+  }
+  if (errors_ > items_.size()) {
+    out += std::to_string(errors_ - items_.size()) + " more diagnostics not shown\n";
+  }
+  return out;
+}
+
+size_t edit_distance(std::string_view a, std::string_view b) {
+  std::vector<size_t> prev(b.size() + 1), cur(b.size() + 1);
+  for (size_t j = 0; j <= b.size(); ++j) prev[j] = j;
+  for (size_t i = 1; i <= a.size(); ++i) {
+    cur[0] = i;
+    for (size_t j = 1; j <= b.size(); ++j) {
+      size_t sub = prev[j - 1] + (a[i - 1] == b[j - 1] ? 0 : 1);
+      cur[j] = std::min({prev[j] + 1, cur[j - 1] + 1, sub});
+    }
+    std::swap(prev, cur);
+  }
+  return prev[b.size()];
+}
+
+}  // namespace rtplc
