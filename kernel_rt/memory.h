@@ -1,0 +1,51 @@
+// Memory that never page-faults once the RT tasks run (spec: runtime.md, "Tasks and the
+// scheduler": mlockall, prefault stacks and arenas, mallopt so the heap never shrinks, count
+// minor faults per cycle to prove it).
+//
+// Call order before RT starts: lock_memory() once in the main thread, then every RT thread
+// prefaults its own stack (start_thread() does that for you with ThreadSpec::prefault_stack).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+#include "common/result.h"
+
+namespace rtplc::kernel_rt {
+
+struct MemoryLockOptions {
+  // Bytes to allocate, touch and release back to malloc, so later load-time allocations
+  // (and any stray one on the RT path) find resident, locked pages instead of faulting.
+  size_t heap_reserve_bytes = 64u * 1024u * 1024u;
+  // Bytes of the calling thread's stack to touch now.
+  size_t stack_prefault_bytes = 256u * 1024u;
+};
+
+// Tunes malloc so freed memory is never returned to the kernel nor served by fresh mmaps,
+// locks every current and future page (mlockall MCL_CURRENT|MCL_FUTURE), then prefaults the
+// heap reserve and the caller's stack. The malloc tuning and the prefault happen even when
+// the lock is refused, so an unprivileged run still gets fewer faults; the error then says
+// what limit stopped it and how to lift it.
+Result<void> lock_memory(const MemoryLockOptions& options = {});
+
+// Undoes mlockall (for tests and for tools that lock only temporarily).
+void unlock_memory() noexcept;
+
+// Touches `bytes` of the calling thread's stack below the current frame so those pages are
+// resident before the first cycle. Fails (touching nothing) when the request does not fit
+// in the thread's stack with a safety margin left over.
+Result<void> prefault_stack(size_t bytes);
+
+// Bytes of stack the calling thread has below the current frame (0 if unknown).
+size_t stack_room_of_this_thread() noexcept;
+
+// Minor page faults the calling thread has taken so far (getrusage RUSAGE_THREAD). Sampled
+// before and after a cycle in test mode, the difference must be 0 after warm-up.
+uint64_t minor_faults_this_thread() noexcept;
+// Major faults (disk I/O) of the calling thread; any at all on an RT thread is a defect.
+uint64_t major_faults_this_thread() noexcept;
+
+// Bytes of this process locked in RAM (VmLck in /proc/self/status); 0 when nothing is locked.
+size_t locked_bytes_of_this_process() noexcept;
+
+}  // namespace rtplc::kernel_rt
