@@ -7,6 +7,13 @@
 namespace rtplc {
 
 void DiagnosticList::add(Severity s, SourcePos pos, std::string msg, uint32_t length) {
+  // The same message at the same place is said once (a macro expanded many times
+  // would otherwise repeat its definition's problems at every call).
+  for (const Diagnostic& d : items_) {
+    if (d.severity == s && d.pos.line == pos.line && d.pos.col == pos.col && d.message == msg) {
+      return;
+    }
+  }
   if (s == Severity::kError) ++errors_;
   if (s == Severity::kWarning) ++warnings_;
   if (items_.size() >= kMaxRecorded) return;

@@ -1,0 +1,161 @@
+// `rtplc check`, `rtplc compile` and `rtplc blocks`: the compiler's front door.
+#include <CLI/CLI.hpp>
+#include <unistd.h>
+
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <memory>
+
+#include "app/commands.h"
+#include "blocks/registry.h"
+#include "lang/compiler.h"
+
+namespace rtplc::app {
+namespace {
+
+struct CheckArgs {
+  std::string file;
+  bool explain = false;
+  bool werror = false;
+  double period = 0;
+  std::string output;
+  std::string block;
+  bool markdown = false;
+};
+
+// Prints diagnostics; returns true when the program compiled.
+bool report(const std::string& file, const lang::CompileResult& r, bool werror) {
+  std::string err;
+  std::optional<std::string> text = lang::read_text_file(file, &err);
+  const bool color = isatty(STDERR_FILENO) != 0;
+  std::string rendered = r.diags.render(file, text ? *text : std::string(), color);
+  if (!rendered.empty()) std::fputs(rendered.c_str(), stderr);
+  if (r.diags.has_errors()) {
+    std::fprintf(stderr, "%s: %zu error%s, %zu warning%s; nothing compiled\n", file.c_str(),
+                 r.diags.error_count(), r.diags.error_count() == 1 ? "" : "s",
+                 r.diags.warning_count(), r.diags.warning_count() == 1 ? "" : "s");
+    return false;
+  }
+  if (werror && r.diags.warning_count() > 0) {
+    std::fprintf(stderr, "%s: warnings treated as errors (--werror)\n", file.c_str());
+    return false;
+  }
+  return true;
+}
+
+lang::CompileOptions options_from(const CheckArgs& a) {
+  lang::CompileOptions o;
+  if (a.period > 0) o.period_override = a.period;
+  return o;
+}
+
+void run_check(const CheckArgs& a) {
+  lang::CompileResult r = lang::compile_file(a.file, options_from(a));
+  if (!report(a.file, r, a.werror)) throw CLI::RuntimeError(kExitFailure);
+  const ImageHeader& h = r.image->header();
+  std::printf("%s: OK, %u blocks, period %g s, %u I/O bindings, image %zu bytes\n", a.file.c_str(),
+              h.n_instr, h.dt, h.n_bindings, r.image->bytes().size());
+  if (a.explain) {
+    std::printf("\n%s", lang::explain(r).c_str());
+  }
+}
+
+void run_compile(const CheckArgs& a) {
+  lang::CompileResult r = lang::compile_file(a.file, options_from(a));
+  if (!report(a.file, r, a.werror)) throw CLI::RuntimeError(kExitFailure);
+  std::string out = a.output;
+  if (out.empty()) {
+    out = a.file;
+    if (out.size() > 4 && out.substr(out.size() - 4) == ".fbd") out.resize(out.size() - 4);
+    out += ".img";
+  }
+  // Write beside, then rename: a crash never leaves a half-written image.
+  std::string tmp = out + ".tmp";
+  {
+    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
+    auto bytes = r.image->bytes();
+    f.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+    if (!f) {
+      std::fprintf(stderr, "rtplc compile: cannot write %s\n", tmp.c_str());
+      throw CLI::RuntimeError(kExitFailure);
+    }
+  }
+  if (std::rename(tmp.c_str(), out.c_str()) != 0) {
+    std::fprintf(stderr, "rtplc compile: cannot rename %s to %s\n", tmp.c_str(), out.c_str());
+    throw CLI::RuntimeError(kExitFailure);
+  }
+  std::printf("%s -> %s (%zu bytes, %u blocks)\n", a.file.c_str(), out.c_str(),
+              r.image->bytes().size(), r.image->header().n_instr);
+}
+
+void run_blocks(const CheckArgs& a) {
+  if (a.markdown) {
+    std::fputs(blocks_markdown().c_str(), stdout);
+    return;
+  }
+  if (!a.block.empty()) {
+    const BlockSpec* b = find_block(a.block);
+    if (!b) {
+      std::string hint = suggest_block(a.block);
+      std::fprintf(stderr, "rtplc blocks: no block named '%s'%s\n", a.block.c_str(),
+                   hint.empty() ? "" : ("; did you mean '" + hint + "'?").c_str());
+      throw CLI::RuntimeError(kExitFailure);
+    }
+    std::printf("%s%s%s — %s (%s)\n", b->name, b->alias ? " / " : "", b->alias ? b->alias : "",
+                b->summary, group_name(b->group));
+    std::printf("  contract: %s\n", b->contract);
+    if (b->state[0]) std::printf("  state:    %s\n", b->state);
+    if (b->errors[0]) std::printf("  errors:   %s\n", b->errors);
+    for (uint8_t k = 0; k < b->param_count; ++k) {
+      std::printf("  param %s: %s%s\n", b->params[k].name, b->params[k].meaning,
+                  b->params[k].optional ? " (optional)" : "");
+    }
+    return;
+  }
+  BlockGroup last = BlockGroup::kControl;
+  bool first = true;
+  for (const BlockSpec& b : all_blocks()) {
+    if (first || b.group != last) {
+      std::printf("%s%s:\n", first ? "" : "\n", group_name(b.group));
+      last = b.group;
+      first = false;
+    }
+    std::printf("  %-6s %s\n", b.name, b.summary);
+  }
+  std::printf("\n`rtplc blocks NAME` shows one block's contract; docs/blocks.md has them all.\n");
+}
+
+}  // namespace
+
+void add_check_commands(CLI::App& app) {
+  auto args = std::make_shared<CheckArgs>();
+
+  CLI::App* check = app.add_subcommand(
+      "check", "Compile an FBD control algorithm file and report errors (nothing is run).");
+  check->footer(
+      "Errors are shown as file:line:col with the line and a caret; every error in the file is\n"
+      "listed, and the exit code is 1 if there was any.\n"
+      "Example:\n  rtplc check examples/seed_pid.fbd --explain");
+  check->add_option("file", args->file, "control algorithm file (.fbd)")->required();
+  check->add_flag("--explain", args->explain,
+                  "print execution order, delayed references, I/O bindings and sizes");
+  check->add_flag("--werror", args->werror, "treat warnings as errors");
+  check->add_option("--period", args->period, "override stime: task period in seconds");
+  check->callback([args] { run_check(*args); });
+
+  CLI::App* compile = app.add_subcommand(
+      "compile", "Compile an FBD file to a verified task image file (.img).");
+  compile->add_option("file", args->file, "control algorithm file (.fbd)")->required();
+  compile->add_option("-o,--output", args->output, "image file (default: FILE with .img)");
+  compile->add_flag("--werror", args->werror, "treat warnings as errors");
+  compile->add_option("--period", args->period, "override stime: task period in seconds");
+  compile->callback([args] { run_compile(*args); });
+
+  CLI::App* blocks = app.add_subcommand("blocks", "List the primitive blocks and their contracts.");
+  blocks->add_option("name", args->block, "show one block in detail");
+  blocks->add_flag("--markdown", args->markdown, "print the full reference (docs/blocks.md)");
+  blocks->callback([args] { run_blocks(*args); });
+}
+
+}  // namespace rtplc::app

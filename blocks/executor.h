@@ -1,0 +1,56 @@
+// The executor: runs one cycle of a task image over its arenas (spec
+// fbd-language.md "The compiled form", issue: "no allocation, no exceptions, no
+// locks"). Everything a cycle touches is allocated when the arena is built.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "blocks/image.h"
+
+namespace rtplc {
+
+// The mutable side of a task: block outputs (values), block memory (state), error
+// counters, and the I/O buffers the runtime fills before and drains after a cycle.
+// All zero-initialised: "a delayed reference reads 0 in the first cycle".
+struct TaskArena {
+  TaskArena() = default;
+  explicit TaskArena(const TaskImage& image) { resize_for(image); }
+  void resize_for(const TaskImage& image);
+  void reset();  // back to the initial (all-zero) state
+
+  std::vector<double> values;
+  std::vector<double> state;
+  std::vector<uint32_t> errors;  // per instruction, schedule order
+  std::vector<double> io_in;     // inputs and set-points, indexed by Binding::io_index
+  std::vector<double> io_out;    // outputs, indexed by Binding::io_index
+  uint64_t total_errors = 0;
+  uint64_t cycles = 0;
+};
+
+// Raw pointers resolved once per (image, arena) pair so a cycle is one call.
+struct ExecContext {
+  const Instr* code = nullptr;
+  const Run* runs = nullptr;
+  uint32_t n_runs = 0;
+  const double* params = nullptr;
+  double* values = nullptr;
+  double* state = nullptr;
+  uint32_t* errors = nullptr;
+  const double* io_in = nullptr;
+  double* io_out = nullptr;
+  uint64_t* total_errors = nullptr;
+  uint64_t* cycles = nullptr;
+};
+
+ExecContext make_context(const TaskImage& image, TaskArena& arena);
+
+// Runs one cycle: every run of instructions once, in schedule order.
+// Never allocates, locks, throws or makes a system call.
+void execute_cycle(const ExecContext& ctx) noexcept;
+
+inline void execute_cycle(const TaskImage& image, TaskArena& arena) noexcept {
+  execute_cycle(make_context(image, arena));
+}
+
+}  // namespace rtplc

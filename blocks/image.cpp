@@ -1,0 +1,232 @@
+// Serialisation and verification of task images (see image.h).
+#include "blocks/image.h"
+
+#include <cmath>
+#include <cstring>
+#include <string>
+
+#include "common/capacities.h"
+
+namespace rtplc {
+namespace {
+
+constexpr uint64_t align8(uint64_t n) { return (n + 7) & ~uint64_t{7}; }
+
+std::string at_instr(uint32_t i, const char* what) {
+  return "instruction " + std::to_string(i) + ": " + what;
+}
+
+bool finite_all(std::span<const double> v) {
+  for (double x : v) {
+    if (!std::isfinite(x)) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+uint64_t fnv1a64(std::string_view s) {
+  uint64_t h = 1469598103934665603ull;
+  for (char c : s) {
+    h ^= static_cast<uint8_t>(c);
+    h *= 1099511628211ull;
+  }
+  return h;
+}
+
+uint32_t ImageBuilder::add_string(std::string_view s) {
+  auto it = interned_.find(std::string(s));
+  if (it != interned_.end()) return it->second;
+  auto off = static_cast<uint32_t>(strings_.size());
+  strings_.append(s);
+  strings_.push_back('\0');
+  interned_.emplace(std::string(s), off);
+  return off;
+}
+
+Result<TaskImage> ImageBuilder::finish() const {
+  ImageHeader h{};
+  std::memcpy(h.magic, kImageMagic, sizeof h.magic);
+  h.version = kImageVersion;
+  h.header_size = sizeof(ImageHeader);
+  h.source_hash = source_hash;
+  h.period_ns = period_ns;
+  h.dt = dt;
+  h.name = name;
+  h.n_instr = static_cast<uint32_t>(code.size());
+  h.n_runs = static_cast<uint32_t>(runs.size());
+  h.n_values = n_values;
+  h.n_state = n_state;
+  h.n_params = static_cast<uint32_t>(params.size());
+  h.n_raw_params = static_cast<uint32_t>(raw_params.size());
+  h.n_bindings = static_cast<uint32_t>(bindings.size());
+  h.n_io_in = n_io_in;
+  h.n_io_out = n_io_out;
+  std::string pool = strings_.empty() ? std::string(1, '\0') : strings_;
+  h.n_strings = static_cast<uint32_t>(pool.size());
+
+  uint64_t off = align8(sizeof(ImageHeader));
+  auto place = [&off](uint64_t bytes) {
+    uint64_t at = off;
+    off = align8(off + bytes);
+    return at;
+  };
+  h.off_instr = place(code.size() * sizeof(Instr));
+  h.off_runs = place(runs.size() * sizeof(Run));
+  h.off_params = place(params.size() * sizeof(double));
+  h.off_raw_params = place(raw_params.size() * sizeof(double));
+  h.off_bindings = place(bindings.size() * sizeof(Binding));
+  h.off_blocks = place(blocks.size() * sizeof(BlockInfo));
+  h.off_strings = place(pool.size());
+  h.total_size = off;
+
+  TaskImage img;
+  img.size_ = off;
+  img.words_ = std::make_unique<uint64_t[]>(off / 8);  // zero-filled: padding is deterministic
+  auto* base = reinterpret_cast<std::byte*>(img.words_.get());
+  auto copy = [base](uint64_t at, const void* src, size_t n) {
+    if (n > 0) std::memcpy(base + at, src, n);
+  };
+  copy(0, &h, sizeof h);
+  copy(h.off_instr, code.data(), code.size() * sizeof(Instr));
+  copy(h.off_runs, runs.data(), runs.size() * sizeof(Run));
+  copy(h.off_params, params.data(), params.size() * sizeof(double));
+  copy(h.off_raw_params, raw_params.data(), raw_params.size() * sizeof(double));
+  copy(h.off_bindings, bindings.data(), bindings.size() * sizeof(Binding));
+  copy(h.off_blocks, blocks.data(), blocks.size() * sizeof(BlockInfo));
+  copy(h.off_strings, pool.data(), pool.size());
+
+  Result<void> v = verify_image(img.bytes());
+  if (!v) return make_error("internal error, the compiler built an invalid image: " + v.error());
+  return img;
+}
+
+Result<TaskImage> TaskImage::from_bytes(std::span<const std::byte> bytes) {
+  if (Result<void> v = verify_image(bytes); !v) return make_error(v.error());
+  TaskImage img;
+  img.size_ = bytes.size();
+  img.words_ = std::make_unique<uint64_t[]>(align8(bytes.size()) / 8);
+  std::memcpy(img.words_.get(), bytes.data(), bytes.size());
+  return img;
+}
+
+Result<void> verify_image(std::span<const std::byte> bytes) {
+  if (bytes.size() < sizeof(ImageHeader)) return make_error("image shorter than its header");
+  if (reinterpret_cast<uintptr_t>(bytes.data()) % 8 != 0) {
+    return make_error("image is not 8-byte aligned");
+  }
+  ImageHeader h;
+  std::memcpy(&h, bytes.data(), sizeof h);
+  if (std::memcmp(h.magic, kImageMagic, sizeof h.magic) != 0) return make_error("bad magic");
+  if (h.version != kImageVersion) {
+    return make_error("image version " + std::to_string(h.version) + ", this runtime reads " +
+                      std::to_string(kImageVersion));
+  }
+  if (h.header_size != sizeof(ImageHeader)) return make_error("bad header size");
+  if (h.total_size != bytes.size()) return make_error("size field does not match the buffer");
+  if (!(h.dt > 0) || !std::isfinite(h.dt) || h.period_ns <= 0) return make_error("bad period");
+  if (h.n_instr > kMaxBlocks) return make_error("more instructions than RTPLC_MAX_BLOCKS");
+  if (h.n_bindings > kMaxChannels) return make_error("more bindings than RTPLC_MAX_CHANNELS");
+
+  auto section_ok = [&](uint64_t off, uint64_t count, uint64_t elem) {
+    if (off % 8 != 0 || off < sizeof(ImageHeader) || off > bytes.size()) return false;
+    if (elem != 0 && count > (bytes.size() - off) / elem) return false;
+    return true;
+  };
+  if (!section_ok(h.off_instr, h.n_instr, sizeof(Instr)) ||
+      !section_ok(h.off_runs, h.n_runs, sizeof(Run)) ||
+      !section_ok(h.off_params, h.n_params, sizeof(double)) ||
+      !section_ok(h.off_raw_params, h.n_raw_params, sizeof(double)) ||
+      !section_ok(h.off_bindings, h.n_bindings, sizeof(Binding)) ||
+      !section_ok(h.off_blocks, h.n_instr, sizeof(BlockInfo)) ||
+      !section_ok(h.off_strings, h.n_strings, 1)) {
+    return make_error("a section lies outside the image");
+  }
+  if (h.n_strings == 0 || static_cast<char>(bytes[h.off_strings + h.n_strings - 1]) != '\0') {
+    return make_error("string pool is not NUL-terminated");
+  }
+  auto str_ok = [&](uint32_t off) { return off < h.n_strings; };
+  if (!str_ok(h.name)) return make_error("program name out of bounds");
+
+  auto sec = [&](uint64_t off) { return bytes.data() + off; };
+  std::span<const Instr> code(reinterpret_cast<const Instr*>(sec(h.off_instr)), h.n_instr);
+  std::span<const Run> runs(reinterpret_cast<const Run*>(sec(h.off_runs)), h.n_runs);
+  std::span<const double> params(reinterpret_cast<const double*>(sec(h.off_params)), h.n_params);
+  std::span<const double> raw(reinterpret_cast<const double*>(sec(h.off_raw_params)),
+                              h.n_raw_params);
+  std::span<const Binding> binds(reinterpret_cast<const Binding*>(sec(h.off_bindings)),
+                                 h.n_bindings);
+  std::span<const BlockInfo> infos(reinterpret_cast<const BlockInfo*>(sec(h.off_blocks)),
+                                   h.n_instr);
+
+  if (!finite_all(params) || !finite_all(raw)) return make_error("a parameter is not finite");
+
+  // Each value slot has exactly one writer; each output-buffer entry too.
+  std::vector<uint8_t> value_written(h.n_values, 0);
+  std::vector<uint8_t> out_written(h.n_io_out, 0);
+  for (uint32_t i = 0; i < h.n_instr; ++i) {
+    const Instr& in = code[i];
+    if (static_cast<uint8_t>(in.op) >= kOpCount) return make_error(at_instr(i, "bad opcode"));
+    const uint32_t n_in = op_input_count(in.op);
+    if (in.n_in != n_in) return make_error(at_instr(i, "wrong input count for its opcode"));
+    if (op_is_load(in.op)) {
+      if (in.in[0] >= h.n_io_in) return make_error(at_instr(i, "input-buffer index out of range"));
+    } else {
+      for (uint32_t k = 0; k < n_in; ++k) {
+        if (in.in[k] >= h.n_values) return make_error(at_instr(i, "input slot out of range"));
+      }
+    }
+    if (op_is_store(in.op)) {
+      if (in.out >= h.n_io_out) return make_error(at_instr(i, "output-buffer index out of range"));
+      if (out_written[in.out]++) return make_error(at_instr(i, "second writer of an output"));
+    } else {
+      if (in.out >= h.n_values) return make_error(at_instr(i, "output slot out of range"));
+      if (value_written[in.out]++) return make_error(at_instr(i, "second writer of a value slot"));
+    }
+    const uint32_t np = op_param_count(in.op);
+    if (in.param > h.n_params || np > h.n_params - in.param) {
+      return make_error(at_instr(i, "parameters out of range"));
+    }
+    const double* p = np > 0 ? params.data() + in.param : nullptr;
+    if (in.op == Op::Dely) {
+      if (!(p[0] >= 0) || p[0] > static_cast<double>(kMaxDelaySamples) || p[0] != std::floor(p[0])) {
+        return make_error(at_instr(i, "dely sample count invalid"));
+      }
+    }
+    if (in.op == Op::Lim && !(p[0] <= p[1])) return make_error(at_instr(i, "lim lo > hi"));
+    const uint32_t ns = op_state_size(in.op, p);
+    if (in.state > h.n_state || ns > h.n_state - in.state) {
+      return make_error(at_instr(i, "state out of range"));
+    }
+    const BlockInfo& bi = infos[i];
+    if (!str_ok(bi.name) || !str_ok(bi.block)) return make_error(at_instr(i, "bad debug string"));
+    if (bi.raw_param > h.n_raw_params || bi.raw_count > h.n_raw_params - bi.raw_param) {
+      return make_error(at_instr(i, "literal parameters out of range"));
+    }
+    if (bi.text_index >= h.n_instr) return make_error(at_instr(i, "bad text index"));
+  }
+  // Runs cover the code exactly once, in order, and each holds one opcode.
+  uint32_t next = 0;
+  for (uint32_t r = 0; r < h.n_runs; ++r) {
+    const Run& run = runs[r];
+    if (run.begin != next || run.end <= run.begin || run.end > h.n_instr) {
+      return make_error("run " + std::to_string(r) + " does not continue the previous one");
+    }
+    for (uint32_t i = run.begin; i < run.end; ++i) {
+      if (code[i].op != run.op) return make_error("run " + std::to_string(r) + " mixes opcodes");
+    }
+    next = run.end;
+  }
+  if (next != h.n_instr) return make_error("runs do not cover every instruction");
+  for (uint32_t b = 0; b < h.n_bindings; ++b) {
+    const Binding& bd = binds[b];
+    const bool out = bd.dir == BindingDir::kOutput;
+    if (bd.io_index >= (out ? h.n_io_out : h.n_io_in) || bd.instr >= h.n_instr ||
+        !str_ok(bd.label) || !std::isfinite(bd.init)) {
+      return make_error("binding " + std::to_string(b) + " out of range");
+    }
+  }
+  return {};
+}
+
+}  // namespace rtplc

@@ -1,0 +1,77 @@
+// The executor's instruction set: one opcode per primitive block semantics.
+// One line per opcode (Lua's lopcodes.h idea). V = value arena, S = state arena,
+// P = prepared parameter pool (coefficients already folded with dt), IN/OUT = the
+// task's I/O buffers. "err" = the block's error counter increments and its output
+// (and state) hold their previous values; nothing non-finite is ever stored.
+//
+//  op        operands           semantics                                        P (prepared)        S
+//  LoadA     out <- IN[in0]     analog input / set-point                           -                   -
+//  LoadD     out <- IN[in0]     digital input / set-point (normalised 0/1)         -                   -
+//  StoreA    OUT[out] <- in0    analog output                                      -                   -
+//  StoreD    OUT[out] <- in0    digital output (normalised 0/1)                    -                   -
+//  Add       k*(a+b)                                                               k                   -
+//  Sub       k*(a-b)                                                               k                   -
+//  Mult      k*a*b                                                                 k                   -
+//  Div       k*a/b              b == 0 -> err                                      k                   -
+//  Abs Sqrt Sin Cos Tan Asin Acos Atan   f(a)   domain error -> err                -                   -
+//  Max Min   max/min(a,b)                                                          -                   -
+//  Inv       1/a                a == 0 -> err                                      -                   -
+//  Scale     k*a+b                                                                 k b                 -
+//  And2 And3 Or2 Or3 Not Exor   boolean                                            -                   -
+//  Time      on-delay           true once in held true N cycles                    N                   count
+//  Cnt       up-counter         rising edges of in, reset has priority             n                   count edge
+//  Lim       clamp(a,lo,hi)                                                        lo hi               -
+//  Dzon      dead zone                                                             w                   -
+//  Dely      a from n samples ago                                                  n                   idx ring[n]
+//  Intg      y += a*dt/Ti                                                          dt/Ti               (y = own output)
+//  Derv      Td*(a-a')/dt       first cycle outputs 0                              Td/dt               a' primed
+//  Filt      y += dt/(T+dt)*(a-y)                                                  alpha               (y = own output)
+//  Ldlg      Tustin (T1 s+1)/(T2 s+1)                                              b0 b1 a1            x'
+//  Pi Epi    Kp*(e + I), I += e*dt/Ti                                              Kp dt/Ti            I
+//  Pid Epid  Kp*(e + I + Td*(e-e')/dt)                                             Kp dt/Ti Td/dt      I e' primed
+//  Ramp      y moves to target by <= rate*dt                                       rate*dt             (y = own output)
+//  Amux      sel ? b : a                                                           -                   -
+#pragma once
+
+#include <cstdint>
+
+namespace rtplc {
+
+#define RTPLC_OPS(X)                                                                       \
+  X(LoadA) X(LoadD) X(StoreA) X(StoreD)                                                    \
+  X(Add) X(Sub) X(Mult) X(Div) X(Abs) X(Sqrt) X(Sin) X(Cos) X(Tan) X(Asin) X(Acos) X(Atan) \
+  X(Max) X(Min) X(Inv) X(Scale)                                                            \
+  X(And2) X(And3) X(Or2) X(Or3) X(Not) X(Exor) X(Time) X(Cnt)                              \
+  X(Lim) X(Dzon) X(Dely) X(Intg) X(Derv) X(Filt) X(Ldlg) X(Pi) X(Epi) X(Pid) X(Epid)       \
+  X(Ramp) X(Amux)
+
+enum class Op : uint8_t {
+#define RTPLC_OP_ENUM(name) name,
+  RTPLC_OPS(RTPLC_OP_ENUM)
+#undef RTPLC_OP_ENUM
+};
+
+inline constexpr uint8_t kOpCount = 0
+#define RTPLC_OP_COUNT(name) +1
+    RTPLC_OPS(RTPLC_OP_COUNT)
+#undef RTPLC_OP_COUNT
+    ;
+
+const char* op_name(Op op);
+
+// Prepared parameters an instruction of this opcode reads from the pool.
+uint32_t op_param_count(Op op);
+
+// State doubles the opcode needs; for Dely it depends on its prepared n, passed in
+// `prepared_params` (may be null for every other op).
+uint32_t op_state_size(Op op, const double* prepared_params);
+
+// How many value-slot inputs the opcode reads (LoadA/LoadD read the I/O buffer instead).
+uint32_t op_input_count(Op op);
+
+bool op_writes_value(Op op);   // false for the two stores
+bool op_is_load(Op op);
+bool op_is_store(Op op);
+bool op_output_digital(Op op);
+
+}  // namespace rtplc

@@ -1,0 +1,51 @@
+// Checker and macro expander: Program (as written) -> CheckedProgram (a flat list
+// of primitive blocks in textual order, every input resolved to the block that
+// produces it). Implements the checks of spec fbd-language.md "Errors": unknown
+// block, wrong arity, F used where D is needed, undefined or duplicate id, macro
+// arity against its declaration, RETURN missing, recursion, limits.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "blocks/registry.h"
+#include "common/diagnostic.h"
+#include "lang/ast.h"
+
+namespace rtplc::lang {
+
+struct FlatBlock {
+  const BlockSpec* spec = nullptr;
+  Op op = Op::Add;
+  std::string name;     // "F10", "F10.M4" inside an expansion, "dao@p0.d0.c0" for outputs
+  std::string written;  // block name as written ("deriv")
+  SourcePos pos;        // the statement
+  uint32_t call_line = 0;  // outermost macro call site, 0 at top level
+  uint32_t n_in = 0;
+  uint32_t in[3] = {0, 0, 0};  // producer indices in CheckedProgram::blocks
+  bool delayed[3] = {false, false, false};  // reads last cycle's value
+  SourcePos in_pos[3];
+  std::vector<double> params;  // literal parameters, defaults filled in
+  // I/O blocks
+  uint16_t p = 0, d = 0;
+  uint32_t c = 0;
+  std::string label;
+  double init = 0;
+};
+
+struct CheckedProgram {
+  std::vector<FlatBlock> blocks;  // textual order = semantic execution order
+  double period = 0.1;            // seconds
+  bool period_from_stime = false;
+  SourcePos stime_pos;
+  uint32_t macro_calls = 0;
+};
+
+inline constexpr double kDefaultPeriod = 0.1;
+
+// Checks and expands `prog`. Errors and warnings go to `diags`; the result is
+// meaningful only when diags has no errors.
+CheckedProgram check_program(const Program& prog, DiagnosticList& diags);
+
+}  // namespace rtplc::lang

@@ -1,0 +1,256 @@
+// Checked program -> TaskImage (spec fbd-language.md "The compiled form").
+//
+// Scheduling. Textual order is the semantics; the image may run blocks in any
+// order that keeps every data dependence of textual order:
+//   - block i reads block j with j < i (this cycle's value): j before i;
+//   - block i reads block j with j > i (last cycle's value):  i before j.
+// Within those constraints we list-schedule, always taking every ready block of
+// the opcode with most ready blocks, so replicated loops become long runs of one
+// opcode (dispatch is paid per run). Value slots are then numbered in schedule
+// order, so the operands of a run sit next to each other in memory.
+#include "lang/compiler.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <tuple>
+
+#include "lang/lexer.h"
+#include "lang/parser.h"
+
+namespace rtplc::lang {
+namespace {
+
+std::vector<uint32_t> schedule(const CheckedProgram& prog, bool batch) {
+  const auto n = static_cast<uint32_t>(prog.blocks.size());
+  std::vector<uint32_t> order;
+  order.reserve(n);
+  if (!batch) {
+    for (uint32_t i = 0; i < n; ++i) order.push_back(i);
+    return order;
+  }
+  // Edges in CSR form.
+  std::vector<uint32_t> indeg(n, 0), count(n + 1, 0);
+  std::vector<std::pair<uint32_t, uint32_t>> edges;
+  edges.reserve(size_t{n} * 2);
+  for (uint32_t i = 0; i < n; ++i) {
+    const FlatBlock& b = prog.blocks[i];
+    for (uint32_t k = 0; k < b.n_in; ++k) {
+      const uint32_t j = b.in[k];
+      if (j < i) edges.emplace_back(j, i);
+      else if (j > i) edges.emplace_back(i, j);
+    }
+  }
+  for (auto& e : edges) {
+    ++count[e.first + 1];
+    ++indeg[e.second];
+  }
+  for (uint32_t i = 0; i < n; ++i) count[i + 1] += count[i];
+  std::vector<uint32_t> succ(edges.size());
+  {
+    std::vector<uint32_t> fill(count.begin(), count.end() - 1);
+    for (auto& e : edges) succ[fill[e.first]++] = e.second;
+  }
+  std::vector<std::vector<uint32_t>> ready(kOpCount);
+  for (uint32_t i = 0; i < n; ++i) {
+    if (indeg[i] == 0) ready[static_cast<uint8_t>(prog.blocks[i].op)].push_back(i);
+  }
+  for (;;) {
+    // The opcode with most ready blocks; ties go to the earliest in the text.
+    int best = -1;
+    for (int op = 0; op < kOpCount; ++op) {
+      const auto& r = ready[static_cast<size_t>(op)];
+      if (r.empty()) continue;
+      if (best < 0) {
+        best = op;
+        continue;
+      }
+      const auto& rb = ready[static_cast<size_t>(best)];
+      if (r.size() > rb.size() ||
+          (r.size() == rb.size() && *std::min_element(r.begin(), r.end()) <
+                                        *std::min_element(rb.begin(), rb.end()))) {
+        best = op;
+      }
+    }
+    if (best < 0) break;
+    std::vector<uint32_t> batch_now;
+    batch_now.swap(ready[static_cast<size_t>(best)]);
+    std::sort(batch_now.begin(), batch_now.end());
+    for (uint32_t i : batch_now) {
+      order.push_back(i);
+      for (uint32_t e = count[i]; e < count[i + 1]; ++e) {
+        const uint32_t s = succ[e];
+        if (--indeg[s] == 0) ready[static_cast<uint8_t>(prog.blocks[s].op)].push_back(s);
+      }
+    }
+  }
+  return order;  // textual order is a topological order, so every block is placed
+}
+
+std::string channel_id(const FlatBlock& b) {
+  // Identity of an input channel for de-duplication (two blocks reading one channel).
+  return std::string(io_group_name(b.spec->io)) + static_cast<char>(b.spec->device_kind ? b.spec->device_kind : '-') +
+         (b.spec->signature == Signature::kSetpoint ? "S" : "I") + std::to_string(b.p) + "." +
+         std::to_string(b.d) + "." + std::to_string(b.c);
+}
+
+}  // namespace
+
+Result<TaskImage> build_image(const CheckedProgram& prog, const CompileOptions& opt,
+                              uint64_t source_hash) {
+  const double dt = opt.period_override.value_or(prog.period);
+  if (!(dt >= 1e-5 && dt <= 3600)) return make_error("task period out of range");
+  const auto n = static_cast<uint32_t>(prog.blocks.size());
+  const std::vector<uint32_t> order = schedule(prog, opt.batch);
+  std::vector<uint32_t> sched_of(n);
+  for (uint32_t s = 0; s < n; ++s) sched_of[order[s]] = s;
+
+  ImageBuilder ib;
+  ib.dt = dt;
+  ib.period_ns = std::llround(dt * 1e9);
+  ib.source_hash = source_hash;
+  ib.name = ib.add_string(opt.name.empty() ? "program" : opt.name);
+
+  // Value slots in schedule order.
+  std::vector<uint32_t> slot(n, 0);
+  for (uint32_t s = 0; s < n; ++s) {
+    const FlatBlock& b = prog.blocks[order[s]];
+    if (op_writes_value(b.op)) slot[order[s]] = ib.n_values++;
+  }
+  // I/O buffer indices in textual order (the order of the CSV columns).
+  std::vector<uint32_t> io_index(n, 0);
+  std::map<std::string, uint32_t> in_channels;
+  for (uint32_t i = 0; i < n; ++i) {
+    const FlatBlock& b = prog.blocks[i];
+    if (op_is_load(b.op)) {
+      auto [it, fresh] = in_channels.emplace(channel_id(b), ib.n_io_in);
+      if (fresh) ++ib.n_io_in;
+      io_index[i] = it->second;
+    } else if (op_is_store(b.op)) {
+      io_index[i] = ib.n_io_out++;
+    }
+  }
+
+  ib.code.reserve(n);
+  ib.blocks.reserve(n);
+  for (uint32_t s = 0; s < n; ++s) {
+    const uint32_t i = order[s];
+    const FlatBlock& b = prog.blocks[i];
+    Instr in{};
+    in.op = b.op;
+    in.n_in = static_cast<uint8_t>(op_input_count(b.op));
+    if (op_is_load(b.op)) {
+      in.in[0] = io_index[i];
+      in.out = slot[i];
+    } else {
+      for (uint32_t k = 0; k < b.n_in; ++k) {
+        in.in[k] = slot[b.in[k]];
+        if (b.delayed[k]) in.flags = static_cast<uint16_t>(in.flags | (kInstrDelayed0 << k));
+      }
+      in.out = op_is_store(b.op) ? io_index[i] : slot[i];
+    }
+    in.param = static_cast<uint32_t>(ib.params.size());
+    const uint32_t np = op_param_count(b.op);
+    ib.params.resize(ib.params.size() + np);
+    prepare_params(b.op, b.params, dt, ib.params.data() + in.param);
+    in.state = ib.n_state;
+    ib.n_state += op_state_size(b.op, np ? ib.params.data() + in.param : nullptr);
+    ib.code.push_back(in);
+
+    BlockInfo bi{};
+    bi.key = fnv1a64(b.name);
+    bi.name = ib.add_string(b.name);
+    bi.block = ib.add_string(b.written);
+    bi.line = b.pos.line;
+    bi.col = b.pos.col;
+    bi.call_line = b.call_line;
+    bi.text_index = i;
+    bi.raw_param = static_cast<uint32_t>(ib.raw_params.size());
+    bi.raw_count = static_cast<uint32_t>(b.params.size());
+    ib.raw_params.insert(ib.raw_params.end(), b.params.begin(), b.params.end());
+    ib.blocks.push_back(bi);
+
+    if (ib.runs.empty() || ib.runs.back().op != b.op) {
+      ib.runs.push_back(Run{b.op, {0, 0, 0}, s, s + 1});
+    } else {
+      ib.runs.back().end = s + 1;
+    }
+  }
+
+  for (uint32_t i = 0; i < n; ++i) {
+    const FlatBlock& b = prog.blocks[i];
+    if (b.spec->io == IoGroup::kNone) continue;
+    Binding bd{};
+    bd.dir = b.spec->signature == Signature::kDeviceOut ? BindingDir::kOutput
+             : b.spec->signature == Signature::kSetpoint ? BindingDir::kSetpoint
+                                                         : BindingDir::kInput;
+    bd.group = b.spec->io;
+    bd.kind = b.spec->out_kind;
+    bd.device = b.spec->device_kind;
+    bd.p = b.p;
+    bd.d = b.d;
+    bd.c = b.c;
+    bd.io_index = io_index[i];
+    bd.instr = sched_of[i];
+    bd.label = ib.add_string(b.label);
+    bd.line = b.pos.line;
+    bd.init = b.init;
+    ib.bindings.push_back(bd);
+  }
+  return ib.finish();
+}
+
+std::optional<std::string> read_text_file(const std::string& path, std::string* error) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) {
+    if (error) *error = "cannot open " + path;
+    return std::nullopt;
+  }
+  std::ostringstream ss;
+  ss << f.rdbuf();
+  if (f.bad()) {
+    if (error) *error = "cannot read " + path;
+    return std::nullopt;
+  }
+  return ss.str();
+}
+
+CompileResult compile_source(std::string_view source, const CompileOptions& options) {
+  CompileResult r;
+  // Guard the compiler's own memory against absurd input; real programs are KBs.
+  if (source.size() > (64u << 20)) {
+    r.diags.error(SourcePos{}, "source larger than 64 MiB");
+    return r;
+  }
+  std::vector<Token> toks = tokenize(source, r.diags);
+  Program prog = parse(toks, r.diags);
+  r.program = check_program(prog, r.diags);
+  if (r.diags.has_errors()) return r;
+  Result<TaskImage> img = build_image(r.program, options, fnv1a64(source));
+  if (!img) {
+    r.diags.error(SourcePos{}, img.error());
+    return r;
+  }
+  r.image = std::move(img).value();
+  return r;
+}
+
+CompileResult compile_file(const std::string& path, const CompileOptions& options) {
+  std::string err;
+  std::optional<std::string> text = read_text_file(path, &err);
+  if (!text) {
+    CompileResult r;
+    r.diags.error(SourcePos{}, err);
+    return r;
+  }
+  CompileOptions o = options;
+  if (o.name.empty()) {
+    size_t slash = path.find_last_of('/');
+    o.name = slash == std::string::npos ? path : path.substr(slash + 1);
+  }
+  return compile_source(*text, o);
+}
+
+}  // namespace rtplc::lang

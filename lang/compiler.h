@@ -1,0 +1,45 @@
+// The compiler's public face: source text -> verified TaskImage, with
+// diagnostics; plus the `check --explain` report. Safe to call from the live
+// runtime (hot swap): it never exits, never prints, never touches global state.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include "blocks/image.h"
+#include "common/diagnostic.h"
+#include "lang/checker.h"
+
+namespace rtplc::lang {
+
+struct CompileOptions {
+  std::string name;                       // program name stored in the image
+  std::optional<double> period_override;  // seconds; replaces stime (runtime config)
+  bool batch = true;                      // group independent same-opcode blocks into runs
+};
+
+struct CompileResult {
+  DiagnosticList diags;
+  CheckedProgram program;
+  std::optional<TaskImage> image;  // present iff there were no errors
+  bool ok() const { return image.has_value(); }
+};
+
+CompileResult compile_source(std::string_view source, const CompileOptions& options = {});
+
+// Reads and compiles a file; I/O errors become diagnostics.
+CompileResult compile_file(const std::string& path, const CompileOptions& options = {});
+
+// Builds the image from an already checked program.
+Result<TaskImage> build_image(const CheckedProgram& program, const CompileOptions& options,
+                              uint64_t source_hash);
+
+// The report of `rtplc check --explain`: execution order, delayed references,
+// I/O bindings, state and parameter sizes, the run schedule.
+std::string explain(const CompileResult& result);
+
+// Reads a whole file; nullopt (and `error`) on failure.
+std::optional<std::string> read_text_file(const std::string& path, std::string* error);
+
+}  // namespace rtplc::lang

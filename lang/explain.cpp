@@ -1,0 +1,158 @@
+// `rtplc check --explain`: what the compiler made of a program, for the engineer
+// who wrote it — textual execution order, delayed (last-cycle) references, I/O
+// bindings, sizes, and how the executor will batch the blocks.
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "lang/compiler.h"
+
+namespace rtplc::lang {
+namespace {
+
+std::string num(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
+
+std::string pad(std::string s, size_t w) {
+  if (s.size() < w) s.append(w - s.size(), ' ');
+  return s;
+}
+
+std::string bytes(size_t n) {
+  if (n < 10 * 1024) return std::to_string(n) + " B";
+  return num(static_cast<double>(n) / 1024.0) + " KiB";
+}
+
+}  // namespace
+
+std::string explain(const CompileResult& r) {
+  if (!r.image) return "no image: the program has errors\n";
+  const CheckedProgram& p = r.program;
+  const TaskImage& img = *r.image;
+  const ImageHeader& h = img.header();
+  std::string out;
+  auto line = [&out](const std::string& s) {
+    out += s;
+    out += '\n';
+  };
+
+  // text index -> schedule index
+  std::vector<uint32_t> sched(p.blocks.size(), 0);
+  for (uint32_t s = 0; s < img.blocks().size(); ++s) sched[img.blocks()[s].text_index] = s;
+
+  line("Program " + std::string(img.name()) + ": " + std::to_string(p.blocks.size()) +
+       " primitive blocks" +
+       (p.macro_calls ? " (" + std::to_string(p.macro_calls) + " macro call" +
+                            (p.macro_calls == 1 ? "" : "s") + " expanded)"
+                      : "") +
+       ", period " + num(img.period_s()) + " s" +
+       (p.period_from_stime ? " (stime, line " + std::to_string(p.stime_pos.line) + ")"
+                            : " (default)"));
+  line("");
+  line("Execution order (textual; a reference to a later block or to itself reads last cycle's value):");
+  line("     #  " + pad("id", 14) + pad("block", 7) + pad("inputs", 28) + "params / device          line");
+  for (size_t i = 0; i < p.blocks.size(); ++i) {
+    const FlatBlock& b = p.blocks[i];
+    std::string ins;
+    for (uint32_t k = 0; k < b.n_in; ++k) {
+      if (k) ins += ", ";
+      ins += p.blocks[b.in[k]].name;
+      if (b.delayed[k]) ins += "'";
+    }
+    std::string prm;
+    if (b.spec->signature == Signature::kCompute) {
+      for (size_t k = 0; k < b.params.size(); ++k) {
+        if (k) prm += ", ";
+        prm += std::string(b.spec->params[k].name) + "=" + num(b.params[k]);
+      }
+    } else if (b.spec->signature == Signature::kSetpoint) {
+      prm = "d" + std::to_string(b.d) + ".c" + std::to_string(b.c) + " init=" + num(b.init) +
+            " \"" + b.label + "\"";
+    } else {
+      prm = "p" + std::to_string(b.p) + ".d" + std::to_string(b.d) + ".c" + std::to_string(b.c) +
+            " \"" + b.label + "\"";
+    }
+    std::string where = std::to_string(b.pos.line);
+    if (b.call_line) where += " (macro, called at line " + std::to_string(b.call_line) + ")";
+    std::string id = b.spec->has_output ? b.name : "-";
+    char idx[24];
+    std::snprintf(idx, sizeof idx, "%6zu", i);
+    line(std::string(idx) + "  " + pad(id, 14) + pad(b.written, 7) + pad(ins, 28) + pad(prm, 25) +
+         where);
+  }
+  line("  (' = delayed: reads the value from the previous cycle, 0 in the first cycle)");
+
+  line("");
+  std::vector<std::string> delayed;
+  for (size_t i = 0; i < p.blocks.size(); ++i) {
+    const FlatBlock& b = p.blocks[i];
+    for (uint32_t k = 0; k < b.n_in; ++k) {
+      if (!b.delayed[k]) continue;
+      const FlatBlock& src = p.blocks[b.in[k]];
+      std::string why = b.in[k] == i ? "reads its own output" : "runs later (#" + std::to_string(b.in[k]) + ")";
+      delayed.push_back("  line " + std::to_string(b.in_pos[k].line) + ":" +
+                        std::to_string(b.in_pos[k].col) + "  " + (b.spec->has_output ? b.name : b.written) +
+                        " reads " + src.name + ", which " + why + ": one-cycle delay");
+    }
+  }
+  line("Delayed references: " + std::to_string(delayed.size()));
+  for (const std::string& d : delayed) line(d);
+
+  line("");
+  line("I/O bindings: " + std::to_string(img.bindings().size()));
+  if (!img.bindings().empty()) {
+    line("  " + pad("dir", 9) + pad("group", 7) + pad("address", 15) + pad("kind", 9) +
+         pad("label", 18) + "line");
+  }
+  for (const Binding& b : img.bindings()) {
+    std::string dir = b.dir == BindingDir::kInput ? "in" : b.dir == BindingDir::kOutput ? "out" : "setpoint";
+    std::string group = io_group_name(b.group);
+    if (b.device) group += std::string(1, b.device);
+    std::string addr = b.dir == BindingDir::kSetpoint
+                           ? "d" + std::to_string(b.d) + ".c" + std::to_string(b.c)
+                           : "p" + std::to_string(b.p) + ".d" + std::to_string(b.d) + ".c" +
+                                 std::to_string(b.c);
+    std::string label = std::string(img.str(b.label));
+    if (b.dir == BindingDir::kSetpoint) label += " =" + num(b.init);
+    line("  " + pad(dir, 9) + pad(group, 7) + pad(addr, 15) + pad(kind_name(b.kind), 9) +
+         pad(label, 18) + std::to_string(b.line));
+  }
+
+  line("");
+  size_t state_blocks = 0;
+  for (const Instr& in : img.code()) {
+    if (op_state_size(in.op, op_param_count(in.op) ? img.params().data() + in.param : nullptr)) {
+      ++state_blocks;
+    }
+  }
+  line("Sizes:");
+  line("  instructions  " + std::to_string(h.n_instr) + " x 32 B in " + std::to_string(h.n_runs) +
+       " runs (the executor dispatches once per run)");
+  line("  values        " + std::to_string(h.n_values) + " slots, " + bytes(h.n_values * 8u));
+  line("  state         " + std::to_string(h.n_state) + " doubles in " +
+       std::to_string(state_blocks) + " blocks, " + bytes(h.n_state * 8u));
+  line("  parameters    " + std::to_string(h.n_params) + " prepared (" +
+       std::to_string(h.n_raw_params) + " as written), " + bytes(h.n_params * 8u));
+  line("  I/O buffers   " + std::to_string(h.n_io_in) + " in, " + std::to_string(h.n_io_out) +
+       " out");
+  line("  image         " + bytes(img.bytes().size()));
+
+  if (img.runs().size() < img.code().size()) {
+    line("");
+    line("Schedule (independent blocks of one kind grouped into runs; same results as textual order):");
+    size_t shown = 0;
+    for (const Run& run : img.runs()) {
+      if (++shown > 20) {
+        line("  ... " + std::to_string(img.runs().size() - 20) + " more runs");
+        break;
+      }
+      line("  " + pad(op_name(run.op), 7) + " x" + std::to_string(run.end - run.begin));
+    }
+  }
+  return out;
+}
+
+}  // namespace rtplc::lang
