@@ -420,8 +420,9 @@ DoctorCheck check_clocksource(const HostFiles& files) {
           ? "`echo tsc > " + dir +
                 "current_clocksource` now; for good add `clocksource=tsc` to GRUB_CMDLINE_LINUX " +
                 kGrubSteps
-          : "the kernel rejected the TSC (see `dmesg | grep -i tsc`); check the firmware's "
-            "power settings, or use hardware with an invariant TSC";
+          : "the kernel rejected the TSC (see `dmesg | grep -i tsc`): use hardware with an "
+            "invariant TSC and check the firmware's power settings; in a VM, give the guest an "
+            "invariant TSC (qemu: -cpu host,+invtsc with KVM)";
   return c;
 }
 
