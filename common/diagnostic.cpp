@@ -53,8 +53,27 @@ std::string DiagnosticList::render(std::string_view file_name, std::string_view 
   const char* cyan = color ? "\x1b[1;36m" : "";
   const char* green = color ? "\x1b[1;32m" : "";
   const char* reset = color ? "\x1b[0m" : "";
-  std::string out;
+  // Errors and warnings in source order, each followed by its notes; items
+  // without a position (whole-file remarks) last.
+  std::vector<std::vector<const Diagnostic*>> groups;
   for (const Diagnostic& d : items_) {
+    if (d.severity == Severity::kNote && !groups.empty() && d.pos.line != 0) {
+      groups.back().push_back(&d);
+    } else {
+      groups.push_back({&d});
+    }
+  }
+  std::stable_sort(groups.begin(), groups.end(), [](const auto& a, const auto& b) {
+    const SourcePos pa = a.front()->pos, pb = b.front()->pos;
+    const uint64_t ka = pa.line == 0 ? UINT64_MAX : (uint64_t{pa.line} << 32 | pa.col);
+    const uint64_t kb = pb.line == 0 ? UINT64_MAX : (uint64_t{pb.line} << 32 | pb.col);
+    return ka < kb;
+  });
+  std::vector<const Diagnostic*> ordered;
+  for (const auto& g : groups) ordered.insert(ordered.end(), g.begin(), g.end());
+  std::string out;
+  for (const Diagnostic* dp : ordered) {
+    const Diagnostic& d = *dp;
     const char* kind = d.severity == Severity::kError     ? "error"
                        : d.severity == Severity::kWarning ? "warning"
                                                           : "note";

@@ -482,8 +482,7 @@ class Checker {
     }
     const size_t min_args = sp.min_inputs + required;
     const size_t max_args = sp.max_inputs + sp.param_count;
-    if (c.args.size() < min_args || c.args.size() > max_args ||
-        (n_refs > sp.max_inputs)) {
+    if (c.args.size() < min_args || c.args.size() > max_args) {
       diags_.error(c.name_pos, arity_message(sp, c.args.size()), c.name_length);
       return false;
     }

@@ -45,7 +45,7 @@ class Lexer {
   std::vector<Token> run() {
     std::vector<Token> out;
     // A UTF-8 byte-order mark from a Windows editor is not an error.
-    if (src_.substr(0, 3) == "\xEF\xBB\xBF") advance(3);
+    if (src_.substr(0, 3) == "\xEF\xBB\xBF") i_ = 3;  // not a column the user can see
     for (;;) {
       skip_space_and_comments();
       if (at_end()) break;

@@ -200,7 +200,8 @@ class Parser {
     call.name_pos = cur().pos;
     call.name_length = cur().length;
     next();
-    if (!expect(Tok::kLParen, ("after '" + call.name + "'").c_str()) || !args(call)) {
+    const Token& lparen = cur();
+    if (!expect(Tok::kLParen, ("after '" + call.name + "'").c_str()) || !args(call, lparen)) {
       recover(line);
       return;
     }
@@ -241,13 +242,26 @@ class Parser {
     }
   }
 
+  // A token that clearly starts the next statement: 'F7 =', END, %%, MACRO.
+  bool at_statement_start() const {
+    return (is(Tok::kRef) && peek(1).kind == Tok::kEquals) || is(Tok::kEnd) ||
+           is(Tok::kSections) || is(Tok::kMacro) || is(Tok::kReturn) || is(Tok::kRBrace);
+  }
+
   // args := [ arg { ',' arg } ] ')'
-  bool args(Call& call) {
+  // An argument list may span lines, but one that runs into the next statement was
+  // left open: say so at its '(' and leave that statement intact.
+  bool args(Call& call, const Token& lparen) {
     if (is(Tok::kRParen)) {
       next();
       return true;
     }
     for (;;) {
+      if (cur().pos.line > lparen.pos.line && at_statement_start()) {
+        error_at(lparen, "'(' of '" + call.name + "' is not closed: expected ')' before line " +
+                             std::to_string(cur().pos.line));
+        return false;
+      }
       Arg a;
       if (!arg(a)) return false;
       call.args.push_back(std::move(a));
@@ -258,6 +272,11 @@ class Parser {
       if (is(Tok::kRParen)) {
         next();
         return true;
+      }
+      if (cur().pos.line > lparen.pos.line && at_statement_start()) {
+        error_at(lparen, "'(' of '" + call.name + "' is not closed: expected ')' before line " +
+                             std::to_string(cur().pos.line));
+        return false;
       }
       error_here("expected ',' or ')' in the arguments of '" + call.name + "', found " +
                  describe(cur()));
