@@ -16,6 +16,14 @@
 #include <cstring>
 #include <string>
 
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#define RTPLC_SANITIZED_BUILD 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
+#define RTPLC_SANITIZED_BUILD 1
+#endif
+#endif
+
 namespace rtplc::kernel_rt {
 namespace {
 
@@ -75,7 +83,11 @@ Result<void> lock_memory(const MemoryLockOptions& options) {
   mallopt(M_ARENA_MAX, 1);
 
   std::string failure;
-  if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0) failure = mlock_refusal(errno);
+  if (!memory_locking_supported()) {
+    failure = "memory not locked: this is a sanitizer build, whose shadow memory cannot be locked";
+  } else if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0) {
+    failure = mlock_refusal(errno);
+  }
 
   if (options.heap_reserve_bytes > 0) {
     const size_t page = page_size();
@@ -100,6 +112,14 @@ Result<void> lock_memory(const MemoryLockOptions& options) {
 
   if (!failure.empty()) return make_error(std::move(failure));
   return {};
+}
+
+bool memory_locking_supported() noexcept {
+#ifdef RTPLC_SANITIZED_BUILD
+  return false;
+#else
+  return true;
+#endif
 }
 
 void unlock_memory() noexcept {

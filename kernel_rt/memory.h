@@ -28,6 +28,11 @@ struct MemoryLockOptions {
 // what limit stopped it and how to lift it.
 Result<void> lock_memory(const MemoryLockOptions& options = {});
 
+// False in AddressSanitizer/ThreadSanitizer builds: their shadow memory spans terabytes of
+// reserved address space that mlockall would try to make resident. lock_memory() then only
+// tunes malloc and prefaults, and says why it did not lock.
+bool memory_locking_supported() noexcept;
+
 // Undoes mlockall (for tests and for tools that lock only temporarily).
 void unlock_memory() noexcept;
 

@@ -129,7 +129,7 @@ TEST(RtThread, stack_prefault_that_does_not_fit_is_noted_not_fatal) {
   EXPECT_TRUE(ran);
   EXPECT_NE(note.find("larger stack"), std::string::npos) << note;
 
-  spec.stack_bytes = 1u << 20;
+  spec.stack_bytes = 4u << 20;  // sanitizer runtimes keep much of their thread state here
   spec.prefault_stack = 256u << 10;
   auto ok = start_thread(spec, [] {});
   ASSERT_TRUE(ok.ok()) << ok.error();
