@@ -17,8 +17,10 @@ inline constexpr const char* kCpuDmaLatencyPath = "/dev/cpu_dma_latency";
 
 class CpuDmaLatencyRequest {
  public:
+  // Holds nothing; assign a request to it later.
+  CpuDmaLatencyRequest() = default;
   // Opens `path` and writes `max_latency_us`. Never throws; see active() and status().
-  explicit CpuDmaLatencyRequest(int32_t max_latency_us = 0,
+  explicit CpuDmaLatencyRequest(int32_t max_latency_us,
                                 const std::string& path = kCpuDmaLatencyPath);
   ~CpuDmaLatencyRequest();
   CpuDmaLatencyRequest(CpuDmaLatencyRequest&& other) noexcept;
@@ -35,7 +37,7 @@ class CpuDmaLatencyRequest {
 
  private:
   int fd_ = -1;
-  std::string status_;
+  std::string status_ = "no CPU latency requested";
 };
 
 }  // namespace rtplc::kernel_rt

@@ -12,6 +12,13 @@
 namespace rtplc::kernel_rt {
 namespace {
 
+TEST(CpuDmaLatency, default_request_holds_nothing) {
+  CpuDmaLatencyRequest req;
+  EXPECT_FALSE(req.active());
+  req = CpuDmaLatencyRequest(0, "/nonexistent/cpu_dma_latency");
+  EXPECT_FALSE(req.active());
+}
+
 TEST(CpuDmaLatency, missing_device_is_harmless_and_explained) {
   CpuDmaLatencyRequest req(0, "/nonexistent/cpu_dma_latency");
   EXPECT_FALSE(req.active());
@@ -39,7 +46,7 @@ TEST(CpuDmaLatency, writes_the_value_as_32_bit_binary_and_holds_until_release) {
 
 TEST(CpuDmaLatency, real_device_is_held_when_root) {
   if (access(kCpuDmaLatencyPath, W_OK) != 0) GTEST_SKIP() << "no writable " << kCpuDmaLatencyPath;
-  CpuDmaLatencyRequest req;
+  CpuDmaLatencyRequest req(0);
   EXPECT_TRUE(req.active()) << req.status();
   EXPECT_NE(req.status().find("held at 0 us"), std::string::npos);
 }
