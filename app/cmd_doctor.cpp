@@ -51,27 +51,30 @@ int run_doctor_command(const DoctorOptions& opt) {
 void add_doctor_command(CLI::App& app) {
   auto opt = std::make_shared<DoctorOptions>();
   CLI::App* cmd = app.add_subcommand(
-      "doctor",
-      "Check whether this machine is ready for real time and say what to change.\n"
-      "Looks at the kernel (PREEMPT_RT or not, preemption model), RT throttling, high-resolution\n"
-      "timers, the clock source, CPU isolation (isolcpus, nohz_full, rcu_nocbs), interrupt\n"
-      "affinity, the frequency governor, SMT, /dev/cpu_dma_latency, and what this process may do:\n"
-      "RLIMIT_MEMLOCK, RLIMIT_RTPRIO, and whether a thread really gets SCHED_FIFO.\n"
-      "Each line is OK, WARN (works, costs latency) or FAIL (no real-time guarantee), with the\n"
-      "exact command or file that fixes it. Run it as the user the runtime will run as.");
+      "doctor", "Check whether this machine is ready for real time and say what to change.");
   cmd->add_flag("--json", opt->json,
                 "Print the report as JSON (ready, kernel, summary, checks[]) for scripts");
   cmd->add_flag("--strict", opt->strict,
                 "Treat WARN as not ready too (for acceptance checks of a tuned box)");
   cmd->footer(
+      "Looks at the kernel (PREEMPT_RT or not, preemption model), RT throttling,\n"
+      "high-resolution timers, the clock source, CPU isolation (isolcpus, nohz_full, rcu_nocbs),\n"
+      "interrupt affinity, the frequency governor, SMT, /dev/cpu_dma_latency, and what this\n"
+      "process may do: RLIMIT_MEMLOCK, RLIMIT_RTPRIO, and whether a thread really gets\n"
+      "SCHED_FIFO. Each line is OK, WARN (works, costs latency) or FAIL (no real-time\n"
+      "guarantee), with the exact command or file that fixes it. Run it as the user the\n"
+      "runtime will run as: root's limits differ from a service user's.\n"
+      "\n"
       "Exit status:\n"
       "  0  ready: no FAIL (WARNs allowed unless --strict)\n"
       "  1  not ready: at least one FAIL (or a WARN with --strict)\n"
       "  2  bad command line\n"
+      "\n"
       "Examples:\n"
       "  rtplc doctor                      # table for people\n"
       "  rtplc doctor --json | jq '.checks[] | select(.verdict != \"ok\")'\n"
-      "  sudo -u plc rtplc doctor          # as the service user: limits differ from root's\n"
+      "  sudo -u plc rtplc doctor          # as the service user\n"
+      "\n"
       "On a kernel that is not PREEMPT_RT the runtime still runs (SCHED_OTHER or FIFO without\n"
       "bounded latency); doctor says so on its first line. docs/rt-tuning.md explains each check.");
   cmd->callback([opt] {
