@@ -102,7 +102,7 @@ Connection::Event Connection::handle_frame(ByteSpan frame, Reply& reply) {
     case CotpType::kError:
       if (state_ == State::kAwaitConfirm) {
         return failed(fmt::format(
-            "the PLC refused the connection (COTP {} reason 0x{:02X}): check --rack/--slot or the TSAPs",
+            "the PLC refused the connection (COTP {} reason 0x{:02X}): check the rack/slot (--rack/--slot) or the TSAPs",
             tpdu->type == CotpType::kError ? "error" : "disconnect", tpdu->reason));
       }
       return failed(fmt::format("the PLC closed the connection (COTP reason 0x{:02X})", tpdu->reason));

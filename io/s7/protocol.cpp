@@ -352,6 +352,8 @@ Result<void> parse_data_items(ByteSpan data, size_t count, bool with_return_code
     d.size = static_cast<DataSize>(data[p + 1]);
     auto n = data_item_bytes(d.size, get16(data, p + 2));
     if (!n) return make_error(n.error());
+    // A refused item carries no data whatever its length says (snap7 puts 4 there).
+    if (with_return_code && d.return_code != kItemOk && d.size == DataSize::kNull) *n = 0;
     if (p + 4 + *n > data.size()) {
       return make_error(fmt::format("data item {} claims {} bytes, only {} left", i + 1, *n, data.size() - p - 4));
     }
