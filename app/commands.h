@@ -16,5 +16,6 @@ inline constexpr int kExitUsage = 2;    // bad command line
 void add_check_commands(CLI::App& app);  // check, compile
 void add_sim_command(CLI::App& app);
 void add_doctor_command(CLI::App& app);
+void add_s7_command(CLI::App& app);
 
 }  // namespace rtplc::app

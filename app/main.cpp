@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
   rtplc::app::add_check_commands(app);
   rtplc::app::add_sim_command(app);
   rtplc::app::add_doctor_command(app);
+  rtplc::app::add_s7_command(app);
 
   try {
     app.parse(argc, argv);
