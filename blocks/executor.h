@@ -21,7 +21,7 @@ struct TaskArena {
 
   std::vector<double> values;
   std::vector<double> state;
-  std::vector<uint32_t> errors;  // per instruction, schedule order
+  std::vector<uint64_t> errors;  // per instruction, schedule order
   std::vector<double> io_in;     // inputs and set-points, indexed by Binding::io_index
   std::vector<double> io_out;    // outputs, indexed by Binding::io_index
   uint64_t total_errors = 0;
@@ -36,7 +36,7 @@ struct ExecContext {
   const double* params = nullptr;
   double* values = nullptr;
   double* state = nullptr;
-  uint32_t* errors = nullptr;
+  uint64_t* errors = nullptr;
   const double* io_in = nullptr;
   double* io_out = nullptr;
   uint64_t* total_errors = nullptr;
@@ -48,6 +48,15 @@ ExecContext make_context(const TaskImage& image, TaskArena& arena);
 // Runs one cycle: every run of instructions once, in schedule order.
 // Never allocates, locks, throws or makes a system call.
 void execute_cycle(const ExecContext& ctx) noexcept;
+
+// Which interpreter body execute_cycle runs on this CPU: "avx2" or "baseline".
+const char* executor_variant();
+
+// Runs one cycle on a given body (benchmarks and the tests that check both
+// bodies agree). kAvx2 falls back to the baseline where it was not built.
+enum class ExecutorBody : uint8_t { kBaseline, kAvx2 };
+void execute_cycle_on(ExecutorBody body, const ExecContext& ctx) noexcept;
+bool executor_body_available(ExecutorBody body);
 
 inline void execute_cycle(const TaskImage& image, TaskArena& arena) noexcept {
   execute_cycle(make_context(image, arena));

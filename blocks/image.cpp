@@ -161,6 +161,22 @@ Result<void> verify_image(std::span<const std::byte> bytes) {
 
   if (!finite_all(params) || !finite_all(raw)) return make_error("a parameter is not finite");
 
+  // The arena sizes must be exactly what the code needs: an image cannot ask
+  // for more memory than its instructions use (each value slot and output has
+  // one writer, each input one or more readers, the state its blocks' sum).
+  {
+    uint64_t writers = 0, stores = 0, loads = 0;
+    for (const Instr& in : code) {
+      if (static_cast<uint8_t>(in.op) >= kOpCount) break;  // reported below
+      stores += op_is_store(in.op);
+      loads += op_is_load(in.op);
+      writers += op_writes_value(in.op);
+    }
+    if (h.n_values != writers || h.n_io_out != stores || h.n_io_in > loads) {
+      return make_error("arena sizes do not match the code");
+    }
+  }
+  uint64_t state_needed = 0;
   // Each value slot has exactly one writer; each output-buffer entry too.
   std::vector<uint8_t> value_written(h.n_values, 0);
   std::vector<uint8_t> out_written(h.n_io_out, 0);
@@ -198,6 +214,7 @@ Result<void> verify_image(std::span<const std::byte> bytes) {
     if (in.state > h.n_state || ns > h.n_state - in.state) {
       return make_error(at_instr(i, "state out of range"));
     }
+    state_needed += ns;
     const BlockInfo& bi = infos[i];
     if (!str_ok(bi.name) || !str_ok(bi.block)) return make_error(at_instr(i, "bad debug string"));
     if (bi.raw_param > h.n_raw_params || bi.raw_count > h.n_raw_params - bi.raw_param) {
@@ -205,6 +222,7 @@ Result<void> verify_image(std::span<const std::byte> bytes) {
     }
     if (bi.text_index >= h.n_instr) return make_error(at_instr(i, "bad text index"));
   }
+  if (state_needed != h.n_state) return make_error("state size does not match the code");
   // Runs cover the code exactly once, in order, and each holds one opcode.
   uint32_t next = 0;
   for (uint32_t r = 0; r < h.n_runs; ++r) {
@@ -214,6 +232,35 @@ Result<void> verify_image(std::span<const std::byte> bytes) {
     }
     for (uint32_t i = run.begin; i < run.end; ++i) {
       if (code[i].op != run.op) return make_error("run " + std::to_string(r) + " mixes opcodes");
+    }
+    if (run.flags & ~(kRunAffine | kRunUniformParams)) return make_error("bad run flags");
+    if (run.flags & kRunAffine) {
+      // The executor trusts these formulas instead of the instructions: check
+      // every element (the instructions themselves were bounds-checked above).
+      const Op op = run.op;
+      if (op == Op::Dely) {
+        return make_error("run " + std::to_string(r) + ": this opcode cannot be affine");
+      }
+      const bool same_array = !op_is_load(op) && !op_is_store(op);
+      const uint32_t n = run.end - run.begin, n_in = op_is_load(op) ? 1 : op_input_count(op);
+      const uint32_t np = op_param_count(op), ns = op_state_size(op, nullptr);
+      for (uint32_t j = 0; j < n; ++j) {
+        const Instr& in = code[run.begin + j];
+        bool ok = in.out == run.out + j && in.state == run.state + j * ns &&
+                  in.param == run.param + j * np;
+        for (uint32_t k = 0; k < n_in; ++k) ok = ok && in.in[k] == run.in[k] + j;
+        if (ok && (run.flags & kRunUniformParams)) {
+          for (uint32_t k = 0; k < np; ++k) ok = ok && params[in.param + k] == params[run.param + k];
+        }
+        if (!ok) return make_error("run " + std::to_string(r) + " is not affine as it claims");
+      }
+      for (uint32_t k = 0; k < n_in && same_array; ++k) {
+        if (run.in[k] < run.out + n && run.out < run.in[k] + n) {
+          return make_error("run " + std::to_string(r) + ": affine operands overlap its output");
+        }
+      }
+    } else if (run.flags & kRunUniformParams) {
+      return make_error("run " + std::to_string(r) + ": uniform parameters without affine layout");
     }
     next = run.end;
   }

@@ -32,7 +32,7 @@
 namespace rtplc {
 
 inline constexpr char kImageMagic[8] = {'R', 'T', 'P', 'L', 'C', 'I', 'M', 'G'};
-inline constexpr uint32_t kImageVersion = 1;
+inline constexpr uint32_t kImageVersion = 2;
 
 // Instruction flags.
 inline constexpr uint16_t kInstrDelayed0 = 1u << 0;  // input i reads last cycle's value
@@ -51,13 +51,27 @@ struct Instr {
 };
 static_assert(sizeof(Instr) == 32);
 
+// Run flags. An *affine* run's operands are laid out so that element j (the
+// instruction begin + j) uses out + j, in[k] + j, param + j*P (or param itself
+// when the parameters are uniform) and state + j*S, where P and S are the
+// opcode's parameter and state sizes. The executor then walks plain arrays —
+// no index loads, loops the compiler can vectorise. The verifier checks that
+// every instruction of an affine run matches these formulas.
+inline constexpr uint8_t kRunAffine = 1u << 0;
+inline constexpr uint8_t kRunUniformParams = 1u << 1;
+
 struct Run {
   Op op;
-  uint8_t pad[3];
+  uint8_t flags;
+  uint16_t pad;
   uint32_t begin;  // [begin, end) instruction indices, all with this opcode
   uint32_t end;
+  uint32_t out;    // affine runs only: bases of the operand arrays
+  uint32_t in[3];
+  uint32_t param;
+  uint32_t state;
 };
-static_assert(sizeof(Run) == 12);
+static_assert(sizeof(Run) == 36);
 
 enum class BindingDir : uint8_t { kInput, kSetpoint, kOutput };
 

@@ -96,6 +96,45 @@ std::string channel_id(const FlatBlock& b) {
          std::to_string(b.d) + "." + std::to_string(b.c);
 }
 
+// Marks a run affine when its operands form plain arrays (see kRunAffine), so
+// the executor can drop the per-element index loads. Runs whose output range
+// overlaps an input range (a block reading its own output) stay indexed: the
+// affine loops assume the arrays do not alias.
+void mark_affine(Run& run, const ImageBuilder& ib) {
+  const Op op = run.op;
+  if (op == Op::Dely || run.end - run.begin < 4) return;
+  const Instr& first = ib.code[run.begin];
+  const uint32_t n = run.end - run.begin, n_in = op_is_load(op) ? 1 : op_input_count(op);
+  const uint32_t np = op_param_count(op), ns = op_state_size(op, nullptr);
+  bool uniform = np > 0;
+  for (uint32_t j = 0; j < n; ++j) {
+    const Instr& in = ib.code[run.begin + j];
+    if (in.out != first.out + j || in.state != first.state + j * ns ||
+        in.param != first.param + j * np) {
+      return;
+    }
+    for (uint32_t k = 0; k < n_in; ++k) {
+      if (in.in[k] != first.in[k] + j) return;
+    }
+    for (uint32_t k = 0; k < np && uniform; ++k) {
+      uniform = ib.params[in.param + k] == ib.params[first.param + k];
+    }
+  }
+  // Loads and stores move between the value arena and an I/O buffer: their
+  // operands are in different arrays and cannot overlap.
+  const bool same_array = !op_is_load(op) && !op_is_store(op);
+  for (uint32_t k = 0; k < n_in && same_array; ++k) {
+    const uint32_t a = first.in[k], o = first.out;
+    if (a < o + n && o < a + n) return;  // [a, a+n) and [o, o+n) overlap
+  }
+  if (op_is_load(op) && first.in[0] + n > ib.n_io_in) return;
+  run.flags = static_cast<uint8_t>(kRunAffine | (uniform ? kRunUniformParams : 0));
+  run.out = first.out;
+  for (uint32_t k = 0; k < 3; ++k) run.in[k] = first.in[k];
+  run.param = first.param;
+  run.state = first.state;
+}
+
 }  // namespace
 
 Result<TaskImage> build_image(const CheckedProgram& prog, const CompileOptions& opt,
@@ -119,10 +158,13 @@ Result<TaskImage> build_image(const CheckedProgram& prog, const CompileOptions& 
     const FlatBlock& b = prog.blocks[order[s]];
     if (op_writes_value(b.op)) slot[order[s]] = ib.n_values++;
   }
-  // I/O buffer indices in textual order (the order of the CSV columns).
+  // I/O buffer indices in schedule order, so a run of loads or stores copies
+  // between contiguous ranges. (Bindings, and so CSV columns, stay in textual
+  // order; nothing outside the image depends on these indices.)
   std::vector<uint32_t> io_index(n, 0);
   std::map<std::string, uint32_t> in_channels;
-  for (uint32_t i = 0; i < n; ++i) {
+  for (uint32_t s = 0; s < n; ++s) {
+    const uint32_t i = order[s];
     const FlatBlock& b = prog.blocks[i];
     if (op_is_load(b.op)) {
       auto [it, fresh] = in_channels.emplace(channel_id(b), ib.n_io_in);
@@ -173,11 +215,16 @@ Result<TaskImage> build_image(const CheckedProgram& prog, const CompileOptions& 
     ib.blocks.push_back(bi);
 
     if (ib.runs.empty() || ib.runs.back().op != b.op) {
-      ib.runs.push_back(Run{b.op, {0, 0, 0}, s, s + 1});
+      Run run{};
+      run.op = b.op;
+      run.begin = s;
+      run.end = s + 1;
+      ib.runs.push_back(run);
     } else {
       ib.runs.back().end = s + 1;
     }
   }
+  for (Run& run : ib.runs) mark_affine(run, ib);
 
   for (uint32_t i = 0; i < n; ++i) {
     const FlatBlock& b = prog.blocks[i];

@@ -149,7 +149,9 @@ std::string explain(const CompileResult& r) {
         line("  ... " + std::to_string(img.runs().size() - 20) + " more runs");
         break;
       }
-      line("  " + pad(op_name(run.op), 7) + " x" + std::to_string(run.end - run.begin));
+      std::string layout = (run.flags & kRunAffine) ? "  plain arrays" : "";
+      if (run.flags & kRunUniformParams) layout += ", shared parameters";
+      line("  " + pad(op_name(run.op), 7) + " x" + pad(std::to_string(run.end - run.begin), 7) + layout);
     }
   }
   return out;

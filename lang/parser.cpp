@@ -242,9 +242,10 @@ class Parser {
     }
   }
 
-  // A token that clearly starts the next statement: 'F7 =', END, %%, MACRO.
+  // A token that clearly starts the next statement: 'F7 =', 'dao(', END, %%, MACRO.
   bool at_statement_start() const {
-    return (is(Tok::kRef) && peek(1).kind == Tok::kEquals) || is(Tok::kEnd) ||
+    return (is(Tok::kRef) && peek(1).kind == Tok::kEquals) ||
+           (is(Tok::kIdent) && peek(1).kind == Tok::kLParen) || is(Tok::kEnd) ||
            is(Tok::kSections) || is(Tok::kMacro) || is(Tok::kReturn) || is(Tok::kRBrace);
   }
 

@@ -121,6 +121,30 @@ TEST(Compiler, batched_schedule_gives_the_results_of_textual_order) {
   EXPECT_GT(runs_shorter, 50);  // batching actually grouped blocks in almost every program
 }
 
+TEST(Compiler, both_interpreter_bodies_give_bit_identical_results) {
+  if (!executor_body_available(ExecutorBody::kAvx2)) GTEST_SKIP() << "this CPU has no AVX2 body";
+  std::mt19937 rng(77);
+  for (int trial = 0; trial < 30; ++trial) {
+    Generated g = random_program(rng, 200 + trial * 20);
+    CompileResult r = compile_source(g.source);
+    ASSERT_TRUE(r.ok());
+    TaskArena a(*r.image), b(*r.image);
+    const ExecContext ca = make_context(*r.image, a), cb = make_context(*r.image, b);
+    std::mt19937 inputs(static_cast<unsigned>(trial));
+    for (int cycle = 0; cycle < 25; ++cycle) {
+      for (size_t i = 0; i < a.io_in.size(); ++i) {
+        a.io_in[i] = b.io_in[i] = static_cast<double>(inputs() % 2001) / 100.0 - 10.0;
+      }
+      execute_cycle_on(ExecutorBody::kBaseline, ca);
+      execute_cycle_on(ExecutorBody::kAvx2, cb);
+      ASSERT_EQ(std::memcmp(a.values.data(), b.values.data(), a.values.size() * sizeof(double)), 0)
+          << "trial " << trial << " cycle " << cycle;
+      ASSERT_EQ(a.state, b.state);
+      ASSERT_EQ(a.errors, b.errors);
+    }
+  }
+}
+
 TEST(Compiler, replicated_loops_become_long_runs) {
   std::string s = "%%\n";
   for (int i = 0; i < 100; ++i) {

@@ -61,7 +61,7 @@ class FbdHarness {
     uint32_t i = index_of(name);
     return arena_.values[image().code()[i].out];
   }
-  uint32_t errors(std::string_view name) const { return arena_.errors[index_of(name)]; }
+  uint64_t errors(std::string_view name) const { return arena_.errors[index_of(name)]; }
 
   void step(int n = 1) {
     for (int k = 0; k < n; ++k) execute_cycle(image(), arena_);
