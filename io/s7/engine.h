@@ -162,6 +162,7 @@ class Engine {
   WriteTicket write(ItemId item, double value);
   WriteTicket write_raw(ItemId item, uint64_t raw);
   WriteResult write_result(WriteTicket t) const;
+  // Published on every state change and at most every 250 ms otherwise.
   PlcStatus status(PlcId plc) const;
   EngineCounters counters() const;
 

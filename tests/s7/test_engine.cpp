@@ -112,7 +112,7 @@ TEST(Engine, reads_every_area_and_type_from_the_fake_plc) {
   EXPECT_EQ(rig.engine.read(qw).value, 0x1234);
   EXPECT_EQ(rig.engine.read(cc).raw, 42u);
   EXPECT_EQ(rig.engine.read(tt).raw, 0x1005u);
-  // Eleven items, one PDU (the status is published at most every 100 ms).
+  // Eleven items, one PDU (the status is published at most every 250 ms).
   ASSERT_TRUE(wait_for([&] { return rig.engine.status(rig.plcs[0]).requests_per_poll == 1; }));
   EXPECT_EQ(rig.engine.status(rig.plcs[0]).state, PlcState::kReady);
 }
