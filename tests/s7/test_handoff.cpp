@@ -19,17 +19,21 @@ struct Wide {
 
 TEST(Handoff, never_hands_a_reader_a_torn_value) {
   SeqlockSlot<Wide> slot;
+  std::atomic<bool> go{false};
   std::atomic<bool> done{false};
   std::thread writer([&] {
+    while (!go.load()) {
+    }
     for (uint64_t i = 1; i <= 200000; ++i) slot.store(Wide{i, i, i, i, i});
     done = true;
   });
   uint64_t reads = 0;
-  while (!done.load()) {
+  go = true;
+  do {
     const Wide w = slot.load();
     ASSERT_TRUE(w.a == w.b && w.b == w.c && w.c == w.d && w.d == w.e) << w.a << " " << w.e;
     ++reads;
-  }
+  } while (!done.load());
   writer.join();
   EXPECT_EQ(slot.load().a, 200000u);
   EXPECT_GT(reads, 0u);
