@@ -2,6 +2,7 @@
 // matching, reassembly and failure on malformed input (issue 4, items 1-3).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <vector>
 
 #include "io/s7/connection.h"
@@ -139,8 +140,12 @@ TEST(Connection, joins_cotp_data_units_without_end_of_transmission) {
   const Bytes whole = read_reply(ref, 0x33);
   const ByteSpan payload = ByteSpan(whole).subspan(kTpktHeader + kCotpDtHeader);
   auto unit = [](ByteSpan part, bool last) {
-    Bytes f = {0x03, 0x00, 0x00, 0x00, 0x02, 0xF0, static_cast<uint8_t>(last ? 0x80 : 0x00)};
-    f.insert(f.end(), part.begin(), part.end());
+    Bytes f(7 + part.size());
+    f[0] = 0x03;
+    f[4] = 0x02;
+    f[5] = 0xF0;
+    f[6] = last ? 0x80 : 0x00;
+    std::copy(part.begin(), part.end(), f.begin() + 7);
     patch_tpkt_length(f, 0);
     return f;
   };
