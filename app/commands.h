@@ -15,6 +15,8 @@ inline constexpr int kExitUsage = 2;    // bad command line
 
 void add_check_commands(CLI::App& app);  // check, compile
 void add_sim_command(CLI::App& app);
+void add_run_commands(CLI::App& app);    // run, set, swap, status, stop
+void add_stats_commands(CLI::App& app);  // stats, monitor
 void add_doctor_command(CLI::App& app);
 void add_s7_command(CLI::App& app);
 

@@ -18,6 +18,8 @@ int main(int argc, char** argv) {
 
   rtplc::app::add_check_commands(app);
   rtplc::app::add_sim_command(app);
+  rtplc::app::add_run_commands(app);
+  rtplc::app::add_stats_commands(app);
   rtplc::app::add_doctor_command(app);
   rtplc::app::add_s7_command(app);
 

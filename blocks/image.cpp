@@ -34,6 +34,16 @@ uint64_t fnv1a64(std::string_view s) {
   return h;
 }
 
+std::string binding_key(const Binding& b) {
+  std::string k = b.dir == BindingDir::kInput ? "in/" : b.dir == BindingDir::kOutput ? "out/" : "sp/";
+  k += io_group_name(b.group);
+  if (b.device != 0) k += b.device;
+  k += '/';
+  if (b.dir != BindingDir::kSetpoint) k += "p" + std::to_string(b.p) + ".";
+  k += "d" + std::to_string(b.d) + ".c" + std::to_string(b.c);
+  return k;
+}
+
 uint32_t ImageBuilder::add_string(std::string_view s) {
   auto it = interned_.find(std::string(s));
   if (it != interned_.end()) return it->second;
@@ -172,7 +182,10 @@ Result<void> verify_image(std::span<const std::byte> bytes) {
       loads += op_is_load(in.op);
       writers += op_writes_value(in.op);
     }
-    if (h.n_values != writers || h.n_io_out != stores || h.n_io_in > loads) {
+    // Outputs may leave holes (a hot-swapped program keeps the running layout),
+    // bounded by the channel capacity.
+    if (h.n_values != writers || h.n_io_out < stores || h.n_io_out > stores + kMaxChannels ||
+        h.n_io_in > loads) {
       return make_error("arena sizes do not match the code");
     }
   }

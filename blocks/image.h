@@ -218,4 +218,9 @@ class ImageBuilder {
 
 uint64_t fnv1a64(std::string_view s);
 
+// A channel's identity, the same in every image and in the process image:
+// "in/DIO/p0.d0.c0", "out/PLCY/p1.d0.c3", "sp/SETP/d0.c2". The direction is part of
+// it: an input and an output at one address are two channels.
+std::string binding_key(const Binding& b);
+
 }  // namespace rtplc

@@ -175,6 +175,29 @@ Result<TaskImage> build_image(const CheckedProgram& prog, const CompileOptions& 
     }
   }
 
+  if (!opt.output_layout.empty()) {
+    // Keep the running layout: a known channel keeps its index, a new one goes
+    // after all of them. Indices left unused by removed channels stay holes.
+    std::map<std::string, uint32_t> fixed;
+    for (uint32_t k = 0; k < opt.output_layout.size(); ++k) fixed.emplace(opt.output_layout[k], k);
+    uint32_t next = static_cast<uint32_t>(opt.output_layout.size());
+    for (uint32_t s = 0; s < n; ++s) {
+      const uint32_t i = order[s];
+      const FlatBlock& b = prog.blocks[i];
+      if (!op_is_store(b.op)) continue;
+      Binding probe{};
+      probe.dir = BindingDir::kOutput;
+      probe.group = b.spec->io;
+      probe.device = b.spec->device_kind;
+      probe.p = b.p;
+      probe.d = b.d;
+      probe.c = b.c;
+      auto it = fixed.find(binding_key(probe));
+      io_index[i] = it != fixed.end() ? it->second : next++;
+    }
+    ib.n_io_out = next;
+  }
+
   ib.code.reserve(n);
   ib.blocks.reserve(n);
   for (uint32_t s = 0; s < n; ++s) {

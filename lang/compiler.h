@@ -6,6 +6,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "blocks/image.h"
 #include "common/diagnostic.h"
@@ -17,6 +18,10 @@ struct CompileOptions {
   std::string name;                       // program name stored in the image
   std::optional<double> period_override;  // seconds; replaces stime (runtime config)
   bool batch = true;                      // group independent same-opcode blocks into runs
+  // Output-buffer positions to keep (hot swap): output channels whose binding_key
+  // appears here get that index; others follow after the last one. Empty: the
+  // compiler's own order.
+  std::vector<std::string> output_layout;
 };
 
 struct CompileResult {

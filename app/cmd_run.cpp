@@ -1,0 +1,216 @@
+// `rtplc run` and the operator's verbs that talk to a running runtime:
+// `rtplc set`, `rtplc swap`, `rtplc status`, `rtplc stop`.
+#include <CLI/CLI.hpp>
+#include <signal.h>
+#include <spdlog/spdlog.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <memory>
+#include <thread>
+
+#include "app/commands.h"
+#include "config/config.h"
+#include "kernel_rt/clock.h"
+#include "kernel_rt/rt_kernel.h"
+#include "lang/compiler.h"
+#include "sched/control.h"
+#include "sched/runtime.h"
+#include "sched/stats_source.h"
+
+namespace rtplc::app {
+namespace {
+
+struct RunArgs {
+  std::string config;
+  std::string name;
+  double duration = 0;
+  bool count_faults = false;
+  bool no_lock = false;
+  bool quiet = false;
+};
+
+struct ClientArgs {
+  std::string name = "rtplc";
+  std::string socket;
+  std::string label;
+  std::string value;
+  std::string task;
+  std::string file;
+  bool rollback = false;
+};
+
+std::string socket_for(const ClientArgs& a) {
+  return a.socket.empty() ? sched::default_socket_path(a.name) : a.socket;
+}
+
+[[noreturn]] void fail(const std::string& msg, int code = kExitFailure) {
+  std::fprintf(stderr, "%s\n", msg.c_str());
+  throw CLI::RuntimeError(code);
+}
+
+void run_runtime(const RunArgs& a) {
+  config::LoadResult cfg = config::load_config(a.config);
+  if (!cfg.diags.items().empty()) std::fputs(cfg.render(isatty(STDERR_FILENO)).c_str(), stderr);
+  if (!cfg.ok()) fail(a.config + ": the configuration has errors; nothing started");
+
+  sched::RuntimeOptions opt;
+  opt.count_faults = a.count_faults;
+  opt.lock_memory = !a.no_lock;
+  opt.name_override = a.name;
+  sched::LoadReport report;
+  std::unique_ptr<sched::Runtime> rt = sched::Runtime::load(*cfg.config, opt, report);
+  const std::string rendered = report.render(isatty(STDERR_FILENO));
+  if (!rendered.empty()) std::fputs(rendered.c_str(), stderr);
+  if (!rt) fail("rtplc run: nothing started");
+
+  // Signals are taken by sigwait below, not by handlers: block them before any
+  // thread starts so every thread inherits the mask.
+  sigset_t sigs;
+  sigemptyset(&sigs);
+  sigaddset(&sigs, SIGINT);
+  sigaddset(&sigs, SIGTERM);
+  sigaddset(&sigs, SIGHUP);
+  pthread_sigmask(SIG_BLOCK, &sigs, nullptr);
+
+  if (!a.quiet) {
+    spdlog::info("runtime {}: {} tasks, shared memory {}, control socket {}", rt->name(),
+                 rt->task_count(), rt->image().object_name(), rt->socket_path());
+    for (const std::string& l : rt->describe()) spdlog::info("  {}", l);
+  }
+  auto started = rt->start();
+  if (!started) fail("rtplc run: " + started.error());
+  for (const std::string& n : *started) spdlog::warn("{}", n);
+
+  sched::ControlServer control(*rt, [&a](bool error, const std::string& line) {
+    if (error) spdlog::error("{}", line);
+    else if (!a.quiet) spdlog::info("{}", line);
+  });
+  if (auto r = control.start(rt->socket_path()); !r) {
+    rt->stop();
+    fail("rtplc run: " + r.error());
+  }
+  if (!a.quiet) spdlog::info("running; `rtplc stats`, `rtplc monitor`, `rtplc set`, `rtplc swap` work now; Ctrl-C stops");
+
+  const int64_t t0 = kernel_rt::monotonic_now_ns();
+  for (;;) {
+    timespec wait{0, 100000000};
+    const int sig = sigtimedwait(&sigs, nullptr, &wait);
+    if (sig > 0) {
+      if (!a.quiet) spdlog::info("signal {}: stopping", sig);
+      break;
+    }
+    if (control.stop_requested()) break;
+    if (a.duration > 0 && static_cast<double>(kernel_rt::monotonic_now_ns() - t0) / 1e9 >= a.duration) break;
+  }
+  control.stop();
+  rt->stop();
+  if (!a.quiet) {
+    auto views = rt->stats_views();
+    auto summary = sched::summarise(views, sched::runtime_uptime_ns(rt->image()),
+                                    kernel_rt::running_on_rt_kernel());
+    std::fputs(sched::render_table(views, summary).c_str(), stdout);
+  }
+}
+
+void run_set(const ClientArgs& a) {
+  auto r = sched::control_request(socket_for(a), "set " + a.label + " " + a.value);
+  if (!r) fail("rtplc set: " + r.error());
+  std::fputs(r->c_str(), stdout);
+}
+
+void run_swap(const ClientArgs& a) {
+  if (a.rollback) {
+    if (a.task.empty()) fail("rtplc swap --rollback TASK", kExitUsage);
+    auto r = sched::control_request(socket_for(a), "rollback " + a.task);
+    if (!r) fail("rtplc swap --rollback: " + r.error());
+    std::fputs(r->c_str(), stdout);
+    return;
+  }
+  if (a.task.empty() || a.file.empty()) fail("rtplc swap TASK FILE (or --rollback TASK)", kExitUsage);
+  std::string err;
+  auto text = lang::read_text_file(a.file, &err);
+  if (!text) fail("rtplc swap: " + err);
+  // Checked here first, so a typo is reported with colours and without bothering the runtime.
+  lang::CompileResult local = lang::compile_source(*text);
+  if (!local.ok()) {
+    std::fputs(local.diags.render(a.file, *text, isatty(STDERR_FILENO)).c_str(), stderr);
+    fail("rtplc swap: " + a.file + " has errors; the running task is unchanged");
+  }
+  std::string label = a.file;
+  for (char& c : label) {
+    if (c == ' ' || c == '\n') c = '_';
+  }
+  auto r = sched::control_request(socket_for(a),
+                                  "swap " + a.task + " " + label + " " + std::to_string(text->size()),
+                                  *text, 60000);
+  if (!r) fail("rtplc swap: " + r.error());
+  std::fputs(r->c_str(), stdout);
+}
+
+void run_simple(const ClientArgs& a, const char* verb) {
+  auto r = sched::control_request(socket_for(a), verb);
+  if (!r) fail(std::string("rtplc ") + verb + ": " + r.error());
+  std::fputs(r->c_str(), stdout);
+}
+
+void add_client_options(CLI::App* c, ClientArgs& a) {
+  c->add_option("--name", a.name, "runtime name (runtime.name in the config; default rtplc)");
+  c->add_option("--socket", a.socket, "control socket path (default from the name)");
+}
+
+}  // namespace
+
+void add_run_commands(CLI::App& app) {
+  auto run = std::make_shared<RunArgs>();
+  CLI::App* r = app.add_subcommand("run", "Run the tasks of a runtime configuration (YAML) in real time.");
+  r->footer(
+      "Compiles every task's program, builds the shared process image, readies the box for real\n"
+      "time (locked memory, /dev/cpu_dma_latency), and runs one SCHED_FIFO thread per task on a\n"
+      "common time grid. Without the privileges for SCHED_FIFO or on a non-RT kernel it runs\n"
+      "anyway and says so once. Stops on Ctrl-C, SIGTERM, `rtplc stop` or --duration, setting\n"
+      "every output to its safe value, and prints the timing table.\n"
+      "Examples:\n"
+      "  rtplc run examples/seed_pid.yaml\n"
+      "  rtplc run examples/sixteen.yaml --duration 20");
+  r->add_option("config", run->config, "runtime configuration (.yaml)")->required();
+  r->add_option("--name", run->name, "run under this name instead of runtime.name");
+  r->add_option("--duration", run->duration, "stop after this many seconds");
+  r->add_flag("--count-faults", run->count_faults, "count minor page faults per cycle (test mode)");
+  r->add_flag("--no-lock", run->no_lock, "do not lock memory (mlockall)");
+  r->add_flag("-q,--quiet", run->quiet, "log only errors");
+  r->callback([run] { run_runtime(*run); });
+
+  auto cl = std::make_shared<ClientArgs>();
+  CLI::App* set = app.add_subcommand("set", "Change a set-point (asp/dsp) of the running runtime; retained.");
+  set->footer("The value is on disk (retained across restarts and crashes) before the command returns.\n"
+              "Example:\n  rtplc set SV_Msp 42.5");
+  set->add_option("label", cl->label, "the set-point's label")->required();
+  set->add_option("value", cl->value, "new value (0 or 1 for a digital set-point)")->required();
+  add_client_options(set, *cl);
+  set->callback([cl] { run_set(*cl); });
+
+  CLI::App* swap = app.add_subcommand("swap", "Replace one task's code while the plant keeps running.");
+  swap->footer(
+      "The runtime compiles and verifies the file off the real-time path (an error changes nothing),\n"
+      "keeps the state of every block whose id and type match (integrators, filters, timers,\n"
+      "counters: a PID stays bumpless), and hands the new code to the task at its next cycle\n"
+      "boundary. The previous code is kept: --rollback TASK swaps it back.\n"
+      "Examples:\n  rtplc swap loop3 new.fbd\n  rtplc swap --rollback loop3");
+  swap->add_option("task", cl->task, "task name");
+  swap->add_option("file", cl->file, "new program (.fbd)");
+  swap->add_flag("--rollback", cl->rollback, "go back to the task's previous code");
+  add_client_options(swap, *cl);
+  swap->callback([cl] { run_swap(*cl); });
+
+  CLI::App* status = app.add_subcommand("status", "Show what the running runtime is doing.");
+  add_client_options(status, *cl);
+  status->callback([cl] { run_simple(*cl, "status"); });
+
+  CLI::App* stop = app.add_subcommand("stop", "Stop the running runtime (outputs to their safe values).");
+  add_client_options(stop, *cl);
+  stop->callback([cl] { run_simple(*cl, "stop"); });
+}
+
+}  // namespace rtplc::app

@@ -1,0 +1,342 @@
+// Creation, attachment and the exchange protocol of the process image (see
+// process_image.h for the layout and the protocol).
+#include "io/process_image.h"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+
+namespace rtplc::io {
+namespace {
+
+constexpr uint64_t align64(uint64_t n) { return (n + 63) & ~uint64_t{63}; }
+
+uint64_t slot_stride(uint32_t capacity) {
+  return align64(sizeof(SlotHeader) + uint64_t{capacity} * (8 + 8) + align64(capacity));
+}
+
+uint64_t task_block_size(size_t stats_bytes) {
+  return align64(sizeof(TaskInfo)) + align64(stats_bytes);
+}
+
+std::string errno_text(int e) { return std::strerror(e); }
+
+bool pid_alive(pid_t pid) { return pid > 0 && (kill(pid, 0) == 0 || errno == EPERM); }
+
+}  // namespace
+
+const char* quality_name(Quality q) {
+  switch (q) {
+    case Quality::kGood: return "good";
+    case Quality::kStale: return "stale";
+    case Quality::kBad: return "bad";
+    case Quality::kForced: return "forced";
+  }
+  return "?";
+}
+
+const char* task_state_name(TaskState s) {
+  switch (s) {
+    case TaskState::kStarting: return "starting";
+    case TaskState::kRunning: return "running";
+    case TaskState::kStoppedWatchdog: return "STOPPED (watchdog)";
+    case TaskState::kStopped: return "stopped";
+  }
+  return "?";
+}
+
+double age_s(int64_t monotonic_ns) {
+  timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  const int64_t now = int64_t{ts.tv_sec} * 1000000000 + ts.tv_nsec;
+  return static_cast<double>(now - monotonic_ns) / 1e9;
+}
+
+ProcessImage::ProcessImage(ProcessImage&& o) noexcept { *this = std::move(o); }
+
+ProcessImage& ProcessImage::operator=(ProcessImage&& o) noexcept {
+  if (this != &o) {
+    release();
+    base_ = o.base_;
+    size_ = o.size_;
+    writable_ = o.writable_;
+    owner_ = o.owner_;
+    object_ = std::move(o.object_);
+    o.base_ = nullptr;
+    o.size_ = 0;
+    o.owner_ = false;
+  }
+  return *this;
+}
+
+ProcessImage::~ProcessImage() { release(); }
+
+void ProcessImage::release() {
+  if (base_ != nullptr) {
+    if (owner_) header().state.store(2, std::memory_order_release);
+    munmap(base_, size_);
+    if (owner_) shm_unlink(object_.c_str());
+  }
+  base_ = nullptr;
+  size_ = 0;
+  owner_ = false;
+}
+
+Result<ProcessImage> ProcessImage::create(const ImageLayout& layout) {
+  if (layout.name.empty() || layout.name.size() >= kLabelBytes) {
+    return make_error("process image name must have 1 to 31 characters");
+  }
+  // Layout.
+  const uint64_t off_channels = align64(sizeof(ImageHeader));
+  const uint64_t off_regions = off_channels + align64(uint64_t{layout.channel_capacity} * sizeof(ChannelDesc));
+  const uint64_t off_tasks = off_regions + align64(layout.regions.size() * sizeof(RegionDesc));
+  const uint64_t task_bytes = task_block_size(layout.task_stats_bytes);
+  uint64_t off = off_tasks + layout.n_tasks * task_bytes;
+  std::vector<uint64_t> ring_off;
+  for (const auto& r : layout.regions) {
+    ring_off.push_back(off);
+    off += align64(sizeof(RingHeader)) + kRingSlots * slot_stride(r.capacity);
+  }
+  const uint64_t total = align64(off);
+
+  ProcessImage img;
+  img.object_ = shm_name(layout.name);
+  int fd = shm_open(img.object_.c_str(), O_RDWR | O_CREAT | O_EXCL, 0644);
+  if (fd < 0 && errno == EEXIST) {
+    // Left by a runtime that died (kill -9, power loss)? Reuse the name only then.
+    Result<ProcessImage> old = attach(layout.name);
+    if (old.ok() && pid_alive(old->header().pid) && old->header().pid != getpid()) {
+      return make_error("a runtime named '" + layout.name + "' is already running (pid " +
+                        std::to_string(old->header().pid) + "); stop it or choose another runtime name");
+    }
+    shm_unlink(img.object_.c_str());
+    fd = shm_open(img.object_.c_str(), O_RDWR | O_CREAT | O_EXCL, 0644);
+  }
+  if (fd < 0) {
+    return make_error("cannot create shared memory " + img.object_ + ": " + errno_text(errno));
+  }
+  fchmod(fd, 0644);  // whatever the umask: tools of other users may read
+  if (ftruncate(fd, static_cast<off_t>(total)) != 0) {
+    const int e = errno;
+    close(fd);
+    shm_unlink(img.object_.c_str());
+    return make_error("cannot size shared memory " + img.object_ + " to " + std::to_string(total) +
+                      " bytes: " + errno_text(e));
+  }
+  void* base = mmap(nullptr, total, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
+  close(fd);
+  if (base == MAP_FAILED) {
+    shm_unlink(img.object_.c_str());
+    return make_error("cannot map " + img.object_ + ": " + errno_text(errno));
+  }
+  img.base_ = base;
+  img.size_ = total;
+  img.writable_ = true;
+  img.owner_ = true;
+  std::memset(base, 0, total);  // also faults every page in before RT starts
+
+  ImageHeader& h = img.header();
+  std::memcpy(h.magic, kProcessImageMagic, sizeof h.magic);
+  h.version = kProcessImageVersion;
+  h.header_size = sizeof(ImageHeader);
+  h.total_size = total;
+  h.pid = getpid();
+  h.channel_capacity = layout.channel_capacity;
+  h.n_regions = static_cast<uint32_t>(layout.regions.size());
+  h.n_tasks = layout.n_tasks;
+  h.task_stats_size = static_cast<uint32_t>(layout.task_stats_bytes);
+  h.off_channels = off_channels;
+  h.off_regions = off_regions;
+  h.off_tasks = off_tasks;
+  timespec rt;
+  clock_gettime(CLOCK_REALTIME, &rt);
+  h.started_realtime_ns = int64_t{rt.tv_sec} * 1000000000 + rt.tv_nsec;
+  std::strncpy(h.name, layout.name.c_str(), kLabelBytes - 1);
+  uint64_t hash = 1469598103934665603ull;
+  for (size_t i = 0; i < layout.regions.size(); ++i) {
+    RegionDesc& rd = img.region(static_cast<uint32_t>(i));
+    std::strncpy(rd.name, layout.regions[i].name.c_str(), kLabelBytes - 1);
+    rd.kind = static_cast<uint8_t>(layout.regions[i].kind);
+    rd.owner = layout.regions[i].owner;
+    rd.capacity = layout.regions[i].capacity;
+    rd.ring_offset = ring_off[i];
+    rd.slot_stride = slot_stride(rd.capacity);
+    hash = (hash ^ rd.capacity) * 1099511628211ull;
+  }
+  h.layout_hash = hash;
+  return img;
+}
+
+Result<ProcessImage> ProcessImage::attach(const std::string& name) {
+  ProcessImage img;
+  img.object_ = shm_name(name);
+  const int fd = shm_open(img.object_.c_str(), O_RDONLY, 0);
+  if (fd < 0) {
+    return make_error("no runtime named '" + name + "' is running (" + img.object_ + ": " +
+                      errno_text(errno) + "); start one with `rtplc run CONFIG`");
+  }
+  struct stat st {};
+  if (fstat(fd, &st) != 0 || st.st_size < static_cast<off_t>(sizeof(ImageHeader))) {
+    close(fd);
+    return make_error(img.object_ + " is too small to be a process image");
+  }
+  const auto size = static_cast<size_t>(st.st_size);
+  void* base = mmap(nullptr, size, PROT_READ, MAP_SHARED, fd, 0);
+  close(fd);
+  if (base == MAP_FAILED) return make_error("cannot map " + img.object_ + ": " + errno_text(errno));
+  img.base_ = base;
+  img.size_ = size;
+  const ImageHeader& h = img.header();
+  // A reader trusts nothing it has not checked: every table must lie inside the mapping.
+  const bool ok = std::memcmp(h.magic, kProcessImageMagic, 8) == 0 &&
+                  h.version == kProcessImageVersion && h.total_size == size &&
+                  h.n_channels <= h.channel_capacity &&
+                  h.off_channels + uint64_t{h.channel_capacity} * sizeof(ChannelDesc) <= size &&
+                  h.off_regions + uint64_t{h.n_regions} * sizeof(RegionDesc) <= size &&
+                  h.off_tasks + uint64_t{h.n_tasks} * task_block_size(h.task_stats_size) <= size;
+  if (!ok) return make_error(img.object_ + " is not a process image this rtplc understands");
+  for (uint32_t r = 0; r < h.n_regions; ++r) {
+    const RegionDesc& rd = img.region(r);
+    if (rd.slot_stride != slot_stride(rd.capacity) ||
+        rd.ring_offset + align64(sizeof(RingHeader)) + kRingSlots * rd.slot_stride > size) {
+      return make_error(img.object_ + ": region table is inconsistent");
+    }
+  }
+  for (uint32_t c = 0; c < h.n_channels; ++c) {
+    const ChannelDesc& cd = img.channel(c);
+    if (cd.region >= h.n_regions || cd.index >= img.region(cd.region).capacity) {
+      return make_error(img.object_ + ": channel table is inconsistent");
+    }
+  }
+  return img;
+}
+
+ChannelDesc& ProcessImage::channel(uint32_t i) const {
+  return reinterpret_cast<ChannelDesc*>(static_cast<char*>(base_) + header().off_channels)[i];
+}
+
+RegionDesc& ProcessImage::region(uint32_t r) const {
+  return reinterpret_cast<RegionDesc*>(static_cast<char*>(base_) + header().off_regions)[r];
+}
+
+TaskInfo& ProcessImage::task_info(uint32_t task) const {
+  return *reinterpret_cast<TaskInfo*>(static_cast<char*>(base_) + header().off_tasks +
+                                      task * task_block_size(header().task_stats_size));
+}
+
+void* ProcessImage::task_stats(uint32_t task) const {
+  return reinterpret_cast<char*>(&task_info(task)) + align64(sizeof(TaskInfo));
+}
+
+Result<uint32_t> ProcessImage::add_channel(const ChannelDesc& d) {
+  ImageHeader& h = header();
+  if (h.n_channels >= h.channel_capacity) return make_error("process image channel table is full");
+  channel(h.n_channels) = d;
+  return h.n_channels++;
+}
+
+int ProcessImage::find_channel(const std::string& label) const {
+  for (uint32_t i = 0; i < channel_count(); ++i) {
+    if (std::strncmp(channel(i).label, label.c_str(), kLabelBytes) == 0) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+RingHeader& ProcessImage::ring(uint32_t r) const {
+  return *reinterpret_cast<RingHeader*>(static_cast<char*>(base_) + region(r).ring_offset);
+}
+
+SlotHeader& ProcessImage::slot(uint32_t r, uint32_t k) const {
+  const RegionDesc& rd = region(r);
+  return *reinterpret_cast<SlotHeader*>(static_cast<char*>(base_) + rd.ring_offset +
+                                        align64(sizeof(RingHeader)) + k * rd.slot_stride);
+}
+
+double* ProcessImage::values(uint32_t r, uint32_t k) const {
+  return reinterpret_cast<double*>(reinterpret_cast<char*>(&slot(r, k)) + sizeof(SlotHeader));
+}
+
+int64_t* ProcessImage::timestamps(uint32_t r, uint32_t k) const {
+  return reinterpret_cast<int64_t*>(values(r, k) + region(r).capacity);
+}
+
+uint8_t* ProcessImage::quality(uint32_t r, uint32_t k) const {
+  return reinterpret_cast<uint8_t*>(timestamps(r, k) + region(r).capacity);
+}
+
+uint32_t ProcessImage::begin_write(uint32_t r) const noexcept {
+  // Only this region's writer changes `published`, so a relaxed read is exact.
+  const uint64_t next = ring(r).published.load(std::memory_order_relaxed) + 1;
+  const uint32_t k = static_cast<uint32_t>(next % kRingSlots);
+  SlotHeader& s = slot(r, k);
+  s.version.store(s.version.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
+  // Orders the odd version before the data stores that follow (seqlock writer).
+  writer_fence();
+  return k;
+}
+
+void ProcessImage::end_write(uint32_t r, uint32_t k, int64_t now_ns, uint64_t cycle) const noexcept {
+  SlotHeader& s = slot(r, k);
+  s.written_ns.store(now_ns, std::memory_order_relaxed);
+  s.cycle.store(cycle, std::memory_order_relaxed);
+  s.version.store(s.version.load(std::memory_order_relaxed) + 1, std::memory_order_release);
+  RingHeader& ring_h = ring(r);
+  ring_h.published.store(ring_h.published.load(std::memory_order_relaxed) + 1,
+                         std::memory_order_release);
+}
+
+bool ProcessImage::read_values(uint32_t r, const uint32_t* src, const uint32_t* dst, uint32_t n,
+                               double* out, uint32_t max_tries,
+                               uint64_t* published_seen) const noexcept {
+  for (uint32_t t = 0; t < max_tries; ++t) {
+    const uint64_t pub = ring(r).published.load(std::memory_order_acquire);
+    if (pub == 0) return false;  // nothing written yet
+    const auto k = static_cast<uint32_t>(pub % kRingSlots);
+    const SlotHeader& s = slot(r, k);
+    const uint64_t v1 = s.version.load(std::memory_order_acquire);
+    if (v1 & 1) continue;
+    const double* vals = values(r, k);
+    // Two passes would be needed to keep `out` untouched on a torn read; instead
+    // the caller's buffer takes the values and a torn read is simply repeated —
+    // the last attempt that validates wins, and on total failure we say so.
+    for (uint32_t i = 0; i < n; ++i) out[dst[i]] = load_relaxed(vals + src[i]);
+    reader_fence();
+    if (s.version.load(std::memory_order_relaxed) == v1) {
+      if (published_seen) *published_seen = pub;
+      return true;
+    }
+  }
+  return false;
+}
+
+ChannelValue ProcessImage::read_channel(uint32_t c) const noexcept {
+  ChannelValue cv;
+  const ChannelDesc& d = channel(c);
+  const uint32_t r = d.region;
+  for (int t = 0; t < 1000; ++t) {
+    const uint64_t pub = ring(r).published.load(std::memory_order_acquire);
+    if (pub == 0) return cv;
+    const auto k = static_cast<uint32_t>(pub % kRingSlots);
+    const SlotHeader& s = slot(r, k);
+    const uint64_t v1 = s.version.load(std::memory_order_acquire);
+    if (v1 & 1) continue;
+    cv.value = load_relaxed(values(r, k) + d.index);
+    cv.quality = static_cast<Quality>(__atomic_load_n(quality(r, k) + d.index, __ATOMIC_ACQUIRE));
+    cv.timestamp_ns = __atomic_load_n(timestamps(r, k) + d.index, __ATOMIC_ACQUIRE);
+    if (cv.timestamp_ns == 0) cv.timestamp_ns = s.written_ns.load(std::memory_order_acquire);
+    reader_fence();
+    if (s.version.load(std::memory_order_relaxed) == v1) {
+      cv.fresh = true;
+      return cv;
+    }
+  }
+  return cv;
+}
+
+}  // namespace rtplc::io

@@ -1,0 +1,251 @@
+// The control socket server and client (see control.h).
+#include "sched/control.h"
+
+#include <poll.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <sstream>
+
+#include "kernel_rt/clock.h"
+#include "sched/runtime.h"
+
+namespace rtplc::sched {
+namespace {
+
+constexpr size_t kMaxLine = 4096;
+constexpr size_t kMaxSource = 64u << 20;  // the compiler refuses more anyway
+
+std::string folder_of(const std::string& path) {
+  const size_t slash = path.find_last_of('/');
+  return slash == std::string::npos ? "." : path.substr(0, slash);
+}
+
+bool send_all(int fd, const std::string& s) {
+  size_t done = 0;
+  while (done < s.size()) {
+    const ssize_t n = send(fd, s.data() + done, s.size() - done, MSG_NOSIGNAL);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      return false;
+    }
+    done += static_cast<size_t>(n);
+  }
+  return true;
+}
+
+// Reads until `want` bytes or EOF/timeout; returns what arrived.
+bool read_exact(int fd, std::string& out, size_t want, int timeout_ms) {
+  const int64_t deadline = kernel_rt::monotonic_now_ns() + int64_t{timeout_ms} * 1000000;
+  char buf[8192];
+  while (out.size() < want) {
+    const int64_t left_ms = (deadline - kernel_rt::monotonic_now_ns()) / 1000000;
+    if (left_ms <= 0) return false;
+    pollfd p{fd, POLLIN, 0};
+    if (poll(&p, 1, static_cast<int>(left_ms)) <= 0) return false;
+    const ssize_t n = recv(fd, buf, std::min(sizeof buf, want - out.size()), 0);
+    if (n <= 0) return false;
+    out.append(buf, static_cast<size_t>(n));
+  }
+  return true;
+}
+
+bool read_line(int fd, std::string& line, int timeout_ms) {
+  line.clear();
+  const int64_t deadline = kernel_rt::monotonic_now_ns() + int64_t{timeout_ms} * 1000000;
+  for (;;) {
+    if (line.size() > kMaxLine) return false;
+    const int64_t left_ms = (deadline - kernel_rt::monotonic_now_ns()) / 1000000;
+    if (left_ms <= 0) return false;
+    pollfd p{fd, POLLIN, 0};
+    if (poll(&p, 1, static_cast<int>(left_ms)) <= 0) return false;
+    char c;
+    const ssize_t n = recv(fd, &c, 1, 0);
+    if (n <= 0) return false;
+    if (c == '\n') return true;
+    line += c;
+  }
+}
+
+std::string frame(bool ok, const std::string& body) {
+  std::string out = ok ? "OK\n" : "ERROR\n";
+  std::istringstream in(body);
+  std::string l;
+  while (std::getline(in, l)) {
+    if (!l.empty() && l[0] == '.') out += '.';
+    out += l + "\n";
+  }
+  return out + ".\n";
+}
+
+std::vector<std::string> split(const std::string& s) {
+  std::vector<std::string> v;
+  std::istringstream in(s);
+  std::string w;
+  while (in >> w) v.push_back(w);
+  return v;
+}
+
+}  // namespace
+
+ControlServer::~ControlServer() { stop(); }
+
+Result<void> ControlServer::start(const std::string& path) {
+  path_ = path;
+  sockaddr_un addr{};
+  if (path.size() >= sizeof addr.sun_path) return make_error("control socket path too long: " + path);
+  const std::string dir = folder_of(path);
+  if (mkdir(dir.c_str(), 0700) != 0 && errno != EEXIST) {
+    return make_error("cannot create " + dir + ": " + std::strerror(errno));
+  }
+  // A socket left by a dead runtime: connecting fails, so remove it. A live one
+  // answers: then another runtime owns the name.
+  if (access(path.c_str(), F_OK) == 0) {
+    if (control_request(path, "ping", "", 500).ok()) {
+      return make_error("a runtime already listens on " + path);
+    }
+    unlink(path.c_str());
+  }
+  listen_fd_ = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  if (listen_fd_ < 0) return make_error(std::string("socket: ") + std::strerror(errno));
+  addr.sun_family = AF_UNIX;
+  std::memcpy(addr.sun_path, path.c_str(), path.size());
+  const mode_t old = umask(0177);  // the socket is born 0600: no window where others can connect
+  const int b = bind(listen_fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr);
+  umask(old);
+  if (b != 0 || listen(listen_fd_, 8) != 0) {
+    const int e = errno;
+    close(listen_fd_);
+    listen_fd_ = -1;
+    return make_error("cannot listen on " + path + ": " + std::strerror(e));
+  }
+  chmod(path.c_str(), 0600);
+  thread_ = std::thread([this] { run(); });
+  return {};
+}
+
+void ControlServer::stop() {
+  quit_.store(true, std::memory_order_release);
+  if (thread_.joinable()) thread_.join();
+  if (listen_fd_ >= 0) {
+    close(listen_fd_);
+    listen_fd_ = -1;
+    unlink(path_.c_str());
+  }
+}
+
+void ControlServer::run() {
+  while (!quit_.load(std::memory_order_acquire)) {
+    pollfd p{listen_fd_, POLLIN, 0};
+    const int n = poll(&p, 1, 100);
+    rt_.reap();
+    watch_tasks();
+    if (n <= 0) continue;
+    const int fd = accept4(listen_fd_, nullptr, nullptr, SOCK_CLOEXEC);
+    if (fd < 0) continue;
+    handle(fd);
+    close(fd);
+  }
+}
+
+void ControlServer::watch_tasks() {
+  io::ProcessImage& img = rt_.image();
+  last_state_.resize(rt_.task_count(), 0);
+  for (size_t t = 0; t < rt_.task_count(); ++t) {
+    const auto s = img.task_info(static_cast<uint32_t>(t)).state.load(std::memory_order_relaxed);
+    if (s == last_state_[t]) continue;
+    last_state_[t] = s;
+    if (s == static_cast<uint8_t>(io::TaskState::kStoppedWatchdog)) {
+      const Task& task = rt_.task(t);
+      log_(true, "WATCHDOG: task " + task.params().name + " STOPPED after " +
+                     std::to_string(task.params().watchdog ? task.params().watchdog : 1) +
+                     " consecutive overruns; its outputs are at their safe values. Swap in "
+                     "fixed code (rtplc swap " + task.params().name + " FILE) to restart it.");
+    }
+  }
+}
+
+void ControlServer::handle(int fd) {
+  std::string line;
+  if (!read_line(fd, line, 2000)) {
+    send_all(fd, frame(false, "malformed request: expected one line"));
+    return;
+  }
+  const std::vector<std::string> w = split(line);
+  if (w.empty()) {
+    send_all(fd, frame(false, "empty request"));
+    return;
+  }
+  const std::string& verb = w[0];
+  Result<std::string> res = make_error("unknown request '" + verb + "' (ping, status, set, swap, rollback, stop)");
+  if (verb == "ping" && w.size() == 1) {
+    res = std::string("pong ") + rt_.name();
+  } else if (verb == "status" && w.size() == 1) {
+    res = rt_.status();
+  } else if (verb == "set" && w.size() == 3) {
+    char* end = nullptr;
+    const double v = std::strtod(w[2].c_str(), &end);
+    if (end == w[2].c_str() || *end != '\0' || !std::isfinite(v)) {
+      res = make_error("'" + w[2] + "' is not a number");
+    } else {
+      res = rt_.set_value(w[1], v);
+      if (res) log_(false, "set " + *res);
+    }
+  } else if (verb == "swap" && w.size() == 4) {
+    char* end = nullptr;
+    const unsigned long long n = std::strtoull(w[3].c_str(), &end, 10);
+    std::string source;
+    if (*end != '\0' || n > kMaxSource) {
+      res = make_error("bad source size");
+    } else if (!read_exact(fd, source, n, 10000)) {
+      res = make_error("the source text did not arrive whole");
+    } else {
+      res = rt_.swap(w[1], source, w[2]);
+      if (res) log_(false, "swap: " + res->substr(0, res->find('\n', res->find('\n') + 1)));
+      else log_(true, "swap of " + w[1] + " refused: " + res.error().substr(0, res.error().find('\n')));
+    }
+  } else if (verb == "rollback" && w.size() == 2) {
+    res = rt_.rollback(w[1]);
+    if (res) log_(false, "rollback: " + res->substr(0, res->find('\n')));
+  } else if (verb == "stop" && w.size() == 1) {
+    stop_requested_.store(true, std::memory_order_release);
+    res = std::string("stopping runtime ") + rt_.name();
+  } else if (verb == "set" || verb == "swap" || verb == "rollback") {
+    res = make_error("wrong number of arguments for '" + verb + "'");
+  }
+  send_all(fd, res ? frame(true, *res) : frame(false, res.error()));
+}
+
+Result<std::string> control_request(const std::string& socket_path, const std::string& line,
+                                    const std::string& payload, int timeout_ms) {
+  sockaddr_un addr{};
+  if (socket_path.size() >= sizeof addr.sun_path) return make_error("socket path too long");
+  const int fd = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  if (fd < 0) return make_error(std::string("socket: ") + std::strerror(errno));
+  addr.sun_family = AF_UNIX;
+  std::memcpy(addr.sun_path, socket_path.c_str(), socket_path.size());
+  if (connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
+    const int e = errno;
+    close(fd);
+    return make_error("cannot reach the runtime at " + socket_path + " (" + std::strerror(e) +
+                      "); is `rtplc run` running, and are you allowed to use its socket?");
+  }
+  bool ok = send_all(fd, line + "\n") && send_all(fd, payload);
+  std::string status, body, l;
+  ok = ok && read_line(fd, status, timeout_ms);
+  while (ok && read_line(fd, l, timeout_ms)) {
+    if (l == ".") break;
+    body += (l.size() > 1 && l[0] == '.' ? l.substr(1) : l) + "\n";
+  }
+  close(fd);
+  if (!ok) return make_error("no answer from the runtime at " + socket_path);
+  if (status == "OK") return body;
+  return make_error(body.empty() ? "the runtime refused the request" : body);
+}
+
+}  // namespace rtplc::sched

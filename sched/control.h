@@ -1,0 +1,65 @@
+// The runtime's control channel (spec runtime.md, "Hot swap": local only, a Unix
+// socket with mode 0600 — loading code is the most privileged act in a PLC).
+//
+// Wire format, one request per connection:
+//   request   VERB [ARG ...]\n            (ARGs are separated by single spaces)
+//             swap TASK NAME BYTES\n<BYTES of source text>
+//   response  OK\n or ERROR\n, then the body, then a line holding only "."
+//             (a body line that starts with "." is sent with one more ".")
+// Verbs: ping, status, set LABEL VALUE, swap, rollback TASK, stop.
+//
+// The server's thread is the runtime's control thread: every Runtime method runs
+// on it, one request at a time, so nothing on the control side needs a lock. Its
+// poll loop also frees retired programs and watches the tasks for watchdog stops.
+#pragma once
+
+#include <atomic>
+#include <functional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "common/result.h"
+
+namespace rtplc::sched {
+
+class Runtime;
+
+class ControlServer {
+ public:
+  // `log` receives one line per event worth telling the operator (swaps, set-points,
+  // watchdog stops); called on the control thread.
+  using Log = std::function<void(bool error, const std::string& line)>;
+
+  ControlServer(Runtime& rt, Log log) : rt_(rt), log_(std::move(log)) {}
+  ~ControlServer();
+  ControlServer(const ControlServer&) = delete;
+  ControlServer& operator=(const ControlServer&) = delete;
+
+  // Creates the socket (and its folder, mode 0700) and starts the thread.
+  Result<void> start(const std::string& path);
+  void stop();
+  // True once a client asked the runtime to stop.
+  bool stop_requested() const { return stop_requested_.load(std::memory_order_acquire); }
+
+ private:
+  void run();
+  void handle(int fd);
+  void watch_tasks();
+
+  Runtime& rt_;
+  Log log_;
+  std::string path_;
+  int listen_fd_ = -1;
+  std::thread thread_;
+  std::atomic<bool> quit_{false};
+  std::atomic<bool> stop_requested_{false};
+  std::vector<uint8_t> last_state_;
+};
+
+// Client side (the rtplc commands). Sends one request and returns the body; an
+// ERROR response becomes an error carrying the body.
+Result<std::string> control_request(const std::string& socket_path, const std::string& line,
+                                    const std::string& payload = "", int timeout_ms = 30000);
+
+}  // namespace rtplc::sched

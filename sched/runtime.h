@@ -1,0 +1,134 @@
+// The runtime: what `rtplc run CONFIG` builds and runs (spec runtime.md). It
+// compiles every task's program, lays out the process image (channels, one
+// output region per task, one input region per driver, the set-points), checks
+// that every output has one writer and every plant is wired, assigns
+// rate-monotonic priorities, prepares the process for real time, and starts the
+// driver and task threads on a common time grid. Afterwards its methods are the
+// operator's verbs — set a set-point, swap or roll back a task's code, report —
+// called from the control thread only (see control.h).
+#pragma once
+
+#include <atomic>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "common/diagnostic.h"
+#include "common/result.h"
+#include "config/config.h"
+#include "io/process_image.h"
+#include "kernel_rt/rt_process.h"
+#include "sched/retain.h"
+#include "sched/sim_driver.h"
+#include "sched/stats_render.h"
+#include "sched/task.h"
+
+namespace rtplc::sched {
+
+struct RuntimeOptions {
+  bool count_faults = false;       // measure minor page faults per cycle (test mode)
+  bool lock_memory = true;         // overridden by the config's lock_memory: false
+  std::string name_override;       // run under another name (tests run several at once)
+  std::string socket_override;
+  std::string retain_override;
+};
+
+// One diagnostic source: the runtime reports problems in the config file and in
+// the programs it names, each rendered against its own text.
+struct LoadReport {
+  struct File {
+    std::string name;
+    std::string text;
+    DiagnosticList diags;
+  };
+  std::vector<File> files;
+  bool ok = true;
+  std::string render(bool color = false) const;
+};
+
+class Runtime {
+ public:
+  ~Runtime();
+  Runtime(const Runtime&) = delete;
+  Runtime& operator=(const Runtime&) = delete;
+
+  // Builds everything up to (not including) starting threads. On failure the
+  // report says why; nothing is left behind (no shared memory, no threads).
+  static std::unique_ptr<Runtime> load(const config::RuntimeConfig& cfg, const RuntimeOptions& opt,
+                                       LoadReport& report);
+
+  // Readies the process for RT, starts drivers then tasks. Returns notices to log
+  // once (not PREEMPT_RT, running SCHED_OTHER, memory not locked, ...).
+  Result<std::vector<std::string>> start();
+  // Stops tasks (outputs to safe values) and drivers; idempotent.
+  void stop();
+
+  // ---- operator verbs (control thread) ----
+  Result<std::string> set_value(const std::string& label, double value);
+  // Compiles `source` for task `task` and swaps it in at the task's next cycle
+  // boundary; waits for the hand-over. A compile or verification error changes nothing.
+  Result<std::string> swap(const std::string& task, const std::string& source,
+                           const std::string& file_label);
+  Result<std::string> rollback(const std::string& task);
+  std::string status() const;
+  // Frees programs the tasks have let go of (call periodically off the RT path).
+  void reap();
+
+  const std::string& name() const { return name_; }
+  const std::string& socket_path() const { return socket_path_; }
+  const std::string& retain_path() const { return retain_.path(); }
+  io::ProcessImage& image() { return image_; }
+  size_t task_count() const { return tasks_.size(); }
+  Task& task(size_t i) { return *tasks_[i]; }
+  Task* find_task(const std::string& name);
+  // Summary lines printed when the runtime starts.
+  std::vector<std::string> describe() const;
+  // Per-task views for `stats` rendering.
+  std::vector<TaskStatsView> stats_views() const;
+
+ private:
+  Runtime() = default;
+  struct ChannelRef {
+    uint32_t index;      // in the image's channel table
+    std::string label;
+    std::string key;
+  };
+  bool build_channels(const config::RuntimeConfig& cfg, LoadReport& report);
+  Result<std::unique_ptr<LoadedProgram>> make_program(uint32_t task, TaskImage image,
+                                                      std::string source, std::string file,
+                                                      const LoadedProgram* running);
+  void publish_setpoints();
+  Result<std::string> install(Task& t, std::unique_ptr<LoadedProgram> next, bool keep_previous);
+
+  std::string name_;
+  std::string socket_path_;
+  io::ProcessImage image_;
+  kernel_rt::RtProcess rt_;
+  RetainStore retain_;
+  RuntimeOptions options_;
+  bool lock_memory_ = true;
+  bool cpu_dma_latency_ = true;
+  std::vector<std::unique_ptr<Task>> tasks_;
+  std::vector<std::unique_ptr<SimDriver>> drivers_;
+  std::vector<std::unique_ptr<LoadedProgram>> previous_;   // per task, for rollback
+  std::vector<std::unique_ptr<LoadedProgram>> graveyard_;  // retired, freed by reap()
+  std::vector<std::vector<std::string>> task_output_keys_; // per task: region index -> channel key
+  std::vector<config::SafeOutput> no_safe_;
+  std::vector<std::vector<config::SafeOutput>> safe_outputs_;
+  std::map<std::string, uint32_t> channel_by_key_;
+  uint32_t setpoint_region_ = 0;
+  uint32_t unwired_region_ = 0;
+  std::vector<double> setpoint_values_;  // control thread's copy of the set-point region
+  std::vector<uint32_t> driver_regions_;
+  bool started_ = false;
+};
+
+// Default control socket and retain file for a runtime name: system paths when
+// running as root, per-user paths otherwise.
+std::string default_socket_path(const std::string& name);
+std::string default_retain_path(const std::string& name);
+
+}  // namespace rtplc::sched

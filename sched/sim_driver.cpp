@@ -1,0 +1,79 @@
+// The sim driver thread (see sim_driver.h).
+#include "sched/sim_driver.h"
+
+#include "kernel_rt/clock.h"
+
+namespace rtplc::sched {
+
+SimDriver::SimDriver(std::string name, io::ProcessImage& image, uint32_t region, int64_t period_ns,
+                     int priority, int cpu, std::vector<SimPlantWiring> plants)
+    : name_(std::move(name)),
+      image_(image),
+      region_(region),
+      period_ns_(period_ns),
+      priority_(priority),
+      cpu_(cpu),
+      plants_(std::move(plants)) {
+  step_s_ = io::plant_step_for(static_cast<double>(period_ns_) / 1e9, &steps_);
+  for (SimPlantWiring& p : plants_) p.plant->reset();
+}
+
+SimDriver::~SimDriver() {
+  request_stop();
+  join();
+}
+
+Result<void> SimDriver::start(int64_t first_release_ns) {
+  first_release_ = first_release_ns;
+  publish(kernel_rt::monotonic_now_ns());  // plants at rest are readable before the first cycle
+  kernel_rt::ThreadSpec spec;
+  spec.name = "rtplc:sim";
+  spec.fifo_priority = priority_;
+  if (cpu_ >= 0) spec.cpu = static_cast<unsigned>(cpu_);
+  spec.prefault_stack = 128 * 1024;
+  auto t = kernel_rt::start_thread(spec, [this] { run(); });
+  if (!t) return make_error("driver " + name_ + ": " + t.error());
+  thread_ = std::move(t).value();
+  fell_back_ = thread_.outcome().fell_back;
+  return {};
+}
+
+void SimDriver::join() {
+  if (thread_.joinable()) thread_.join();
+}
+
+void SimDriver::publish(int64_t now_ns) noexcept {
+  const uint32_t k = image_.begin_write(region_);
+  double* v = image_.values(region_, k);
+  uint8_t* q = image_.quality(region_, k);
+  int64_t* ts = image_.timestamps(region_, k);
+  for (const SimPlantWiring& p : plants_) {
+    io::store_relaxed(v + p.output_index, p.plant->output());
+    __atomic_store_n(q + p.output_index, static_cast<uint8_t>(io::Quality::kGood), __ATOMIC_RELEASE);
+    __atomic_store_n(ts + p.output_index, now_ns, __ATOMIC_RELEASE);
+  }
+  image_.end_write(region_, k, now_ns, cycles_.load(std::memory_order_relaxed));
+}
+
+void SimDriver::run() noexcept {
+  int64_t release = first_release_;
+  while (!stop_.load(std::memory_order_relaxed)) {
+    kernel_rt::sleep_until_ns(release);
+    for (SimPlantWiring& p : plants_) {
+      double u = 0;
+      const uint32_t zero = 0;
+      // A task mid-write never blocks us: we read its last completed snapshot.
+      if (!image_.read_values(p.input_region, &p.input_index, &zero, 1, &u, 8)) u = 0;
+      for (int s = 0; s < steps_; ++s) p.plant->step(u, step_s_);
+    }
+    const int64_t now = kernel_rt::monotonic_now_ns();
+    cycles_.fetch_add(1, std::memory_order_relaxed);
+    publish(now);
+    release += period_ns_;
+    if (now > release) {  // behind (a debugger, a stall): resume on the grid
+      release += ((now - release) / period_ns_ + 1) * period_ns_;
+    }
+  }
+}
+
+}  // namespace rtplc::sched

@@ -1,0 +1,178 @@
+// The task thread's cycle and the swap hand-over (see task.h).
+#include "sched/task.h"
+
+#include <algorithm>
+
+#include "kernel_rt/clock.h"
+#include "kernel_rt/memory.h"
+
+namespace rtplc::sched {
+
+Task::Task(TaskParams params, io::ProcessImage& image, uint32_t index, uint32_t output_region,
+           uint32_t setpoint_region, std::unique_ptr<LoadedProgram> first)
+    : params_(std::move(params)),
+      image_(image),
+      index_(index),
+      region_(output_region),
+      setpoint_region_(setpoint_region),
+      info_(&image.task_info(index)),
+      stats_(static_cast<CycleStats*>(image.task_stats(index))),
+      owned_(std::move(first)) {
+  current_ = owned_.get();
+  active_ = owned_.get();
+}
+
+Task::~Task() {
+  request_stop();
+  join();
+  // A swap published but never applied (the task stopped first) is ours to free.
+  delete pending_.exchange(nullptr);
+}
+
+Result<void> Task::start(int64_t first_release_ns) {
+  first_release_ = first_release_ns;
+  kernel_rt::ThreadSpec spec;
+  spec.name = "rtplc:" + params_.name.substr(0, 9);
+  spec.fifo_priority = params_.priority;
+  if (params_.cpu >= 0) spec.cpu = static_cast<unsigned>(params_.cpu);
+  spec.stack_bytes = 512 * 1024;
+  spec.prefault_stack = 256 * 1024;
+  info_->state.store(static_cast<uint8_t>(io::TaskState::kStarting), std::memory_order_relaxed);
+  auto t = kernel_rt::start_thread(spec, [this] { run(); });
+  if (!t) return make_error("task " + params_.name + ": " + t.error());
+  thread_ = std::move(t).value();
+  const kernel_rt::SchedOutcome& o = thread_.outcome();
+  fell_back_ = o.fell_back;
+  fallback_reason_ = o.fallback_reason;
+  info_->fifo = o.obtained.policy == kernel_rt::SchedPolicy::kFifo ? 1 : 0;
+  info_->priority = o.obtained.priority;
+  return {};
+}
+
+void Task::join() {
+  if (thread_.joinable()) thread_.join();
+}
+
+bool Task::publish(std::unique_ptr<LoadedProgram> next) {
+  if (in_flight_ != nullptr) return false;
+  in_flight_ = next.release();
+  pending_.store(in_flight_, std::memory_order_release);
+  return true;
+}
+
+std::unique_ptr<LoadedProgram> Task::collect() {
+  if (in_flight_ == nullptr || !swap_applied()) return nullptr;
+  retired_.exchange(nullptr, std::memory_order_acquire);  // == owned_.get()
+  std::unique_ptr<LoadedProgram> previous(owned_.release());
+  owned_.reset(in_flight_);
+  in_flight_ = nullptr;
+  active_ = owned_.get();
+  return previous;
+}
+
+void Task::read_inputs(LoadedProgram& p) noexcept {
+  for (InputGroup& g : p.inputs) {
+    if (g.setpoints) {
+      // Set-points change when an operator types; most cycles skip them.
+      const uint64_t pub = image_.ring(g.region).published.load(std::memory_order_acquire);
+      if (pub == g.seen) continue;
+    }
+    uint64_t seen = 0;
+    // Three tries: a fourth would only be needed if the writer finished three
+    // more snapshots while we copied one; then we keep last cycle's inputs.
+    if (image_.read_values(g.region, g.src.data(), g.dst.data(), static_cast<uint32_t>(g.src.size()),
+                           p.arena.io_in.data(), 3, &seen)) {
+      g.seen = seen;
+    } else if (image_.ring(g.region).published.load(std::memory_order_relaxed) != 0) {
+      info_->input_misses.fetch_add(1, std::memory_order_relaxed);
+    }
+  }
+}
+
+void Task::write_outputs(LoadedProgram& p, bool safe) noexcept {
+  const uint32_t k = image_.begin_write(region_);
+  double* slot = image_.values(region_, k);
+  ExecContext ctx = make_context(p.image, p.arena);
+  if (safe) {
+    for (size_t i = 0; i < p.output_slots.size(); ++i) {
+      io::store_relaxed(slot + p.output_slots[i], p.safe_values[i]);
+    }
+  } else if (io::kZeroCopyOutputs && p.outputs_in_place) {
+    // The executor writes the outputs straight into the snapshot being built.
+    ctx.io_out = slot;
+    execute_cycle(ctx);
+  } else {
+    execute_cycle(ctx);
+    const double* out = p.arena.io_out.data();
+    for (size_t i = 0; i < p.output_slots.size(); ++i) {
+      io::store_relaxed(slot + p.output_slots[i], out[i]);
+    }
+  }
+  image_.slot(region_, k).region_state.store(safe ? 1 : 0, std::memory_order_relaxed);
+  image_.end_write(region_, k, kernel_rt::monotonic_now_ns(), p.arena.cycles);
+}
+
+void Task::run() noexcept {
+  const int64_t period = params_.period_ns;
+  int64_t release = first_release_;
+  bool stopped = false;  // by the watchdog: outputs safe, code not run until a swap
+  uint64_t faults_before = 0;
+  uint64_t cycle = 0;
+  info_->state.store(static_cast<uint8_t>(io::TaskState::kRunning), std::memory_order_relaxed);
+  while (!stop_.load(std::memory_order_relaxed)) {
+    kernel_rt::sleep_until_ns(release);
+    const int64_t wake = kernel_rt::monotonic_now_ns();
+    if (params_.count_faults) faults_before = kernel_rt::minor_faults_this_thread();
+
+    // Swap boundary: the new program runs in this very cycle.
+    if (LoadedProgram* next = pending_.load(std::memory_order_acquire)) {
+      if (next->migration.active) apply_migration(next->migration, current_->arena, next->arena);
+      for (InputGroup& g : next->inputs) g.seen = 0;  // refresh every input now
+      retired_.store(current_, std::memory_order_release);
+      current_ = next;
+      pending_.store(nullptr, std::memory_order_release);
+      info_->swaps.fetch_add(1, std::memory_order_relaxed);
+      info_->last_swap_ns.store(wake, std::memory_order_relaxed);
+      if (stopped) {
+        stopped = false;  // new code is how an operator restarts a stopped task
+        info_->state.store(static_cast<uint8_t>(io::TaskState::kRunning), std::memory_order_relaxed);
+      }
+    }
+
+    if (!stopped) {
+      read_inputs(*current_);
+      write_outputs(*current_, false);
+      info_->block_errors.store(current_->arena.total_errors, std::memory_order_relaxed);
+    }
+    const int64_t end = kernel_rt::monotonic_now_ns();
+    if (params_.count_faults && cycle > 16) {
+      // The first cycles may still touch fresh pages (a just-swapped program's
+      // arena); every later one must fault nothing.
+      const uint64_t f = kernel_rt::minor_faults_this_thread() - faults_before;
+      if (f) info_->minor_faults.fetch_add(f, std::memory_order_relaxed);
+    }
+    ++cycle;
+    stats_->record(wake - release, end - wake);
+
+    release += period;
+    if (end > release) {
+      // Every release that passed while we ran is skipped: the next cycle starts
+      // on the grid again instead of running late back to back.
+      const uint64_t skipped = static_cast<uint64_t>((end - release) / period) + 1;
+      release += static_cast<int64_t>(skipped) * period;
+      const uint64_t consecutive = stats_->record_overrun(skipped);
+      const bool limit = params_.watchdog > 0 && consecutive >= params_.watchdog;
+      if (!stopped && (limit || (params_.overrun == OverrunPolicy::kStop && params_.watchdog == 0))) {
+        stopped = true;
+        write_outputs(*current_, true);
+        info_->state.store(static_cast<uint8_t>(io::TaskState::kStoppedWatchdog),
+                           std::memory_order_relaxed);
+      }
+    }
+  }
+  // Leaving: the outputs go to their safe values, as when the watchdog fires.
+  write_outputs(*current_, true);
+  info_->state.store(static_cast<uint8_t>(io::TaskState::kStopped), std::memory_order_relaxed);
+}
+
+}  // namespace rtplc::sched

@@ -1,0 +1,110 @@
+// One periodic task: a SCHED_FIFO thread that runs a compiled program once per
+// period over the process image (spec runtime.md, "Tasks and the scheduler",
+// "Hot swap"). The cycle:
+//   sleep until the absolute release time (the only system call)
+//   take a pending replacement program if one was published (swap boundary)
+//   copy the inputs it reads from their source regions
+//   run the program with its outputs written straight into its output region
+//   publish the outputs; record wake latency and execution time
+//   next release += period; a cycle that ends after the next release is an
+//   overrun: count it and the releases it skipped; N in a row stop the task
+//   (the watchdog) with its outputs at their safe values.
+// Nothing in the cycle allocates, locks, logs or throws.
+//
+// Swap protocol (control thread <-> task thread, one swap in flight at a time):
+//   control: builds a LoadedProgram, pending_.store(p, release)
+//   task:    at a cycle boundary p = pending_.load(acquire); migrates state
+//            from the running program into p; retired_.store(old, release);
+//            pending_.store(nullptr, release); runs p in this same cycle
+//   control: sees pending_ == nullptr (acquire), takes retired_ and frees it
+// The acquire/release pairs hand each program over whole: the task never sees a
+// half-built program, the control thread never frees one the task still runs.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "common/result.h"
+#include "io/process_image.h"
+#include "kernel_rt/rt_thread.h"
+#include "sched/jitter.h"
+#include "sched/program.h"
+
+namespace rtplc::sched {
+
+enum class OverrunPolicy : uint8_t { kSkip, kStop };
+
+struct TaskParams {
+  std::string name;
+  int64_t period_ns = 100000000;
+  int priority = 0;  // SCHED_FIFO priority; 0 = SCHED_OTHER
+  int cpu = -1;      // -1 = any
+  OverrunPolicy overrun = OverrunPolicy::kSkip;
+  uint32_t watchdog = 0;  // consecutive overruns before stopping; 0 = never
+  bool count_faults = false;  // measure minor faults per cycle (test mode: one syscall per cycle)
+};
+
+class Task {
+ public:
+  Task(TaskParams params, io::ProcessImage& image, uint32_t index, uint32_t output_region,
+       uint32_t setpoint_region, std::unique_ptr<LoadedProgram> first);
+  ~Task();
+  Task(const Task&) = delete;
+  Task& operator=(const Task&) = delete;
+
+  // Starts the thread; the first release is at `first_release_ns` (CLOCK_MONOTONIC).
+  Result<void> start(int64_t first_release_ns);
+  void request_stop() noexcept { stop_.store(true, std::memory_order_relaxed); }
+  void join();
+  bool fell_back_to_other() const { return fell_back_; }
+  const std::string& fallback_reason() const { return fallback_reason_; }
+
+  // ---- control-thread API ----
+  const TaskParams& params() const { return params_; }
+  uint32_t index() const { return index_; }
+  uint32_t output_region() const { return region_; }
+  // The program running now, as far as the control thread knows (it changes only
+  // through publish()/collect()). Never touch its arena from the control thread.
+  const LoadedProgram& active() const { return *active_; }
+  // Hands a prepared program to the task thread. Returns false if a swap is still in flight.
+  bool publish(std::unique_ptr<LoadedProgram> next);
+  // True once the task thread has taken the last published program.
+  bool swap_applied() const { return pending_.load(std::memory_order_acquire) == nullptr; }
+  // After swap_applied(): takes back the program that was replaced (to free it off the RT path).
+  std::unique_ptr<LoadedProgram> collect();
+  bool running() const { return thread_.joinable(); }
+  int64_t first_release_ns() const { return first_release_; }
+
+ private:
+  void run() noexcept;
+  void read_inputs(LoadedProgram& p) noexcept;
+  void write_outputs(LoadedProgram& p, bool safe) noexcept;
+
+  TaskParams params_;
+  io::ProcessImage& image_;
+  uint32_t index_;
+  uint32_t region_;
+  uint32_t setpoint_region_;
+  io::TaskInfo* info_;
+  CycleStats* stats_;
+
+  // Owned by the task thread while it runs (current_), by the control thread
+  // otherwise; active_ is the control thread's view of it.
+  LoadedProgram* current_ = nullptr;
+  LoadedProgram* active_ = nullptr;
+  std::unique_ptr<LoadedProgram> owned_;  // keeps current_ alive
+  std::atomic<LoadedProgram*> pending_{nullptr};
+  std::atomic<LoadedProgram*> retired_{nullptr};
+  LoadedProgram* in_flight_ = nullptr;  // control side: published, not yet collected
+
+  std::atomic<bool> stop_{false};
+  kernel_rt::RtThread thread_;
+  int64_t first_release_ = 0;
+  bool fell_back_ = false;
+  std::string fallback_reason_;
+};
+
+}  // namespace rtplc::sched
