@@ -1,0 +1,153 @@
+// The runtime configuration (spec runtime.md, "Configuration"): what
+// `rtplc run CONFIG` reads — the tasks (program, period, priority, cpu, overrun
+// policy, watchdog, safe outputs) and the I/O drivers (kind, period, priority,
+// cpu, and per kind their channel maps). The loader checks everything it can
+// without compiling the programs; the runtime does the rest, and every field it
+// may still have to complain about carries its source position so its messages
+// point into the config file like the loader's own (see common/diagnostic.h).
+// The keys, defaults and ranges are in config/schema.h; docs/config.md is
+// generated from there.
+#pragma once
+
+#include <any>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "common/diagnostic.h"
+#include "config/values.h"
+
+namespace rtplc::config {
+
+// Defaults shared by the structs below and the schema (config/schema.cpp) so the
+// documented default and the applied one are one constant.
+inline constexpr const char* kDefaultRuntimeName = "rtplc";
+inline constexpr int kDefaultBandLo = 10;
+inline constexpr int kDefaultBandHi = 49;
+inline constexpr int kMinFifoPriority = 1;
+inline constexpr int kMaxFifoPriority = 98;  // 99 is left to the kernel's watchdogs
+inline constexpr double kDefaultDriverPeriod = 0.01;
+inline constexpr double kMinPeriod = 10e-6;
+inline constexpr double kMaxPeriod = 3600;
+inline constexpr uint32_t kDefaultStopWatchdog = 3;
+inline constexpr uint32_t kMaxWatchdog = 1000000;
+inline constexpr unsigned kMaxCpu = 1023;  // CPU_SETSIZE - 1
+inline constexpr const char* kDefaultPlantModel = "second-order";
+inline constexpr const char* kDefaultPlantChannel = "p0.d0.c0";
+
+enum class OverrunPolicy : uint8_t {
+  kSkip,  // missed releases are skipped and counted; the task goes on
+  kStop,  // the watchdog stops the task after N consecutive overruns
+};
+const char* to_string(OverrunPolicy p);
+
+// One value a stopped task's output takes (by the output's label).
+struct SafeOutput {
+  std::string label;
+  double value = 0;
+  SourcePos pos;  // of the label, for "no output of task X has this label"
+};
+
+struct TaskConfig {
+  std::string name;  // given, or the program file's stem
+  SourcePos pos;     // the task's entry in the list
+  SourcePos name_pos;  // the name's value, or program_pos when the name is the stem
+  std::string program;  // resolved against the config file's folder
+  SourcePos program_pos;
+  std::optional<double> period_s;  // overrides the program's stime() when set
+  SourcePos period_pos;
+  std::optional<int> priority;  // SCHED_FIFO, inside the band; unset: rate-monotonic
+  SourcePos priority_pos;
+  std::optional<unsigned> cpu;
+  SourcePos cpu_pos;
+  OverrunPolicy overrun = OverrunPolicy::kSkip;
+  SourcePos overrun_pos;
+  uint32_t watchdog = 0;  // consecutive overruns before the stop; 0 = never
+  SourcePos watchdog_pos;
+  std::vector<SafeOutput> safe_outputs;
+};
+
+// A simulated plant of the `sim` driver: driven by one dao channel, measured by
+// one dai channel.
+struct SimPlantConfig {
+  std::string model = kDefaultPlantModel;  // io/plant.h make_plant() spec, already validated
+  std::string input = kDefaultPlantChannel;   // canonical "pN.dN.cN" of the dao channel
+  std::string output = kDefaultPlantChannel;  // canonical "pN.dN.cN" of the dai channel
+  ChannelAddress input_addr;
+  ChannelAddress output_addr;
+  SourcePos pos;  // the plant's entry (or the driver's, for the default plant)
+  SourcePos model_pos, input_pos, output_pos;
+};
+
+struct DriverConfig {
+  std::string kind;  // "sim"; see config/driver_kinds.h for the known ones
+  std::string name;  // given, or the kind
+  SourcePos pos;     // the driver's entry
+  SourcePos kind_pos;
+  SourcePos name_pos;
+  double period_s = kDefaultDriverPeriod;
+  SourcePos period_pos;
+  std::optional<int> priority;  // unset: the runtime puts drivers above the task band
+  SourcePos priority_pos;
+  std::optional<unsigned> cpu;
+  SourcePos cpu_pos;
+  std::vector<SimPlantConfig> plants;  // kind "sim"
+  // Settings of kinds other than sim, as the kind's own plain struct (no YAML):
+  // e.g. std::any_cast<const ModbusDriverConfig>(&d.settings). Empty for sim.
+  std::any settings;
+};
+
+struct RuntimeConfig {
+  std::string file;      // the config file as named by the caller
+  std::string base_dir;  // relative paths inside it were resolved against this
+  std::string name = kDefaultRuntimeName;  // shared memory /rtplc-NAME, socket name
+  SourcePos name_pos;
+  std::string socket_path;  // empty: the runtime chooses
+  SourcePos socket_pos;
+  std::string retain_path;  // empty: the runtime chooses
+  SourcePos retain_pos;
+  int band_lo = kDefaultBandLo;  // SCHED_FIFO band of the tasks, inclusive
+  int band_hi = kDefaultBandHi;
+  SourcePos band_pos;  // line 0 when the band is the default
+  bool cpu_dma_latency = true;
+  bool lock_memory = true;
+  std::vector<TaskConfig> tasks;
+  std::vector<DriverConfig> drivers;
+
+  const TaskConfig* find_task(std::string_view task_name) const;
+  const DriverConfig* find_driver(std::string_view driver_name) const;
+};
+
+struct LoadOptions {
+  // Check that every program file exists (an error at its position if not).
+  // Off for configs checked away from their programs (and for the fuzzer).
+  bool check_program_files = true;
+};
+
+struct LoadResult {
+  std::optional<RuntimeConfig> config;  // set exactly when there is no error
+  DiagnosticList diags;  // errors and warnings, positions into `source`
+  std::string file;      // for rendering
+  std::string source;    // the text the positions refer to
+
+  bool ok() const { return config.has_value() && !diags.has_errors(); }
+  // Compiler-style text of every diagnostic ("file:line:col: error: ...").
+  std::string render(bool color = false) const { return diags.render(file, source, color); }
+};
+
+// Reads and checks the config file at `path`; relative paths inside it are
+// resolved against the file's folder. Never throws.
+LoadResult load_config(const std::string& path, const LoadOptions& options = {});
+
+// The same for text in memory: `file_name` names it in diagnostics, `base_dir`
+// resolves relative paths ("" leaves them as written). Never throws.
+LoadResult parse_config(std::string_view yaml, const std::string& file_name,
+                        const std::string& base_dir, const LoadOptions& options = {});
+
+// docs/config.md, generated from the schema (config/schema.h) and the driver
+// kinds (config/driver_kinds.h); a test keeps the committed file equal to it.
+std::string config_reference_markdown();
+
+}  // namespace rtplc::config

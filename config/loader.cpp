@@ -1,0 +1,449 @@
+// The runtime configuration loader (spec runtime.md, "Configuration"): YAML
+// text -> RuntimeConfig, every key checked against config/schema.cpp, every
+// problem a diagnostic with its file:line:col. It collects all the problems it
+// can in one pass, never throws and never reads the FBD programs (the runtime
+// compiles them); at most it checks that they exist.
+#include <algorithm>
+#include <exception>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "config/config.h"
+#include "config/driver_kinds.h"
+#include "config/schema.h"
+#include "config/yaml_reader.h"
+
+namespace rtplc::config {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A config is a few hundred lines; anything far larger is a mistake (a log
+// or a binary passed by accident) and not worth parsing.
+constexpr std::uintmax_t kMaxConfigBytes = 1 << 20;
+
+SourcePos or_else(SourcePos p, SourcePos fallback) { return p.line ? p : fallback; }
+
+std::string line_of(SourcePos p) { return "line " + std::to_string(p.line); }
+
+// Caret width of the plain or quoted scalar at `p`, for checks made after
+// parsing, when only the position was kept.
+uint32_t token_width(std::string_view source, SourcePos p) {
+  std::string_view line = source_line(source, p.line);
+  if (p.col == 0 || p.col > line.size()) return 1;
+  line.remove_prefix(p.col - 1);
+  size_t n = 0;
+  if (line[0] == '"' || line[0] == '\'') {
+    const size_t close = line.find(line[0], 1);
+    n = close == std::string_view::npos ? line.size() : close + 1;
+  } else {
+    while (n < line.size() && line[n] != ',' && line[n] != '}' && line[n] != ']' &&
+           line[n] != ' ' && line[n] != '\t' && line[n] != '#') {
+      ++n;
+    }
+  }
+  return static_cast<uint32_t>(std::max<size_t>(n, 1));
+}
+
+// runtime: ...
+void parse_runtime(YamlReader& r, const Field& section, RuntimeConfig& cfg) {
+  const SectionSpec& s = runtime_section();
+  Fields f = r.fields(section.value, section.pos, s.noun, {s.keys});
+  if (const Field* x = f.get("name")) {
+    cfg.name_pos = x->pos;
+    if (auto v = r.name(*x)) cfg.name = *v;
+  }
+  if (const Field* x = f.get("socket")) {
+    cfg.socket_pos = x->pos;
+    if (auto v = r.path(*x)) cfg.socket_path = *v;
+  }
+  if (const Field* x = f.get("retain_file")) {
+    cfg.retain_pos = x->pos;
+    if (auto v = r.path(*x)) cfg.retain_path = *v;
+  }
+  if (const Field* x = f.get("priority_band")) {
+    cfg.band_pos = x->pos;
+    if (auto v = r.integer_pair(*x)) {
+      cfg.band_lo = static_cast<int>(v->first);
+      cfg.band_hi = static_cast<int>(v->second);
+    }
+  }
+  if (const Field* x = f.get("cpu_dma_latency")) {
+    if (auto v = r.boolean(*x)) cfg.cpu_dma_latency = *v;
+  }
+  if (const Field* x = f.get("lock_memory")) {
+    if (auto v = r.boolean(*x)) cfg.lock_memory = *v;
+  }
+}
+
+// safe_outputs: {LABEL: number, ...}
+void parse_safe_outputs(YamlReader& r, const Field& field, TaskConfig& t) {
+  const YAML::Node& map = field.value;
+  if (!map.IsDefined() || map.IsNull()) return;
+  if (!map.IsMap()) {
+    r.error(field, "'safe_outputs' expects " + describe_type(*field.spec) + ", got " +
+                       YamlReader::describe_node(map));
+    return;
+  }
+  for (auto it = map.begin(); it != map.end(); ++it) {
+    const YAML::Node k = it->first;
+    const SourcePos kp = or_else(YamlReader::pos(k), field.pos);
+    if (!k.IsScalar() || !is_valid_label(k.Scalar())) {
+      r.error(kp,
+              "a safe output is named by its channel label (1 to 31 letters, digits, '_', '-' "
+              "or '.'), got " + YamlReader::describe_node(k),
+              YamlReader::width(k));
+      continue;
+    }
+    const std::string& label = k.Scalar();
+    bool duplicate = false;
+    for (const SafeOutput& s : t.safe_outputs) {
+      if (s.label == label) {
+        r.error(kp, "safe output '" + label + "' is given twice", YamlReader::width(k));
+        r.note(s.pos, "first given here", static_cast<uint32_t>(label.size()));
+        duplicate = true;
+      }
+    }
+    if (duplicate) continue;
+    auto v = r.real(it->second, kp, "safe output '" + label + "'");
+    if (v) t.safe_outputs.push_back(SafeOutput{label, *v, kp});
+  }
+}
+
+// - program: ...
+void parse_task(YamlReader& r, const YAML::Node& node, SourcePos list_pos, RuntimeConfig& cfg) {
+  TaskConfig t;
+  t.pos = or_else(YamlReader::pos(node), list_pos);
+  t.name_pos = t.program_pos = t.period_pos = t.priority_pos = t.cpu_pos = t.overrun_pos =
+      t.watchdog_pos = t.pos;
+  if (node.IsScalar()) {
+    // The likeliest slip: "- loop1.fbd" for "- program: loop1.fbd".
+    r.error(t.pos, "a task must be a map such as '- program: " + node.Scalar() + "', got " +
+                       YamlReader::describe_node(node),
+            YamlReader::width(node));
+    return;
+  }
+  const SectionSpec& s = task_section();
+  Fields f = r.fields(node, t.pos, s.noun, {s.keys});
+  if (!f.is_map()) return;
+
+  std::string raw_program;
+  if (const Field* x = f.get("program")) {
+    t.program_pos = t.name_pos = x->pos;
+    if (auto v = r.path(*x)) {
+      t.program = *v;
+      raw_program = x->value.Scalar();
+    }
+  }
+  if (const Field* x = f.get("name")) {
+    t.name_pos = x->pos;
+    if (auto v = r.name(*x)) t.name = *v;
+  } else if (!t.program.empty()) {
+    const std::string stem = fs::path(raw_program).stem().string();
+    if (is_valid_name(stem)) {
+      t.name = stem;
+    } else {
+      r.error(t.program_pos,
+              "this task needs a 'name': the program's file name '" + stem +
+                  "' is not a valid task name (1 to 31 letters, digits, '_' or '-')");
+    }
+  }
+  if (const Field* x = f.get("period")) {
+    t.period_pos = x->pos;
+    t.period_s = r.duration(*x);
+  }
+  if (const Field* x = f.get("priority")) {
+    t.priority_pos = x->pos;
+    if (auto v = r.integer(*x)) t.priority = static_cast<int>(*v);
+  }
+  if (const Field* x = f.get("cpu")) {
+    t.cpu_pos = x->pos;
+    if (auto v = r.integer(*x)) t.cpu = static_cast<unsigned>(*v);
+  }
+  if (const Field* x = f.get("overrun")) {
+    t.overrun_pos = x->pos;
+    if (auto v = r.choice(*x)) t.overrun = *v == "stop" ? OverrunPolicy::kStop : OverrunPolicy::kSkip;
+  }
+  t.watchdog = t.overrun == OverrunPolicy::kStop ? kDefaultStopWatchdog : 0;
+  if (const Field* x = f.get("watchdog")) {
+    t.watchdog_pos = x->pos;
+    if (auto v = r.integer(*x)) {
+      t.watchdog = static_cast<uint32_t>(*v);
+      if (t.watchdog == 0 && t.overrun == OverrunPolicy::kStop) {
+        r.error(*x, "'overrun: stop' with 'watchdog: 0' would never stop the task; use a "
+                    "watchdog of 1 or more, or 'overrun: skip'");
+        r.note(t.overrun_pos, "the policy is set here");
+      }
+    }
+  }
+  if (const Field* x = f.get("safe_outputs")) {
+    parse_safe_outputs(r, *x, t);
+    if (t.watchdog == 0 && !t.safe_outputs.empty()) {
+      r.warning(x->key_pos,
+                "these safe outputs are never applied: with watchdog 0 the task is never "
+                "stopped; set 'watchdog' or 'overrun: stop'",
+                YamlReader::width(x->key));
+    }
+  }
+  cfg.tasks.push_back(std::move(t));
+}
+
+// The value of key `key` in `map` when it is a plain scalar, else "".
+std::string scalar_at(const YAML::Node& map, std::string_view key) {
+  if (!map.IsMap()) return {};
+  for (auto it = map.begin(); it != map.end(); ++it) {
+    if (it->first.IsScalar() && it->first.Scalar() == key && it->second.IsScalar()) {
+      return it->second.Scalar();
+    }
+  }
+  return {};
+}
+
+// - kind: ...
+void parse_driver(YamlReader& r, const YAML::Node& node, SourcePos list_pos, RuntimeConfig& cfg) {
+  DriverConfig d;
+  d.pos = or_else(YamlReader::pos(node), list_pos);
+  d.kind_pos = d.name_pos = d.period_pos = d.priority_pos = d.cpu_pos = d.pos;
+  // The kind decides which keys are allowed, so it is looked up before the
+  // keys are checked; while it is unknown, only the kind is blamed.
+  const DriverKind* kind = find_driver_kind(scalar_at(node, "kind"));
+  const SectionSpec& common = driver_section();
+  Fields f = kind ? r.fields(node, d.pos, kind->keys->noun, {common.keys, kind->keys->keys})
+                  : r.fields(node, d.pos, common.noun, {common.keys}, false);
+  if (!f.is_map()) return;
+  if (const Field* x = f.get("kind")) {
+    d.kind_pos = x->pos;
+    if (auto v = r.text(*x)) {
+      if (kind) {
+        d.kind = kind->kind;
+      } else {
+        std::string msg = "unknown driver kind '" + *v + "'; known kinds: " + known_driver_kinds();
+        r.error(*x, std::move(msg));
+      }
+    }
+  }
+  if (const Field* x = f.get("name")) {
+    d.name_pos = x->pos;
+    if (auto v = r.name(*x)) d.name = *v;
+  } else {
+    d.name = d.kind;
+    d.name_pos = d.kind_pos;
+  }
+  if (const Field* x = f.get("period")) {
+    d.period_pos = x->pos;
+    if (auto v = r.duration(*x)) d.period_s = *v;
+  }
+  if (const Field* x = f.get("priority")) {
+    d.priority_pos = x->pos;
+    if (auto v = r.integer(*x)) d.priority = static_cast<int>(*v);
+  }
+  if (const Field* x = f.get("cpu")) {
+    d.cpu_pos = x->pos;
+    if (auto v = r.integer(*x)) d.cpu = static_cast<unsigned>(*v);
+  }
+  if (kind) kind->parse(r, f, d);
+  cfg.drivers.push_back(std::move(d));
+}
+
+// What can only be judged with the whole file read: names, the band, shared
+// channels, files on disk.
+void cross_check(YamlReader& r, std::string_view source, RuntimeConfig& cfg,
+                 const LoadOptions& options) {
+  auto w = [&](SourcePos p) { return token_width(source, p); };
+  for (size_t i = 0; i < cfg.tasks.size(); ++i) {
+    const TaskConfig& t = cfg.tasks[i];
+    for (size_t j = 0; j < i && !t.name.empty(); ++j) {
+      const TaskConfig& first = cfg.tasks[j];
+      if (first.name != t.name) continue;
+      const bool stem = t.name_pos.line == t.program_pos.line && t.name_pos.col == t.program_pos.col;
+      r.error(t.name_pos, "task name '" + t.name + "' is already used by the task at " +
+                              line_of(first.name_pos) +
+                              (stem ? "; give this task its own 'name'" : ""),
+              w(t.name_pos));
+      r.note(first.name_pos, "first used here", w(first.name_pos));
+      break;
+    }
+    if (t.priority && (*t.priority < cfg.band_lo || *t.priority > cfg.band_hi)) {
+      r.error(t.priority_pos, "priority " + std::to_string(*t.priority) +
+                                  " is outside the task band [" + std::to_string(cfg.band_lo) +
+                                  ", " + std::to_string(cfg.band_hi) + "] (runtime: priority_band)",
+              w(t.priority_pos));
+      if (cfg.band_pos.line) r.note(cfg.band_pos, "the band is set here");
+    }
+  }
+  for (size_t i = 0; i < cfg.drivers.size(); ++i) {
+    const DriverConfig& d = cfg.drivers[i];
+    for (size_t j = 0; j < i && !d.name.empty(); ++j) {
+      const DriverConfig& first = cfg.drivers[j];
+      if (first.name != d.name) continue;
+      const bool from_kind = d.name_pos.line == d.kind_pos.line && d.name_pos.col == d.kind_pos.col;
+      r.error(d.name_pos, "driver name '" + d.name + "' is already used by the driver at " +
+                              line_of(first.name_pos) +
+                              (from_kind ? "; give this driver its own 'name'" : ""),
+              w(d.name_pos));
+      r.note(first.name_pos, "first used here", w(first.name_pos));
+      break;
+    }
+    if (d.priority && *d.priority <= cfg.band_hi) {
+      r.warning(d.priority_pos, "driver '" + d.name + "' at priority " +
+                                    std::to_string(*d.priority) + " is not above the task band [" +
+                                    std::to_string(cfg.band_lo) + ", " +
+                                    std::to_string(cfg.band_hi) + "]; tasks can delay its I/O",
+                w(d.priority_pos));
+    }
+  }
+  // One dai channel has one source: two plants feeding it would race.
+  std::vector<const SimPlantConfig*> all;
+  for (const DriverConfig& d : cfg.drivers) {
+    for (const SimPlantConfig& p : d.plants) all.push_back(&p);
+  }
+  for (size_t i = 0; i < all.size(); ++i) {
+    for (size_t j = 0; j < i; ++j) {
+      if (all[j]->output_addr != all[i]->output_addr) continue;
+      r.error(all[i]->output_pos,
+              "dai channel " + all[i]->output + " is already fed by the plant at " +
+                  line_of(all[j]->output_pos) + "; each dai channel has one plant",
+              w(all[i]->output_pos));
+      r.note(all[j]->output_pos, "first fed here", w(all[j]->output_pos));
+      break;
+    }
+  }
+  if (options.check_program_files) {
+    for (const TaskConfig& t : cfg.tasks) {
+      if (t.program.empty()) continue;
+      std::error_code ec;
+      const fs::file_status st = fs::status(t.program, ec);
+      if (!fs::exists(st)) {
+        r.error(t.program_pos, "program file not found: " + t.program, w(t.program_pos));
+      } else if (!fs::is_regular_file(st)) {
+        r.error(t.program_pos, "program is not a regular file: " + t.program, w(t.program_pos));
+      }
+    }
+  }
+}
+
+void parse_document(std::string_view yaml, const std::string& base_dir,
+                    const LoadOptions& options, LoadResult& res) {
+  // yaml-cpp reads from a stream; the text may hold NULs, which it treats as data.
+  std::istringstream in{std::string(yaml)};
+  std::vector<YAML::Node> docs = YAML::LoadAll(in);
+  YamlReader r(res.diags, base_dir);
+  if (docs.empty() || docs[0].IsNull()) {
+    r.error({1, 1}, "the config is empty; it needs at least a 'tasks:' list");
+    return;
+  }
+  if (docs.size() > 1) {
+    r.error(or_else(YamlReader::pos(docs[1]), {1, 1}),
+            "a config file holds one YAML document; a second one starts here");
+  }
+  const YAML::Node root = docs[0];
+  if (!root.IsMap()) {
+    r.error(or_else(YamlReader::pos(root), {1, 1}),
+            "the config must be a map with a 'tasks:' list, got " + YamlReader::describe_node(root),
+            YamlReader::width(root));
+    return;
+  }
+  RuntimeConfig cfg;
+  cfg.file = res.file;
+  cfg.base_dir = base_dir;
+  const SectionSpec& top = top_section();
+  Fields f = r.fields(root, {1, 1}, top.noun, {top.keys});
+  if (const Field* x = f.get("runtime")) parse_runtime(r, *x, cfg);
+  if (const Field* x = f.get("tasks")) {
+    if (auto items = r.list(*x)) {
+      for (const YAML::Node& n : *items) parse_task(r, n, x->pos, cfg);
+    }
+  }
+  if (const Field* x = f.get("drivers")) {
+    if (auto items = r.list(*x)) {
+      for (const YAML::Node& n : *items) parse_driver(r, n, x->pos, cfg);
+    }
+  }
+  cross_check(r, yaml, cfg, options);
+  if (!res.diags.has_errors()) res.config = std::move(cfg);
+}
+
+}  // namespace
+
+const char* to_string(OverrunPolicy p) { return p == OverrunPolicy::kStop ? "stop" : "skip"; }
+
+const TaskConfig* RuntimeConfig::find_task(std::string_view task_name) const {
+  for (const TaskConfig& t : tasks) {
+    if (t.name == task_name) return &t;
+  }
+  return nullptr;
+}
+
+const DriverConfig* RuntimeConfig::find_driver(std::string_view driver_name) const {
+  for (const DriverConfig& d : drivers) {
+    if (d.name == driver_name) return &d;
+  }
+  return nullptr;
+}
+
+LoadResult parse_config(std::string_view yaml, const std::string& file_name,
+                        const std::string& base_dir, const LoadOptions& options) {
+  LoadResult res;
+  res.file = file_name;
+  res.source = std::string(yaml);
+  try {
+    parse_document(res.source, base_dir, options, res);
+  } catch (const YAML::ParserException& e) {
+    // yaml-cpp stops at the first syntax error; its mark is 0-based.
+    const SourcePos p = e.mark.line >= 0 && e.mark.column >= 0
+                            ? SourcePos{static_cast<uint32_t>(e.mark.line) + 1,
+                                        static_cast<uint32_t>(e.mark.column) + 1}
+                            : SourcePos{1, 1};
+    res.diags.error(p, "YAML syntax error: " + e.msg);
+  } catch (const std::exception& e) {
+    // Nothing in the loader should throw past yaml-cpp's parse; if something
+    // does, the user still gets a diagnostic instead of a crash.
+    res.diags.error({}, std::string("cannot read the config: ") + e.what());
+  } catch (...) {
+    res.diags.error({}, "cannot read the config: unexpected failure");
+  }
+  if (res.diags.has_errors()) res.config.reset();
+  return res;
+}
+
+LoadResult load_config(const std::string& path, const LoadOptions& options) {
+  LoadResult res;
+  res.file = path;
+  try {
+    std::error_code ec;
+    const fs::path p(path);
+    const fs::file_status st = fs::status(p, ec);
+    if (!fs::exists(st)) {
+      res.diags.error({}, "config file not found");
+      return res;
+    }
+    if (!fs::is_regular_file(st)) {
+      res.diags.error({}, "the config is not a regular file");
+      return res;
+    }
+    const std::uintmax_t size = fs::file_size(p, ec);
+    if (!ec && size > kMaxConfigBytes) {
+      res.diags.error({}, "the config is " + std::to_string(size) +
+                              " bytes; a config file is at most 1 MiB");
+      return res;
+    }
+    std::ifstream in(p, std::ios::binary);
+    if (!in) {
+      res.diags.error({}, "cannot open the config file");
+      return res;
+    }
+    std::ostringstream text;
+    text << in.rdbuf();
+    fs::path abs = fs::absolute(p, ec);
+    const std::string base = (ec ? p : abs).parent_path().lexically_normal().string();
+    return parse_config(text.str(), path, base, options);
+  } catch (const std::exception& e) {
+    res.diags.error({}, std::string("cannot read the config file: ") + e.what());
+    return res;
+  }
+}
+
+}  // namespace rtplc::config

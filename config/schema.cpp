@@ -1,0 +1,210 @@
+// The key tables of the runtime configuration (see schema.h). Changing a row
+// changes the loader's checks, its messages and docs/config.md together
+// (regenerate the doc: see tests/config/test_docs.cpp).
+#include "config/schema.h"
+
+#include <cstdio>
+
+#include "common/capacities.h"
+#include "config/config.h"
+#include "config/driver_kinds.h"
+
+namespace rtplc::config {
+namespace {
+
+constexpr double kMaxDrivers = 32;
+constexpr double kNoMin = 0;
+constexpr double kNoMax = 0;
+
+const KeySpec kTopKeys[] = {
+    {"runtime", ValueType::kSection, false, kNoMin, kNoMax, "runtime", "(all defaults)",
+     "Settings of the runtime process as a whole."},
+    {"tasks", ValueType::kList, true, 1, static_cast<double>(kMaxTasks), "task", "",
+     "The control tasks: one FBD program each, run periodically by its own thread."},
+    {"drivers", ValueType::kList, false, 0, kMaxDrivers, "driver", "(no drivers)",
+     "The I/O drivers that exchange the process image with the plant."},
+};
+
+const KeySpec kRuntimeKeys[] = {
+    {"name", ValueType::kName, false, kNoMin, kNoMax, nullptr, kDefaultRuntimeName,
+     "Names the shared-memory image (`/rtplc-NAME`) and the control socket, so two "
+     "runtimes can share a machine."},
+    {"socket", ValueType::kPath, false, kNoMin, kNoMax, nullptr, "(chosen by the runtime)",
+     "Path of the control socket (`rtplc stats`, `set`, `swap`); created with mode 0600."},
+    {"retain_file", ValueType::kPath, false, kNoMin, kNoMax, nullptr, "(chosen by the runtime)",
+     "File holding the retained values (set-points) across restarts."},
+    {"priority_band", ValueType::kIntegerPair, false, kMinFifoPriority, kMaxFifoPriority,
+     nullptr, "[10, 49]",
+     "SCHED_FIFO priorities the tasks may use, `[lo, hi]`; the default stays below the "
+     "kernel's IRQ threads (50) and leaves room above for the drivers."},
+    {"cpu_dma_latency", ValueType::kBool, false, kNoMin, kNoMax, nullptr, "true",
+     "Hold `/dev/cpu_dma_latency` at 0 while running, keeping CPUs out of deep idle states."},
+    {"lock_memory", ValueType::kBool, false, kNoMin, kNoMax, nullptr, "true",
+     "`mlockall` and prefault before the tasks start, so no cycle page-faults."},
+};
+
+const KeySpec kTaskKeys[] = {
+    {"name", ValueType::kName, false, kNoMin, kNoMax, nullptr, "the program file's stem",
+     "Names the task in `stats`, `swap` and messages; unique among the tasks."},
+    {"program", ValueType::kPath, true, kNoMin, kNoMax, nullptr, "",
+     "The FBD program file the task runs."},
+    {"period", ValueType::kDuration, false, kMinPeriod, kMaxPeriod, nullptr,
+     "the program's `stime()`", "Overrides the program's period."},
+    {"priority", ValueType::kInteger, false, kMinFifoPriority, kMaxFifoPriority, nullptr,
+     "rate-monotonic",
+     "SCHED_FIFO priority, inside `priority_band`. By default the runtime gives shorter "
+     "periods higher priorities."},
+    {"cpu", ValueType::kInteger, false, 0, kMaxCpu, nullptr, "(not pinned)",
+     "The CPU the task's thread is pinned to."},
+    {"overrun", ValueType::kChoice, false, kNoMin, kNoMax, "skip|stop", "skip",
+     "What a late cycle does: `skip` the missed releases and go on, or `stop` the task "
+     "through the watchdog."},
+    {"watchdog", ValueType::kInteger, false, 0, kMaxWatchdog, nullptr,
+     "0 with skip, 3 with stop",
+     "Consecutive overruns after which the task is stopped and its outputs take their safe "
+     "values; 0 never stops it."},
+    {"safe_outputs", ValueType::kLabelMap, false, kNoMin, kNoMax, nullptr, "every output 0",
+     "`LABEL: value` for the outputs of a stopped task; outputs not listed go to 0."},
+};
+
+const KeySpec kDriverKeys[] = {
+    {"kind", ValueType::kDriverKind, true, kNoMin, kNoMax, nullptr, "",
+     "What the driver talks to; its own keys follow below."},
+    {"name", ValueType::kName, false, kNoMin, kNoMax, nullptr, "the kind",
+     "Names the driver in messages; unique among the drivers."},
+    {"period", ValueType::kDuration, false, kMinPeriod, kMaxPeriod, nullptr, "10ms",
+     "How often the driver exchanges its channels with the process image."},
+    {"priority", ValueType::kInteger, false, kMinFifoPriority, kMaxFifoPriority, nullptr,
+     "above the task band",
+     "SCHED_FIFO priority of the driver's thread; it should lie above `priority_band` so "
+     "the driver preempts the tasks."},
+    {"cpu", ValueType::kInteger, false, 0, kMaxCpu, nullptr, "(not pinned)",
+     "The CPU the driver's thread is pinned to."},
+};
+
+const SectionSpec kTop{"top", "the config", "Top level", "", kTopKeys};
+const SectionSpec kRuntime{"runtime", "the runtime section", "`runtime:`",
+                           "Optional; every key has a default.", kRuntimeKeys};
+const SectionSpec kTask{"task", "a task", "`tasks:` entries",
+                        "One entry per task; each runs on its own SCHED_FIFO thread.",
+                        kTaskKeys};
+const SectionSpec kDriver{"driver", "a driver", "`drivers:` entries",
+                          "Keys every driver has, whatever its kind. An unknown kind is an "
+                          "error that lists the known ones.",
+                          kDriverKeys};
+
+std::string number(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, v == static_cast<double>(static_cast<int64_t>(v)) ? "%.0f" : "%g",
+                v);
+  return buf;
+}
+
+}  // namespace
+
+const SectionSpec& top_section() { return kTop; }
+const SectionSpec& runtime_section() { return kRuntime; }
+const SectionSpec& task_section() { return kTask; }
+const SectionSpec& driver_section() { return kDriver; }
+
+std::span<const DriverKind* const> driver_kinds() {
+  // Pointers, not copies: the kinds live in their own files and this table must
+  // be usable from any static initialiser.
+  static const DriverKind* const kKinds[] = {&kSimDriverKind};
+  return kKinds;
+}
+
+const DriverKind* find_driver_kind(std::string_view kind) {
+  for (const DriverKind* d : driver_kinds()) {
+    if (kind == d->kind) return d;
+  }
+  return nullptr;
+}
+
+std::string known_driver_kinds() {
+  std::string s;
+  for (const DriverKind* d : driver_kinds()) s += (s.empty() ? "" : ", ") + std::string(d->kind);
+  return s;
+}
+
+const char* type_name(ValueType t) {
+  switch (t) {
+    case ValueType::kSection: return "map";
+    case ValueType::kList: return "list";
+    case ValueType::kLabelMap: return "map LABEL: number";
+    case ValueType::kName: return "name";
+    case ValueType::kPath: return "path";
+    case ValueType::kDuration: return "duration";
+    case ValueType::kInteger: return "integer";
+    case ValueType::kIntegerPair: return "[lo, hi]";
+    case ValueType::kBool: return "boolean";
+    case ValueType::kChoice: return "word";
+    case ValueType::kChannel: return "channel";
+    case ValueType::kPlantModel: return "plant model";
+    case ValueType::kDriverKind: return "word";
+  }
+  return "";
+}
+
+const KeySpec* find_key(const SectionSpec& s, std::string_view key) {
+  for (const KeySpec& k : s.keys) {
+    if (key == k.key) return &k;
+  }
+  return nullptr;
+}
+
+std::string describe_type(const KeySpec& k) {
+  switch (k.type) {
+    case ValueType::kSection: return "a map of keys";
+    case ValueType::kList: return std::string("a list of ") + k.choices + " entries";
+    case ValueType::kLabelMap: return "a map of LABEL: number";
+    case ValueType::kName: return "a name of letters, digits, '_' and '-'";
+    case ValueType::kPath: return "a file path";
+    case ValueType::kDuration: return "a duration such as 10ms, 250us, 0.5s or 2 (seconds)";
+    case ValueType::kInteger: return "a whole number";
+    case ValueType::kIntegerPair: return "a pair [lo, hi] of whole numbers";
+    case ValueType::kBool: return "true or false";
+    case ValueType::kChoice: {
+      std::string s = "one of ";
+      for (const char* c = k.choices; *c; ++c) s += *c == '|' ? std::string(", ") : std::string(1, *c);
+      return s;
+    }
+    case ValueType::kChannel: return "a channel address pN.dN.cN";
+    case ValueType::kPlantModel: return "a plant spec such as second-order or fopdt:T=5,L=1";
+    case ValueType::kDriverKind: return "a driver kind (" + known_driver_kinds() + ")";
+  }
+  return "a value";
+}
+
+std::string describe_allowed(const KeySpec& k) {
+  switch (k.type) {
+    case ValueType::kSection: return "see below";
+    case ValueType::kList:
+      if (k.min == k.max) return number(k.min) + " entries";
+      return number(k.min) + ".." + number(k.max) + " entries";
+    case ValueType::kLabelMap: return "labels of the task's outputs; finite numbers";
+    case ValueType::kName: return "1..31 of `A-Z a-z 0-9 _ -`";
+    case ValueType::kPath: return "relative to the config file's folder";
+    case ValueType::kDuration:
+      return format_duration(k.min) + ".." + format_duration(k.max);
+    case ValueType::kInteger: return number(k.min) + ".." + number(k.max);
+    case ValueType::kIntegerPair:
+      return number(k.min) + " <= lo <= hi <= " + number(k.max);
+    case ValueType::kBool: return "`true`, `false`";
+    case ValueType::kChoice: {
+      std::string s = "`";
+      for (const char* c = k.choices; *c; ++c) s += *c == '|' ? std::string("`, `") : std::string(1, *c);
+      return s + "`";
+    }
+    case ValueType::kChannel: return "p, d 0..255; c 0..65535";
+    case ValueType::kPlantModel: return "see \"Plant models\"";
+    case ValueType::kDriverKind: {
+      std::string s;
+      for (const DriverKind* d : driver_kinds()) s += (s.empty() ? "`" : ", `") + std::string(d->kind) + "`";
+      return s;
+    }
+  }
+  return "";
+}
+
+}  // namespace rtplc::config
