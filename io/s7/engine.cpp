@@ -3,6 +3,8 @@
 // The loop itself is in engine_loop.cpp.
 #include "io/s7/engine.h"
 
+#include <pthread.h>
+#include <sched.h>
 #include <sys/epoll.h>
 #include <sys/eventfd.h>
 #include <time.h>
@@ -94,6 +96,27 @@ Result<void> Engine::start() {
   impl_->thread = std::thread([this] {
     while (impl_->running.load(std::memory_order_relaxed)) impl_->poll_once(100);
   });
+  const pthread_t handle = impl_->thread.native_handle();
+  std::string problem;
+  if (impl_->opt.sched_fifo_priority > 0) {
+    sched_param sp{};
+    sp.sched_priority = impl_->opt.sched_fifo_priority;
+    if (const int rc = ::pthread_setschedparam(handle, SCHED_FIFO, &sp); rc != 0) {
+      problem = fmt::format("cannot run the engine thread SCHED_FIFO {}: {}", sp.sched_priority, errno_text(rc));
+    }
+  }
+  if (problem.empty() && impl_->opt.cpu >= 0) {
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    CPU_SET(static_cast<size_t>(impl_->opt.cpu), &set);
+    if (const int rc = ::pthread_setaffinity_np(handle, sizeof set, &set); rc != 0) {
+      problem = fmt::format("cannot pin the engine thread to CPU {}: {}", impl_->opt.cpu, errno_text(rc));
+    }
+  }
+  if (!problem.empty()) {
+    stop();
+    return make_error(problem);
+  }
   return {};
 }
 

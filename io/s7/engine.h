@@ -133,6 +133,11 @@ struct EngineOptions {
   // makes no system call, so the engine picks writes up within this time.
   uint32_t write_pickup_us = 2000;
   uint64_t seed = 0x5eed;  // backoff jitter
+  // Scheduling of the engine thread made by start(): SCHED_FIFO at this priority
+  // (0: leave it SCHED_OTHER), pinned to this CPU (-1: anywhere). Beside real-time
+  // tasks, give it a priority below theirs: it never holds anything they wait for.
+  int sched_fifo_priority = 0;
+  int cpu = -1;
   // Called on the engine thread when a poll completes: latency from the scheduled
   // tick to the last reply. For benchmarks and monitors; keep it short.
   std::function<void(PlcId, int64_t latency_ns)> on_poll_complete;
