@@ -129,6 +129,7 @@ struct alignas(64) TaskInfo {
   std::atomic<uint64_t> input_misses;  // input snapshots not read consistently (kept old values)
   std::atomic<int64_t> last_swap_ns;   // CLOCK_MONOTONIC of the last applied swap
   std::atomic<uint64_t> minor_faults;  // only counted in fault-check mode
+  std::atomic<uint64_t> swap_overruns; // overruns of cycles that applied a swap (goal: 0)
 };
 enum class TaskState : uint8_t { kStarting = 0, kRunning = 1, kStoppedWatchdog = 2, kStopped = 3 };
 const char* task_state_name(TaskState s);

@@ -428,6 +428,12 @@ Result<std::unique_ptr<LoadedProgram>> Runtime::make_program(uint32_t t, TaskIma
     const std::string key = binding_key(b);
     const std::string label = p->image.str(b.label);
     auto it = channel_by_key_.find(key);
+    if (it != channel_by_key_.end() && label != image_.channel(it->second).label) {
+      // Labels are how operators, retain files and HMIs name channels: a swap
+      // cannot rename one under them.
+      return make_error("channel " + key + " is labelled \"" + image_.channel(it->second).label +
+                        "\" in the running runtime, not \"" + label + "\"");
+    }
     if (b.dir == BindingDir::kOutput) {
       if (it != channel_by_key_.end()) {
         const io::ChannelDesc& d = image_.channel(it->second);

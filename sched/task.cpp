@@ -125,7 +125,9 @@ void Task::run() noexcept {
     if (params_.count_faults) faults_before = kernel_rt::minor_faults_this_thread();
 
     // Swap boundary: the new program runs in this very cycle.
+    bool swapped = false;
     if (LoadedProgram* next = pending_.load(std::memory_order_acquire)) {
+      swapped = true;
       if (next->migration.active) apply_migration(next->migration, current_->arena, next->arena);
       for (InputGroup& g : next->inputs) g.seen = 0;  // refresh every input now
       retired_.store(current_, std::memory_order_release);
@@ -160,6 +162,8 @@ void Task::run() noexcept {
       // on the grid again instead of running late back to back.
       const uint64_t skipped = static_cast<uint64_t>((end - release) / period) + 1;
       release += static_cast<int64_t>(skipped) * period;
+      if (stopped) continue;  // a stopped task runs no code: nothing to account for
+      if (swapped) info_->swap_overruns.fetch_add(1, std::memory_order_relaxed);
       const uint64_t consecutive = stats_->record_overrun(skipped);
       const bool limit = params_.watchdog > 0 && consecutive >= params_.watchdog;
       if (!stopped && (limit || (params_.overrun == OverrunPolicy::kStop && params_.watchdog == 0))) {
