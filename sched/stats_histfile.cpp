@@ -39,7 +39,8 @@ void render_section(std::string& out, const std::vector<TaskStatsView>& views, S
   out += wake ? "# Section: wake latency\n" : "# Section: exec time\n";
 
   // Rows from the lowest to the highest bucket any task used, without gaps, so each row's
-  // bucket ends at the next row's bound; one closing row gives the last bucket its end.
+  // bucket ends at the next row's bound; an empty row on either side gives the first bucket
+  // its rise and the last one its end, so a plotted curve starts and ends on the axis.
   uint32_t first = LatencyHistogram::kBuckets;
   uint32_t last = 0;
   for (const auto& v : views) {
@@ -51,11 +52,12 @@ void render_section(std::string& out, const std::vector<TaskStatsView>& views, S
     }
   }
   if (first < LatencyHistogram::kBuckets) {
+    const uint32_t begin = first == 0 ? 0 : first - 1;
     const uint32_t end = std::min(last + 1, LatencyHistogram::kBuckets - 1);
-    for (uint32_t i = first; i <= end; ++i) {
+    for (uint32_t i = begin; i <= end; ++i) {
       out += us_text(LatencyHistogram::bucket_lower(i));
       for (const auto& v : views) {
-        out += fmt::format("\t{:06}", i <= last ? snap(v).buckets[i] : uint64_t{0});
+        out += fmt::format("\t{:06}", i >= first && i <= last ? snap(v).buckets[i] : uint64_t{0});
       }
       out += '\n';
     }

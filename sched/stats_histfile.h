@@ -11,7 +11,7 @@
 //   - A data row is the lower bound of one histogram bucket in microseconds (3 decimals, so
 //     exact to the nanosecond), then one count per task, tab-separated. A row's bucket ends
 //     where the next row's begins; rows run without gaps from the lowest to the highest
-//     non-empty bucket of any task, plus one closing row of zeros.
+//     non-empty bucket of any task, with one row of zeros on either side.
 // The reader also takes cyclictest's own histogram files (no sections, one row per
 // microsecond), so both can be compared with the same tools.
 #pragma once

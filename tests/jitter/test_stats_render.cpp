@@ -213,7 +213,7 @@ TEST(HistFile, written_file_reads_back_into_the_same_buckets) {
   EXPECT_EQ(file->sections[1].find("Overruns"), nullptr);  // only in the wake section
 }
 
-TEST(HistFile, rows_are_contiguous_and_end_with_a_closing_row) {
+TEST(HistFile, rows_are_contiguous_with_an_empty_row_on_either_side) {
   std::vector<TaskStatsView> v(1);
   v[0].name = "a";
   v[0].wake.buckets[LatencyHistogram::bucket_of(3000)] = 2;
@@ -221,15 +221,26 @@ TEST(HistFile, rows_are_contiguous_and_end_with_a_closing_row) {
   const auto file = parse_hist(render_hist(v));
   ASSERT_TRUE(file.ok()) << file.error();
   const HistSection& s = file->sections[0];
-  const uint32_t first = LatencyHistogram::bucket_of(3000);
-  const uint32_t last = LatencyHistogram::bucket_of(4000);
-  ASSERT_EQ(s.lower_ns.size(), last - first + 2);
+  const uint32_t first = LatencyHistogram::bucket_of(3000) - 1;
+  const uint32_t last = LatencyHistogram::bucket_of(4000) + 1;
+  ASSERT_EQ(s.lower_ns.size(), last - first + 1);
   for (size_t r = 0; r < s.lower_ns.size(); ++r) {
     EXPECT_EQ(s.lower_ns[r], LatencyHistogram::bucket_lower(first + static_cast<uint32_t>(r)));
   }
-  EXPECT_EQ(s.counts[0].front(), 2u);
+  EXPECT_EQ(s.counts[0][0], 0u);
+  EXPECT_EQ(s.counts[0][1], 2u);
   EXPECT_EQ(s.counts[0].back(), 0u);
   EXPECT_TRUE(file->sections[1].lower_ns.empty());  // no exec samples, no rows
+}
+
+TEST(HistFile, a_sample_at_zero_gets_no_row_below_it) {
+  std::vector<TaskStatsView> v(1);
+  v[0].exec.buckets[0] = 5;
+  const auto file = parse_hist(render_hist(v));
+  ASSERT_TRUE(file.ok()) << file.error();
+  EXPECT_EQ(file->sections[1].lower_ns, (std::vector<int64_t>{0, 1}));
+  EXPECT_EQ(file->sections[1].counts[0], (std::vector<uint64_t>{5, 0}));
+  EXPECT_EQ(file->tasks, (std::vector<std::string>{"task0"}));
 }
 
 TEST(HistFile, golden_text_of_a_tiny_histogram) {
@@ -253,6 +264,7 @@ TEST(HistFile, golden_text_of_a_tiny_histogram) {
             "# Tasks: fast has_space\n"
             "# Periods (us): 500.000 1000.500\n"
             "# Section: wake latency\n"
+            "000000.019\t000000\t000000\n"
             "000000.020\t000002\t000000\n"
             "000000.021\t000001\t000000\n"
             "000000.022\t000000\t000004\n"
