@@ -51,10 +51,10 @@ void end_line(std::string& out) {
 // One sentence on what the utilisation means for rate-monotonic scheduling.
 std::string schedulability_verdict(const RuntimeSummary& s) {
   if (s.tasks == 0) return "no tasks";
-  if (s.utilisation > 1.0) return "overloaded, more work than CPU time";
-  if (s.utilisation > s.liu_layland_bound) return "above the bound, deadlines not guaranteed";
-  if (s.utilisation_worst > s.liu_layland_bound) return "average within, longest runs not";
-  return "within the bound even at the longest runs";
+  if (s.utilisation > 1.0) return "overloaded: more work than CPU time";
+  if (s.utilisation > s.liu_layland_bound) return "above it: deadlines not guaranteed";
+  if (s.utilisation_worst > s.liu_layland_bound) return "average within, max exec not";
+  return "within it, even at max exec";
 }
 
 }  // namespace
@@ -152,7 +152,7 @@ std::string render_table(const std::vector<TaskStatsView>& views, const RuntimeS
                          ? static_cast<double>(e.avg_ns) / static_cast<double>(v.period_ns)
                          : 0.0;
     out += fmt::format(
-        "{} Avg: {:>6.1f} Max: {:>6.1f} P99: {:>6.1f} P99.9: {:>6.1f} U:{:>5.1f}% Skip:{:>4} "
+        "{} Avg: {:>6.1f} Max: {:>6.1f} P99: {:>6.1f} P99.9: {:>6.1f} U:{:>6.2f}% Skip:{:>4} "
         "Run:{}/{} {:<{}} cpu:{:<3} {}",
         head('E', i, v), us(e.avg_ns), us(e.max_ns), us(e.p99_ns), us(e.p999_ns), percent(u),
         v.wake.skipped_releases, v.wake.consecutive_overruns, v.wake.max_consecutive_overruns,
@@ -161,7 +161,7 @@ std::string render_table(const std::vector<TaskStatsView>& views, const RuntimeS
   }
 
   out += fmt::format(
-      "# utilisation {:.1f}% avg, {:.1f}% at the longest runs; Liu-Layland bound {:.1f}% ({} task{}): {}\n",
+      "# utilisation {:.2f}% avg, {:.2f}% at max exec; Liu-Layland bound {:.1f}% ({} task{}): {}\n",
       percent(summary.utilisation), percent(summary.utilisation_worst),
       percent(summary.liu_layland_bound), summary.tasks, summary.tasks == 1 ? "" : "s",
       schedulability_verdict(summary));

@@ -59,10 +59,10 @@ const char* const kGoldenTable =
     "T: 1 (slow_loop) P:79 I:10000 C:    100 Min:     12 Act:   12 Avg:   12 Max:      12 P99:    12 P99.9:    12 Ovr:   2\n"
     "T: 2 (t3)        P: 0 I:2500  C:     10 Min:    150 Act:  150 Avg:  150 Max:     150 P99:   150 P99.9:   150 Ovr:   3\n"
     "# exec time = end - wake, in us; U = avg exec / period; Skip = releases skipped; Run = overruns in a row now/longest\n"
-    "E: 0 (loop1)     Avg:    0.6 Max:    0.8 P99:    0.8 P99.9:    0.8 U:  0.1% Skip:   0 Run:0/0 FIFO  cpu:1   running\n"
-    "E: 1 (slow_loop) Avg: 2706.5 Max: 10400.0 P99: 10400.0 P99.9: 10400.0 U: 27.1% Skip:   2 Run:0/2 FIFO  cpu:any running\n"
-    "E: 2 (t3)        Avg: 1250.0 Max: 3000.0 P99: 3000.0 P99.9: 3000.0 U: 50.0% Skip:   0 Run:3/3 OTHER cpu:any stopped (watchdog)\n"
-    "# utilisation 77.1% avg, 224.1% at the longest runs; Liu-Layland bound 78.0% (3 tasks): average within, longest runs not\n";
+    "E: 0 (loop1)     Avg:    0.6 Max:    0.8 P99:    0.8 P99.9:    0.8 U:  0.06% Skip:   0 Run:0/0 FIFO  cpu:1   running\n"
+    "E: 1 (slow_loop) Avg: 2706.5 Max: 10400.0 P99: 10400.0 P99.9: 10400.0 U: 27.06% Skip:   2 Run:0/2 FIFO  cpu:any running\n"
+    "E: 2 (t3)        Avg: 1250.0 Max: 3000.0 P99: 3000.0 P99.9: 3000.0 U: 50.00% Skip:   0 Run:3/3 OTHER cpu:any stopped (watchdog)\n"
+    "# utilisation 77.12% avg, 224.08% at max exec; Liu-Layland bound 78.0% (3 tasks): average within, max exec not\n";
 
 const char* const kGoldenJson =
     "{\n"
