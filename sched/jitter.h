@@ -111,10 +111,11 @@ class CycleStats {
 
   // One finished cycle. Negative durations (a clock glitch, a caller bug) count as 0.
   void record(int64_t wake_latency_ns, int64_t exec_ns) noexcept;
-  // The cycle just passed to record() ended after its next release; `skipped_releases`
-  // releases were dropped to catch up (0 if the next one can still be met, late). Returns
-  // the number of consecutive overrunning cycles including this one — what the watchdog
-  // compares with its limit.
+  // The cycle just passed to record() ended after its next release; `skipped_releases` is
+  // how many releases the scheduler dropped to get back on its time grid. Returns the
+  // number of consecutive overrunning cycles including this one — what the watchdog
+  // compares with its limit. (Readers may see the current run as 0 in the instant between
+  // record() and this call; the return value is always exact.)
   uint64_t record_overrun(uint64_t skipped_releases) noexcept;
   // Back to the empty state. Not safe against a concurrent writer: tests and restarts only.
   void reset() noexcept;
