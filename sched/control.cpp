@@ -99,9 +99,14 @@ Result<void> ControlServer::start(const std::string& path) {
   path_ = path;
   sockaddr_un addr{};
   if (path.size() >= sizeof addr.sun_path) return make_error("control socket path too long: " + path);
+  // Create the folder chain (e.g. /run/rtplc); the last folder is private.
   const std::string dir = folder_of(path);
-  if (mkdir(dir.c_str(), 0700) != 0 && errno != EEXIST) {
-    return make_error("cannot create " + dir + ": " + std::strerror(errno));
+  for (size_t i = 1; i <= dir.size(); ++i) {
+    if (i < dir.size() && dir[i] != '/') continue;
+    const std::string part = dir.substr(0, i);
+    if (mkdir(part.c_str(), i == dir.size() ? 0700 : 0755) != 0 && errno != EEXIST) {
+      return make_error("cannot create " + part + ": " + std::strerror(errno));
+    }
   }
   // A socket left by a dead runtime: connecting fails, so remove it. A live one
   // answers: then another runtime owns the name.

@@ -1,6 +1,6 @@
 // Tests of the `rtplc stats` presentation (spec: runtime.md, "Jitter monitor"): the table
-// and JSON against golden strings on fixed inputs, the Liu-Layland and utilisation arithmetic, and the
-// histogram file written, read back and folded into the same buckets.
+// and JSON against golden strings on fixed inputs, the Liu-Layland and utilisation
+// arithmetic, and the histogram file written, read back and folded into the same buckets.
 #include <gtest/gtest.h>
 
 #include <unistd.h>
