@@ -1,6 +1,7 @@
 // `rtplc stats` and `rtplc monitor`: read-only views of a running runtime, taken
 // straight from its shared process image (no socket, no effect on the tasks).
 #include <CLI/CLI.hpp>
+#include <sys/utsname.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -46,8 +47,10 @@ void run_stats(const ViewArgs& a) {
     for (const auto& v : views) {
       if (v.policy != "FIFO") note = "tasks run SCHED_OTHER (no SCHED_FIFO privilege): latencies are not real-time";
     }
+    utsname u{};
+    uname(&u);
     auto summary = sched::summarise(views, sched::runtime_uptime_ns(img), kernel_rt::running_on_rt_kernel(),
-                                    {}, note);
+                                    u.release, note);
     if (!a.hist.empty()) {
       if (auto r = sched::write_hist_file(a.hist, views); !r) {
         std::fprintf(stderr, "rtplc stats: %s\n", r.error().c_str());

@@ -7,6 +7,5 @@ set(RTPLC_MAX_MACRO_BLOCKS 50 CACHE STRING "Most primitive blocks in one macro d
 set(RTPLC_MAX_MACRO_DEPTH 16 CACHE STRING "Deepest macro-call nesting")
 set(RTPLC_MAX_DELAY_SAMPLES 10000 CACHE STRING "Largest n of dely(a, n)")
 set(RTPLC_MAX_CHANNELS 8192 CACHE STRING "Most channels in the process image")
-set(RTPLC_HIST_BUCKETS 512 CACHE STRING "Buckets of the jitter histogram")
 configure_file(${CMAKE_CURRENT_LIST_DIR}/../common/capacities.h.in
                ${CMAKE_BINARY_DIR}/generated/common/capacities.h @ONLY)
