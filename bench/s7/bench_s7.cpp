@@ -55,6 +55,7 @@ struct Case {
   uint16_t port = 11102;
   int fake_priority = 10;   // SCHED_FIFO of the fake PLCs' process (0: normal)
   int engine_priority = 0;  // SCHED_FIFO of the engine thread (0: normal)
+  int coalesce_us = 0;      // EngineOptions::coalesce_us
 };
 
 struct Plc {
@@ -223,6 +224,7 @@ CaseResult run_case(const Case& c) {
   EngineOptions eo;
   eo.max_plcs = plcs.size();
   eo.sched_fifo_priority = c.engine_priority;
+  eo.coalesce_us = static_cast<uint32_t>(c.coalesce_us);
   eo.max_items = plcs.size() * kItemCount() + 16;
   eo.on_poll_complete = [&](PlcId id, int64_t ns) {
     if (measuring.load(std::memory_order_relaxed)) lat[id].push_back(static_cast<double>(ns) / 1e6);
@@ -425,7 +427,8 @@ int main(int argc, char** argv) {
     std::printf(
         "bench_s7 [--case seed|thousand|both] [--duration S] [--plcs N] [--reference]\n"
         "         [--fake-priority P (SCHED_FIFO of the fakes, default 10; 0: normal)]\n"
-        "         [--engine-priority P (SCHED_FIFO of the engine thread, default 0: normal)]\n"
+        "         [--engine-priority P (SCHED_FIFO of the engine thread, default 5; 0: normal)]\n"
+        "         [--coalesce-us N (engine wakeup coalescing, default 1000; 0: wake on every event)]\n"
         "Polls fake S7 PLCs (in a child process) with the engine and reports latency over the\n"
         "injected link delay, missed polls, CPU, memory and file descriptors of the client.\n");
     return 0;
@@ -438,7 +441,8 @@ int main(int argc, char** argv) {
   }
   const int duration = arg_int(argc, argv, "--duration", 60);
   const int fake_priority = arg_int(argc, argv, "--fake-priority", 10);
-  const int engine_priority = arg_int(argc, argv, "--engine-priority", 0);
+  const int engine_priority = arg_int(argc, argv, "--engine-priority", 5);
+  const int coalesce_us = arg_int(argc, argv, "--coalesce-us", 1000);
 
   Case seed;
   seed.name = "seed case";
@@ -449,15 +453,18 @@ int main(int argc, char** argv) {
   seed.base_octet = 21;
   seed.fake_priority = fake_priority;
   seed.engine_priority = engine_priority;
+  seed.coalesce_us = coalesce_us;
   Case thousand;
   thousand.name = "thousand";
   thousand.plcs = arg_int(argc, argv, "--plcs", 1000);
   thousand.duration_s = duration;
   thousand.fake_priority = fake_priority;
   thousand.engine_priority = engine_priority;
-  std::printf("bench_s7: file descriptor limit %zu; fake PLCs on 127.x.y.z:%u at SCHED_FIFO %d, engine thread at %s\n",
+  thousand.coalesce_us = coalesce_us;
+  std::printf("bench_s7: file descriptor limit %zu; fake PLCs on 127.x.y.z:%u at SCHED_FIFO %d; engine thread at %s, "
+              "coalescing %d us\n",
               limit, thousand.port, fake_priority,
-              engine_priority > 0 ? fmt::format("SCHED_FIFO {}", engine_priority).c_str() : "SCHED_OTHER");
+              engine_priority > 0 ? fmt::format("SCHED_FIFO {}", engine_priority).c_str() : "SCHED_OTHER", coalesce_us);
 
   if (which == "seed" || which == "both") {
     const CaseResult r = run_case(seed);

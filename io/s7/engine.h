@@ -138,6 +138,11 @@ struct EngineOptions {
   // tasks, give it a priority below theirs: it never holds anything they wait for.
   int sched_fifo_priority = 0;
   int cpu = -1;
+  // Wakeup coalescing. 0: the loop wakes on every event (lowest latency). N > 0:
+  // while traffic flows, the loop sleeps N us at most, not waiting in epoll, then
+  // takes every ready event at once: replies no longer wake it one by one, at the
+  // price of up to N us of added latency. Idle, it waits in epoll as usual.
+  uint32_t coalesce_us = 0;
   // Called on the engine thread when a poll completes: latency from the scheduled
   // tick to the last reply. For benchmarks and monitors; keep it short.
   std::function<void(PlcId, int64_t latency_ns)> on_poll_complete;

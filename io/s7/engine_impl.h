@@ -150,6 +150,7 @@ struct Engine::Impl {
   Bytes frame;
   std::vector<Command> taken;
   uint64_t popped_writes = 0;
+  int64_t last_activity_ns = 0;  // last loop pass that had events (coalescing)
 
   void wake();
   void set_write_status(uint64_t ticket, WriteState s, uint8_t rc);

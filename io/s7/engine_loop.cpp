@@ -7,6 +7,7 @@
 // deadlines, so the loop's cost grows with the work to do, not with the PLC count.
 #include <sys/epoll.h>
 #include <sys/socket.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <fmt/format.h>
@@ -58,16 +59,30 @@ void Engine::Impl::poll_once(int max_wait_ms) {
   int64_t now = Engine::now_ns();
   int64_t until = std::min<int64_t>(timers.next_deadline(), now + static_cast<int64_t>(opt.write_pickup_us) * 1000);
   until = std::min<int64_t>(until, now + static_cast<int64_t>(max_wait_ms) * kMs);
-  const int64_t wait = std::max<int64_t>(0, until - now);
-  timespec ts{static_cast<time_t>(wait / 1'000'000'000), static_cast<long>(wait % 1'000'000'000)};
-  std::array<epoll_event, 256> events{};
-  int n = ::epoll_pwait2(epoll_fd.get(), events.data(), static_cast<int>(events.size()), &ts, nullptr);
-  if (n < 0 && errno == ENOSYS) {
-    n = ::epoll_wait(epoll_fd.get(), events.data(), static_cast<int>(events.size()),
-                     static_cast<int>((wait + kMs - 1) / kMs));
+  std::array<epoll_event, 256> events;
+  int n = 0;
+  const int64_t coalesce = static_cast<int64_t>(opt.coalesce_us) * 1000;
+  if (coalesce > 0 && now - last_activity_ns < 100 * kMs) {
+    // Busy: sleep without waiting in epoll, so arriving replies do not wake the
+    // thread one at a time, then take everything that is ready.
+    const int64_t at = std::min(until, now + coalesce);
+    if (at > now) {
+      timespec ts{static_cast<time_t>(at / 1'000'000'000), static_cast<long>(at % 1'000'000'000)};
+      ::clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
+    }
+    n = ::epoll_wait(epoll_fd.get(), events.data(), static_cast<int>(events.size()), 0);
+  } else {
+    const int64_t wait = std::max<int64_t>(0, until - now);
+    timespec ts{static_cast<time_t>(wait / 1'000'000'000), static_cast<long>(wait % 1'000'000'000)};
+    n = ::epoll_pwait2(epoll_fd.get(), events.data(), static_cast<int>(events.size()), &ts, nullptr);
+    if (n < 0 && errno == ENOSYS) {
+      n = ::epoll_wait(epoll_fd.get(), events.data(), static_cast<int>(events.size()),
+                       static_cast<int>((wait + kMs - 1) / kMs));
+    }
   }
   wakeups.fetch_add(1, std::memory_order_relaxed);
   now = Engine::now_ns();
+  if (n > 0) last_activity_ns = now;
   bool commands_due = false;
   for (int i = 0; i < n; ++i) {
     const uint64_t key = events[static_cast<size_t>(i)].data.u64;
