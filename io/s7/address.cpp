@@ -240,7 +240,7 @@ VarSpec var_spec_for(const ItemAddress& a) {
 uint64_t decode_raw(DataType t, uint8_t bit, ByteSpan b) {
   switch (type_size(t)) {
     case 1:
-      return t == DataType::kBool ? (b[0] >> (bit & 7)) & 1u : b[0];
+      return t == DataType::kBool ? (static_cast<unsigned>(b[0]) >> (bit & 7u)) & 1u : b[0];
     case 2:
       return static_cast<uint64_t>(b[0]) << 8 | b[1];
     default:
