@@ -11,6 +11,8 @@
 #include <string>
 #include <vector>
 
+#include <yaml-cpp/eventhandler.h>
+
 #include "config/config.h"
 #include "config/driver_kinds.h"
 #include "config/schema.h"
@@ -325,21 +327,60 @@ void cross_check(YamlReader& r, std::string_view source, RuntimeConfig& cfg,
   }
 }
 
-void parse_document(std::string_view yaml, const std::string& base_dir,
+// Records where each document starts; ignores everything else.
+class DocumentStarts final : public YAML::EventHandler {
+ public:
+  YAML::Mark last;
+  void OnDocumentStart(const YAML::Mark& mark) override { last = mark; }
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnAlias(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnScalar(const YAML::Mark&, const std::string&, YAML::anchor_t,
+                const std::string&) override {}
+  void OnSequenceStart(const YAML::Mark&, const std::string&, YAML::anchor_t,
+                       YAML::EmitterStyle::value) override {}
+  void OnSequenceEnd() override {}
+  void OnMapStart(const YAML::Mark&, const std::string&, YAML::anchor_t,
+                  YAML::EmitterStyle::value) override {}
+  void OnMapEnd() override {}
+};
+
+SourcePos to_pos(const YAML::Mark& m) {
+  if (m.line < 0 || m.column < 0) return {1, 1};
+  return {static_cast<uint32_t>(m.line) + 1, static_cast<uint32_t>(m.column) + 1};
+}
+
+// A config is one document. YAML::LoadAll is not used to find out: on some
+// malformed text yaml-cpp 0.7 returns empty documents at the same place
+// forever, and LoadAll collects them until memory runs out. Two steps of the
+// parser are enough, and a step that does not move is a syntax error.
+void check_single_document(const std::string& text, YamlReader& r) {
+  std::istringstream in(text);
+  YAML::Parser parser(in);
+  DocumentStarts starts;
+  if (!parser.HandleNextDocument(starts)) return;
+  const YAML::Mark first = starts.last;
+  if (!parser.HandleNextDocument(starts)) return;
+  if (starts.last.pos == first.pos) {
+    r.error(to_pos(starts.last), "YAML syntax error: the text here cannot be parsed");
+  } else {
+    r.error(to_pos(starts.last), "a config file holds one YAML document; a second one starts here");
+  }
+}
+
+void parse_document(const std::string& yaml, const std::string& base_dir,
                     const LoadOptions& options, LoadResult& res) {
   // yaml-cpp reads from a stream; the text may hold NULs, which it treats as data.
-  std::istringstream in{std::string(yaml)};
-  std::vector<YAML::Node> docs = YAML::LoadAll(in);
+  std::istringstream in(yaml);
+  const YAML::Node root = YAML::Load(in);
   YamlReader r(res.diags, base_dir);
-  if (docs.empty() || docs[0].IsNull()) {
-    r.error({1, 1}, "the config is empty; it needs at least a 'tasks:' list");
+  check_single_document(yaml, r);
+  if (!root.IsDefined() || root.IsNull()) {
+    if (!res.diags.has_errors()) {
+      r.error({1, 1}, "the config is empty; it needs at least a 'tasks:' list");
+    }
     return;
   }
-  if (docs.size() > 1) {
-    r.error(or_else(YamlReader::pos(docs[1]), {1, 1}),
-            "a config file holds one YAML document; a second one starts here");
-  }
-  const YAML::Node root = docs[0];
   if (!root.IsMap()) {
     r.error(or_else(YamlReader::pos(root), {1, 1}),
             "the config must be a map with a 'tasks:' list, got " + YamlReader::describe_node(root),
@@ -393,11 +434,7 @@ LoadResult parse_config(std::string_view yaml, const std::string& file_name,
     parse_document(res.source, base_dir, options, res);
   } catch (const YAML::ParserException& e) {
     // yaml-cpp stops at the first syntax error; its mark is 0-based.
-    const SourcePos p = e.mark.line >= 0 && e.mark.column >= 0
-                            ? SourcePos{static_cast<uint32_t>(e.mark.line) + 1,
-                                        static_cast<uint32_t>(e.mark.column) + 1}
-                            : SourcePos{1, 1};
-    res.diags.error(p, "YAML syntax error: " + e.msg);
+    res.diags.error(to_pos(e.mark), "YAML syntax error: " + e.msg);
   } catch (const std::exception& e) {
     // Nothing in the loader should throw past yaml-cpp's parse; if something
     // does, the user still gets a diagnostic instead of a crash.
