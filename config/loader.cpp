@@ -9,6 +9,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include <yaml-cpp/eventhandler.h>
@@ -90,6 +91,7 @@ void parse_safe_outputs(YamlReader& r, const Field& field, TaskConfig& t) {
                        YamlReader::describe_node(map));
     return;
   }
+  std::unordered_map<std::string, SourcePos> seen;
   for (auto it = map.begin(); it != map.end(); ++it) {
     const YAML::Node k = it->first;
     const SourcePos kp = or_else(YamlReader::pos(k), field.pos);
@@ -101,15 +103,13 @@ void parse_safe_outputs(YamlReader& r, const Field& field, TaskConfig& t) {
       continue;
     }
     const std::string& label = k.Scalar();
-    bool duplicate = false;
-    for (const SafeOutput& s : t.safe_outputs) {
-      if (s.label == label) {
-        r.error(kp, "safe output '" + label + "' is given twice", YamlReader::width(k));
-        r.note(s.pos, "first given here", static_cast<uint32_t>(label.size()));
-        duplicate = true;
-      }
+    // A map, not a scan: the list is as long as the file makes it.
+    auto [first, fresh] = seen.emplace(label, kp);
+    if (!fresh) {
+      r.error(kp, "safe output '" + label + "' is given twice", YamlReader::width(k));
+      r.note(first->second, "first given here", static_cast<uint32_t>(label.size()));
+      continue;
     }
-    if (duplicate) continue;
     auto v = r.real(it->second, kp, "safe output '" + label + "'");
     if (v) t.safe_outputs.push_back(SafeOutput{label, *v, kp});
   }
@@ -123,8 +123,11 @@ void parse_task(YamlReader& r, const YAML::Node& node, SourcePos list_pos, Runti
       t.watchdog_pos = t.pos;
   if (node.IsScalar()) {
     // The likeliest slip: "- loop1.fbd" for "- program: loop1.fbd".
-    r.error(t.pos, "a task must be a map such as '- program: " + node.Scalar() + "', got " +
-                       YamlReader::describe_node(node),
+    const std::string& word = node.Scalar();
+    r.error(t.pos,
+            "a task must be a map such as '- program: " +
+                (word.size() <= 40 ? word : std::string("FILE.fbd")) + "', got " +
+                YamlReader::describe_node(node),
             YamlReader::width(node));
     return;
   }
