@@ -95,6 +95,9 @@ std::unique_ptr<Runtime> Runtime::load(const config::RuntimeConfig& cfg, const R
                                                          : default_retain_path(rt->name_));
   rt->lock_memory_ = cfg.lock_memory && opt.lock_memory;
   rt->cpu_dma_latency_ = cfg.cpu_dma_latency;
+  // build_channels keeps a reference to the config file's entry while it adds one
+  // entry per program: reserve so the vector never moves under it.
+  report.files.reserve(report.files.size() + 1 + cfg.tasks.size());
   report.files.push_back({cfg.file, read_file(cfg.file), {}});
   if (cfg.tasks.size() > kMaxTasks) {
     report.files[0].diags.error(SourcePos{}, "more than " + std::to_string(kMaxTasks) + " tasks");
