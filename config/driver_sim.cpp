@@ -61,6 +61,25 @@ std::string model_names() {
   return names;
 }
 
+// "; did you mean 'second-order'?" when a known model is a slip away.
+std::string nearest_model(std::string_view kind) {
+  std::string names = model_names();
+  std::string_view rest = names;
+  std::string best;
+  size_t best_d = 3;
+  while (!rest.empty()) {
+    const size_t comma = rest.find(", ");
+    const std::string_view name = rest.substr(0, comma);
+    const size_t d = edit_distance(kind, name);
+    if (d < best_d && d < kind.size()) {
+      best_d = d;
+      best = std::string(name);
+    }
+    rest = comma == std::string_view::npos ? std::string_view() : rest.substr(comma + 2);
+  }
+  return best.empty() ? std::string() : "; did you mean '" + best + "'?";
+}
+
 void parse_plant(YamlReader& r, const YAML::Node& node, SourcePos where,
                  std::vector<SimPlantConfig>& out) {
   SimPlantConfig pc;
@@ -83,6 +102,7 @@ void parse_plant(YamlReader& r, const YAML::Node& node, SourcePos where,
         if (msg.size() != e.size() && !msg.empty() && msg.back() == ':') {
           msg.back() = ' ';
           msg += model_names();
+          msg += nearest_model(s->substr(0, s->find(':')));
         }
         r.error(*m, "bad plant model: " + msg);
         ok = false;

@@ -253,7 +253,7 @@ TEST(ConfigErrors, sim_plants) {
       "    plants:\n"
       "      - {model: third-order, input: p0.d0.c0, output: p0.d0.c0}\n"
       "      - {model: 'fopdt:T=-1', input: p0.d0.c0, output: p0.d1.c0}\n"
-      "      - {input: p0.d0.c0, output: x0.d0.c0}\n"
+      "      - {input: p0.d0.c0, output: x0.d0.c0, model: 'secnd-order:wn=2'}\n"
       "      - {input: p0.d0.c70000, output: p0.d2.c0, model: second-order:wn=2}\n"
       "  - kind: sim\n"
       "    name: empty\n"
@@ -264,6 +264,8 @@ TEST(ConfigErrors, sim_plants) {
   EXPECT_TRUE(has_diag(r, 5, 17, "bad plant model: unknown plant 'third-order'; choose one of "
                                  "second-order, tf, fopdt, tank"));
   EXPECT_TRUE(has_diag(r, 6, 17, "bad plant model: fopdt needs T > 0"));
+  EXPECT_TRUE(has_diag(r, 7, 52, "choose one of second-order, tf, fopdt, tank; did you mean "
+                                 "'second-order'?"));
   EXPECT_TRUE(has_diag(r, 7, 35, "'output' expects a channel address pN.dN.cN (p and d 0..255, c 0..65535), got 'x0.d0.c0'"));
   EXPECT_TRUE(has_diag(r, 8, 17, "'input' expects a channel address"));
   EXPECT_TRUE(has_diag(r, 11, 13, "'plants' needs at least 1 entry"));
