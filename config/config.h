@@ -51,9 +51,9 @@ struct SafeOutput {
 };
 
 struct TaskConfig {
-  std::string name;  // given, or the program file's stem
-  SourcePos pos;     // the task's entry in the list
-  SourcePos name_pos;  // the name's value, or program_pos when the name is the stem
+  std::string name;     // given, or the program file's stem
+  SourcePos pos;        // the task's entry in the list
+  SourcePos name_pos;   // the name's value, or program_pos when the name is the stem
   std::string program;  // resolved against the config file's folder
   SourcePos program_pos;
   std::optional<double> period_s;  // overrides the program's stime() when set
@@ -72,7 +72,7 @@ struct TaskConfig {
 // A simulated plant of the `sim` driver: driven by one dao channel, measured by
 // one dai channel.
 struct SimPlantConfig {
-  std::string model = kDefaultPlantModel;  // io/plant.h make_plant() spec, already validated
+  std::string model = kDefaultPlantModel;     // io/plant.h make_plant() spec, already validated
   std::string input = kDefaultPlantChannel;   // canonical "pN.dN.cN" of the dao channel
   std::string output = kDefaultPlantChannel;  // canonical "pN.dN.cN" of the dai channel
   ChannelAddress input_addr;
@@ -100,8 +100,8 @@ struct DriverConfig {
 };
 
 struct RuntimeConfig {
-  std::string file;      // the config file as named by the caller
-  std::string base_dir;  // relative paths inside it were resolved against this
+  std::string file;                        // the config file as named by the caller
+  std::string base_dir;                    // relative paths inside it were resolved against this
   std::string name = kDefaultRuntimeName;  // shared memory /rtplc-NAME, socket name
   SourcePos name_pos;
   std::string socket_path;  // empty: the runtime chooses
@@ -128,9 +128,9 @@ struct LoadOptions {
 
 struct LoadResult {
   std::optional<RuntimeConfig> config;  // set exactly when there is no error
-  DiagnosticList diags;  // errors and warnings, positions into `source`
-  std::string file;      // for rendering
-  std::string source;    // the text the positions refer to
+  DiagnosticList diags;                 // errors and warnings, positions into `source`
+  std::string file;                     // for rendering
+  std::string source;                   // the text the positions refer to
 
   bool ok() const { return config.has_value() && !diags.has_errors(); }
   // Compiler-style text of every diagnostic ("file:line:col: error: ...").

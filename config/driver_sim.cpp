@@ -161,12 +161,9 @@ std::string sim_doc() {
 }  // namespace
 
 const DriverKind kSimDriverKind{
-    "sim",
-    "simulated plants on dao/dai channels (no hardware needed)",
-    &kSimSection,
-    kSimSubsections,
-    &parse_sim,
-    &sim_doc,
+    "sim",        "simulated plants on dao/dai channels (no hardware needed)",
+    &kSimSection, kSimSubsections,
+    &parse_sim,   &sim_doc,
 };
 
 }  // namespace rtplc::config

@@ -28,9 +28,13 @@ namespace fs = std::filesystem;
 // or a binary passed by accident) and not worth parsing.
 constexpr std::uintmax_t kMaxConfigBytes = 1 << 20;
 
-SourcePos or_else(SourcePos p, SourcePos fallback) { return p.line ? p : fallback; }
+SourcePos or_else(SourcePos p, SourcePos fallback) {
+  return p.line ? p : fallback;
+}
 
-std::string line_of(SourcePos p) { return "line " + std::to_string(p.line); }
+std::string line_of(SourcePos p) {
+  return "line " + std::to_string(p.line);
+}
 
 // Caret width of the plain or quoted scalar at `p`, for checks made after
 // parsing, when only the position was kept.
@@ -98,7 +102,8 @@ void parse_safe_outputs(YamlReader& r, const Field& field, TaskConfig& t) {
     if (!k.IsScalar() || !is_valid_label(k.Scalar())) {
       r.error(kp,
               "a safe output is named by its channel label (1 to 31 letters, digits, '_', '-' "
-              "or '.'), got " + YamlReader::describe_node(k),
+              "or '.'), got " +
+                  YamlReader::describe_node(k),
               YamlReader::width(k));
       continue;
     }
@@ -170,7 +175,8 @@ void parse_task(YamlReader& r, const YAML::Node& node, SourcePos list_pos, Runti
   }
   if (const Field* x = f.get("overrun")) {
     t.overrun_pos = x->pos;
-    if (auto v = r.choice(*x)) t.overrun = *v == "stop" ? OverrunPolicy::kStop : OverrunPolicy::kSkip;
+    if (auto v = r.choice(*x))
+      t.overrun = *v == "stop" ? OverrunPolicy::kStop : OverrunPolicy::kSkip;
   }
   t.watchdog = t.overrun == OverrunPolicy::kStop ? kDefaultStopWatchdog : 0;
   if (const Field* x = f.get("watchdog")) {
@@ -178,8 +184,9 @@ void parse_task(YamlReader& r, const YAML::Node& node, SourcePos list_pos, Runti
     if (auto v = r.integer(*x)) {
       t.watchdog = static_cast<uint32_t>(*v);
       if (t.watchdog == 0 && t.overrun == OverrunPolicy::kStop) {
-        r.error(*x, "'overrun: stop' with 'watchdog: 0' would never stop the task; use a "
-                    "watchdog of 1 or more, or 'overrun: skip'");
+        r.error(*x,
+                "'overrun: stop' with 'watchdog: 0' would never stop the task; use a "
+                "watchdog of 1 or more, or 'overrun: skip'");
         r.note(t.overrun_pos, "the policy is set here");
       }
     }
@@ -263,18 +270,20 @@ void cross_check(YamlReader& r, std::string_view source, RuntimeConfig& cfg,
     for (size_t j = 0; j < i && !t.name.empty(); ++j) {
       const TaskConfig& first = cfg.tasks[j];
       if (first.name != t.name) continue;
-      const bool stem = t.name_pos.line == t.program_pos.line && t.name_pos.col == t.program_pos.col;
-      r.error(t.name_pos, "task name '" + t.name + "' is already used by the task at " +
-                              line_of(first.name_pos) +
-                              (stem ? "; give this task its own 'name'" : ""),
+      const bool stem =
+          t.name_pos.line == t.program_pos.line && t.name_pos.col == t.program_pos.col;
+      r.error(t.name_pos,
+              "task name '" + t.name + "' is already used by the task at " +
+                  line_of(first.name_pos) + (stem ? "; give this task its own 'name'" : ""),
               w(t.name_pos));
       r.note(first.name_pos, "first used here", w(first.name_pos));
       break;
     }
     if (t.priority && (*t.priority < cfg.band_lo || *t.priority > cfg.band_hi)) {
-      r.error(t.priority_pos, "priority " + std::to_string(*t.priority) +
-                                  " is outside the task band [" + std::to_string(cfg.band_lo) +
-                                  ", " + std::to_string(cfg.band_hi) + "] (runtime: priority_band)",
+      r.error(t.priority_pos,
+              "priority " + std::to_string(*t.priority) + " is outside the task band [" +
+                  std::to_string(cfg.band_lo) + ", " + std::to_string(cfg.band_hi) +
+                  "] (runtime: priority_band)",
               w(t.priority_pos));
       if (cfg.band_pos.line) r.note(cfg.band_pos, "the band is set here");
     }
@@ -285,18 +294,18 @@ void cross_check(YamlReader& r, std::string_view source, RuntimeConfig& cfg,
       const DriverConfig& first = cfg.drivers[j];
       if (first.name != d.name) continue;
       const bool from_kind = d.name_pos.line == d.kind_pos.line && d.name_pos.col == d.kind_pos.col;
-      r.error(d.name_pos, "driver name '" + d.name + "' is already used by the driver at " +
-                              line_of(first.name_pos) +
-                              (from_kind ? "; give this driver its own 'name'" : ""),
+      r.error(d.name_pos,
+              "driver name '" + d.name + "' is already used by the driver at " +
+                  line_of(first.name_pos) + (from_kind ? "; give this driver its own 'name'" : ""),
               w(d.name_pos));
       r.note(first.name_pos, "first used here", w(first.name_pos));
       break;
     }
     if (d.priority && *d.priority <= cfg.band_hi) {
-      r.warning(d.priority_pos, "driver '" + d.name + "' at priority " +
-                                    std::to_string(*d.priority) + " is not above the task band [" +
-                                    std::to_string(cfg.band_lo) + ", " +
-                                    std::to_string(cfg.band_hi) + "]; tasks can delay its I/O",
+      r.warning(d.priority_pos,
+                "driver '" + d.name + "' at priority " + std::to_string(*d.priority) +
+                    " is not above the task band [" + std::to_string(cfg.band_lo) + ", " +
+                    std::to_string(cfg.band_hi) + "]; tasks can delay its I/O",
                 w(d.priority_pos));
     }
   }
@@ -412,7 +421,9 @@ void parse_document(const std::string& yaml, const std::string& base_dir,
 
 }  // namespace
 
-const char* to_string(OverrunPolicy p) { return p == OverrunPolicy::kStop ? "stop" : "skip"; }
+const char* to_string(OverrunPolicy p) {
+  return p == OverrunPolicy::kStop ? "stop" : "skip";
+}
 
 const TaskConfig* RuntimeConfig::find_task(std::string_view task_name) const {
   for (const TaskConfig& t : tasks) {
@@ -466,8 +477,8 @@ LoadResult load_config(const std::string& path, const LoadOptions& options) {
     }
     const std::uintmax_t size = fs::file_size(p, ec);
     if (!ec && size > kMaxConfigBytes) {
-      res.diags.error({}, "the config is " + std::to_string(size) +
-                              " bytes; a config file is at most 1 MiB");
+      res.diags.error(
+          {}, "the config is " + std::to_string(size) + " bytes; a config file is at most 1 MiB");
       return res;
     }
     std::ifstream in(p, std::ios::binary);

@@ -33,8 +33,8 @@ const KeySpec kRuntimeKeys[] = {
      "Path of the control socket (`rtplc stats`, `set`, `swap`); created with mode 0600."},
     {"retain_file", ValueType::kPath, false, kNoMin, kNoMax, nullptr, "(chosen by the runtime)",
      "File holding the retained values (set-points) across restarts."},
-    {"priority_band", ValueType::kIntegerPair, false, kMinFifoPriority, kMaxFifoPriority,
-     nullptr, "[10, 49]",
+    {"priority_band", ValueType::kIntegerPair, false, kMinFifoPriority, kMaxFifoPriority, nullptr,
+     "[10, 49]",
      "SCHED_FIFO priorities the tasks may use, `[lo, hi]`; the default stays below the "
      "kernel's IRQ threads (50) and leaves room above for the drivers."},
     {"cpu_dma_latency", ValueType::kBool, false, kNoMin, kNoMax, nullptr, "true",
@@ -59,8 +59,7 @@ const KeySpec kTaskKeys[] = {
     {"overrun", ValueType::kChoice, false, kNoMin, kNoMax, "skip|stop", "skip",
      "What a late cycle does: `skip` the missed releases and go on, or `stop` the task "
      "through the watchdog."},
-    {"watchdog", ValueType::kInteger, false, 0, kMaxWatchdog, nullptr,
-     "0 with skip, 3 with stop",
+    {"watchdog", ValueType::kInteger, false, 0, kMaxWatchdog, nullptr, "0 with skip, 3 with stop",
      "Consecutive overruns after which the task is stopped and its outputs take their safe "
      "values; 0 never stops it."},
     {"safe_outputs", ValueType::kLabelMap, false, kNoMin, kNoMax, nullptr, "every output 0",
@@ -86,8 +85,7 @@ const SectionSpec kTop{"top", "the config", "Top level", "", kTopKeys};
 const SectionSpec kRuntime{"runtime", "the runtime section", "`runtime:`",
                            "Optional; every key has a default.", kRuntimeKeys};
 const SectionSpec kTask{"task", "a task", "`tasks:` entries",
-                        "One entry per task; each runs on its own SCHED_FIFO thread.",
-                        kTaskKeys};
+                        "One entry per task; each runs on its own SCHED_FIFO thread.", kTaskKeys};
 const SectionSpec kDriver{"driver", "a driver", "`drivers:` entries",
                           "Keys every driver has, whatever its kind. An unknown kind is an "
                           "error that lists the known ones.",
@@ -102,10 +100,18 @@ std::string number(double v) {
 
 }  // namespace
 
-const SectionSpec& top_section() { return kTop; }
-const SectionSpec& runtime_section() { return kRuntime; }
-const SectionSpec& task_section() { return kTask; }
-const SectionSpec& driver_section() { return kDriver; }
+const SectionSpec& top_section() {
+  return kTop;
+}
+const SectionSpec& runtime_section() {
+  return kRuntime;
+}
+const SectionSpec& task_section() {
+  return kTask;
+}
+const SectionSpec& driver_section() {
+  return kDriver;
+}
 
 std::span<const DriverKind* const> driver_kinds() {
   // Pointers, not copies: the kinds live in their own files and this table must
@@ -129,19 +135,32 @@ std::string known_driver_kinds() {
 
 const char* type_name(ValueType t) {
   switch (t) {
-    case ValueType::kSection: return "map";
-    case ValueType::kList: return "list";
-    case ValueType::kLabelMap: return "map LABEL: number";
-    case ValueType::kName: return "name";
-    case ValueType::kPath: return "path";
-    case ValueType::kDuration: return "duration";
-    case ValueType::kInteger: return "integer";
-    case ValueType::kIntegerPair: return "[lo, hi]";
-    case ValueType::kBool: return "boolean";
-    case ValueType::kChoice: return "word";
-    case ValueType::kChannel: return "channel";
-    case ValueType::kPlantModel: return "plant model";
-    case ValueType::kDriverKind: return "word";
+    case ValueType::kSection:
+      return "map";
+    case ValueType::kList:
+      return "list";
+    case ValueType::kLabelMap:
+      return "map LABEL: number";
+    case ValueType::kName:
+      return "name";
+    case ValueType::kPath:
+      return "path";
+    case ValueType::kDuration:
+      return "duration";
+    case ValueType::kInteger:
+      return "integer";
+    case ValueType::kIntegerPair:
+      return "[lo, hi]";
+    case ValueType::kBool:
+      return "boolean";
+    case ValueType::kChoice:
+      return "word";
+    case ValueType::kChannel:
+      return "channel";
+    case ValueType::kPlantModel:
+      return "plant model";
+    case ValueType::kDriverKind:
+      return "word";
   }
   return "";
 }
@@ -155,52 +174,75 @@ const KeySpec* find_key(const SectionSpec& s, std::string_view key) {
 
 std::string describe_type(const KeySpec& k) {
   switch (k.type) {
-    case ValueType::kSection: return "a map of keys";
-    case ValueType::kList: return std::string("a list of ") + k.choices + " entries";
-    case ValueType::kLabelMap: return "a map of LABEL: number";
-    case ValueType::kName: return "a name of letters, digits, '_' and '-'";
-    case ValueType::kPath: return "a file path";
-    case ValueType::kDuration: return "a duration such as 10ms, 250us, 0.5s or 2 (seconds)";
-    case ValueType::kInteger: return "a whole number";
-    case ValueType::kIntegerPair: return "a pair [lo, hi] of whole numbers";
-    case ValueType::kBool: return "true or false";
+    case ValueType::kSection:
+      return "a map of keys";
+    case ValueType::kList:
+      return std::string("a list of ") + k.choices + " entries";
+    case ValueType::kLabelMap:
+      return "a map of LABEL: number";
+    case ValueType::kName:
+      return "a name of letters, digits, '_' and '-'";
+    case ValueType::kPath:
+      return "a file path";
+    case ValueType::kDuration:
+      return "a duration such as 10ms, 250us, 0.5s or 2 (seconds)";
+    case ValueType::kInteger:
+      return "a whole number";
+    case ValueType::kIntegerPair:
+      return "a pair [lo, hi] of whole numbers";
+    case ValueType::kBool:
+      return "true or false";
     case ValueType::kChoice: {
       std::string s = "one of ";
-      for (const char* c = k.choices; *c; ++c) s += *c == '|' ? std::string(", ") : std::string(1, *c);
+      for (const char* c = k.choices; *c; ++c)
+        s += *c == '|' ? std::string(", ") : std::string(1, *c);
       return s;
     }
-    case ValueType::kChannel: return "a channel address pN.dN.cN";
-    case ValueType::kPlantModel: return "a plant spec such as second-order or fopdt:T=5,L=1";
-    case ValueType::kDriverKind: return "a driver kind (" + known_driver_kinds() + ")";
+    case ValueType::kChannel:
+      return "a channel address pN.dN.cN";
+    case ValueType::kPlantModel:
+      return "a plant spec such as second-order or fopdt:T=5,L=1";
+    case ValueType::kDriverKind:
+      return "a driver kind (" + known_driver_kinds() + ")";
   }
   return "a value";
 }
 
 std::string describe_allowed(const KeySpec& k) {
   switch (k.type) {
-    case ValueType::kSection: return "see below";
+    case ValueType::kSection:
+      return "see below";
     case ValueType::kList:
       if (k.min == k.max) return number(k.min) + " entries";
       return number(k.min) + ".." + number(k.max) + " entries";
-    case ValueType::kLabelMap: return "labels of the task's outputs; finite numbers";
-    case ValueType::kName: return "1..31 of `A-Z a-z 0-9 _ -`";
-    case ValueType::kPath: return "relative to the config file's folder";
+    case ValueType::kLabelMap:
+      return "labels of the task's outputs; finite numbers";
+    case ValueType::kName:
+      return "1..31 of `A-Z a-z 0-9 _ -`";
+    case ValueType::kPath:
+      return "relative to the config file's folder";
     case ValueType::kDuration:
       return format_duration(k.min) + ".." + format_duration(k.max);
-    case ValueType::kInteger: return number(k.min) + ".." + number(k.max);
+    case ValueType::kInteger:
+      return number(k.min) + ".." + number(k.max);
     case ValueType::kIntegerPair:
       return number(k.min) + " <= lo <= hi <= " + number(k.max);
-    case ValueType::kBool: return "`true`, `false`";
+    case ValueType::kBool:
+      return "`true`, `false`";
     case ValueType::kChoice: {
       std::string s = "`";
-      for (const char* c = k.choices; *c; ++c) s += *c == '|' ? std::string("`, `") : std::string(1, *c);
+      for (const char* c = k.choices; *c; ++c)
+        s += *c == '|' ? std::string("`, `") : std::string(1, *c);
       return s + "`";
     }
-    case ValueType::kChannel: return "p, d 0..255; c 0..65535";
-    case ValueType::kPlantModel: return "see \"Plant models\"";
+    case ValueType::kChannel:
+      return "p, d 0..255; c 0..65535";
+    case ValueType::kPlantModel:
+      return "see \"Plant models\"";
     case ValueType::kDriverKind: {
       std::string s;
-      for (const DriverKind* d : driver_kinds()) s += (s.empty() ? "`" : ", `") + std::string(d->kind) + "`";
+      for (const DriverKind* d : driver_kinds())
+        s += (s.empty() ? "`" : ", `") + std::string(d->kind) + "`";
       return s;
     }
   }

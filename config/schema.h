@@ -13,30 +13,30 @@
 namespace rtplc::config {
 
 enum class ValueType : uint8_t {
-  kSection,     // a map of further keys (the runtime section)
-  kList,        // a list of maps of the section named by `item`
-  kLabelMap,    // a map label -> number
-  kName,        // [A-Za-z0-9_-]{1,31}
-  kPath,        // a file path, relative to the config file's folder
-  kDuration,    // "10ms", "250us", "0.5s" or seconds; min/max in seconds
-  kInteger,     // whole number in [min, max]
-  kIntegerPair, // [lo, hi], each in [min, max], lo <= hi
-  kBool,        // true or false
-  kChoice,      // one word of `choices` ("skip|stop")
-  kChannel,     // "pN.dN.cN"
-  kPlantModel,  // a plant spec of io/plant.h make_plant()
-  kDriverKind,  // a kind of config/driver_kinds.h
+  kSection,      // a map of further keys (the runtime section)
+  kList,         // a list of maps of the section named by `item`
+  kLabelMap,     // a map label -> number
+  kName,         // [A-Za-z0-9_-]{1,31}
+  kPath,         // a file path, relative to the config file's folder
+  kDuration,     // "10ms", "250us", "0.5s" or seconds; min/max in seconds
+  kInteger,      // whole number in [min, max]
+  kIntegerPair,  // [lo, hi], each in [min, max], lo <= hi
+  kBool,         // true or false
+  kChoice,       // one word of `choices` ("skip|stop")
+  kChannel,      // "pN.dN.cN"
+  kPlantModel,   // a plant spec of io/plant.h make_plant()
+  kDriverKind,   // a kind of config/driver_kinds.h
 };
 
 struct KeySpec {
   const char* key;
   ValueType type;
   bool required;
-  double min;            // integers, durations (s), pairs; list lengths for kList
+  double min;  // integers, durations (s), pairs; list lengths for kList
   double max;
-  const char* choices;   // kChoice: "a|b"; kList: the item section's id
+  const char* choices;       // kChoice: "a|b"; kList: the item section's id
   const char* default_text;  // what applies when the key is absent ("" = nothing)
-  const char* meaning;   // one line
+  const char* meaning;       // one line
 };
 
 struct SectionSpec {

@@ -136,8 +136,7 @@ std::optional<ChannelAddress> parse_channel(std::string_view text) {
       !parse_part(cs.substr(1), 65535, c)) {
     return std::nullopt;
   }
-  return ChannelAddress{static_cast<uint8_t>(p), static_cast<uint8_t>(d),
-                        static_cast<uint16_t>(c)};
+  return ChannelAddress{static_cast<uint8_t>(p), static_cast<uint8_t>(d), static_cast<uint16_t>(c)};
 }
 
 std::string to_string(const ChannelAddress& a) {

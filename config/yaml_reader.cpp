@@ -98,8 +98,8 @@ Fields YamlReader::fields(const YAML::Node& map, SourcePos where, std::string_vi
       const YAML::Node v = it->second;
       const SourcePos kp = pos(k).line ? pos(k) : map_pos;
       if (!k.IsScalar()) {
-        error(kp, "a key in " + std::string(noun) + " must be a plain word, got " +
-                      describe_node(k));
+        error(kp,
+              "a key in " + std::string(noun) + " must be a plain word, got " + describe_node(k));
         continue;
       }
       const std::string& name = k.Scalar();
@@ -144,8 +144,8 @@ Fields YamlReader::fields(const YAML::Node& map, SourcePos where, std::string_vi
       }
       if (duplicate) continue;
       const bool empty = !v.IsDefined() || v.IsNull();
-      found.push_back(Field{spec, k, v, kp, empty || !pos(v).line ? kp : pos(v),
-                            empty ? width(k) : width(v)});
+      found.push_back(
+          Field{spec, k, v, kp, empty || !pos(v).line ? kp : pos(v), empty ? width(k) : width(v)});
     }
   }
   for (auto span : keys) {
@@ -182,8 +182,10 @@ std::optional<std::vector<YAML::Node>> YamlReader::list(const Field& f) {
   std::vector<YAML::Node> items;
   if (f.value.IsDefined() && !f.value.IsNull()) {
     if (!f.value.IsSequence()) {
-      error(f, "'" + std::string(k.key) + "' expects " + describe_type(k) + " (lines starting "
-               "with '- '), got " + describe_node(f.value));
+      error(f, "'" + std::string(k.key) + "' expects " + describe_type(k) +
+                   " (lines starting "
+                   "with '- '), got " +
+                   describe_node(f.value));
       return std::nullopt;
     }
     for (auto it = f.value.begin(); it != f.value.end(); ++it) items.push_back(*it);
@@ -286,7 +288,7 @@ std::optional<std::pair<int64_t, int64_t>> YamlReader::integer_pair(const Field&
     const YAML::Node item = f.value[i];
     // Built, never assigned: assigning to a yaml-cpp Node that refers into the
     // document rewrites the document itself.
-    const Field sub{f.spec, f.key, item, f.key_pos, pos(item).line ? pos(item) : f.pos,
+    const Field sub{f.spec,     f.key, item, f.key_pos, pos(item).line ? pos(item) : f.pos,
                     width(item)};
     auto x = integer(sub);
     if (!x) {
@@ -309,7 +311,8 @@ std::optional<bool> YamlReader::boolean(const Field& f) {
   const std::string& s = f.value.Scalar();
   if (s == "true" || s == "True" || s == "TRUE") return true;
   if (s == "false" || s == "False" || s == "FALSE") return false;
-  error(f, "'" + std::string(f.spec->key) + "' expects true or false, got " + describe_node(f.value));
+  error(f,
+        "'" + std::string(f.spec->key) + "' expects true or false, got " + describe_node(f.value));
   return std::nullopt;
 }
 

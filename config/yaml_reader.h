@@ -31,9 +31,9 @@ struct Field {
   YAML::Node key;
   YAML::Node value;
   SourcePos key_pos;
-  SourcePos pos;        // the value, or the key when the value is empty (yaml-cpp
-                        // marks an empty value at the next token, which misleads)
-  uint32_t width = 1;   // caret width at `pos`
+  SourcePos pos;       // the value, or the key when the value is empty (yaml-cpp
+                       // marks an empty value at the next token, which misleads)
+  uint32_t width = 1;  // caret width at `pos`
 };
 
 // The known keys of one map, first occurrence of each.

@@ -28,9 +28,9 @@ inline ::testing::AssertionResult has_diag(const LoadResult& r, uint32_t line, u
       return ::testing::AssertionSuccess();
     }
   }
-  return ::testing::AssertionFailure() << "no diagnostic at " << line << ":" << col
-                                       << " containing '" << text << "'; got:\n"
-                                       << r.render();
+  return ::testing::AssertionFailure()
+         << "no diagnostic at " << line << ":" << col << " containing '" << text << "'; got:\n"
+         << r.render();
 }
 
 }  // namespace rtplc::config::testing

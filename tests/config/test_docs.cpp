@@ -92,7 +92,7 @@ TEST(Schema, driver_kinds_are_unique_and_found_by_name) {
     }
   }
   EXPECT_EQ(find_driver_kind("nope"), nullptr);
-  EXPECT_EQ(known_driver_kinds(), "sim");
+  EXPECT_EQ(known_driver_kinds().rfind("sim", 0), 0u);  // the built-in kind comes first
 }
 
 TEST(Schema, documented_defaults_are_the_applied_ones) {

@@ -7,6 +7,7 @@
 
 #include "common/capacities.h"
 #include "config/config.h"
+#include "config/driver_kinds.h"
 #include "tests/config/config_test_util.h"
 
 namespace rtplc::config {
@@ -64,8 +65,10 @@ TEST(ConfigErrors, a_string_where_a_number_is_needed) {
       "    cpu: \"1\"\n"
       "    watchdog: 2.5\n");
   EXPECT_TRUE(has_diag(r, 3, 15, "'priority' expects a whole number, got 'high'"));
-  EXPECT_TRUE(has_diag(r, 4, 10, "'cpu' expects a whole number, got the string '1' (leave out the quotes)"));
-  EXPECT_TRUE(has_diag(r, 5, 15, "'watchdog' expects a whole number, got '2.5' (no fraction allowed)"));
+  EXPECT_TRUE(has_diag(r, 4, 10,
+                       "'cpu' expects a whole number, got the string '1' (leave out the quotes)"));
+  EXPECT_TRUE(
+      has_diag(r, 5, 15, "'watchdog' expects a whole number, got '2.5' (no fraction allowed)"));
   EXPECT_EQ(r.diags.error_count(), 3u) << r.render();
 }
 
@@ -89,7 +92,8 @@ TEST(ConfigErrors, values_out_of_range) {
   EXPECT_TRUE(has_diag(r, 6, 15, "'priority' must be from 1 to 98, got 99"));
   EXPECT_TRUE(has_diag(r, 7, 10, "'cpu' must be from 0 to 1023, got -1"));
   EXPECT_TRUE(has_diag(r, 8, 15, "'watchdog' must be from 0 to 1000000, got 1000001"));
-  EXPECT_TRUE(has_diag(r, 10, 13, "'period' expects a duration such as 10ms, 250us, 0.5s or 2 (seconds), got '2h'"));
+  EXPECT_TRUE(has_diag(
+      r, 10, 13, "'period' expects a duration such as 10ms, 250us, 0.5s or 2 (seconds), got '2h'"));
   EXPECT_TRUE(has_diag(r, 11, 14, "'overrun' expects one of skip, stop, got 'halt'"));
   EXPECT_TRUE(has_diag(r, 13, 13, "'period' must be between 10us and 3600s, got 3601s"));
 }
@@ -98,7 +102,8 @@ TEST(ConfigErrors, priority_band_must_be_an_ordered_pair) {
   LoadResult a = parse("runtime: {priority_band: [40, 20]}\ntasks: [{program: a.fbd}]\n");
   EXPECT_TRUE(has_diag(a, 1, 26, "'priority_band' must have lo <= hi, got [40, 20]"));
   LoadResult b = parse("runtime: {priority_band: 40}\ntasks: [{program: a.fbd}]\n");
-  EXPECT_TRUE(has_diag(b, 1, 26, "'priority_band' expects a pair [lo, hi] of whole numbers, got '40'"));
+  EXPECT_TRUE(
+      has_diag(b, 1, 26, "'priority_band' expects a pair [lo, hi] of whole numbers, got '40'"));
   LoadResult c = parse("runtime: {priority_band: [1, 2, 3]}\ntasks: [{program: a.fbd}]\n");
   EXPECT_TRUE(has_diag(c, 1, 26, "got a list of 3"));
 }
@@ -127,7 +132,9 @@ TEST(ConfigErrors, duplicate_task_names) {
       "  - program: y/same.fbd\n");
   EXPECT_TRUE(has_diag(r, 3, 12, "task name 'loop' is already used by the task at line 2"));
   EXPECT_TRUE(has_diag(r, 2, 12, "first used here", Severity::kNote));
-  EXPECT_TRUE(has_diag(r, 5, 14, "task name 'same' is already used by the task at line 4; give this task its own 'name'"));
+  EXPECT_TRUE(has_diag(
+      r, 5, 14,
+      "task name 'same' is already used by the task at line 4; give this task its own 'name'"));
 }
 
 TEST(ConfigErrors, duplicate_driver_names) {
@@ -136,7 +143,9 @@ TEST(ConfigErrors, duplicate_driver_names) {
       "drivers:\n"
       "  - kind: sim\n"
       "  - kind: sim\n");
-  EXPECT_TRUE(has_diag(r, 4, 11, "driver name 'sim' is already used by the driver at line 3; give this driver its own 'name'"));
+  EXPECT_TRUE(has_diag(r, 4, 11,
+                       "driver name 'sim' is already used by the driver at line 3; give this "
+                       "driver its own 'name'"));
 }
 
 TEST(ConfigErrors, more_tasks_than_the_runtime_holds) {
@@ -170,9 +179,12 @@ TEST(ConfigErrors, bad_names) {
       "tasks:\n"
       "  - {name: a.b, program: a.fbd}\n"
       "  - program: my.loop.fbd\n");
-  EXPECT_TRUE(has_diag(r, 1, 17, "'name' must be 1 to 31 letters, digits, '_' or '-', got 'my plc'"));
+  EXPECT_TRUE(
+      has_diag(r, 1, 17, "'name' must be 1 to 31 letters, digits, '_' or '-', got 'my plc'"));
   EXPECT_TRUE(has_diag(r, 3, 12, "'name' must be 1 to 31"));
-  EXPECT_TRUE(has_diag(r, 4, 14, "this task needs a 'name': the program's file name 'my.loop' is not a valid task name"));
+  EXPECT_TRUE(has_diag(
+      r, 4, 14,
+      "this task needs a 'name': the program's file name 'my.loop' is not a valid task name"));
 }
 
 TEST(ConfigErrors, empty_value_points_at_its_key) {
@@ -186,7 +198,8 @@ TEST(ConfigErrors, empty_value_points_at_its_key) {
 }
 
 TEST(ConfigErrors, booleans_are_true_or_false) {
-  LoadResult r = parse("runtime:\n  lock_memory: yes\n  cpu_dma_latency: [true]\ntasks: [{program: a.fbd}]\n");
+  LoadResult r =
+      parse("runtime:\n  lock_memory: yes\n  cpu_dma_latency: [true]\ntasks: [{program: a.fbd}]\n");
   EXPECT_TRUE(has_diag(r, 2, 16, "'lock_memory' expects true or false, got 'yes'"));
   EXPECT_TRUE(has_diag(r, 3, 20, "'cpu_dma_latency' expects true or false, got a list"));
 }
@@ -239,8 +252,10 @@ TEST(ConfigErrors, unknown_driver_kind_lists_the_known_ones_and_nothing_else) {
       "  - kind: modbus\n"
       "    host: 10.0.0.2\n"
       "  - name: x\n");
-  EXPECT_TRUE(has_diag(r, 3, 11, "unknown driver kind 'modbus'; known kinds: sim"));
-  EXPECT_TRUE(has_diag(r, 5, 5, "a driver needs 'kind' (a driver kind (sim))"));
+  EXPECT_TRUE(
+      has_diag(r, 3, 11, "unknown driver kind 'modbus'; known kinds: " + known_driver_kinds()));
+  EXPECT_TRUE(
+      has_diag(r, 5, 5, "a driver needs 'kind' (a driver kind (" + known_driver_kinds() + "))"));
   // Keys of the unknown kind are not blamed: the kind is the mistake.
   EXPECT_EQ(r.diags.error_count(), 2u) << r.render();
 }
@@ -261,12 +276,16 @@ TEST(ConfigErrors, sim_plants) {
       "  - kind: sim\n"
       "    name: scalar\n"
       "    plants: second-order\n");
-  EXPECT_TRUE(has_diag(r, 5, 17, "bad plant model: unknown plant 'third-order'; choose one of "
-                                 "second-order, tf, fopdt, tank"));
+  EXPECT_TRUE(has_diag(r, 5, 17,
+                       "bad plant model: unknown plant 'third-order'; choose one of "
+                       "second-order, tf, fopdt, tank"));
   EXPECT_TRUE(has_diag(r, 6, 17, "bad plant model: fopdt needs T > 0"));
-  EXPECT_TRUE(has_diag(r, 7, 52, "choose one of second-order, tf, fopdt, tank; did you mean "
-                                 "'second-order'?"));
-  EXPECT_TRUE(has_diag(r, 7, 35, "'output' expects a channel address pN.dN.cN (p and d 0..255, c 0..65535), got 'x0.d0.c0'"));
+  EXPECT_TRUE(has_diag(r, 7, 52,
+                       "choose one of second-order, tf, fopdt, tank; did you mean "
+                       "'second-order'?"));
+  EXPECT_TRUE(has_diag(
+      r, 7, 35,
+      "'output' expects a channel address pN.dN.cN (p and d 0..255, c 0..65535), got 'x0.d0.c0'"));
   EXPECT_TRUE(has_diag(r, 8, 17, "'input' expects a channel address"));
   EXPECT_TRUE(has_diag(r, 11, 13, "'plants' needs at least 1 entry"));
   EXPECT_TRUE(has_diag(r, 14, 13, "'plants' expects a list of plant entries"));
@@ -319,7 +338,8 @@ TEST(ConfigErrors, text_that_stalls_the_yaml_parser_is_a_syntax_error) {
 TEST(ConfigErrors, empty_documents_and_odd_shapes) {
   EXPECT_TRUE(has_diag(parse(""), 1, 1, "the config is empty"));
   EXPECT_TRUE(has_diag(parse("# nothing\n"), 1, 1, "the config is empty"));
-  EXPECT_TRUE(has_diag(parse("- program: a.fbd\n"), 1, 1, "the config must be a map with a 'tasks:' list, got a list"));
+  EXPECT_TRUE(has_diag(parse("- program: a.fbd\n"), 1, 1,
+                       "the config must be a map with a 'tasks:' list, got a list"));
   EXPECT_TRUE(has_diag(parse("hello\n"), 1, 1, "got 'hello'"));
   LoadResult two = parse("tasks: [{program: a.fbd}]\n---\ntasks: [{program: b.fbd}]\n");
   EXPECT_TRUE(has_diag(two, 2, 1, "a config file holds one YAML document"));
