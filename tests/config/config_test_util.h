@@ -1,4 +1,4 @@
-// Helpers shared by the config tests: parse text without touching the disk, and
+// What the config tests share: parsing text without touching the disk, and
 // find a diagnostic by position and message.
 #pragma once
 
