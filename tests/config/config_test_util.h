@@ -1,5 +1,5 @@
 // What the config tests share: parsing text without touching the disk, and
-// find a diagnostic by position and message.
+// finding a diagnostic by position and message.
 #pragma once
 
 #include <gtest/gtest.h>
