@@ -12,6 +12,7 @@
 
 #include "app/commands.h"
 #include "io/process_image.h"
+#include "io/s7/engine.h"
 #include "kernel_rt/rt_kernel.h"
 #include "sched/stats_histfile.h"
 #include "sched/stats_render.h"
@@ -95,6 +96,24 @@ void run_monitor(const ViewArgs& a) {
                     static_cast<unsigned long long>(ti.swaps.load()),
                     static_cast<unsigned long long>(ti.block_errors.load()),
                     static_cast<unsigned long long>(ti.input_misses.load()));
+      out += line;
+    }
+    if (img.link_count() > 0) {
+      std::snprintf(line, sizeof line, "\n  %-14s %-22s %-10s %9s %9s %6s %6s %6s  %s\n", "plc", "address", "state",
+                    "rtt p50", "rtt p99", "recon", "tmout", "errors", "writes acked/failed/pending");
+      out += line;
+    }
+    for (uint32_t l = 0; l < img.link_count(); ++l) {
+      const io::LinkStatus& ls = img.link(l);
+      std::snprintf(line, sizeof line, "  %-14s %-22s %-10s %7uus %7uus %6llu %6llu %6llu  %llu/%llu/%llu\n", ls.name,
+                    ls.address, std::string(s7::plc_state_name(static_cast<s7::PlcState>(ls.state.load()))).c_str(),
+                    ls.rtt_p50_us.load(), ls.rtt_p99_us.load(),
+                    static_cast<unsigned long long>(ls.reconnects.load()),
+                    static_cast<unsigned long long>(ls.timeouts.load()),
+                    static_cast<unsigned long long>(ls.errors.load()),
+                    static_cast<unsigned long long>(ls.writes_acked.load()),
+                    static_cast<unsigned long long>(ls.writes_failed.load()),
+                    static_cast<unsigned long long>(ls.writes_pending.load()));
       out += line;
     }
     std::snprintf(line, sizeof line, "\n  %-20s %-9s %-24s %14s  %-7s %8s  %s\n", "label", "dir", "channel",

@@ -40,5 +40,6 @@ std::string known_driver_kinds();
 
 // The kinds' own tables (defined in driver_<kind>.cpp).
 extern const DriverKind kSimDriverKind;
+extern const DriverKind kS7DriverKind;
 
 }  // namespace rtplc::config

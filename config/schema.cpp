@@ -116,7 +116,7 @@ const SectionSpec& driver_section() {
 std::span<const DriverKind* const> driver_kinds() {
   // Pointers, not copies: the kinds live in their own files and this table must
   // be usable from any static initialiser.
-  static const DriverKind* const kKinds[] = {&kSimDriverKind};
+  static const DriverKind* const kKinds[] = {&kSimDriverKind, &kS7DriverKind};
   return kKinds;
 }
 
@@ -161,6 +161,10 @@ const char* type_name(ValueType t) {
       return "plant model";
     case ValueType::kDriverKind:
       return "word";
+    case ValueType::kText:
+      return "text";
+    case ValueType::kReal:
+      return "number";
   }
   return "";
 }
@@ -204,6 +208,10 @@ std::string describe_type(const KeySpec& k) {
       return "a plant spec such as second-order or fopdt:T=5,L=1";
     case ValueType::kDriverKind:
       return "a driver kind (" + known_driver_kinds() + ")";
+    case ValueType::kText:
+      return "a text";
+    case ValueType::kReal:
+      return "a number";
   }
   return "a value";
 }
@@ -245,6 +253,10 @@ std::string describe_allowed(const KeySpec& k) {
         s += (s.empty() ? "`" : ", `") + std::string(d->kind) + "`";
       return s;
     }
+    case ValueType::kText:
+      return k.choices ? k.choices : "";
+    case ValueType::kReal:
+      return "finite";
   }
   return "";
 }

@@ -26,6 +26,8 @@ enum class ValueType : uint8_t {
   kChannel,      // "pN.dN.cN"
   kPlantModel,   // a plant spec of io/plant.h make_plant()
   kDriverKind,   // a kind of config/driver_kinds.h
+  kText,         // a non-empty string whose syntax its kind checks (an S7 item, an IPv4 address)
+  kReal,         // a finite number
 };
 
 struct KeySpec {

@@ -97,7 +97,8 @@ Result<ProcessImage> ProcessImage::create(const ImageLayout& layout) {
   const uint64_t off_regions = off_channels + align64(uint64_t{layout.channel_capacity} * sizeof(ChannelDesc));
   const uint64_t off_tasks = off_regions + align64(layout.regions.size() * sizeof(RegionDesc));
   const uint64_t task_bytes = task_block_size(layout.task_stats_bytes);
-  uint64_t off = off_tasks + layout.n_tasks * task_bytes;
+  const uint64_t off_links = off_tasks + layout.n_tasks * task_bytes;
+  uint64_t off = off_links + align64(uint64_t{layout.n_links} * sizeof(LinkStatus));
   std::vector<uint64_t> ring_off;
   for (const auto& r : layout.regions) {
     ring_off.push_back(off);
@@ -154,6 +155,8 @@ Result<ProcessImage> ProcessImage::create(const ImageLayout& layout) {
   h.off_channels = off_channels;
   h.off_regions = off_regions;
   h.off_tasks = off_tasks;
+  h.n_links = layout.n_links;
+  h.off_links = off_links;
   timespec rt;
   clock_gettime(CLOCK_REALTIME, &rt);
   h.started_realtime_ns = int64_t{rt.tv_sec} * 1000000000 + rt.tv_nsec;
@@ -199,7 +202,8 @@ Result<ProcessImage> ProcessImage::attach(const std::string& name) {
                   h.n_channels <= h.channel_capacity &&
                   h.off_channels + uint64_t{h.channel_capacity} * sizeof(ChannelDesc) <= size &&
                   h.off_regions + uint64_t{h.n_regions} * sizeof(RegionDesc) <= size &&
-                  h.off_tasks + uint64_t{h.n_tasks} * task_block_size(h.task_stats_size) <= size;
+                  h.off_tasks + uint64_t{h.n_tasks} * task_block_size(h.task_stats_size) <= size &&
+                  h.off_links % 64 == 0 && h.off_links + uint64_t{h.n_links} * sizeof(LinkStatus) <= size;
   if (!ok) return make_error(img.object_ + " is not a process image this rtplc understands");
   for (uint32_t r = 0; r < h.n_regions; ++r) {
     const RegionDesc& rd = img.region(r);
@@ -228,6 +232,10 @@ RegionDesc& ProcessImage::region(uint32_t r) const {
 TaskInfo& ProcessImage::task_info(uint32_t task) const {
   return *reinterpret_cast<TaskInfo*>(static_cast<char*>(base_) + header().off_tasks +
                                       task * task_block_size(header().task_stats_size));
+}
+
+LinkStatus& ProcessImage::link(uint32_t i) const {
+  return reinterpret_cast<LinkStatus*>(static_cast<char*>(base_) + header().off_links)[i];
 }
 
 void* ProcessImage::task_stats(uint32_t task) const {

@@ -43,7 +43,7 @@
 namespace rtplc::io {
 
 inline constexpr char kProcessImageMagic[8] = {'R', 'T', 'P', 'L', 'C', 'S', 'H', 'M'};
-inline constexpr uint32_t kProcessImageVersion = 1;
+inline constexpr uint32_t kProcessImageVersion = 2;
 inline constexpr uint32_t kRingSlots = 4;
 inline constexpr size_t kLabelBytes = 32;
 
@@ -107,6 +107,9 @@ struct alignas(64) ImageHeader {
   uint64_t off_channels;
   uint64_t off_regions;
   uint64_t off_tasks;
+  uint32_t n_links;
+  uint32_t pad_links;
+  uint64_t off_links;
   int64_t started_realtime_ns;
   std::atomic<uint32_t> state;    // 0 starting, 1 running, 2 stopped
   char name[kLabelBytes];
@@ -131,6 +134,33 @@ struct alignas(64) TaskInfo {
   std::atomic<uint64_t> minor_faults;  // only counted in fault-check mode
   std::atomic<uint64_t> swap_overruns; // overruns of cycles that applied a swap (goal: 0)
 };
+// Per-link status of a driver that talks to remote peers (one per S7 PLC): what
+// `rtplc monitor` and `rtplc status` show. One writer (the driver's thread);
+// every field a reader uses is atomic.
+struct alignas(64) LinkStatus {
+  char name[kLabelBytes];     // the PLC's name
+  char driver[kLabelBytes];   // the driver's name
+  char address[48];           // "10.0.0.11:102"
+  std::atomic<uint8_t> state; // driver-specific; for S7: s7::PlcState
+  uint8_t pad[1];
+  std::atomic<uint16_t> pdu;
+  std::atomic<uint16_t> amq;
+  uint16_t pad2;
+  std::atomic<uint32_t> rtt_p50_us;
+  std::atomic<uint32_t> rtt_p99_us;
+  std::atomic<uint64_t> connects;
+  std::atomic<uint64_t> reconnects;
+  std::atomic<uint64_t> timeouts;
+  std::atomic<uint64_t> errors;
+  std::atomic<uint64_t> polls_completed;
+  std::atomic<uint64_t> polls_missed;
+  std::atomic<uint64_t> polls_offline;
+  std::atomic<uint64_t> writes_acked;
+  std::atomic<uint64_t> writes_failed;
+  std::atomic<uint64_t> writes_pending;
+  std::atomic<uint64_t> writes_rejected;
+};
+
 enum class TaskState : uint8_t { kStarting = 0, kRunning = 1, kStoppedWatchdog = 2, kStopped = 3 };
 const char* task_state_name(TaskState s);
 
@@ -185,6 +215,7 @@ struct ImageLayout {
   std::vector<Region> regions;
   uint32_t n_tasks = 0;
   size_t task_stats_bytes = 0;  // one opaque stats block per task (sched/jitter.h)
+  uint32_t n_links = 0;         // LinkStatus entries (S7 PLCs)
 };
 
 // A mapping of the process image: created (read-write) by the runtime, attached
@@ -213,6 +244,8 @@ class ProcessImage {
   RegionDesc& region(uint32_t r) const;
   uint32_t region_count() const { return header().n_regions; }
   TaskInfo& task_info(uint32_t task) const;
+  LinkStatus& link(uint32_t i) const;
+  uint32_t link_count() const { return header().n_links; }
   // The task's CycleStats block (task_stats_bytes, 64-byte aligned).
   void* task_stats(uint32_t task) const;
 

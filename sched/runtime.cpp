@@ -15,6 +15,7 @@
 #include "kernel_rt/clock.h"
 #include "kernel_rt/rt_kernel.h"
 #include "lang/compiler.h"
+#include "io/s7/engine.h"
 #include "sched/stats_source.h"
 
 namespace rtplc::sched {
@@ -188,8 +189,25 @@ bool Runtime::build_channels(const config::RuntimeConfig& cfg, LoadReport& repor
         ok = false;
       }
     }
+    size_t capacity = dc.plants.size();
+    if (const auto* s7 = std::any_cast<config::S7DriverSettings>(&dc.settings)) {
+      // era/erd channels this driver provides, in its read-map order.
+      for (size_t i = 0; i < s7->reads.size(); ++i) {
+        const config::S7ChannelMap& m = s7->reads[i];
+        const std::string key = "in/ETH/" + m.channel;
+        auto [it, fresh] = produced.emplace(
+            key, Produced{region, static_cast<uint32_t>(i), m.channel_pos, dc.name + "." + m.channel});
+        if (!fresh) {
+          cdiag.error(m.channel_pos, "input channel " + m.channel + " is already provided (line " +
+                                         std::to_string(it->second.pos.line) + ")");
+          ok = false;
+        }
+      }
+      capacity = s7->reads.size();
+      layout.n_links += static_cast<uint32_t>(s7->plcs.size());
+    }
     layout.regions.push_back({"driver:" + dc.name, io::RegionKind::kDriver, static_cast<uint32_t>(d),
-                              static_cast<uint32_t>(std::max<size_t>(dc.plants.size(), 1))});
+                              static_cast<uint32_t>(std::max<size_t>(capacity, 1))});
   }
   setpoint_region_ = static_cast<uint32_t>(layout.regions.size());
   layout.regions.push_back({"setpoints", io::RegionKind::kSetpoints, 0, 0});
@@ -290,6 +308,31 @@ bool Runtime::build_channels(const config::RuntimeConfig& cfg, LoadReport& repor
       }
     }
   }
+  // S7 items nobody reads still show in the monitor; S7 writes need a task's output.
+  for (size_t d = 0; d < cfg.drivers.size(); ++d) {
+    const config::DriverConfig& dc = cfg.drivers[d];
+    const auto* s7 = std::any_cast<config::S7DriverSettings>(&dc.settings);
+    if (s7 == nullptr) continue;
+    for (const config::S7ChannelMap& m : s7->reads) {
+      const std::string key = "in/ETH/" + m.channel;
+      if (channel_by_key_.count(key)) continue;
+      const Produced& pr = produced[key];
+      io::ChannelDesc desc{};
+      copy_label(desc.label, sizeof desc.label, pr.label);
+      copy_label(desc.key, sizeof desc.key, key);
+      desc.dir = static_cast<uint8_t>(io::ChannelDir::kInput);
+      desc.region = static_cast<uint16_t>(pr.region);
+      desc.index = pr.index;
+      channel_by_key_[key] = static_cast<uint32_t>(descs.size());
+      descs.push_back(desc);
+    }
+    for (const config::S7ChannelMap& m : s7->writes) {
+      if (!channel_by_key_.count("out/ETH/" + m.channel)) {
+        cdiag.error(m.channel_pos, "no task writes ewa/ewd " + m.channel + " to send to PLC " + m.plc);
+        ok = false;
+      }
+    }
+  }
   // Safe outputs name outputs of their own task.
   safe_outputs_.assign(n_tasks, {});
   for (size_t t = 0; t < n_tasks; ++t) {
@@ -386,8 +429,30 @@ bool Runtime::build_channels(const config::RuntimeConfig& cfg, LoadReport& repor
   }
 
   // 8. Drivers.
+  uint32_t next_link = 0;
   for (size_t d = 0; d < cfg.drivers.size(); ++d) {
     const config::DriverConfig& dc = cfg.drivers[d];
+    const int prio_d = dc.priority ? *dc.priority : std::min(cfg.band_hi + 1, config::kMaxFifoPriority);
+    if (const auto* s7 = std::any_cast<config::S7DriverSettings>(&dc.settings)) {
+      std::vector<S7WriteWiring> wiring;
+      for (const config::S7ChannelMap& m : s7->writes) {
+        const io::ChannelDesc& out = image_.channel(channel_by_key_.at("out/ETH/" + m.channel));
+        wiring.push_back({out.region, out.index});
+      }
+      // The engine thread only moves bytes: below every task, so it never delays one.
+      const int engine_prio = std::max(1, cfg.band_lo - 1);
+      auto drv = std::make_unique<S7Driver>(dc.name, image_, driver_regions_[d],
+                                            std::llround(dc.period_s * 1e9), prio_d, engine_prio,
+                                            dc.cpu ? static_cast<int>(*dc.cpu) : -1, *s7,
+                                            std::move(wiring), next_link);
+      next_link += static_cast<uint32_t>(s7->plcs.size());
+      if (auto r = drv->prepare(); !r) {
+        cdiag.error(dc.pos, r.error());
+        return false;
+      }
+      s7_drivers_.push_back(std::move(drv));
+      continue;
+    }
     std::vector<SimPlantWiring> wiring;
     for (size_t p = 0; p < dc.plants.size(); ++p) {
       auto plant = io::make_plant(dc.plants[p].model);
@@ -403,7 +468,6 @@ bool Runtime::build_channels(const config::RuntimeConfig& cfg, LoadReport& repor
       w.output_index = static_cast<uint32_t>(p);
       wiring.push_back(std::move(w));
     }
-    const int prio_d = dc.priority ? *dc.priority : std::min(cfg.band_hi + 1, config::kMaxFifoPriority);
     drivers_.push_back(std::make_unique<SimDriver>(
         dc.name, image_, driver_regions_[d], std::llround(dc.period_s * 1e9), prio_d,
         dc.cpu ? static_cast<int>(*dc.cpu) : -1, std::move(wiring)));
@@ -571,6 +635,12 @@ Result<std::vector<std::string>> Runtime::start() {
       return make_error(r.error());
     }
   }
+  for (auto& d : s7_drivers_) {
+    if (auto r = d->start(first); !r) {
+      stop();
+      return make_error(r.error());
+    }
+  }
   // Staggered releases: tasks never wake at the same instant, so one task's
   // wake-up and cycle do not add to another's latency on a shared CPU. The
   // phases spread over the shortest period, so each stays inside its own.
@@ -600,6 +670,10 @@ void Runtime::stop() {
   for (auto& t : tasks_) t->join();
   for (auto& d : drivers_) d->request_stop();
   for (auto& d : drivers_) d->join();
+  // Tasks have set their outputs safe: one last exchange sends those to the PLCs
+  // (S7Driver's thread ends after a final status publish; its engine stops with it).
+  for (auto& d : s7_drivers_) d->request_stop();
+  for (auto& d : s7_drivers_) d->join();
   if (image_.valid() && image_.writable()) image_.header().state.store(2, std::memory_order_release);
   started_ = false;
 }
@@ -716,10 +790,20 @@ Result<std::string> Runtime::rollback(const std::string& task) {
 
 std::string Runtime::status() const {
   std::string s = "runtime " + name_ + " (pid " + std::to_string(getpid()) + "), " +
-                  std::to_string(tasks_.size()) + " tasks, " + std::to_string(drivers_.size()) +
+                  std::to_string(tasks_.size()) + " tasks, " + std::to_string(drivers_.size() + s7_drivers_.size()) +
                   " drivers, " + std::to_string(image_.channel_count()) + " channels\n";
   s += "shared memory " + image_.object_name() + ", control socket " + socket_path_ +
        ", retain file " + retain_.path() + "\n";
+  for (uint32_t l = 0; l < image_.link_count(); ++l) {
+    const io::LinkStatus& ls = image_.link(l);
+    s += std::string("  plc ") + ls.name + " (" + ls.driver + ", " + ls.address + "): " +
+         std::string(s7::plc_state_name(static_cast<s7::PlcState>(ls.state.load()))) + ", rtt p50/p99 " +
+         std::to_string(ls.rtt_p50_us.load()) + "/" + std::to_string(ls.rtt_p99_us.load()) + " us, " +
+         std::to_string(ls.reconnects.load()) + " reconnects, " + std::to_string(ls.timeouts.load()) +
+         " timeouts, " + std::to_string(ls.errors.load()) + " errors, writes " +
+         std::to_string(ls.writes_acked.load()) + " acked / " + std::to_string(ls.writes_failed.load()) +
+         " failed / " + std::to_string(ls.writes_pending.load()) + " pending\n";
+  }
   for (const auto& t : tasks_) {
     const io::TaskInfo& ti = image_.task_info(t->index());
     const auto* st = static_cast<const CycleStats*>(image_.task_stats(t->index()));
@@ -745,6 +829,7 @@ std::vector<std::string> Runtime::describe() const {
                   (p.watchdog ? ", watchdog " + std::to_string(p.watchdog) : ""));
   }
   for (const auto& d : drivers_) out.push_back("driver " + d->name() + " (sim)");
+  for (const auto& d : s7_drivers_) out.push_back("driver " + d->name() + " (s7)");
   const double bound = liu_layland_bound(tasks_.size());
   out.push_back("Liu-Layland bound for " + std::to_string(tasks_.size()) + " tasks: " +
                 fmt(bound * 100) + "% utilisation");

@@ -22,6 +22,7 @@
 #include "io/process_image.h"
 #include "kernel_rt/rt_process.h"
 #include "sched/retain.h"
+#include "sched/s7_driver.h"
 #include "sched/sim_driver.h"
 #include "sched/stats_render.h"
 #include "sched/task.h"
@@ -113,6 +114,7 @@ class Runtime {
   bool cpu_dma_latency_ = true;
   std::vector<std::unique_ptr<Task>> tasks_;
   std::vector<std::unique_ptr<SimDriver>> drivers_;
+  std::vector<std::unique_ptr<S7Driver>> s7_drivers_;
   std::vector<std::unique_ptr<LoadedProgram>> previous_;   // per task, for rollback
   std::vector<std::unique_ptr<LoadedProgram>> graveyard_;  // retired, freed by reap()
   std::vector<std::vector<std::string>> task_output_keys_; // per task: region index -> channel key
