@@ -40,6 +40,66 @@ io::ProcessImage attach_or_fail(const std::string& name, const char* cmd) {
   return std::move(img).value();
 }
 
+// Per-PLC link lines under the task table: "L:" lines, like the task's "T:".
+std::string links_table(const io::ProcessImage& img) {
+  if (img.link_count() == 0) return "";
+  std::string out = "# S7 links: round-trip time p50/p99 in us; polls done/missed/offline; writes acked/failed/pending\n";
+  char line[320];
+  for (uint32_t l = 0; l < img.link_count(); ++l) {
+    const io::LinkStatus& ls = img.link(l);
+    std::snprintf(line, sizeof line,
+                  "L:%2u (%s) %s %s RTT: %u/%u Polls: %llu/%llu/%llu Recon: %llu Tmout: %llu Err: %llu "
+                  "Writes: %llu/%llu/%llu\n",
+                  l, ls.name, ls.address,
+                  std::string(s7::plc_state_name(static_cast<s7::PlcState>(ls.state.load()))).c_str(),
+                  ls.rtt_p50_us.load(), ls.rtt_p99_us.load(),
+                  static_cast<unsigned long long>(ls.polls_completed.load()),
+                  static_cast<unsigned long long>(ls.polls_missed.load()),
+                  static_cast<unsigned long long>(ls.polls_offline.load()),
+                  static_cast<unsigned long long>(ls.reconnects.load()),
+                  static_cast<unsigned long long>(ls.timeouts.load()),
+                  static_cast<unsigned long long>(ls.errors.load()),
+                  static_cast<unsigned long long>(ls.writes_acked.load()),
+                  static_cast<unsigned long long>(ls.writes_failed.load()),
+                  static_cast<unsigned long long>(ls.writes_pending.load()));
+    out += line;
+  }
+  return out;
+}
+
+// The same as a "links" array appended to the stats JSON object.
+std::string with_links_json(const io::ProcessImage& img, const std::string& json) {
+  const size_t close = json.find_last_of('}');
+  if (close == std::string::npos) return json;
+  std::string links = ",\n  \"links\": [";
+  char item[512];
+  for (uint32_t l = 0; l < img.link_count(); ++l) {
+    const io::LinkStatus& ls = img.link(l);
+    std::snprintf(item, sizeof item,
+                  "%s\n    {\"name\": \"%s\", \"driver\": \"%s\", \"address\": \"%s\", \"state\": \"%s\", "
+                  "\"rtt_p50_us\": %u, \"rtt_p99_us\": %u, \"polls_completed\": %llu, \"polls_missed\": %llu, "
+                  "\"polls_offline\": %llu, \"reconnects\": %llu, \"timeouts\": %llu, \"errors\": %llu, "
+                  "\"writes_acked\": %llu, \"writes_failed\": %llu, \"writes_pending\": %llu}",
+                  l ? "," : "", ls.name, ls.driver, ls.address,
+                  std::string(s7::plc_state_name(static_cast<s7::PlcState>(ls.state.load()))).c_str(),
+                  ls.rtt_p50_us.load(), ls.rtt_p99_us.load(),
+                  static_cast<unsigned long long>(ls.polls_completed.load()),
+                  static_cast<unsigned long long>(ls.polls_missed.load()),
+                  static_cast<unsigned long long>(ls.polls_offline.load()),
+                  static_cast<unsigned long long>(ls.reconnects.load()),
+                  static_cast<unsigned long long>(ls.timeouts.load()),
+                  static_cast<unsigned long long>(ls.errors.load()),
+                  static_cast<unsigned long long>(ls.writes_acked.load()),
+                  static_cast<unsigned long long>(ls.writes_failed.load()),
+                  static_cast<unsigned long long>(ls.writes_pending.load()));
+    links += item;
+  }
+  links += img.link_count() ? "\n  ]\n" : "]\n";
+  std::string out = json.substr(0, close);
+  while (!out.empty() && (out.back() == '\n' || out.back() == ' ')) out.pop_back();
+  return out + links + "}\n";
+}
+
 void run_stats(const ViewArgs& a) {
   io::ProcessImage img = attach_or_fail(a.name, "stats");
   for (;;) {
@@ -59,6 +119,7 @@ void run_stats(const ViewArgs& a) {
       }
     }
     std::string text = a.json ? sched::render_json(views, summary) : sched::render_table(views, summary);
+    text = a.json ? with_links_json(img, text) : text + links_table(img);
     if (a.watch > 0 && !a.json) std::fputs("\x1b[H\x1b[2J", stdout);
     std::fputs(text.c_str(), stdout);
     if (!a.hist.empty() && a.watch <= 0) {

@@ -155,7 +155,18 @@ bool Runtime::build_channels(const config::RuntimeConfig& cfg, LoadReport& repor
       continue;
     }
     const auto rank = std::lower_bound(distinct.begin(), distinct.end(), periods[t]) - distinct.begin();
-    prio[t] = std::max(cfg.band_lo, cfg.band_hi - static_cast<int>(rank));
+    int p = cfg.band_hi - static_cast<int>(rank);
+    // Rate-monotonic also against priorities the user set: never above a task
+    // with a shorter period, never below one with a longer period.
+    for (size_t u = 0; u < n_tasks; ++u) {
+      if (!cfg.tasks[u].priority) continue;
+      if (periods[u] < periods[t]) p = std::min(p, *cfg.tasks[u].priority - 1);
+    }
+    for (size_t u = 0; u < n_tasks; ++u) {
+      if (!cfg.tasks[u].priority) continue;
+      if (periods[u] > periods[t]) p = std::max(p, std::min(*cfg.tasks[u].priority + 1, cfg.band_hi));
+    }
+    prio[t] = std::clamp(p, cfg.band_lo, cfg.band_hi);
   }
 
   // 3. Regions: one per task's outputs, per driver, the set-points, unwired inputs.
