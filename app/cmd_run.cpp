@@ -3,7 +3,6 @@
 #include <CLI/CLI.hpp>
 #include <signal.h>
 #include <spdlog/spdlog.h>
-#include <sys/utsname.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -109,10 +108,7 @@ void run_runtime(const RunArgs& a) {
   rt->stop();
   if (!a.quiet) {
     auto views = rt->stats_views();
-    utsname u{};
-    uname(&u);
-    auto summary = sched::summarise(views, sched::runtime_uptime_ns(rt->image()),
-                                    kernel_rt::running_on_rt_kernel(), u.release);
+    auto summary = sched::summary_of(rt->image(), views);
     std::fputs(sched::render_table(views, summary).c_str(), stdout);
   }
 }

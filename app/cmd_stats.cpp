@@ -1,7 +1,6 @@
 // `rtplc stats` and `rtplc monitor`: read-only views of a running runtime, taken
 // straight from its shared process image (no socket, no effect on the tasks).
 #include <CLI/CLI.hpp>
-#include <sys/utsname.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -46,22 +45,13 @@ std::string links_table(const io::ProcessImage& img) {
   std::string out = "# S7 links: round-trip time p50/p99 in us; polls done/missed/offline; writes acked/failed/pending\n";
   char line[320];
   for (uint32_t l = 0; l < img.link_count(); ++l) {
-    const io::LinkStatus& ls = img.link(l);
+    const sched::LinkSnapshot s = sched::link_snapshot(img.link(l));
     std::snprintf(line, sizeof line,
                   "L:%2u (%s) %s %s RTT: %u/%u Polls: %llu/%llu/%llu Recon: %llu Tmout: %llu Err: %llu "
                   "Writes: %llu/%llu/%llu\n",
-                  l, ls.name, ls.address,
-                  std::string(s7::plc_state_name(static_cast<s7::PlcState>(ls.state.load()))).c_str(),
-                  ls.rtt_p50_us.load(), ls.rtt_p99_us.load(),
-                  static_cast<unsigned long long>(ls.polls_completed.load()),
-                  static_cast<unsigned long long>(ls.polls_missed.load()),
-                  static_cast<unsigned long long>(ls.polls_offline.load()),
-                  static_cast<unsigned long long>(ls.reconnects.load()),
-                  static_cast<unsigned long long>(ls.timeouts.load()),
-                  static_cast<unsigned long long>(ls.errors.load()),
-                  static_cast<unsigned long long>(ls.writes_acked.load()),
-                  static_cast<unsigned long long>(ls.writes_failed.load()),
-                  static_cast<unsigned long long>(ls.writes_pending.load()));
+                  l, s.name.c_str(), s.address.c_str(), s.state.c_str(), s.rtt_p50_us, s.rtt_p99_us,
+                  s.polls_completed, s.polls_missed, s.polls_offline, s.reconnects, s.timeouts, s.errors,
+                  s.writes_acked, s.writes_failed, s.writes_pending);
     out += line;
   }
   return out;
@@ -74,24 +64,15 @@ std::string with_links_json(const io::ProcessImage& img, const std::string& json
   std::string links = ",\n  \"links\": [";
   char item[512];
   for (uint32_t l = 0; l < img.link_count(); ++l) {
-    const io::LinkStatus& ls = img.link(l);
+    const sched::LinkSnapshot s = sched::link_snapshot(img.link(l));
     std::snprintf(item, sizeof item,
                   "%s\n    {\"name\": \"%s\", \"driver\": \"%s\", \"address\": \"%s\", \"state\": \"%s\", "
                   "\"rtt_p50_us\": %u, \"rtt_p99_us\": %u, \"polls_completed\": %llu, \"polls_missed\": %llu, "
                   "\"polls_offline\": %llu, \"reconnects\": %llu, \"timeouts\": %llu, \"errors\": %llu, "
                   "\"writes_acked\": %llu, \"writes_failed\": %llu, \"writes_pending\": %llu}",
-                  l ? "," : "", ls.name, ls.driver, ls.address,
-                  std::string(s7::plc_state_name(static_cast<s7::PlcState>(ls.state.load()))).c_str(),
-                  ls.rtt_p50_us.load(), ls.rtt_p99_us.load(),
-                  static_cast<unsigned long long>(ls.polls_completed.load()),
-                  static_cast<unsigned long long>(ls.polls_missed.load()),
-                  static_cast<unsigned long long>(ls.polls_offline.load()),
-                  static_cast<unsigned long long>(ls.reconnects.load()),
-                  static_cast<unsigned long long>(ls.timeouts.load()),
-                  static_cast<unsigned long long>(ls.errors.load()),
-                  static_cast<unsigned long long>(ls.writes_acked.load()),
-                  static_cast<unsigned long long>(ls.writes_failed.load()),
-                  static_cast<unsigned long long>(ls.writes_pending.load()));
+                  l ? "," : "", s.name.c_str(), s.driver.c_str(), s.address.c_str(), s.state.c_str(),
+                  s.rtt_p50_us, s.rtt_p99_us, s.polls_completed, s.polls_missed, s.polls_offline,
+                  s.reconnects, s.timeouts, s.errors, s.writes_acked, s.writes_failed, s.writes_pending);
     links += item;
   }
   links += img.link_count() ? "\n  ]\n" : "]\n";
@@ -104,14 +85,7 @@ void run_stats(const ViewArgs& a) {
   io::ProcessImage img = attach_or_fail(a.name, "stats");
   for (;;) {
     auto views = sched::read_task_stats(img);
-    std::string note;
-    for (const auto& v : views) {
-      if (v.policy != "FIFO") note = "tasks run SCHED_OTHER (no SCHED_FIFO privilege): latencies are not real-time";
-    }
-    utsname u{};
-    uname(&u);
-    auto summary = sched::summarise(views, sched::runtime_uptime_ns(img), kernel_rt::running_on_rt_kernel(),
-                                    u.release, note);
+    auto summary = sched::summary_of(img, views);
     if (!a.hist.empty()) {
       if (auto r = sched::write_hist_file(a.hist, views); !r) {
         std::fprintf(stderr, "rtplc stats: %s\n", r.error().c_str());
@@ -165,16 +139,10 @@ void run_monitor(const ViewArgs& a) {
       out += line;
     }
     for (uint32_t l = 0; l < img.link_count(); ++l) {
-      const io::LinkStatus& ls = img.link(l);
-      std::snprintf(line, sizeof line, "  %-14s %-22s %-10s %7uus %7uus %6llu %6llu %6llu  %llu/%llu/%llu\n", ls.name,
-                    ls.address, std::string(s7::plc_state_name(static_cast<s7::PlcState>(ls.state.load()))).c_str(),
-                    ls.rtt_p50_us.load(), ls.rtt_p99_us.load(),
-                    static_cast<unsigned long long>(ls.reconnects.load()),
-                    static_cast<unsigned long long>(ls.timeouts.load()),
-                    static_cast<unsigned long long>(ls.errors.load()),
-                    static_cast<unsigned long long>(ls.writes_acked.load()),
-                    static_cast<unsigned long long>(ls.writes_failed.load()),
-                    static_cast<unsigned long long>(ls.writes_pending.load()));
+      const sched::LinkSnapshot ls = sched::link_snapshot(img.link(l));
+      std::snprintf(line, sizeof line, "  %-14s %-22s %-10s %7uus %7uus %6llu %6llu %6llu  %llu/%llu/%llu\n",
+                    ls.name.c_str(), ls.address.c_str(), ls.state.c_str(), ls.rtt_p50_us, ls.rtt_p99_us,
+                    ls.reconnects, ls.timeouts, ls.errors, ls.writes_acked, ls.writes_failed, ls.writes_pending);
       out += line;
     }
     std::snprintf(line, sizeof line, "\n  %-20s %-9s %-24s %14s  %-7s %8s  %s\n", "label", "dir", "channel",

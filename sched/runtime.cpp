@@ -38,6 +38,19 @@ void copy_label(char* dst, size_t cap, const std::string& s) {
   std::memcpy(dst, s.data(), std::min(s.size(), cap - 1));
 }
 
+// A channel table entry; init and retain are set by the caller for set-points.
+io::ChannelDesc channel_desc(const std::string& label, const std::string& key, io::ChannelDir dir,
+                             uint8_t kind, uint32_t region, uint32_t index) {
+  io::ChannelDesc d{};
+  copy_label(d.label, sizeof d.label, label);
+  copy_label(d.key, sizeof d.key, key);
+  d.dir = static_cast<uint8_t>(dir);
+  d.kind = kind;
+  d.region = static_cast<uint16_t>(region);
+  d.index = index;
+  return d;
+}
+
 std::string read_file(const std::string& path) {
   std::string err;
   auto t = lang::read_text_file(path, &err);
@@ -257,20 +270,11 @@ bool Runtime::build_channels(const config::RuntimeConfig& cfg, LoadReport& repor
           continue;
         }
         task_output_keys_[t][b.io_index] = key;
-        io::ChannelDesc d{};
-        copy_label(d.label, sizeof d.label, label);
-        copy_label(d.key, sizeof d.key, key);
-        d.dir = static_cast<uint8_t>(io::ChannelDir::kOutput);
-        d.kind = static_cast<uint8_t>(b.kind);
-        d.region = static_cast<uint16_t>(t);
-        d.index = b.io_index;
         channel_by_key_[key] = static_cast<uint32_t>(descs.size());
-        descs.push_back(d);
+        descs.push_back(channel_desc(label, key, io::ChannelDir::kOutput, static_cast<uint8_t>(b.kind),
+                                     static_cast<uint32_t>(t), b.io_index));
       } else if (existing == channel_by_key_.end()) {
-        io::ChannelDesc d{};
-        copy_label(d.label, sizeof d.label, label);
-        copy_label(d.key, sizeof d.key, key);
-        d.kind = static_cast<uint8_t>(b.kind);
+        io::ChannelDesc d = channel_desc(label, key, io::ChannelDir::kInput, static_cast<uint8_t>(b.kind), 0, 0);
         if (b.dir == BindingDir::kSetpoint) {
           d.dir = static_cast<uint8_t>(io::ChannelDir::kSetpoint);
           d.region = static_cast<uint16_t>(setpoint_region_);
@@ -301,15 +305,9 @@ bool Runtime::build_channels(const config::RuntimeConfig& cfg, LoadReport& repor
     for (size_t p = 0; p < dc.plants.size(); ++p) {
       const std::string in_key = "in/DIO/" + dc.plants[p].output;
       if (!channel_by_key_.count(in_key)) {
-        io::ChannelDesc desc{};
         const Produced& pr = produced[in_key];
-        copy_label(desc.label, sizeof desc.label, pr.label);
-        copy_label(desc.key, sizeof desc.key, in_key);
-        desc.dir = static_cast<uint8_t>(io::ChannelDir::kInput);
-        desc.region = static_cast<uint16_t>(pr.region);
-        desc.index = pr.index;
         channel_by_key_[in_key] = static_cast<uint32_t>(descs.size());
-        descs.push_back(desc);
+        descs.push_back(channel_desc(pr.label, in_key, io::ChannelDir::kInput, 0, pr.region, pr.index));
       }
       const std::string out_key = "out/DIO/" + dc.plants[p].input;
       if (!channel_by_key_.count(out_key)) {
@@ -328,14 +326,8 @@ bool Runtime::build_channels(const config::RuntimeConfig& cfg, LoadReport& repor
       const std::string key = "in/ETH/" + m.channel;
       if (channel_by_key_.count(key)) continue;
       const Produced& pr = produced[key];
-      io::ChannelDesc desc{};
-      copy_label(desc.label, sizeof desc.label, pr.label);
-      copy_label(desc.key, sizeof desc.key, key);
-      desc.dir = static_cast<uint8_t>(io::ChannelDir::kInput);
-      desc.region = static_cast<uint16_t>(pr.region);
-      desc.index = pr.index;
       channel_by_key_[key] = static_cast<uint32_t>(descs.size());
-      descs.push_back(desc);
+      descs.push_back(channel_desc(pr.label, key, io::ChannelDir::kInput, 0, pr.region, pr.index));
     }
     for (const config::S7ChannelMap& m : s7->writes) {
       if (!channel_by_key_.count("out/ETH/" + m.channel)) {
@@ -527,14 +519,8 @@ Result<std::unique_ptr<LoadedProgram>> Runtime::make_program(uint32_t t, TaskIma
       if (image_.find_channel(label) >= 0) {
         return make_error("label \"" + label + "\" already names another channel");
       }
-      io::ChannelDesc d{};
-      copy_label(d.label, sizeof d.label, label);
-      copy_label(d.key, sizeof d.key, key);
-      d.dir = static_cast<uint8_t>(io::ChannelDir::kOutput);
-      d.kind = static_cast<uint8_t>(b.kind);
-      d.region = static_cast<uint16_t>(t);
-      d.index = b.io_index;
-      auto added = image_.add_channel(d);
+      auto added = image_.add_channel(
+          channel_desc(label, key, io::ChannelDir::kOutput, static_cast<uint8_t>(b.kind), t, b.io_index));
       if (!added) return make_error(added.error());
       channel_by_key_[key] = *added;
       if (out_keys.size() <= b.io_index) out_keys.resize(b.io_index + 1);
@@ -543,10 +529,7 @@ Result<std::unique_ptr<LoadedProgram>> Runtime::make_program(uint32_t t, TaskIma
     }
     if (it == channel_by_key_.end()) {
       // A new input or set-point (hot swap).
-      io::ChannelDesc d{};
-      copy_label(d.label, sizeof d.label, label);
-      copy_label(d.key, sizeof d.key, key);
-      d.kind = static_cast<uint8_t>(b.kind);
+      io::ChannelDesc d = channel_desc(label, key, io::ChannelDir::kInput, static_cast<uint8_t>(b.kind), 0, 0);
       if (image_.find_channel(label) >= 0) {
         return make_error("label \"" + label + "\" already names another channel");
       }
@@ -806,14 +789,12 @@ std::string Runtime::status() const {
   s += "shared memory " + image_.object_name() + ", control socket " + socket_path_ +
        ", retain file " + retain_.path() + "\n";
   for (uint32_t l = 0; l < image_.link_count(); ++l) {
-    const io::LinkStatus& ls = image_.link(l);
-    s += std::string("  plc ") + ls.name + " (" + ls.driver + ", " + ls.address + "): " +
-         std::string(s7::plc_state_name(static_cast<s7::PlcState>(ls.state.load()))) + ", rtt p50/p99 " +
-         std::to_string(ls.rtt_p50_us.load()) + "/" + std::to_string(ls.rtt_p99_us.load()) + " us, " +
-         std::to_string(ls.reconnects.load()) + " reconnects, " + std::to_string(ls.timeouts.load()) +
-         " timeouts, " + std::to_string(ls.errors.load()) + " errors, writes " +
-         std::to_string(ls.writes_acked.load()) + " acked / " + std::to_string(ls.writes_failed.load()) +
-         " failed / " + std::to_string(ls.writes_pending.load()) + " pending\n";
+    const LinkSnapshot ls = link_snapshot(image_.link(l));
+    s += "  plc " + ls.name + " (" + ls.driver + ", " + ls.address + "): " + ls.state + ", rtt p50/p99 " +
+         std::to_string(ls.rtt_p50_us) + "/" + std::to_string(ls.rtt_p99_us) + " us, " +
+         std::to_string(ls.reconnects) + " reconnects, " + std::to_string(ls.timeouts) + " timeouts, " +
+         std::to_string(ls.errors) + " errors, writes " + std::to_string(ls.writes_acked) + " acked / " +
+         std::to_string(ls.writes_failed) + " failed / " + std::to_string(ls.writes_pending) + " pending\n";
   }
   for (const auto& t : tasks_) {
     const io::TaskInfo& ti = image_.task_info(t->index());

@@ -6,6 +6,7 @@
 #include "io/s7/address.h"
 #include "io/s7/protocol.h"
 #include "kernel_rt/clock.h"
+#include "sched/periodic.h"
 
 namespace rtplc::sched {
 namespace {
@@ -120,13 +121,8 @@ Result<void> S7Driver::start(int64_t first_release_ns) {
   if (auto r = engine_.start(); !r) return make_error("driver " + name_ + ": " + r.error());
   started_engine_ = true;
   exchange(kernel_rt::monotonic_now_ns());  // channels exist (bad) before the first cycle
-  kernel_rt::ThreadSpec spec;
-  spec.name = "rtplc:s7";
-  spec.fifo_priority = priority_;
-  if (cpu_ >= 0) spec.cpu = static_cast<unsigned>(cpu_);
-  spec.prefault_stack = 128 * 1024;
-  auto t = kernel_rt::start_thread(spec, [this] { run(); });
-  if (!t) return make_error("driver " + name_ + ": " + t.error());
+  auto t = start_driver_thread(name_, "s7", priority_, cpu_, [this] { run(); });
+  if (!t) return make_error(t.error());
   thread_ = std::move(t).value();
   return {};
 }
@@ -218,8 +214,7 @@ void S7Driver::run() noexcept {
       publish_status();
       next_status = now + 250000000;
     }
-    release += period_ns_;
-    if (now > release) release += ((now - release) / period_ns_ + 1) * period_ns_;
+    release = next_release(release, period_ns_, now);
   }
   // Stopping: the tasks have set their outputs to their safe values. Send those,
   // and give the PLCs a moment to acknowledge them, so shutdown loses no write.

@@ -2,6 +2,7 @@
 #include "sched/sim_driver.h"
 
 #include "kernel_rt/clock.h"
+#include "sched/periodic.h"
 
 namespace rtplc::sched {
 
@@ -26,13 +27,8 @@ SimDriver::~SimDriver() {
 Result<void> SimDriver::start(int64_t first_release_ns) {
   first_release_ = first_release_ns;
   publish(kernel_rt::monotonic_now_ns());  // plants at rest are readable before the first cycle
-  kernel_rt::ThreadSpec spec;
-  spec.name = "rtplc:sim";
-  spec.fifo_priority = priority_;
-  if (cpu_ >= 0) spec.cpu = static_cast<unsigned>(cpu_);
-  spec.prefault_stack = 128 * 1024;
-  auto t = kernel_rt::start_thread(spec, [this] { run(); });
-  if (!t) return make_error("driver " + name_ + ": " + t.error());
+  auto t = start_driver_thread(name_, "sim", priority_, cpu_, [this] { run(); });
+  if (!t) return make_error(t.error());
   thread_ = std::move(t).value();
   fell_back_ = thread_.outcome().fell_back;
   return {};
@@ -69,10 +65,7 @@ void SimDriver::run() noexcept {
     const int64_t now = kernel_rt::monotonic_now_ns();
     cycles_.fetch_add(1, std::memory_order_relaxed);
     publish(now);
-    release += period_ns_;
-    if (now > release) {  // behind (a debugger, a stall): resume on the grid
-      release += ((now - release) / period_ns_ + 1) * period_ns_;
-    }
+    release = next_release(release, period_ns_, now);
   }
 }
 
