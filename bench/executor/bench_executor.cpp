@@ -144,9 +144,9 @@ void BM_Executor(benchmark::State& state) {
 // ... and the baseline x86-64 body, for machines without AVX2.
 void BM_ExecutorBaseline(benchmark::State& state) { run_executor(state, ExecutorBody::kBaseline); }
 
-BENCHMARK(BM_Executor)->Unit(benchmark::kMicrosecond)->MinTime(0.5);
-BENCHMARK(BM_ExecutorBaseline)->Unit(benchmark::kMicrosecond)->MinTime(0.5);
-BENCHMARK(BM_Reference)->Unit(benchmark::kMicrosecond)->MinTime(0.5);
+BENCHMARK(BM_Executor)->Unit(benchmark::kMicrosecond)->MinTime(0.3);
+BENCHMARK(BM_ExecutorBaseline)->Unit(benchmark::kMicrosecond)->MinTime(0.3);
+BENCHMARK(BM_Reference)->Unit(benchmark::kMicrosecond)->MinTime(0.3);
 BENCHMARK(BM_Compile)->Unit(benchmark::kMillisecond)->MinTime(1.0);
 
 // The two implementations must agree, or the comparison means nothing.
@@ -191,8 +191,12 @@ int main(int argc, char** argv) {
   std::vector<char*> args(argv, argv + argc);
   bool has_reps = false;
   for (char* a : args) has_reps |= std::strncmp(a, "--benchmark_repetitions", 23) == 0;
-  std::string reps = "--benchmark_repetitions=5";
+  std::string reps = "--benchmark_repetitions=9";
   if (!has_reps) args.push_back(reps.data());
+  // Repetitions of the executor and the reference alternate in random order, so
+  // drifts of the machine (frequency, a neighbour's load) hit both alike.
+  std::string interleave = "--benchmark_enable_random_interleaving=true";
+  args.push_back(interleave.data());
   int n = static_cast<int>(args.size());
   benchmark::Initialize(&n, args.data());
   if (!same_results(ExecutorBody::kBaseline) || !same_results(ExecutorBody::kAvx2)) {
@@ -206,7 +210,7 @@ int main(int argc, char** argv) {
   const double base = rep.ns_per_iter["BM_ExecutorBaseline"] / blocks;
   const double ref = rep.ns_per_iter["BM_Reference"] / blocks;
   const double compile_ms = rep.ns_per_iter["BM_Compile"] / 1e6;
-  std::printf("\n== rtplc executor vs hand-written C++ (%zu loops, %.0f blocks, %u runs, medians of 5) ==\n",
+  std::printf("\n== rtplc executor vs hand-written C++ (%zu loops, %.0f blocks, %u runs, medians of 9, interleaved) ==\n",
               kLoops, blocks, fixture().image.header().n_runs);
   std::printf("  executor        %7.3f ns/block  (%8.1f us per cycle, %s body)\n", exec,
               exec * blocks / 1e3, executor_variant());
