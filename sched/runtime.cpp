@@ -427,6 +427,7 @@ bool Runtime::build_channels(const config::RuntimeConfig& cfg, LoadReport& repor
                                                                      : OverrunPolicy::kSkip;
     p.watchdog = cfg.tasks[t].watchdog;
     p.count_faults = options_.count_faults;
+    p.back_to_back = options_.back_to_back;
     tasks_.push_back(std::make_unique<Task>(std::move(p), image_, t, t, setpoint_region_,
                                             std::move(prog).value()));
   }

@@ -31,6 +31,7 @@ namespace rtplc::sched {
 
 struct RuntimeOptions {
   bool count_faults = false;       // measure minor page faults per cycle (test mode)
+  bool back_to_back = false;       // benchmarks: tasks run cycles without sleeping
   bool lock_memory = true;         // overridden by the config's lock_memory: false
   std::string name_override;       // run under another name (tests run several at once)
   std::string socket_override;

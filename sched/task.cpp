@@ -120,7 +120,11 @@ void Task::run() noexcept {
   uint64_t cycle = 0;
   info_->state.store(static_cast<uint8_t>(io::TaskState::kRunning), std::memory_order_relaxed);
   while (!stop_.load(std::memory_order_relaxed)) {
-    kernel_rt::sleep_until_ns(release);
+    if (params_.back_to_back) {
+      release = kernel_rt::monotonic_now_ns();
+    } else {
+      kernel_rt::sleep_until_ns(release);
+    }
     const int64_t wake = kernel_rt::monotonic_now_ns();
     if (params_.count_faults) faults_before = kernel_rt::minor_faults_this_thread();
 

@@ -45,6 +45,9 @@ struct TaskParams {
   OverrunPolicy overrun = OverrunPolicy::kSkip;
   uint32_t watchdog = 0;  // consecutive overruns before stopping; 0 = never
   bool count_faults = false;  // measure minor faults per cycle (test mode: one syscall per cycle)
+  // Benchmarks only: run cycles back to back instead of sleeping to each
+  // release, so the runtime's own cost per cycle can be measured with warm caches.
+  bool back_to_back = false;
 };
 
 class Task {
