@@ -289,6 +289,13 @@ uint32_t ProcessImage::begin_write(uint32_t r) const noexcept {
   return k;
 }
 
+void ProcessImage::put(uint32_t r, uint32_t k, uint32_t index, double value, Quality q,
+                       int64_t timestamp_ns) const noexcept {
+  store_relaxed(values(r, k) + index, value);
+  __atomic_store_n(quality(r, k) + index, static_cast<uint8_t>(q), RTPLC_IMAGE_TSAN ? __ATOMIC_RELEASE : __ATOMIC_RELAXED);
+  __atomic_store_n(timestamps(r, k) + index, timestamp_ns, RTPLC_IMAGE_TSAN ? __ATOMIC_RELEASE : __ATOMIC_RELAXED);
+}
+
 void ProcessImage::end_write(uint32_t r, uint32_t k, int64_t now_ns, uint64_t cycle) const noexcept {
   SlotHeader& s = slot(r, k);
   s.written_ns.store(now_ns, std::memory_order_relaxed);

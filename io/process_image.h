@@ -261,8 +261,10 @@ class ProcessImage {
   uint8_t* quality(uint32_t r, uint32_t k) const;
   int64_t* timestamps(uint32_t r, uint32_t k) const;
 
-  // Writer side: the slot to fill next, and its publication.
+  // Writer side: the slot to fill next, one channel's value, quality and time
+  // into it, and its publication.
   uint32_t begin_write(uint32_t r) const noexcept;
+  void put(uint32_t r, uint32_t k, uint32_t index, double value, Quality q, int64_t timestamp_ns) const noexcept;
   void end_write(uint32_t r, uint32_t k, int64_t now_ns, uint64_t cycle) const noexcept;
 
   // Reader side: reads one channel consistently (unbounded retries: for tools).

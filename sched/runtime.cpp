@@ -594,14 +594,9 @@ Result<std::unique_ptr<LoadedProgram>> Runtime::make_program(uint32_t t, TaskIma
 
 void Runtime::publish_setpoints() {
   const uint32_t k = image_.begin_write(setpoint_region_);
-  double* v = image_.values(setpoint_region_, k);
-  uint8_t* q = image_.quality(setpoint_region_, k);
-  int64_t* ts = image_.timestamps(setpoint_region_, k);
   const int64_t now = kernel_rt::monotonic_now_ns();
   for (size_t i = 0; i < setpoint_values_.size(); ++i) {
-    io::store_relaxed(v + i, setpoint_values_[i]);
-    __atomic_store_n(q + i, static_cast<uint8_t>(io::Quality::kGood), __ATOMIC_RELEASE);
-    __atomic_store_n(ts + i, now, __ATOMIC_RELEASE);
+    image_.put(setpoint_region_, k, static_cast<uint32_t>(i), setpoint_values_[i], io::Quality::kGood, now);
   }
   image_.end_write(setpoint_region_, k, now, 0);
 }

@@ -134,14 +134,10 @@ void S7Driver::join() {
 void S7Driver::exchange(int64_t now) noexcept {
   // Reads: the engine's latest sample of every item, in one snapshot.
   const uint32_t k = image_.begin_write(region_);
-  double* v = image_.values(region_, k);
-  uint8_t* q = image_.quality(region_, k);
-  int64_t* ts = image_.timestamps(region_, k);
   for (const Read& r : reads_) {
     const s7::Sample s = engine_.read(r.item);
-    io::store_relaxed(v + r.index, s.value);  // a lost PLC's last value stays
-    __atomic_store_n(q + r.index, static_cast<uint8_t>(to_image(s.quality_at(now))), __ATOMIC_RELEASE);
-    __atomic_store_n(ts + r.index, s.timestamp_ns, __ATOMIC_RELEASE);
+    // A lost PLC's last value stays, with its quality saying so.
+    image_.put(region_, k, r.index, s.value, to_image(s.quality_at(now)), s.timestamp_ns);
   }
   image_.end_write(region_, k, now, 0);
 

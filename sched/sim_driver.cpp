@@ -40,13 +40,8 @@ void SimDriver::join() {
 
 void SimDriver::publish(int64_t now_ns) noexcept {
   const uint32_t k = image_.begin_write(region_);
-  double* v = image_.values(region_, k);
-  uint8_t* q = image_.quality(region_, k);
-  int64_t* ts = image_.timestamps(region_, k);
   for (const SimPlantWiring& p : plants_) {
-    io::store_relaxed(v + p.output_index, p.plant->output());
-    __atomic_store_n(q + p.output_index, static_cast<uint8_t>(io::Quality::kGood), __ATOMIC_RELEASE);
-    __atomic_store_n(ts + p.output_index, now_ns, __ATOMIC_RELEASE);
+    image_.put(region_, k, p.output_index, p.plant->output(), io::Quality::kGood, now_ns);
   }
   image_.end_write(region_, k, now_ns, cycles_.load(std::memory_order_relaxed));
 }
