@@ -4,15 +4,11 @@
 #include <string>
 
 #include "blocks/registry.h"
+#include "common/text.h"
 
 namespace rtplc {
 namespace {
 
-std::string num(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%g", v);
-  return buf;
-}
 
 std::string signature_text(const BlockSpec& b) {
   std::string s = b.has_output ? (b.out_kind == Kind::kAnalog ? "F<n> = " : "D<n> = ") : "";
@@ -59,10 +55,10 @@ std::string params_text(const BlockSpec& b) {
     if (k) s += "; ";
     s += std::string(p.name) + " = " + p.meaning;
     std::string range;
-    if (p.min > -1e299) range += (p.min_exclusive ? "> " : ">= ") + num(p.min);
-    if (p.max < 1e299) range += (range.empty() ? "<= " : ", <= ") + num(p.max);
+    if (p.min > -1e299) range += (p.min_exclusive ? "> " : ">= ") + format_number(p.min);
+    if (p.max < 1e299) range += (range.empty() ? "<= " : ", <= ") + format_number(p.max);
     if (p.integer) range += range.empty() ? "integer" : ", integer";
-    if (p.optional) range += (range.empty() ? "" : ", ") + std::string("default ") + num(p.default_value);
+    if (p.optional) range += (range.empty() ? "" : ", ") + std::string("default ") + format_number(p.default_value);
     if (!range.empty()) s += " (" + range + ")";
   }
   return s.empty() ? "-" : s;

@@ -3,6 +3,8 @@
 // FOPDT is a ring of past inputs at the integration step.
 #include "io/plant.h"
 
+#include "common/text.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -12,14 +14,9 @@
 namespace rtplc::io {
 namespace {
 
-std::string num(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%g", v);
-  return buf;
-}
 
 // x' = A x + B u, y = C x + D u with A in companion form, built from a proper
-// transfer function num(s)/den(s).
+// transfer function format_number(s)/den(s).
 class TransferFunction final : public Plant {
  public:
   TransferFunction(std::vector<double> num_c, std::vector<double> den_c)
@@ -85,7 +82,7 @@ class TransferFunction final : public Plant {
       if (!s.empty()) s += c[i] < 0 ? " - " : " + ";
       else if (c[i] < 0) s += "-";
       double a = std::fabs(c[i]);
-      if (a != 1 || p == 0) s += num(a);
+      if (a != 1 || p == 0) s += format_number(a);
       if (p >= 1) s += (a != 1 ? " s" : "s");
       if (p >= 2) s += "^" + std::to_string(p);
     }
@@ -131,7 +128,7 @@ class Fopdt final : public Plant {
   }
   double output() const override { return x_; }
   std::string describe() const override {
-    return num(k_) + " e^(-" + num(l_) + " s)/(" + num(t_) + " s + 1)";
+    return format_number(k_) + " e^(-" + format_number(l_) + " s)/(" + format_number(t_) + " s + 1)";
   }
 
  private:
@@ -148,7 +145,7 @@ class Tank final : public Plant {
   void step(double u, double h) override { h_ = std::clamp(h_ + h * (u - q_) / a_, 0.0, max_); }
   double output() const override { return h_; }
   std::string describe() const override {
-    return "tank: " + num(a_) + " dh/dt = u - " + num(q_) + ", 0 <= h <= " + num(max_);
+    return "tank: " + format_number(a_) + " dh/dt = u - " + format_number(q_) + ", 0 <= h <= " + format_number(max_);
   }
 
  private:

@@ -21,6 +21,7 @@
 #include <unordered_set>
 
 #include "common/capacities.h"
+#include "common/text.h"
 
 namespace rtplc::lang {
 namespace {
@@ -33,11 +34,6 @@ char macro_letter(Kind k) { return k == Kind::kAnalog ? 'M' : 'N'; }
 
 uint64_t id_key(Kind k, uint32_t n) { return (uint64_t{k == Kind::kDigital} << 32) | n; }
 
-std::string fmt_num(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%g", v);
-  return buf;
-}
 
 struct Binding {
   enum class What : uint8_t { kBlock, kAlias, kPoison };
@@ -105,7 +101,7 @@ class Checker {
     }
     if (!prog_.has_stime && !prog_.body.empty()) {
       diags_.note(SourcePos{}, "no stime(...) in the program: the task period defaults to " +
-                                   fmt_num(kDefaultPeriod) + " s");
+                                   format_number(kDefaultPeriod) + " s");
     }
     if (out_.blocks.size() > kMaxBlocks) {
       diags_.error(SourcePos{}, "the program expands to " + std::to_string(out_.blocks.size()) +
@@ -454,12 +450,12 @@ class Checker {
     std::string bound;
     if (ps.integer && out != std::floor(out)) bound = "a whole number";
     if (ps.min_exclusive ? !(out > ps.min) : !(out >= ps.min)) {
-      bound = ps.min_exclusive ? "greater than " + fmt_num(ps.min) : "at least " + fmt_num(ps.min);
+      bound = ps.min_exclusive ? "greater than " + format_number(ps.min) : "at least " + format_number(ps.min);
     }
-    if (!(out <= ps.max)) bound = "at most " + fmt_num(ps.max);
+    if (!(out <= ps.max)) bound = "at most " + format_number(ps.max);
     if (!bound.empty()) {
       diags_.error(a.pos, std::string("parameter '") + ps.name + "' (" + ps.meaning + ") of " +
-                              block + " must be " + bound + ", found " + fmt_num(out),
+                              block + " must be " + bound + ", found " + format_number(out),
                    a.length);
       return false;
     }
@@ -509,8 +505,8 @@ class Checker {
       b.params.push_back(v);
     }
     if (ok && all_known && std::string_view(sp.name) == "lim" && b.params[0] > b.params[1]) {
-      diags_.error(c.args[n_in].pos, "lim: lower limit " + fmt_num(b.params[0]) +
-                                         " is above the upper limit " + fmt_num(b.params[1]),
+      diags_.error(c.args[n_in].pos, "lim: lower limit " + format_number(b.params[0]) +
+                                         " is above the upper limit " + format_number(b.params[1]),
                    c.args[n_in].length);
       ok = false;
     }

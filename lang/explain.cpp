@@ -5,16 +5,12 @@
 #include <string>
 #include <vector>
 
+#include "common/text.h"
 #include "lang/compiler.h"
 
 namespace rtplc::lang {
 namespace {
 
-std::string num(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%g", v);
-  return buf;
-}
 
 std::string pad(std::string s, size_t w) {
   if (s.size() < w) s.append(w - s.size(), ' ');
@@ -23,7 +19,7 @@ std::string pad(std::string s, size_t w) {
 
 std::string bytes(size_t n) {
   if (n < 10 * 1024) return std::to_string(n) + " B";
-  return num(static_cast<double>(n) / 1024.0) + " KiB";
+  return format_number(static_cast<double>(n) / 1024.0) + " KiB";
 }
 
 }  // namespace
@@ -48,7 +44,7 @@ std::string explain(const CompileResult& r) {
        (p.macro_calls ? " (" + std::to_string(p.macro_calls) + " macro call" +
                             (p.macro_calls == 1 ? "" : "s") + " expanded)"
                       : "") +
-       ", period " + num(img.period_s()) + " s" +
+       ", period " + format_number(img.period_s()) + " s" +
        (p.period_from_stime ? " (stime, line " + std::to_string(p.stime_pos.line) + ")"
                             : " (default)"));
   line("");
@@ -66,10 +62,10 @@ std::string explain(const CompileResult& r) {
     if (b.spec->signature == Signature::kCompute) {
       for (size_t k = 0; k < b.params.size(); ++k) {
         if (k) prm += ", ";
-        prm += std::string(b.spec->params[k].name) + "=" + num(b.params[k]);
+        prm += std::string(b.spec->params[k].name) + "=" + format_number(b.params[k]);
       }
     } else if (b.spec->signature == Signature::kSetpoint) {
-      prm = "d" + std::to_string(b.d) + ".c" + std::to_string(b.c) + " init=" + num(b.init) +
+      prm = "d" + std::to_string(b.d) + ".c" + std::to_string(b.c) + " init=" + format_number(b.init) +
             " \"" + b.label + "\"";
     } else {
       prm = "p" + std::to_string(b.p) + ".d" + std::to_string(b.d) + ".c" + std::to_string(b.c) +
@@ -116,7 +112,7 @@ std::string explain(const CompileResult& r) {
                            : "p" + std::to_string(b.p) + ".d" + std::to_string(b.d) + ".c" +
                                  std::to_string(b.c);
     std::string label = std::string(img.str(b.label));
-    if (b.dir == BindingDir::kSetpoint) label += " =" + num(b.init);
+    if (b.dir == BindingDir::kSetpoint) label += " =" + format_number(b.init);
     line("  " + pad(dir, 9) + pad(group, 7) + pad(addr, 15) + pad(kind_name(b.kind), 9) +
          pad(label, 18) + std::to_string(b.line));
   }

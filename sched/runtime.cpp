@@ -12,6 +12,7 @@
 #include <thread>
 
 #include "common/capacities.h"
+#include "common/text.h"
 #include "kernel_rt/clock.h"
 #include "kernel_rt/rt_kernel.h"
 #include "lang/compiler.h"
@@ -25,25 +26,16 @@ constexpr uint32_t kSpareOutputs = 32;     // room for outputs a hot swap adds
 constexpr uint32_t kSpareSetpoints = 64;   // ... and set-points
 constexpr uint32_t kSpareUnwired = 64;     // ... and inputs no driver provides
 
-std::string fmt(double v) {
-  char b[32];
-  std::snprintf(b, sizeof b, "%g", v);
-  return b;
-}
 
-std::string fmt_ms(int64_t ns) { return fmt(static_cast<double>(ns) / 1e6) + " ms"; }
+std::string fmt_ms(int64_t ns) { return format_number(static_cast<double>(ns) / 1e6) + " ms"; }
 
-void copy_label(char* dst, size_t cap, const std::string& s) {
-  std::memset(dst, 0, cap);
-  std::memcpy(dst, s.data(), std::min(s.size(), cap - 1));
-}
 
 // A channel table entry; init and retain are set by the caller for set-points.
 io::ChannelDesc channel_desc(const std::string& label, const std::string& key, io::ChannelDir dir,
                              uint8_t kind, uint32_t region, uint32_t index) {
   io::ChannelDesc d{};
-  copy_label(d.label, sizeof d.label, label);
-  copy_label(d.key, sizeof d.key, key);
+  copy_text(d.label, sizeof d.label, label);
+  copy_text(d.key, sizeof d.key, key);
   d.dir = static_cast<uint8_t>(dir);
   d.kind = kind;
   d.region = static_cast<uint16_t>(region);
@@ -380,8 +372,8 @@ bool Runtime::build_channels(const config::RuntimeConfig& cfg, LoadReport& repor
   for (uint32_t t = 0; t < n_tasks; ++t) {
     new (image_.task_stats(t)) CycleStats();
     io::TaskInfo& ti = image_.task_info(t);
-    copy_label(ti.name, sizeof ti.name, cfg.tasks[t].name);
-    copy_label(ti.program, sizeof ti.program, cfg.tasks[t].program);
+    copy_text(ti.name, sizeof ti.name, cfg.tasks[t].name);
+    copy_text(ti.program, sizeof ti.program, cfg.tasks[t].program);
     ti.period_ns = periods[t];
     ti.priority = prio[t];
     ti.cpu = cfg.tasks[t].cpu ? static_cast<int32_t>(*cfg.tasks[t].cpu) : -1;
@@ -701,7 +693,7 @@ Result<std::string> Runtime::set_value(const std::string& label, double value) {
   }
   setpoint_values_[d.index] = value;
   publish_setpoints();
-  return label + " = " + fmt(value) + " (was " + fmt(before) + ")" +
+  return label + " = " + format_number(value) + " (was " + format_number(before) + ")" +
          (d.retain ? ", retained in " + retain_.path() : "");
 }
 
@@ -820,7 +812,7 @@ std::vector<std::string> Runtime::describe() const {
   for (const auto& d : s7_drivers_) out.push_back("driver " + d->name() + " (s7)");
   const double bound = liu_layland_bound(tasks_.size());
   out.push_back("Liu-Layland bound for " + std::to_string(tasks_.size()) + " tasks: " +
-                fmt(bound * 100) + "% utilisation");
+                format_number(bound * 100) + "% utilisation");
   return out;
 }
 

@@ -3,6 +3,7 @@
 
 #include <cstring>
 
+#include "common/text.h"
 #include "io/s7/address.h"
 #include "io/s7/protocol.h"
 #include "kernel_rt/clock.h"
@@ -20,10 +21,6 @@ io::Quality to_image(s7::Quality q) {
   return io::Quality::kBad;
 }
 
-void copy(char* dst, size_t cap, const std::string& s) {
-  std::memset(dst, 0, cap);
-  std::memcpy(dst, s.data(), std::min(s.size(), cap - 1));
-}
 
 }  // namespace
 
@@ -75,9 +72,9 @@ Result<void> S7Driver::prepare() {
     if (!id) return make_error("PLC " + pc.name + ": " + id.error());
     plcs_.push_back(*id);
     io::LinkStatus& ls = image_.link(first_link_ + static_cast<uint32_t>(i));
-    copy(ls.name, sizeof ls.name, pc.name);
-    copy(ls.driver, sizeof ls.driver, name_);
-    copy(ls.address, sizeof ls.address, pc.address + ":" + std::to_string(pc.port));
+    copy_text(ls.name, sizeof ls.name, pc.name);
+    copy_text(ls.driver, sizeof ls.driver, name_);
+    copy_text(ls.address, sizeof ls.address, pc.address + ":" + std::to_string(pc.port));
   }
   auto plc_index = [&](const std::string& plc) -> int {
     for (size_t i = 0; i < n; ++i) {

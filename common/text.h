@@ -1,0 +1,18 @@
+// Small text helpers shared by the compiler's messages, the docs generators, the
+// plant descriptions and the runtime's shared-memory tables.
+#pragma once
+
+#include <cstddef>
+#include <string>
+#include <string_view>
+
+namespace rtplc {
+
+// A number as a person writes it: "%g" (0.1, 50, 1e-06).
+std::string format_number(double v);
+
+// Copies `s` into a fixed, NUL-terminated field of `cap` bytes (truncating),
+// zero-filling the rest so no stale bytes reach shared memory.
+void copy_text(char* dst, size_t cap, std::string_view s);
+
+}  // namespace rtplc
