@@ -12,6 +12,7 @@
 #include <cstring>
 #include <sstream>
 
+#include "common/files.h"
 #include "kernel_rt/clock.h"
 #include "sched/runtime.h"
 
@@ -20,11 +21,6 @@ namespace {
 
 constexpr size_t kMaxLine = 4096;
 constexpr size_t kMaxSource = 64u << 20;  // the compiler refuses more anyway
-
-std::string folder_of(const std::string& path) {
-  const size_t slash = path.find_last_of('/');
-  return slash == std::string::npos ? "." : path.substr(0, slash);
-}
 
 bool send_all(int fd, const std::string& s) {
   size_t done = 0;
@@ -100,14 +96,7 @@ Result<void> ControlServer::start(const std::string& path) {
   sockaddr_un addr{};
   if (path.size() >= sizeof addr.sun_path) return make_error("control socket path too long: " + path);
   // Create the folder chain (e.g. /run/rtplc); the last folder is private.
-  const std::string dir = folder_of(path);
-  for (size_t i = 1; i <= dir.size(); ++i) {
-    if (i < dir.size() && dir[i] != '/') continue;
-    const std::string part = dir.substr(0, i);
-    if (mkdir(part.c_str(), i == dir.size() ? 0700 : 0755) != 0 && errno != EEXIST) {
-      return make_error("cannot create " + part + ": " + std::strerror(errno));
-    }
-  }
+  if (auto r = make_folders(folder_of(path), 0700, 0755); !r) return r;
   // A socket left by a dead runtime: connecting fails, so remove it. A live one
   // answers: then another runtime owns the name.
   if (access(path.c_str(), F_OK) == 0) {

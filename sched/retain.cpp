@@ -12,25 +12,10 @@
 #include <fstream>
 #include <sstream>
 
+#include "common/files.h"
+
 namespace rtplc::sched {
 namespace {
-
-std::string folder_of(const std::string& path) {
-  const size_t slash = path.find_last_of('/');
-  if (slash == std::string::npos) return ".";
-  return slash == 0 ? "/" : path.substr(0, slash);
-}
-
-Result<void> make_folders(const std::string& dir) {
-  if (dir.empty() || dir == "/" || dir == ".") return {};
-  struct stat st {};
-  if (stat(dir.c_str(), &st) == 0) return {};
-  if (auto r = make_folders(folder_of(dir)); !r) return r;
-  if (mkdir(dir.c_str(), 0750) != 0 && errno != EEXIST) {
-    return make_error("cannot create " + dir + ": " + std::strerror(errno));
-  }
-  return {};
-}
 
 bool write_all(int fd, const std::string& s) {
   size_t done = 0;
@@ -76,7 +61,7 @@ Result<void> RetainStore::load() {
 
 Result<void> RetainStore::save() const {
   const std::string dir = folder_of(path_);
-  if (auto r = make_folders(dir); !r) return r;
+  if (auto r = make_folders(dir, 0750, 0750); !r) return r;
   std::string text = "# rtplc retained values: LABEL VALUE per line, replaced atomically by the runtime\n";
   char buf[64];
   for (const auto& [label, v] : values_) {
