@@ -7,6 +7,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <ctime>
 #include <memory>
 #include <thread>
 
@@ -39,7 +40,16 @@ struct ClientArgs {
   std::string task;
   std::string file;
   bool rollback = false;
+  std::vector<std::string> drop_outputs;
 };
+
+// " drop=A,B" for the control request, "" when no output is to be dropped.
+std::string drop_word(const ClientArgs& a) {
+  if (a.drop_outputs.empty()) return "";
+  std::string w = " drop=";
+  for (size_t i = 0; i < a.drop_outputs.size(); ++i) w += (i ? "," : "") + a.drop_outputs[i];
+  return w;
+}
 
 std::string socket_for(const ClientArgs& a) {
   return a.socket.empty() ? sched::default_socket_path(a.name) : a.socket;
@@ -106,10 +116,15 @@ void run_runtime(const RunArgs& a) {
   }
   control.stop();
   rt->stop();
+  // What the drivers said while stopping (the last writes, links closing).
+  rt->tick([&a](bool error, const std::string& line) {
+    if (error) spdlog::error("{}", line);
+    else if (!a.quiet) spdlog::info("{}", line);
+  });
   if (!a.quiet) {
     auto views = rt->stats_views();
     auto summary = sched::summary_of(rt->image(), views);
-    std::fputs(sched::render_table(views, summary).c_str(), stdout);
+    std::fputs((sched::render_table(views, summary) + sched::render_links_table(rt->image())).c_str(), stdout);
   }
 }
 
@@ -122,7 +137,7 @@ void run_set(const ClientArgs& a) {
 void run_swap(const ClientArgs& a) {
   if (a.rollback) {
     if (a.task.empty()) fail("rtplc swap --rollback TASK", kExitUsage);
-    auto r = sched::control_request(socket_for(a), "rollback " + a.task);
+    auto r = sched::control_request(socket_for(a), "rollback " + a.task + drop_word(a));
     if (!r) fail("rtplc swap --rollback: " + r.error());
     std::fputs(r->c_str(), stdout);
     return;
@@ -142,7 +157,7 @@ void run_swap(const ClientArgs& a) {
     if (c == ' ' || c == '\n') c = '_';
   }
   auto r = sched::control_request(socket_for(a),
-                                  "swap " + a.task + " " + label + " " + std::to_string(text->size()),
+                                  "swap " + a.task + " " + label + " " + std::to_string(text->size()) + drop_word(a),
                                   *text, 60000);
   if (!r) fail("rtplc swap: " + r.error());
   std::fputs(r->c_str(), stdout);
@@ -150,7 +165,18 @@ void run_swap(const ClientArgs& a) {
 
 void run_simple(const ClientArgs& a, const char* verb) {
   auto r = sched::control_request(socket_for(a), verb);
-  if (!r) fail(std::string("rtplc ") + verb + ": " + r.error());
+  if (!r) {
+    // No answer: if the runtime left its image behind (kill -9, a crash), say
+    // that it died and when, rather than only that the socket is silent.
+    if (auto img = io::ProcessImage::attach(a.name); img.ok()) {
+      const io::Liveness live = img->liveness();
+      if (!live.alive) {
+        fail(std::string("rtplc ") + verb + ": " + sched::not_running_text(a.name, live) +
+             "; every channel in its image is stale");
+      }
+    }
+    fail(std::string("rtplc ") + verb + ": " + r.error());
+  }
   std::fputs(r->c_str(), stdout);
 }
 
@@ -200,6 +226,10 @@ void add_run_commands(CLI::App& app) {
   swap->add_option("task", cl->task, "task name");
   swap->add_option("file", cl->file, "new program (.fbd)");
   swap->add_flag("--rollback", cl->rollback, "go back to the task's previous code");
+  swap->add_option("--drop-output", cl->drop_outputs,
+                   "let the new code leave out this output (its label; repeatable): it goes to its\n"
+                   "safe value with bad quality and drivers stop sending it. Without it, a swap\n"
+                   "that leaves out an output is refused");
   add_client_options(swap, *cl);
   swap->callback([cl] { run_swap(*cl); });
 

@@ -7,8 +7,8 @@
 #include <memory>
 
 #include "app/commands.h"
-#include "io/plant.h"
-#include "io/sim_loop.h"
+#include "io/drivers/sim/plant.h"
+#include "sim/sim_loop.h"
 #include "lang/compiler.h"
 
 namespace rtplc::app {

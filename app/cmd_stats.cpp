@@ -6,12 +6,12 @@
 #include <chrono>
 #include <cstdio>
 #include <cstring>
+#include <ctime>
 #include <memory>
 #include <thread>
 
 #include "app/commands.h"
 #include "io/process_image.h"
-#include "io/s7/engine.h"
 #include "kernel_rt/rt_kernel.h"
 #include "sched/stats_histfile.h"
 #include "sched/stats_render.h"
@@ -39,46 +39,8 @@ io::ProcessImage attach_or_fail(const std::string& name, const char* cmd) {
   return std::move(img).value();
 }
 
-// Per-PLC link lines under the task table: "L:" lines, like the task's "T:".
-std::string links_table(const io::ProcessImage& img) {
-  if (img.link_count() == 0) return "";
-  std::string out = "# S7 links: round-trip time p50/p99 in us; polls done/missed/offline; writes acked/failed/pending\n";
-  char line[320];
-  for (uint32_t l = 0; l < img.link_count(); ++l) {
-    const sched::LinkSnapshot s = sched::link_snapshot(img.link(l));
-    std::snprintf(line, sizeof line,
-                  "L:%2u (%s) %s %s RTT: %u/%u Polls: %llu/%llu/%llu Recon: %llu Tmout: %llu Err: %llu "
-                  "Writes: %llu/%llu/%llu\n",
-                  l, s.name.c_str(), s.address.c_str(), s.state.c_str(), s.rtt_p50_us, s.rtt_p99_us,
-                  s.polls_completed, s.polls_missed, s.polls_offline, s.reconnects, s.timeouts, s.errors,
-                  s.writes_acked, s.writes_failed, s.writes_pending);
-    out += line;
-  }
-  return out;
-}
-
-// The same as a "links" array appended to the stats JSON object.
-std::string with_links_json(const io::ProcessImage& img, const std::string& json) {
-  const size_t close = json.find_last_of('}');
-  if (close == std::string::npos) return json;
-  std::string links = ",\n  \"links\": [";
-  char item[512];
-  for (uint32_t l = 0; l < img.link_count(); ++l) {
-    const sched::LinkSnapshot s = sched::link_snapshot(img.link(l));
-    std::snprintf(item, sizeof item,
-                  "%s\n    {\"name\": \"%s\", \"driver\": \"%s\", \"address\": \"%s\", \"state\": \"%s\", "
-                  "\"rtt_p50_us\": %u, \"rtt_p99_us\": %u, \"polls_completed\": %llu, \"polls_missed\": %llu, "
-                  "\"polls_offline\": %llu, \"reconnects\": %llu, \"timeouts\": %llu, \"errors\": %llu, "
-                  "\"writes_acked\": %llu, \"writes_failed\": %llu, \"writes_pending\": %llu}",
-                  l ? "," : "", s.name.c_str(), s.driver.c_str(), s.address.c_str(), s.state.c_str(),
-                  s.rtt_p50_us, s.rtt_p99_us, s.polls_completed, s.polls_missed, s.polls_offline,
-                  s.reconnects, s.timeouts, s.errors, s.writes_acked, s.writes_failed, s.writes_pending);
-    links += item;
-  }
-  links += img.link_count() ? "\n  ]\n" : "]\n";
-  std::string out = json.substr(0, close);
-  while (!out.empty() && (out.back() == '\n' || out.back() == ' ')) out.pop_back();
-  return out + links + "}\n";
+std::string not_running(const io::ProcessImage& img, const io::Liveness& l) {
+  return sched::not_running_text(img.header().name, l);
 }
 
 void run_stats(const ViewArgs& a) {
@@ -93,9 +55,16 @@ void run_stats(const ViewArgs& a) {
       }
     }
     std::string text = a.json ? sched::render_json(views, summary) : sched::render_table(views, summary);
-    text = a.json ? with_links_json(img, text) : text + links_table(img);
-    if (a.watch > 0 && !a.json) std::fputs("\x1b[H\x1b[2J", stdout);
+    text = a.json ? sched::with_links_json(img, text) : text + sched::render_links_table(img);
+    const io::Liveness live = img.liveness();
+    if (a.watch > 0 && !a.json && isatty(STDOUT_FILENO)) std::fputs("\x1b[H\x1b[2J", stdout);
+    if (!live.alive && !a.json) text = "# " + not_running(img, live) + "; these are its last figures\n" + text;
     std::fputs(text.c_str(), stdout);
+    if (!live.alive) {
+      std::fflush(stdout);
+      std::fprintf(stderr, "rtplc stats: %s\n", not_running(img, live).c_str());
+      throw CLI::RuntimeError(kExitFailure);
+    }
     if (!a.hist.empty() && a.watch <= 0) {
       std::printf("# histogram written to %s (scripts/plot-jitter %s draws it)\n", a.hist.c_str(),
                   a.hist.c_str());
@@ -103,7 +72,7 @@ void run_stats(const ViewArgs& a) {
     std::fflush(stdout);
     if (a.watch <= 0) return;
     std::this_thread::sleep_for(std::chrono::duration<double>(a.watch));
-    if (img.header().state.load() == 2) return;
+
   }
 }
 
@@ -121,28 +90,35 @@ void run_monitor(const ViewArgs& a) {
     std::string out;
     char line[256];
     const io::ImageHeader& h = img.header();
-    std::snprintf(line, sizeof line, "runtime %s (pid %d), %u channels, %u tasks%s\n", h.name, h.pid,
-                  h.n_channels, h.n_tasks, h.state.load() == 2 ? ", STOPPED" : "");
-    out += line;
+    const io::Liveness live = img.liveness();
+    if (live.alive) {
+      std::snprintf(line, sizeof line, "runtime %s (pid %d), %u channels, %u tasks\n", h.name, h.pid,
+                    img.channel_count(), h.n_tasks);
+      out += line;
+    } else {
+      // Nothing here is current any more: every value is shown stale.
+      out += "NOT RUNNING: " + not_running(img, live) + "\n";
+    }
     for (uint32_t t = 0; t < h.n_tasks; ++t) {
       const io::TaskInfo& ti = img.task_info(t);
       std::snprintf(line, sizeof line, "  task %-12s %-20s swaps %llu, block errors %llu, input misses %llu\n",
-                    ti.name, io::task_state_name(static_cast<io::TaskState>(ti.state.load())),
+                    ti.name, live.alive ? io::task_state_name(static_cast<io::TaskState>(ti.state.load())) : "not running",
                     static_cast<unsigned long long>(ti.swaps.load()),
                     static_cast<unsigned long long>(ti.block_errors.load()),
                     static_cast<unsigned long long>(ti.input_misses.load()));
       out += line;
     }
     if (img.link_count() > 0) {
-      std::snprintf(line, sizeof line, "\n  %-14s %-22s %-10s %9s %9s %6s %6s %6s  %s\n", "plc", "address", "state",
-                    "rtt p50", "rtt p99", "recon", "tmout", "errors", "writes acked/failed/pending");
+      std::snprintf(line, sizeof line, "\n  %-14s %-6s %-22s %-10s %9s %9s %6s %6s %6s  %s\n", "link", "kind",
+                    "peer", "state", "rtt p50", "rtt p99", "recon", "tmout", "errors", "writes acked/failed/pending");
       out += line;
     }
     for (uint32_t l = 0; l < img.link_count(); ++l) {
       const sched::LinkSnapshot ls = sched::link_snapshot(img.link(l));
-      std::snprintf(line, sizeof line, "  %-14s %-22s %-10s %7uus %7uus %6llu %6llu %6llu  %llu/%llu/%llu\n",
-                    ls.name.c_str(), ls.address.c_str(), ls.state.c_str(), ls.rtt_p50_us, ls.rtt_p99_us,
-                    ls.reconnects, ls.timeouts, ls.errors, ls.writes_acked, ls.writes_failed, ls.writes_pending);
+      std::snprintf(line, sizeof line, "  %-14s %-6s %-22s %-10s %7uus %7uus %6llu %6llu %6llu  %llu/%llu/%llu\n",
+                    ls.name.c_str(), ls.kind.c_str(), ls.peer.c_str(), live.alive ? ls.state.c_str() : "unknown",
+                    ls.rtt_p50_us, ls.rtt_p99_us, ls.reconnects, ls.timeouts, ls.errors, ls.writes_acked,
+                    ls.writes_failed, ls.writes_pending);
       out += line;
     }
     std::snprintf(line, sizeof line, "\n  %-20s %-9s %-24s %14s  %-7s %8s  %s\n", "label", "dir", "channel",
@@ -161,14 +137,18 @@ void run_monitor(const ViewArgs& a) {
       const bool unwired = r.kind == static_cast<uint8_t>(io::RegionKind::kUnwired);
       std::snprintf(line, sizeof line, "  %-20s %-9s %-24s %14s  %-7s %8s  %s\n", d.label, dir, d.key,
                     fmt_value(v.value, d.kind).c_str(),
-                    unwired ? "bad" : v.fresh ? io::quality_name(v.quality) : "-", age,
+                    !live.alive ? "stale" : unwired ? "bad" : v.fresh ? quality_name(v.quality) : "-", age,
                     unwired ? "(no driver)" : r.name);
       out += line;
     }
     if (tty) std::fputs("\x1b[H\x1b[2J", stdout);
     std::fputs(out.c_str(), stdout);
     std::fflush(stdout);
-    if (a.once || h.state.load() == 2) return;
+    if (!live.alive) {
+      std::fprintf(stderr, "rtplc monitor: %s\n", not_running(img, live).c_str());
+      throw CLI::RuntimeError(kExitFailure);
+    }
+    if (a.once) return;
     std::this_thread::sleep_for(std::chrono::duration<double>(a.interval));
   }
 }

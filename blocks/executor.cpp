@@ -15,6 +15,7 @@
 #include "blocks/executor.h"
 
 #include <algorithm>
+#include <atomic>
 #include <bit>
 #include <cfloat>
 #include <cmath>

@@ -2,6 +2,7 @@
 // start-up by executor.cpp when the CPU has AVX2; results are bit-identical to
 // the baseline body (no FMA, no contraction).
 #include <algorithm>
+#include <atomic>
 #include <bit>
 #include <cfloat>
 #include <cmath>

@@ -34,15 +34,17 @@ uint64_t fnv1a64(std::string_view s) {
   return h;
 }
 
-std::string binding_key(const Binding& b) {
-  std::string k = b.dir == BindingDir::kInput ? "in/" : b.dir == BindingDir::kOutput ? "out/" : "sp/";
-  k += io_group_name(b.group);
-  if (b.device != 0) k += b.device;
+std::string channel_key(BindingDir dir, IoGroup group, char device, uint32_t p, uint32_t d, uint32_t c) {
+  std::string k = dir == BindingDir::kInput ? "in/" : dir == BindingDir::kOutput ? "out/" : "sp/";
+  k += io_group_name(group);
+  if (device != 0) k += device;
   k += '/';
-  if (b.dir != BindingDir::kSetpoint) k += "p" + std::to_string(b.p) + ".";
-  k += "d" + std::to_string(b.d) + ".c" + std::to_string(b.c);
+  if (dir != BindingDir::kSetpoint) k += "p" + std::to_string(p) + ".";
+  k += "d" + std::to_string(d) + ".c" + std::to_string(c);
   return k;
 }
+
+std::string binding_key(const Binding& b) { return channel_key(b.dir, b.group, b.device, b.p, b.d, b.c); }
 
 uint32_t ImageBuilder::add_string(std::string_view s) {
   auto it = interned_.find(std::string(s));

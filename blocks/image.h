@@ -222,5 +222,8 @@ uint64_t fnv1a64(std::string_view s);
 // "in/DIO/p0.d0.c0", "out/PLCY/p1.d0.c3", "sp/SETP/d0.c2". The direction is part of
 // it: an input and an output at one address are two channels.
 std::string binding_key(const Binding& b);
+// The same key from its parts, for drivers that name channels without a
+// Binding (`device` 0 when the group has none).
+std::string channel_key(BindingDir dir, IoGroup group, char device, uint32_t p, uint32_t d, uint32_t c);
 
 }  // namespace rtplc

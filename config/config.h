@@ -34,9 +34,8 @@ inline constexpr double kMaxPeriod = 3600;
 inline constexpr uint32_t kDefaultStopWatchdog = 3;
 inline constexpr uint32_t kMaxWatchdog = 1000000;
 inline constexpr unsigned kMaxCpu = 1023;  // CPU_SETSIZE - 1
-inline constexpr const char* kDefaultPlantModel = "second-order";
-inline constexpr const char* kDefaultPlantChannel = "p0.d0.c0";
 
+// What a late cycle does (one definition for the config and the scheduler).
 enum class OverrunPolicy : uint8_t {
   kSkip,  // missed releases are skipped and counted; the task goes on
   kStop,  // the watchdog stops the task after N consecutive overruns
@@ -69,18 +68,6 @@ struct TaskConfig {
   std::vector<SafeOutput> safe_outputs;
 };
 
-// A simulated plant of the `sim` driver: driven by one dao channel, measured by
-// one dai channel.
-struct SimPlantConfig {
-  std::string model = kDefaultPlantModel;     // io/plant.h make_plant() spec, already validated
-  std::string input = kDefaultPlantChannel;   // canonical "pN.dN.cN" of the dao channel
-  std::string output = kDefaultPlantChannel;  // canonical "pN.dN.cN" of the dai channel
-  ChannelAddress input_addr;
-  ChannelAddress output_addr;
-  SourcePos pos;  // the plant's entry (or the driver's, for the default plant)
-  SourcePos model_pos, input_pos, output_pos;
-};
-
 struct DriverConfig {
   std::string kind;  // "sim"; see config/driver_kinds.h for the known ones
   std::string name;  // given, or the kind
@@ -93,9 +80,9 @@ struct DriverConfig {
   SourcePos priority_pos;
   std::optional<unsigned> cpu;
   SourcePos cpu_pos;
-  std::vector<SimPlantConfig> plants;  // kind "sim"
-  // Settings of kinds other than sim, as the kind's own plain struct (no YAML):
-  // e.g. std::any_cast<const ModbusDriverConfig>(&d.settings). Empty for sim.
+  // The kind's own settings, as the kind's own plain struct (no YAML), made by
+  // its parser and read only by its own code: e.g. the sim driver's
+  // std::any_cast<const sim::Settings>(&d.settings).
   std::any settings;
 };
 

@@ -4,6 +4,7 @@
 // can in one pass, never throws and never reads the FBD programs (the runtime
 // compiles them); at most it checks that they exist.
 #include <algorithm>
+#include <map>
 #include <exception>
 #include <filesystem>
 #include <fstream>
@@ -309,20 +310,20 @@ void cross_check(YamlReader& r, std::string_view source, RuntimeConfig& cfg,
                 w(d.priority_pos));
     }
   }
-  // One dai channel has one source: two plants feeding it would race.
-  std::vector<const SimPlantConfig*> all;
+  // One input channel has one source: two drivers (or two plants of one)
+  // providing it would race.
+  std::map<std::string, SourcePos> provided;
   for (const DriverConfig& d : cfg.drivers) {
-    for (const SimPlantConfig& p : d.plants) all.push_back(&p);
-  }
-  for (size_t i = 0; i < all.size(); ++i) {
-    for (size_t j = 0; j < i; ++j) {
-      if (all[j]->output_addr != all[i]->output_addr) continue;
-      r.error(all[i]->output_pos,
-              "dai channel " + all[i]->output + " is already fed by the plant at " +
-                  line_of(all[j]->output_pos) + "; each dai channel has one plant",
-              w(all[i]->output_pos));
-      r.note(all[j]->output_pos, "first fed here", w(all[j]->output_pos));
-      break;
+    const DriverKind* kind = find_driver_kind(d.kind);
+    if (kind == nullptr || kind->claims == nullptr) continue;
+    for (const ChannelClaim& c : kind->claims(d).provides) {
+      auto [it, fresh] = provided.emplace(c.key, c.pos);
+      if (fresh) continue;
+      r.error(c.pos,
+              "input channel " + c.key + " is already provided at " + line_of(it->second) +
+                  "; each input channel has one source",
+              w(c.pos));
+      r.note(it->second, "first provided here", w(it->second));
     }
   }
   if (options.check_program_files) {

@@ -4,6 +4,7 @@
 #include "config/schema.h"
 
 #include <cstdio>
+#include <vector>
 
 #include "common/capacities.h"
 #include "config/config.h"
@@ -113,12 +114,23 @@ const SectionSpec& driver_section() {
   return kDriver;
 }
 
-std::span<const DriverKind* const> driver_kinds() {
-  // Pointers, not copies: the kinds live in their own files and this table must
-  // be usable from any static initialiser.
-  static const DriverKind* const kKinds[] = {&kSimDriverKind, &kS7DriverKind};
-  return kKinds;
+namespace {
+// Constructed on first use, so registration from other files' static
+// initialisers is safe whatever their order.
+std::vector<const DriverKind*>& kind_table() {
+  static std::vector<const DriverKind*> kinds;
+  return kinds;
 }
+}  // namespace
+
+void register_driver_kind(const DriverKind* kind) {
+  for (const DriverKind* k : kind_table()) {
+    if (std::string_view(k->kind) == kind->kind) return;
+  }
+  kind_table().push_back(kind);
+}
+
+std::span<const DriverKind* const> driver_kinds() { return kind_table(); }
 
 const DriverKind* find_driver_kind(std::string_view kind) {
   for (const DriverKind* d : driver_kinds()) {

@@ -10,7 +10,10 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdlib>
 #include <cstring>
+
+#include "kernel_rt/clock.h"
 
 namespace rtplc::io {
 namespace {
@@ -29,14 +32,44 @@ std::string errno_text(int e) { return std::strerror(e); }
 
 bool pid_alive(pid_t pid) { return pid > 0 && (kill(pid, 0) == 0 || errno == EPERM); }
 
+// Field 22 of /proc/PID/stat: when the process started, in clock ticks since
+// boot. With the pid it names one process for the life of the machine: a pid
+// reused by another process after the runtime died has another start time.
+uint64_t process_start_ticks(pid_t pid) {
+  const std::string path = "/proc/" + std::to_string(pid) + "/stat";
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return 0;
+  char buf[1024];
+  const ssize_t n = ::read(fd, buf, sizeof buf - 1);
+  ::close(fd);
+  if (n <= 0) return 0;
+  buf[n] = '\0';
+  // The command name (field 2) is in parentheses and may hold spaces: count
+  // fields from the last ')'.
+  const char* p = std::strrchr(buf, ')');
+  if (p == nullptr) return 0;
+  int field = 2;
+  while (*p != '\0' && field < 22) {
+    if (*p == ' ') ++field;
+    ++p;
+  }
+  return field == 22 ? std::strtoull(p, nullptr, 10) : 0;
+}
+
+int64_t realtime_now_ns() {
+  timespec ts;
+  clock_gettime(CLOCK_REALTIME, &ts);
+  return int64_t{ts.tv_sec} * 1000000000 + ts.tv_nsec;
+}
+
 }  // namespace
 
-const char* quality_name(Quality q) {
-  switch (q) {
-    case Quality::kGood: return "good";
-    case Quality::kStale: return "stale";
-    case Quality::kBad: return "bad";
-    case Quality::kForced: return "forced";
+const char* link_state_name(LinkState s) {
+  switch (s) {
+    case LinkState::kUnused: return "unused";
+    case LinkState::kDown: return "down";
+    case LinkState::kConnecting: return "connecting";
+    case LinkState::kUp: return "up";
   }
   return "?";
 }
@@ -52,10 +85,7 @@ const char* task_state_name(TaskState s) {
 }
 
 double age_s(int64_t monotonic_ns) {
-  timespec ts;
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  const int64_t now = int64_t{ts.tv_sec} * 1000000000 + ts.tv_nsec;
-  return static_cast<double>(now - monotonic_ns) / 1e9;
+  return static_cast<double>(kernel_rt::monotonic_now_ns() - monotonic_ns) / 1e9;
 }
 
 ProcessImage::ProcessImage(ProcessImage&& o) noexcept { *this = std::move(o); }
@@ -112,7 +142,7 @@ Result<ProcessImage> ProcessImage::create(const ImageLayout& layout) {
   if (fd < 0 && errno == EEXIST) {
     // Left by a runtime that died (kill -9, power loss)? Reuse the name only then.
     Result<ProcessImage> old = attach(layout.name);
-    if (old.ok() && pid_alive(old->header().pid) && old->header().pid != getpid()) {
+    if (old.ok() && old->header().pid != getpid() && old->liveness().alive) {
       return make_error("a runtime named '" + layout.name + "' is already running (pid " +
                         std::to_string(old->header().pid) + "); stop it or choose another runtime name");
     }
@@ -148,6 +178,7 @@ Result<ProcessImage> ProcessImage::create(const ImageLayout& layout) {
   h.header_size = sizeof(ImageHeader);
   h.total_size = total;
   h.pid = getpid();
+  h.owner_start_ticks = process_start_ticks(getpid());
   h.channel_capacity = layout.channel_capacity;
   h.n_regions = static_cast<uint32_t>(layout.regions.size());
   h.n_tasks = layout.n_tasks;
@@ -157,9 +188,8 @@ Result<ProcessImage> ProcessImage::create(const ImageLayout& layout) {
   h.off_tasks = off_tasks;
   h.n_links = layout.n_links;
   h.off_links = off_links;
-  timespec rt;
-  clock_gettime(CLOCK_REALTIME, &rt);
-  h.started_realtime_ns = int64_t{rt.tv_sec} * 1000000000 + rt.tv_nsec;
+  h.started_realtime_ns = realtime_now_ns();
+  img.beat();
   std::strncpy(h.name, layout.name.c_str(), kLabelBytes - 1);
   uint64_t hash = 1469598103934665603ull;
   for (size_t i = 0; i < layout.regions.size(); ++i) {
@@ -199,7 +229,7 @@ Result<ProcessImage> ProcessImage::attach(const std::string& name) {
   // A reader trusts nothing it has not checked: every table must lie inside the mapping.
   const bool ok = std::memcmp(h.magic, kProcessImageMagic, 8) == 0 &&
                   h.version == kProcessImageVersion && h.total_size == size &&
-                  h.n_channels <= h.channel_capacity &&
+                  h.n_channels.load(std::memory_order_acquire) <= h.channel_capacity &&
                   h.off_channels + uint64_t{h.channel_capacity} * sizeof(ChannelDesc) <= size &&
                   h.off_regions + uint64_t{h.n_regions} * sizeof(RegionDesc) <= size &&
                   h.off_tasks + uint64_t{h.n_tasks} * task_block_size(h.task_stats_size) <= size &&
@@ -212,7 +242,7 @@ Result<ProcessImage> ProcessImage::attach(const std::string& name) {
       return make_error(img.object_ + ": region table is inconsistent");
     }
   }
-  for (uint32_t c = 0; c < h.n_channels; ++c) {
+  for (uint32_t c = 0; c < img.channel_count(); ++c) {
     const ChannelDesc& cd = img.channel(c);
     if (cd.region >= h.n_regions || cd.index >= img.region(cd.region).capacity) {
       return make_error(img.object_ + ": channel table is inconsistent");
@@ -244,9 +274,44 @@ void* ProcessImage::task_stats(uint32_t task) const {
 
 Result<uint32_t> ProcessImage::add_channel(const ChannelDesc& d) {
   ImageHeader& h = header();
-  if (h.n_channels >= h.channel_capacity) return make_error("process image channel table is full");
-  channel(h.n_channels) = d;
-  return h.n_channels++;
+  // Only the runtime's control thread adds channels: a relaxed load is exact.
+  const uint32_t n = h.n_channels.load(std::memory_order_relaxed);
+  if (n >= h.channel_capacity) return make_error("process image channel table is full");
+  channel(n) = d;
+  h.n_channels.store(n + 1, std::memory_order_release);  // publishes the entry (see the header)
+  return n;
+}
+
+void ProcessImage::beat() const noexcept {
+  header().heartbeat_ns.store(kernel_rt::monotonic_now_ns(), std::memory_order_relaxed);
+  header().heartbeat_realtime_ns.store(realtime_now_ns(), std::memory_order_relaxed);
+}
+
+Liveness ProcessImage::liveness() const {
+  Liveness l;
+  const ImageHeader& h = header();
+  l.last_heartbeat_realtime_ns = h.heartbeat_realtime_ns.load(std::memory_order_relaxed);
+  if (h.state.load(std::memory_order_acquire) == 2) {
+    l.why = "it stopped";
+    return l;
+  }
+  if (!pid_alive(h.pid)) {
+    l.why = "process " + std::to_string(h.pid) + " is gone";
+    return l;
+  }
+  const uint64_t ticks = process_start_ticks(h.pid);
+  if (ticks != 0 && h.owner_start_ticks != 0 && ticks != h.owner_start_ticks) {
+    l.why = "process " + std::to_string(h.pid) + " is another program now";
+    return l;
+  }
+  const int64_t age = kernel_rt::monotonic_now_ns() - h.heartbeat_ns.load(std::memory_order_relaxed);
+  if (age > kHeartbeatTimeoutNs) {
+    l.why = "no heartbeat for " + std::to_string(age / 1000000000) + " s (process " +
+            std::to_string(h.pid) + " hangs or is stopped)";
+    return l;
+  }
+  l.alive = true;
+  return l;
 }
 
 int ProcessImage::find_channel(const std::string& label) const {
@@ -284,16 +349,16 @@ uint32_t ProcessImage::begin_write(uint32_t r) const noexcept {
   const uint32_t k = static_cast<uint32_t>(next % kRingSlots);
   SlotHeader& s = slot(r, k);
   s.version.store(s.version.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
-  // Orders the odd version before the data stores that follow (seqlock writer).
-  writer_fence();
+  // Orders the odd version before the data stores that follow.
+  std::atomic_thread_fence(std::memory_order_release);
   return k;
 }
 
 void ProcessImage::put(uint32_t r, uint32_t k, uint32_t index, double value, Quality q,
                        int64_t timestamp_ns) const noexcept {
   store_relaxed(values(r, k) + index, value);
-  __atomic_store_n(quality(r, k) + index, static_cast<uint8_t>(q), RTPLC_IMAGE_TSAN ? __ATOMIC_RELEASE : __ATOMIC_RELAXED);
-  __atomic_store_n(timestamps(r, k) + index, timestamp_ns, RTPLC_IMAGE_TSAN ? __ATOMIC_RELEASE : __ATOMIC_RELAXED);
+  std::atomic_ref<uint8_t>(quality(r, k)[index]).store(static_cast<uint8_t>(q), std::memory_order_relaxed);
+  std::atomic_ref<int64_t>(timestamps(r, k)[index]).store(timestamp_ns, std::memory_order_relaxed);
 }
 
 void ProcessImage::end_write(uint32_t r, uint32_t k, int64_t now_ns, uint64_t cycle) const noexcept {
@@ -306,9 +371,9 @@ void ProcessImage::end_write(uint32_t r, uint32_t k, int64_t now_ns, uint64_t cy
                          std::memory_order_release);
 }
 
-bool ProcessImage::read_values(uint32_t r, const uint32_t* src, const uint32_t* dst, uint32_t n,
-                               double* out, uint32_t max_tries,
-                               uint64_t* published_seen) const noexcept {
+bool ProcessImage::read_values(uint32_t r, const uint32_t* src, uint32_t n, double* scratch,
+                               uint32_t max_tries, uint64_t* published_seen,
+                               Quality* quality_out) const noexcept {
   for (uint32_t t = 0; t < max_tries; ++t) {
     const uint64_t pub = ring(r).published.load(std::memory_order_acquire);
     if (pub == 0) return false;  // nothing written yet
@@ -317,11 +382,14 @@ bool ProcessImage::read_values(uint32_t r, const uint32_t* src, const uint32_t* 
     const uint64_t v1 = s.version.load(std::memory_order_acquire);
     if (v1 & 1) continue;
     const double* vals = values(r, k);
-    // Two passes would be needed to keep `out` untouched on a torn read; instead
-    // the caller's buffer takes the values and a torn read is simply repeated —
-    // the last attempt that validates wins, and on total failure we say so.
-    for (uint32_t i = 0; i < n; ++i) out[dst[i]] = load_relaxed(vals + src[i]);
-    reader_fence();
+    for (uint32_t i = 0; i < n; ++i) scratch[i] = load_relaxed(vals + src[i]);
+    if (quality_out != nullptr) {
+      uint8_t* q = quality(r, k);
+      for (uint32_t i = 0; i < n; ++i) {
+        quality_out[i] = static_cast<Quality>(std::atomic_ref<uint8_t>(q[src[i]]).load(std::memory_order_relaxed));
+      }
+    }
+    std::atomic_thread_fence(std::memory_order_acquire);  // the loads above before the re-check
     if (s.version.load(std::memory_order_relaxed) == v1) {
       if (published_seen) *published_seen = pub;
       return true;
@@ -331,9 +399,21 @@ bool ProcessImage::read_values(uint32_t r, const uint32_t* src, const uint32_t* 
 }
 
 ChannelValue ProcessImage::read_channel(uint32_t c) const noexcept {
-  ChannelValue cv;
   const ChannelDesc& d = channel(c);
-  const uint32_t r = d.region;
+  ChannelValue cv = read_at(d.region, d.index);
+  if (d.has_delivery && d.delivery_region < region_count()) {
+    // An output is only as good as its delivery: a driver that cannot send it
+    // (its peer is gone) says so in its own region.
+    const ChannelValue dv = read_at(d.delivery_region, d.delivery_index);
+    cv.quality = worse(cv.quality, dv.fresh ? dv.quality : Quality::kBad);
+  }
+  return cv;
+}
+
+ChannelValue ProcessImage::read_at(uint32_t r, uint32_t index) const noexcept {
+  ChannelValue cv;
+  ChannelDesc d{};
+  d.index = index;
   for (int t = 0; t < 1000; ++t) {
     const uint64_t pub = ring(r).published.load(std::memory_order_acquire);
     if (pub == 0) return cv;
@@ -342,10 +422,10 @@ ChannelValue ProcessImage::read_channel(uint32_t c) const noexcept {
     const uint64_t v1 = s.version.load(std::memory_order_acquire);
     if (v1 & 1) continue;
     cv.value = load_relaxed(values(r, k) + d.index);
-    cv.quality = static_cast<Quality>(__atomic_load_n(quality(r, k) + d.index, __ATOMIC_ACQUIRE));
-    cv.timestamp_ns = __atomic_load_n(timestamps(r, k) + d.index, __ATOMIC_ACQUIRE);
-    if (cv.timestamp_ns == 0) cv.timestamp_ns = s.written_ns.load(std::memory_order_acquire);
-    reader_fence();
+    cv.quality = static_cast<Quality>(std::atomic_ref<uint8_t>(quality(r, k)[d.index]).load(std::memory_order_relaxed));
+    cv.timestamp_ns = std::atomic_ref<int64_t>(timestamps(r, k)[d.index]).load(std::memory_order_relaxed);
+    if (cv.timestamp_ns == 0) cv.timestamp_ns = s.written_ns.load(std::memory_order_relaxed);
+    std::atomic_thread_fence(std::memory_order_acquire);
     if (s.version.load(std::memory_order_relaxed) == v1) {
       cv.fresh = true;
       return cv;

@@ -25,30 +25,45 @@
 // more snapshots during one copy. Readers on the RT path bound their retries and
 // keep their previous values if they run out (counted, never blocking).
 //
-// Values are written with plain stores and read with relaxed atomic loads: every
-// field is naturally aligned (no tearing of a single double on x86-64 or AArch64)
-// and the version check discards any snapshot that changed during the copy.
+// Every value, quality and timestamp is stored and loaded as a relaxed atomic
+// (std::atomic_ref on the plain arrays of the slot): one plain move each on
+// x86-64 and AArch64, and no data race in C++ terms. The ordering comes from the
+// version: the writer's release fence after the odd version keeps the data
+// stores after it, the release store of the even version keeps them before
+// it; the reader's acquire fence after the copy keeps its data loads before
+// the second version load. ThreadSanitizer checks this same code (it sees only
+// atomic accesses to the data, so no race to report; the fences it does not
+// model only order, they never make a race appear or vanish).
+//
+// The channel table grows while tools read it (a hot swap adds outputs): the
+// runtime writes the new ChannelDesc, then stores n_channels with release;
+// readers load n_channels with acquire and read only entries below it.
+//
+// Liveness: the runtime's control thread stores `heartbeat_ns` (CLOCK_MONOTONIC,
+// relaxed: one word, read alone) a few times a second. A tool judges a runtime
+// dead when its pid is gone, when that pid now belongs to another process (its
+// start time differs from `owner_start_ticks`), or when the heartbeat is old.
 #pragma once
 
 #include <sys/types.h>
 
 #include <atomic>
+#include <cstring>
 #include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
 
+#include "common/quality.h"
 #include "common/result.h"
 
 namespace rtplc::io {
 
 inline constexpr char kProcessImageMagic[8] = {'R', 'T', 'P', 'L', 'C', 'S', 'H', 'M'};
-inline constexpr uint32_t kProcessImageVersion = 2;
+inline constexpr uint32_t kProcessImageVersion = 3;
 inline constexpr uint32_t kRingSlots = 4;
 inline constexpr size_t kLabelBytes = 32;
 
-enum class Quality : uint8_t { kGood = 0, kStale = 1, kBad = 2, kForced = 3 };
-const char* quality_name(Quality q);
 
 enum class ChannelDir : uint8_t { kInput, kOutput, kSetpoint };
 enum class RegionKind : uint8_t { kTask, kDriver, kSetpoints, kUnwired };
@@ -62,7 +77,9 @@ struct ChannelDesc {
   uint32_t index;           // position inside the region
   double init;              // set-points: initial value
   uint8_t retain;           // set-points kept across restarts
-  uint8_t pad[7];
+  uint8_t has_delivery;     // outputs: a driver reports how their sending goes
+  uint16_t delivery_region; // ... in this region (the driver's),
+  uint32_t delivery_index;  // ... at this index: quality bad while it cannot send
 };
 static_assert(sizeof(ChannelDesc) == 96);
 
@@ -99,7 +116,7 @@ struct alignas(64) ImageHeader {
   uint64_t total_size;
   uint64_t layout_hash;
   int32_t pid;                    // the runtime's pid (stale image detection)
-  uint32_t n_channels;
+  std::atomic<uint32_t> n_channels;  // release by the runtime after the entry is written
   uint32_t channel_capacity;
   uint32_t n_regions;
   uint32_t n_tasks;
@@ -113,6 +130,9 @@ struct alignas(64) ImageHeader {
   int64_t started_realtime_ns;
   std::atomic<uint32_t> state;    // 0 starting, 1 running, 2 stopped
   char name[kLabelBytes];
+  uint64_t owner_start_ticks;     // the runtime's process start time (/proc/PID/stat, field 22)
+  std::atomic<int64_t> heartbeat_ns;           // CLOCK_MONOTONIC, a few times a second
+  std::atomic<int64_t> heartbeat_realtime_ns;  // the same instant, CLOCK_REALTIME (for "died at")
 };
 
 // Per-task header in the image, followed by the task's timing statistics
@@ -134,20 +154,33 @@ struct alignas(64) TaskInfo {
   std::atomic<uint64_t> minor_faults;  // only counted in fault-check mode
   std::atomic<uint64_t> swap_overruns; // overruns of cycles that applied a swap (goal: 0)
 };
-// Per-link status of a driver that talks to remote peers (one per S7 PLC): what
-// `rtplc monitor` and `rtplc status` show. One writer (the driver's thread);
-// every field a reader uses is atomic.
+// The state of one link to a remote peer, whatever the driver's kind.
+enum class LinkState : uint8_t {
+  kUnused = 0,
+  kDown = 1,        // not connected; reconnecting with backoff
+  kConnecting = 2,  // dialling, or the protocol's handshake
+  kUp = 3,          // exchanging data
+};
+const char* link_state_name(LinkState s);
+
+inline constexpr size_t kLinkLatencyBuckets = 12;  // io/link/latency_buckets.h
+
+// Per-link status of a driver that talks to remote peers (one per S7 PLC, per
+// Modbus slave, ...): what `rtplc stats`, `monitor` and `status` show without
+// knowing the kind. One writer (the driver's bridge thread); every field a
+// reader uses after the runtime started is atomic (the texts are written once,
+// before the threads start).
 struct alignas(64) LinkStatus {
-  char name[kLabelBytes];     // the PLC's name
+  char name[kLabelBytes];     // the peer's name in the config
   char driver[kLabelBytes];   // the driver's name
-  char address[48];           // "10.0.0.11:102"
-  std::atomic<uint8_t> state; // driver-specific; for S7: s7::PlcState
-  uint8_t pad[1];
-  std::atomic<uint16_t> pdu;
-  std::atomic<uint16_t> amq;
-  uint16_t pad2;
+  char kind[16];              // the driver's kind ("s7")
+  char peer[48];              // "10.0.0.11:102", "/dev/ttyUSB0 unit 7"
+  std::atomic<uint8_t> state;    // LinkState
+  std::atomic<uint8_t> quality;  // Quality of what it delivers now
+  uint8_t pad[2];
   std::atomic<uint32_t> rtt_p50_us;
   std::atomic<uint32_t> rtt_p99_us;
+  std::atomic<uint32_t> rtt_max_us;
   std::atomic<uint64_t> connects;
   std::atomic<uint64_t> reconnects;
   std::atomic<uint64_t> timeouts;
@@ -159,40 +192,19 @@ struct alignas(64) LinkStatus {
   std::atomic<uint64_t> writes_failed;
   std::atomic<uint64_t> writes_pending;
   std::atomic<uint64_t> writes_rejected;
+  std::atomic<uint64_t> latency[kLinkLatencyBuckets];  // round trips per bucket
 };
 
 enum class TaskState : uint8_t { kStarting = 0, kRunning = 1, kStoppedWatchdog = 2, kStopped = 3 };
 const char* task_state_name(TaskState s);
 
-// Access to the plain data of a snapshot (see the protocol above). Normal builds
-// order data against the version with fences and move the data relaxed. Under
-// ThreadSanitizer, which does not model standalone fences, the data accesses
-// themselves carry the ordering instead: release stores after the odd version,
-// acquire loads before the closing version check. Same guarantee, either way.
-#if defined(__SANITIZE_THREAD__)
-#define RTPLC_IMAGE_TSAN 1
+// Relaxed atomic access to the plain arrays of a snapshot (see the protocol).
 inline double load_relaxed(const double* p) noexcept {
-  double v;
-  __atomic_load(p, &v, __ATOMIC_ACQUIRE);
-  return v;
+  return std::atomic_ref<const double>(*p).load(std::memory_order_relaxed);
 }
-inline void store_relaxed(double* p, double v) noexcept { __atomic_store(p, &v, __ATOMIC_RELEASE); }
-inline void writer_fence() noexcept {}
-inline void reader_fence() noexcept {}
-#else
-#define RTPLC_IMAGE_TSAN 0
-inline double load_relaxed(const double* p) noexcept {
-  double v;
-  __atomic_load(p, &v, __ATOMIC_RELAXED);
-  return v;
+inline void store_relaxed(double* p, double v) noexcept {
+  std::atomic_ref<double>(*p).store(v, std::memory_order_relaxed);
 }
-inline void store_relaxed(double* p, double v) noexcept { __atomic_store(p, &v, __ATOMIC_RELAXED); }
-inline void writer_fence() noexcept { std::atomic_thread_fence(std::memory_order_release); }
-inline void reader_fence() noexcept { std::atomic_thread_fence(std::memory_order_acquire); }
-#endif
-// True when a task may let its executor write outputs straight into its slot;
-// under ThreadSanitizer it copies them with the ordered stores above instead.
-inline constexpr bool kZeroCopyOutputs = RTPLC_IMAGE_TSAN == 0;
 
 // What a reader gets for one channel.
 struct ChannelValue {
@@ -201,6 +213,16 @@ struct ChannelValue {
   int64_t timestamp_ns = 0;  // CLOCK_MONOTONIC
   bool fresh = false;        // false when the snapshot could not be read consistently
 };
+
+// Why a tool cannot trust an image: the runtime that wrote it is gone.
+struct Liveness {
+  bool alive = false;
+  std::string why;            // "process 1234 is gone", "no heartbeat for 12 s", ...
+  int64_t last_heartbeat_realtime_ns = 0;  // when it was last seen alive (0: never)
+};
+
+// A heartbeat older than this means the runtime is not running any more.
+inline constexpr int64_t kHeartbeatTimeoutNs = 3000000000;
 
 // Sizes the image is created with.
 struct ImageLayout {
@@ -240,7 +262,7 @@ class ProcessImage {
   bool writable() const { return writable_; }
   ImageHeader& header() const { return *reinterpret_cast<ImageHeader*>(base_); }
   ChannelDesc& channel(uint32_t i) const;
-  uint32_t channel_count() const { return header().n_channels; }
+  uint32_t channel_count() const { return header().n_channels.load(std::memory_order_acquire); }
   RegionDesc& region(uint32_t r) const;
   uint32_t region_count() const { return header().n_regions; }
   TaskInfo& task_info(uint32_t task) const;
@@ -248,6 +270,11 @@ class ProcessImage {
   uint32_t link_count() const { return header().n_links; }
   // The task's CycleStats block (task_stats_bytes, 64-byte aligned).
   void* task_stats(uint32_t task) const;
+
+  // Whether the runtime that owns this image still runs (see "Liveness" above).
+  Liveness liveness() const;
+  // The runtime: stores the heartbeat (control thread, a few times a second).
+  void beat() const noexcept;
 
   // Appends a channel description (runtime, before start). Returns its index.
   Result<uint32_t> add_channel(const ChannelDesc& d);
@@ -269,15 +296,19 @@ class ProcessImage {
 
   // Reader side: reads one channel consistently (unbounded retries: for tools).
   ChannelValue read_channel(uint32_t channel) const noexcept;
-  // Reads `n` values of region r at `src` indices into `dst` positions, with at most
-  // `max_tries` attempts. Returns false (and leaves dst unchanged) if no
-  // consistent snapshot was obtained. Used on the RT path with a small bound.
-  bool read_values(uint32_t r, const uint32_t* src, const uint32_t* dst, uint32_t n, double* out,
-                   uint32_t max_tries, uint64_t* published_seen = nullptr) const noexcept;
+  // Reads `n` values of region r at `src` indices into scratch[0..n), and their
+  // qualities into quality[0..n) when `quality` is not null, with at most
+  // `max_tries` attempts. Returns true when scratch holds one consistent
+  // snapshot; on false its contents are meaningless — callers copy from scratch
+  // only on success, so their own values stay those of the last good read.
+  // Used on the RT path with a small bound.
+  bool read_values(uint32_t r, const uint32_t* src, uint32_t n, double* scratch, uint32_t max_tries,
+                   uint64_t* published_seen = nullptr, Quality* quality = nullptr) const noexcept;
 
   const std::string& object_name() const { return object_; }
 
  private:
+  ChannelValue read_at(uint32_t region, uint32_t index) const noexcept;
   void release();
   void* base_ = nullptr;
   size_t size_ = 0;

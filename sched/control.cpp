@@ -138,6 +138,7 @@ void ControlServer::run() {
     pollfd p{listen_fd_, POLLIN, 0};
     const int n = poll(&p, 1, 100);
     rt_.reap();
+    rt_.tick(log_);
     watch_tasks();
     if (n <= 0) continue;
     const int fd = accept4(listen_fd_, nullptr, nullptr, SOCK_CLOEXEC);
@@ -162,6 +163,22 @@ void ControlServer::watch_tasks() {
                      "fixed code (rtplc swap " + task.params().name + " FILE) to restart it.");
     }
   }
+}
+
+// "drop=A,B" -> {"A", "B"}: the outputs a swap may leave out (--drop-output).
+static std::vector<std::string> drop_list(const std::string& word) {
+  std::vector<std::string> out;
+  std::string cur;
+  for (char c : word.substr(5)) {
+    if (c == ',') {
+      if (!cur.empty()) out.push_back(cur);
+      cur.clear();
+    } else {
+      cur += c;
+    }
+  }
+  if (!cur.empty()) out.push_back(cur);
+  return out;
 }
 
 void ControlServer::handle(int fd) {
@@ -190,7 +207,7 @@ void ControlServer::handle(int fd) {
       res = rt_.set_value(w[1], v);
       if (res) log_(false, "set " + *res);
     }
-  } else if (verb == "swap" && w.size() == 4) {
+  } else if (verb == "swap" && (w.size() == 4 || (w.size() == 5 && w[4].rfind("drop=", 0) == 0))) {
     char* end = nullptr;
     const unsigned long long n = std::strtoull(w[3].c_str(), &end, 10);
     std::string source;
@@ -199,12 +216,12 @@ void ControlServer::handle(int fd) {
     } else if (!read_exact(fd, source, n, 10000)) {
       res = make_error("the source text did not arrive whole");
     } else {
-      res = rt_.swap(w[1], source, w[2]);
+      res = rt_.swap(w[1], source, w[2], w.size() == 5 ? drop_list(w[4]) : std::vector<std::string>{});
       if (res) log_(false, "swap: " + res->substr(0, res->find('\n', res->find('\n') + 1)));
       else log_(true, "swap of " + w[1] + " refused: " + res.error().substr(0, res.error().find('\n')));
     }
-  } else if (verb == "rollback" && w.size() == 2) {
-    res = rt_.rollback(w[1]);
+  } else if (verb == "rollback" && (w.size() == 2 || (w.size() == 3 && w[2].rfind("drop=", 0) == 0))) {
+    res = rt_.rollback(w[1], w.size() == 3 ? drop_list(w[2]) : std::vector<std::string>{});
     if (res) log_(false, "rollback: " + res->substr(0, res->find('\n')));
   } else if (verb == "stop" && w.size() == 1) {
     stop_requested_.store(true, std::memory_order_release);

@@ -1,11 +1,22 @@
 // State migration for hot swap (spec runtime.md, "Hot swap", step 2).
 #include "sched/program.h"
 
+#include <atomic>
+
 #include <algorithm>
 #include <string_view>
 #include <unordered_map>
 
 namespace rtplc::sched {
+
+namespace {
+std::atomic<uint64_t> g_live_programs{0};
+}  // namespace
+
+LoadedProgram::LoadedProgram() { g_live_programs.fetch_add(1, std::memory_order_relaxed); }
+LoadedProgram::~LoadedProgram() { g_live_programs.fetch_sub(1, std::memory_order_relaxed); }
+uint64_t LoadedProgram::live_count() { return g_live_programs.load(std::memory_order_relaxed); }
+
 namespace {
 
 // Adjacent single copies become one ranged copy: migrating a 10,000-block task

@@ -12,6 +12,7 @@
 
 #include "blocks/executor.h"
 #include "blocks/image.h"
+#include "io/process_image.h"
 
 namespace rtplc::sched {
 
@@ -23,6 +24,9 @@ struct InputGroup {
   uint64_t seen = 0;        // ring publication last copied (task thread only)
   std::vector<uint32_t> src;
   std::vector<uint32_t> dst;
+  // One consistent snapshot lands here first and is copied to the inputs only
+  // when it validated, so a missed read leaves every input at its last good value.
+  std::vector<double> scratch;  // src.size()
 };
 
 // What the swap keeps from the program it replaces, matched by (block name, opcode).
@@ -42,6 +46,13 @@ struct Migration {
 };
 
 struct LoadedProgram {
+  LoadedProgram();
+  ~LoadedProgram();
+  LoadedProgram(const LoadedProgram&) = delete;
+  LoadedProgram& operator=(const LoadedProgram&) = delete;
+  // Programs alive in this process (tests: a swap never leaks one).
+  static uint64_t live_count();
+
   TaskImage image;
   TaskArena arena;
   std::vector<InputGroup> inputs;
@@ -51,10 +62,28 @@ struct LoadedProgram {
   std::vector<uint32_t> output_slots;
   bool outputs_in_place = true;
   std::vector<double> safe_values;  // per image output: the value when the task is stopped
+  // Outputs an earlier program wrote and this one does not (a swap with
+  // --drop-output): held at their safe value with bad quality, so no driver
+  // sends them and no tool shows them good.
+  struct Dropped {
+    uint32_t index;  // in the task's output region
+    double safe_value;
+    std::string label;
+  };
+  std::vector<Dropped> dropped;
+  // Quality of every index of the task's output region under this program:
+  // good where it writes an output, bad elsewhere (holes, dropped outputs).
+  std::vector<uint8_t> output_quality;
   Migration migration;
   std::string file;    // where the source came from
   std::string source;  // the source text (kept for rollback and for `status`)
 };
+
+// Copies one input group's values from its region into `io_in`: one
+// consistent snapshot (at most `max_tries` attempts) lands in g.scratch and is
+// copied only once it validated. False on a miss: io_in is untouched, so the
+// task runs on last cycle's inputs, never on values mixed from two snapshots.
+bool read_group(const io::ProcessImage& image, InputGroup& g, double* io_in, uint32_t max_tries) noexcept;
 
 // Builds the migration from `old_image` (running with `old_arena`) to `next`:
 // a block keeps its output and state when a block of the same name and opcode

@@ -1,11 +1,11 @@
 // The runtime: what `rtplc run CONFIG` builds and runs (spec runtime.md). It
-// compiles every task's program, lays out the process image (channels, one
-// output region per task, one input region per driver, the set-points), checks
-// that every output has one writer and every plant is wired, assigns
-// rate-monotonic priorities, prepares the process for real time, and starts the
-// driver and task threads on a common time grid. Afterwards its methods are the
-// operator's verbs — set a set-point, swap or roll back a task's code, report —
-// called from the control thread only (see control.h).
+// compiles every task's program, plans the process image from the programs and
+// the drivers' claims (image_plan.h), creates it, creates every driver through
+// its kind (io/drivers/driver.h) without knowing which kinds there are,
+// prepares the process for real time, and starts the driver and task threads on
+// a common time grid (runtime.cpp). Afterwards its methods are the operator's
+// verbs — set a set-point, swap or roll back a task's code, report — called
+// from the control thread only (runtime_ops.cpp, see control.h).
 #pragma once
 
 #include <atomic>
@@ -19,11 +19,11 @@
 #include "common/diagnostic.h"
 #include "common/result.h"
 #include "config/config.h"
+#include "io/drivers/driver.h"
 #include "io/process_image.h"
 #include "kernel_rt/rt_process.h"
+#include "sched/image_plan.h"
 #include "sched/retain.h"
-#include "sched/s7_driver.h"
-#include "sched/sim_driver.h"
 #include "sched/stats_render.h"
 #include "sched/task.h"
 
@@ -71,13 +71,21 @@ class Runtime {
   // ---- operator verbs (control thread) ----
   Result<std::string> set_value(const std::string& label, double value);
   // Compiles `source` for task `task` and swaps it in at the task's next cycle
-  // boundary; waits for the hand-over. A compile or verification error changes nothing.
+  // boundary; waits for the hand-over. A compile or verification error changes
+  // nothing. A program that no longer writes an output the running one writes
+  // is refused, the label named, unless that label is in `drop_outputs`: then
+  // the channel goes to its safe value with bad quality and drivers stop
+  // sending it.
   Result<std::string> swap(const std::string& task, const std::string& source,
-                           const std::string& file_label);
-  Result<std::string> rollback(const std::string& task);
+                           const std::string& file_label,
+                           const std::vector<std::string>& drop_outputs = {});
+  Result<std::string> rollback(const std::string& task, const std::vector<std::string>& drop_outputs = {});
   std::string status() const;
   // Frees programs the tasks have let go of (call periodically off the RT path).
   void reap();
+  // The control thread's housekeeping, a few times a second: the heartbeat in
+  // the image, and the drivers' queued events to `log(error, line)`.
+  void tick(const std::function<void(bool, const std::string&)>& log);
 
   const std::string& name() const { return name_; }
   const std::string& socket_path() const { return socket_path_; }
@@ -98,13 +106,16 @@ class Runtime {
     std::string label;
     std::string key;
   };
-  bool build_channels(const config::RuntimeConfig& cfg, LoadReport& report);
+  bool build(const config::RuntimeConfig& cfg, LoadReport& report);
+  bool create_drivers(const config::RuntimeConfig& cfg, DiagnosticList& cdiag);
   Result<std::unique_ptr<LoadedProgram>> make_program(uint32_t task, TaskImage image,
                                                       std::string source, std::string file,
-                                                      const LoadedProgram* running);
+                                                      const LoadedProgram* running,
+                                                      const std::vector<std::string>& drop_outputs = {});
   void publish_setpoints();
   Result<std::string> install(Task& t, std::unique_ptr<LoadedProgram> next, bool keep_previous);
 
+  config::RuntimeConfig config_;
   std::string name_;
   std::string socket_path_;
   io::ProcessImage image_;
@@ -114,18 +125,19 @@ class Runtime {
   bool lock_memory_ = true;
   bool cpu_dma_latency_ = true;
   std::vector<std::unique_ptr<Task>> tasks_;
-  std::vector<std::unique_ptr<SimDriver>> drivers_;
-  std::vector<std::unique_ptr<S7Driver>> s7_drivers_;
+  io::LinkEventQueue events_;
+  std::vector<std::unique_ptr<io::Driver>> drivers_;
   std::vector<std::unique_ptr<LoadedProgram>> previous_;   // per task, for rollback
   std::vector<std::unique_ptr<LoadedProgram>> graveyard_;  // retired, freed by reap()
   std::vector<std::vector<std::string>> task_output_keys_; // per task: region index -> channel key
   std::vector<config::SafeOutput> no_safe_;
   std::vector<std::vector<config::SafeOutput>> safe_outputs_;
-  std::map<std::string, uint32_t> channel_by_key_;
+  std::map<std::string, uint32_t> channel_by_key_;  // key -> channel index in the image
   uint32_t setpoint_region_ = 0;
   uint32_t unwired_region_ = 0;
+  uint64_t events_dropped_said_ = 0;
   std::vector<double> setpoint_values_;  // control thread's copy of the set-point region
-  std::vector<uint32_t> driver_regions_;
+  ImagePlan plan_;
   bool started_ = false;
 };
 

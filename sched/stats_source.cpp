@@ -4,10 +4,11 @@
 #include <sys/utsname.h>
 #include <time.h>
 
+#include <cstdio>
 #include <cstring>
+#include <ctime>
 #include <string>
 
-#include "io/s7/engine.h"
 #include "kernel_rt/rt_kernel.h"
 #include "sched/jitter.h"
 
@@ -49,25 +50,98 @@ RuntimeSummary summary_of(const io::ProcessImage& image, const std::vector<TaskS
   return summarise(views, runtime_uptime_ns(image), kernel_rt::running_on_rt_kernel(), u.release, note);
 }
 
+std::string not_running_text(const std::string& name, const io::Liveness& l) {
+  std::string when = "an unknown time";
+  if (l.last_heartbeat_realtime_ns > 0) {
+    const time_t t = static_cast<time_t>(l.last_heartbeat_realtime_ns / 1000000000);
+    tm local{};
+    localtime_r(&t, &local);
+    char buf[64];
+    std::strftime(buf, sizeof buf, "%Y-%m-%d %H:%M:%S", &local);
+    when = buf;
+  }
+  return "runtime " + name + " is not running (died at " + when + ": " + l.why + ")";
+}
+
 LinkSnapshot link_snapshot(const io::LinkStatus& ls) {
   const auto r = std::memory_order_relaxed;
   LinkSnapshot s;
   s.name = std::string(ls.name, strnlen(ls.name, sizeof ls.name));
   s.driver = std::string(ls.driver, strnlen(ls.driver, sizeof ls.driver));
-  s.address = std::string(ls.address, strnlen(ls.address, sizeof ls.address));
-  s.state = std::string(s7::plc_state_name(static_cast<s7::PlcState>(ls.state.load(r))));
+  s.kind = std::string(ls.kind, strnlen(ls.kind, sizeof ls.kind));
+  s.peer = std::string(ls.peer, strnlen(ls.peer, sizeof ls.peer));
+  s.state = io::link_state_name(static_cast<io::LinkState>(ls.state.load(r)));
+  s.quality = quality_name(static_cast<Quality>(ls.quality.load(r)));
   s.rtt_p50_us = ls.rtt_p50_us.load(r);
   s.rtt_p99_us = ls.rtt_p99_us.load(r);
+  s.rtt_max_us = ls.rtt_max_us.load(r);
   s.polls_completed = ls.polls_completed.load(r);
   s.polls_missed = ls.polls_missed.load(r);
   s.polls_offline = ls.polls_offline.load(r);
+  s.connects = ls.connects.load(r);
   s.reconnects = ls.reconnects.load(r);
   s.timeouts = ls.timeouts.load(r);
   s.errors = ls.errors.load(r);
   s.writes_acked = ls.writes_acked.load(r);
   s.writes_failed = ls.writes_failed.load(r);
   s.writes_pending = ls.writes_pending.load(r);
+  s.writes_rejected = ls.writes_rejected.load(r);
+  for (size_t b = 0; b < io::kLinkLatencyBuckets; ++b) s.latency.push_back(ls.latency[b].load(r));
   return s;
+}
+
+std::string link_status_line(const LinkSnapshot& s) {
+  return "link " + s.name + " (" + s.kind + " driver " + s.driver + ", " + s.peer + "): " + s.state +
+         ", rtt p50/p99 " + std::to_string(s.rtt_p50_us) + "/" + std::to_string(s.rtt_p99_us) + " us, " +
+         std::to_string(s.reconnects) + " reconnects, " + std::to_string(s.timeouts) + " timeouts, " +
+         std::to_string(s.errors) + " errors, writes " + std::to_string(s.writes_acked) + " acked / " +
+         std::to_string(s.writes_failed) + " failed / " + std::to_string(s.writes_pending) + " pending";
+}
+
+std::string render_links_table(const io::ProcessImage& img) {
+  if (img.link_count() == 0) return "";
+  std::string out =
+      "# links: round-trip time p50/p99 in us; polls done/missed/offline; writes acked/failed/pending\n";
+  char line[400];
+  for (uint32_t l = 0; l < img.link_count(); ++l) {
+    const LinkSnapshot s = link_snapshot(img.link(l));
+    std::snprintf(line, sizeof line,
+                  "L:%2u (%s) %s %s %s RTT: %u/%u Polls: %llu/%llu/%llu Recon: %llu Tmout: %llu Err: %llu "
+                  "Writes: %llu/%llu/%llu\n",
+                  l, s.name.c_str(), s.kind.c_str(), s.peer.c_str(), s.state.c_str(), s.rtt_p50_us,
+                  s.rtt_p99_us, s.polls_completed, s.polls_missed, s.polls_offline, s.reconnects, s.timeouts,
+                  s.errors, s.writes_acked, s.writes_failed, s.writes_pending);
+    out += line;
+  }
+  return out;
+}
+
+std::string with_links_json(const io::ProcessImage& img, const std::string& json) {
+  const size_t close = json.find_last_of('}');
+  if (close == std::string::npos) return json;
+  std::string links = ",\n  \"links\": [";
+  char item[768];
+  for (uint32_t l = 0; l < img.link_count(); ++l) {
+    const LinkSnapshot s = link_snapshot(img.link(l));
+    std::string hist;
+    for (size_t b = 0; b < s.latency.size(); ++b) hist += (b ? ", " : "") + std::to_string(s.latency[b]);
+    std::snprintf(item, sizeof item,
+                  "%s\n    {\"name\": \"%s\", \"driver\": \"%s\", \"kind\": \"%s\", \"peer\": \"%s\", "
+                  "\"state\": \"%s\", \"quality\": \"%s\", \"rtt_p50_us\": %u, \"rtt_p99_us\": %u, "
+                  "\"rtt_max_us\": %u, \"polls_completed\": %llu, \"polls_missed\": %llu, "
+                  "\"polls_offline\": %llu, \"connects\": %llu, \"reconnects\": %llu, \"timeouts\": %llu, "
+                  "\"errors\": %llu, \"writes_acked\": %llu, \"writes_failed\": %llu, "
+                  "\"writes_pending\": %llu, \"writes_rejected\": %llu, \"latency_histogram\": [%s]}",
+                  l ? "," : "", s.name.c_str(), s.driver.c_str(), s.kind.c_str(), s.peer.c_str(),
+                  s.state.c_str(), s.quality.c_str(), s.rtt_p50_us, s.rtt_p99_us, s.rtt_max_us,
+                  s.polls_completed, s.polls_missed, s.polls_offline, s.connects, s.reconnects, s.timeouts,
+                  s.errors, s.writes_acked, s.writes_failed, s.writes_pending, s.writes_rejected, hist.c_str());
+    links += item;
+  }
+  links += img.link_count() ? "\n  ]\n" : "]\n";
+  std::string out = json.substr(0, close);
+  while (!out.empty() && (out.back() == '\n' || out.back() == ' ')) out.pop_back();
+  return out + links + "}\n";
 }
 
 }  // namespace rtplc::sched

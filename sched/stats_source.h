@@ -2,6 +2,7 @@
 // own mapping or a tool's read-only one (`rtplc stats`, `rtplc monitor`).
 #pragma once
 
+#include <string>
 #include <vector>
 
 #include "io/process_image.h"
@@ -18,14 +19,26 @@ int64_t runtime_uptime_ns(const io::ProcessImage& image);
 // kernel release, and a note when tasks could not get SCHED_FIFO.
 RuntimeSummary summary_of(const io::ProcessImage& image, const std::vector<TaskStatsView>& views);
 
-// One S7 PLC's link status as plain values, for the stats and monitor views.
+// "runtime plant is not running (died at 2026-12-01 16:40:12: process 1234 is
+// gone)": what every tool says of an image whose runtime is dead.
+std::string not_running_text(const std::string& name, const io::Liveness& l);
+
+// One link's status as plain values, whatever the driver's kind.
 struct LinkSnapshot {
-  std::string name, driver, address, state;
-  unsigned rtt_p50_us = 0, rtt_p99_us = 0;
+  std::string name, driver, kind, peer, state, quality;
+  unsigned rtt_p50_us = 0, rtt_p99_us = 0, rtt_max_us = 0;
   unsigned long long polls_completed = 0, polls_missed = 0, polls_offline = 0;
-  unsigned long long reconnects = 0, timeouts = 0, errors = 0;
-  unsigned long long writes_acked = 0, writes_failed = 0, writes_pending = 0;
+  unsigned long long connects = 0, reconnects = 0, timeouts = 0, errors = 0;
+  unsigned long long writes_acked = 0, writes_failed = 0, writes_pending = 0, writes_rejected = 0;
+  std::vector<unsigned long long> latency;  // io::kLinkLatencyBuckets counts
 };
 LinkSnapshot link_snapshot(const io::LinkStatus& ls);
+
+// "plc f01 (s7 driver plc, 10.0.0.11:102): up, rtt p50/p99 ..." for `status`.
+std::string link_status_line(const LinkSnapshot& s);
+// The "L:" lines under the stats table (like the tasks' "T:" lines); "" without links.
+std::string render_links_table(const io::ProcessImage& image);
+// The stats JSON object with a "links" array added.
+std::string with_links_json(const io::ProcessImage& image, const std::string& json);
 
 }  // namespace rtplc::sched

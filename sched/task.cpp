@@ -25,8 +25,15 @@ Task::Task(TaskParams params, io::ProcessImage& image, uint32_t index, uint32_t 
 Task::~Task() {
   request_stop();
   join();
-  // A swap published but never applied (the task stopped first) is ours to free.
-  delete pending_.exchange(nullptr);
+  // The thread is gone, so nothing moves under us. A program published but
+  // never taken (the task stopped first) is still pending; one taken but not
+  // yet collected is the current program and owned_ holds the one it replaced.
+  if (LoadedProgram* never_applied = pending_.exchange(nullptr)) {
+    delete never_applied;
+  } else if (in_flight_ != nullptr) {
+    owned_.reset(in_flight_);  // frees the replaced program, keeps the running one until now
+  }
+  in_flight_ = nullptr;
 }
 
 Result<void> Task::start(int64_t first_release_ns) {
@@ -70,6 +77,15 @@ std::unique_ptr<LoadedProgram> Task::collect() {
   return previous;
 }
 
+bool read_group(const io::ProcessImage& image, InputGroup& g, double* io_in, uint32_t max_tries) noexcept {
+  uint64_t seen = 0;
+  const auto n = static_cast<uint32_t>(g.src.size());
+  if (!image.read_values(g.region, g.src.data(), n, g.scratch.data(), max_tries, &seen)) return false;
+  g.seen = seen;
+  for (uint32_t i = 0; i < n; ++i) io_in[g.dst[i]] = g.scratch[i];
+  return true;
+}
+
 void Task::read_inputs(LoadedProgram& p) noexcept {
   for (InputGroup& g : p.inputs) {
     if (g.setpoints) {
@@ -77,13 +93,10 @@ void Task::read_inputs(LoadedProgram& p) noexcept {
       const uint64_t pub = image_.ring(g.region).published.load(std::memory_order_acquire);
       if (pub == g.seen) continue;
     }
-    uint64_t seen = 0;
     // Three tries: a fourth would only be needed if the writer finished three
     // more snapshots while we copied one; then we keep last cycle's inputs.
-    if (image_.read_values(g.region, g.src.data(), g.dst.data(), static_cast<uint32_t>(g.src.size()),
-                           p.arena.io_in.data(), 3, &seen)) {
-      g.seen = seen;
-    } else if (image_.ring(g.region).published.load(std::memory_order_relaxed) != 0) {
+    if (!read_group(image_, g, p.arena.io_in.data(), 3) &&
+        image_.ring(g.region).published.load(std::memory_order_relaxed) != 0) {
       info_->input_misses.fetch_add(1, std::memory_order_relaxed);
     }
   }
@@ -97,8 +110,9 @@ void Task::write_outputs(LoadedProgram& p, bool safe) noexcept {
     for (size_t i = 0; i < p.output_slots.size(); ++i) {
       io::store_relaxed(slot + p.output_slots[i], p.safe_values[i]);
     }
-  } else if (io::kZeroCopyOutputs && p.outputs_in_place) {
-    // The executor writes the outputs straight into the snapshot being built.
+  } else if (p.outputs_in_place) {
+    // The executor writes the outputs straight into the snapshot being built
+    // (relaxed atomic stores, see blocks/executor_body.inc and io/process_image.h).
     ctx.io_out = slot;
     execute_cycle(ctx);
   } else {
@@ -108,6 +122,15 @@ void Task::write_outputs(LoadedProgram& p, bool safe) noexcept {
       io::store_relaxed(slot + p.output_slots[i], out[i]);
     }
   }
+  for (const LoadedProgram::Dropped& d : p.dropped) io::store_relaxed(slot + d.index, d.safe_value);
+  if (quality_refresh_ > 0) {
+    // Qualities change only with the program: each ring slot takes them once.
+    --quality_refresh_;
+    uint8_t* q = image_.quality(region_, k);
+    for (size_t i = 0; i < p.output_quality.size(); ++i) {
+      std::atomic_ref<uint8_t>(q[i]).store(p.output_quality[i], std::memory_order_relaxed);
+    }
+  }
   image_.slot(region_, k).region_state.store(safe ? 1 : 0, std::memory_order_relaxed);
   image_.end_write(region_, k, kernel_rt::monotonic_now_ns(), p.arena.cycles);
 }
@@ -115,6 +138,7 @@ void Task::write_outputs(LoadedProgram& p, bool safe) noexcept {
 void Task::run() noexcept {
   const int64_t period = params_.period_ns;
   int64_t release = first_release_;
+  quality_refresh_ = io::kRingSlots;
   bool stopped = false;  // by the watchdog: outputs safe, code not run until a swap
   uint64_t faults_before = 0;
   uint64_t cycle = 0;
@@ -134,6 +158,7 @@ void Task::run() noexcept {
       swapped = true;
       if (next->migration.active) apply_migration(next->migration, current_->arena, next->arena);
       for (InputGroup& g : next->inputs) g.seen = 0;  // refresh every input now
+      quality_refresh_ = io::kRingSlots;
       retired_.store(current_, std::memory_order_release);
       current_ = next;
       pending_.store(nullptr, std::memory_order_release);

@@ -28,6 +28,7 @@
 #include <vector>
 
 #include "common/result.h"
+#include "config/config.h"
 #include "io/process_image.h"
 #include "kernel_rt/rt_thread.h"
 #include "sched/jitter.h"
@@ -35,7 +36,8 @@
 
 namespace rtplc::sched {
 
-enum class OverrunPolicy : uint8_t { kSkip, kStop };
+
+using config::OverrunPolicy;
 
 struct TaskParams {
   std::string name;
@@ -104,6 +106,7 @@ class Task {
   LoadedProgram* in_flight_ = nullptr;  // control side: published, not yet collected
 
   std::atomic<bool> stop_{false};
+  uint32_t quality_refresh_ = 0;  // task thread: cycles left that still write output qualities
   kernel_rt::RtThread thread_;
   int64_t first_release_ = 0;
   bool fell_back_ = false;

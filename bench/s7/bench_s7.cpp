@@ -32,10 +32,10 @@
 #include <thread>
 #include <vector>
 
-#include "io/s7/engine.h"
-#include "io/s7/fake_plc.h"
-#include "io/s7/session.h"
-#include "io/s7/socket_util.h"
+#include "io/drivers/s7/engine.h"
+#include "io/drivers/s7/fake_plc.h"
+#include "io/drivers/s7/session.h"
+#include "io/link/socket_util.h"
 
 using namespace rtplc::s7;
 

@@ -7,6 +7,7 @@
 #include <string_view>
 
 #include "config/config.h"
+#include "io/drivers/sim/config.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   std::string_view text(reinterpret_cast<const char*>(data), size);
@@ -26,7 +27,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     }
     for (const auto& d : c.drivers) {
       if (d.name.empty() || d.kind.empty()) __builtin_trap();
-      if (d.kind == "sim" && d.plants.empty()) __builtin_trap();
+      if (d.kind == "sim" && sim::settings_of(d).plants.empty()) __builtin_trap();
     }
   }
   (void)r.render();

@@ -9,6 +9,7 @@
 #include "common/capacities.h"
 #include "config/config.h"
 #include "config/driver_kinds.h"
+#include "io/drivers/sim/config.h"
 #include "tests/config/config_test_util.h"
 
 namespace rtplc::config {
@@ -58,12 +59,12 @@ TEST(Config, smallest_config_takes_every_default) {
   EXPECT_EQ(d.period_s, 0.01);
   EXPECT_FALSE(d.priority);
   EXPECT_FALSE(d.cpu);
-  EXPECT_FALSE(d.settings.has_value());
-  ASSERT_EQ(d.plants.size(), 1u);  // the documented default plant
-  EXPECT_EQ(d.plants[0].model, "second-order");
-  EXPECT_EQ(d.plants[0].input, "p0.d0.c0");
-  EXPECT_EQ(d.plants[0].output, "p0.d0.c0");
-  EXPECT_EQ(d.plants[0].pos.line, 4u);
+  EXPECT_TRUE(d.settings.has_value());  // the sim kind's settings, with its default plant
+  ASSERT_EQ(sim::settings_of(d).plants.size(), 1u);  // the documented default plant
+  EXPECT_EQ(sim::settings_of(d).plants[0].model, "second-order");
+  EXPECT_EQ(sim::settings_of(d).plants[0].input, "p0.d0.c0");
+  EXPECT_EQ(sim::settings_of(d).plants[0].output, "p0.d0.c0");
+  EXPECT_EQ(sim::settings_of(d).plants[0].pos.line, 4u);
   EXPECT_TRUE(r.diags.items().empty());
 }
 
@@ -151,8 +152,8 @@ TEST(Config, every_key_lands_in_its_field_with_its_position) {
   EXPECT_EQ(d.priority, 70);
   EXPECT_EQ(d.priority_pos.line, 23u);
   EXPECT_EQ(d.cpu, 0u);
-  ASSERT_EQ(d.plants.size(), 1u);
-  const SimPlantConfig& p = d.plants[0];
+  ASSERT_EQ(sim::settings_of(d).plants.size(), 1u);
+  const sim::PlantConfig& p = sim::settings_of(d).plants[0];
   EXPECT_EQ(p.model, "fopdt:K=2,T=4,L=0.5");
   EXPECT_EQ(p.model_pos.line, 26u);
   EXPECT_EQ(p.input, "p0.d3.c1");  // canonical spelling
@@ -269,9 +270,9 @@ TEST(Examples, seed_pid_is_the_smallest_config) {
   EXPECT_EQ(c.tasks[0].name, "seed_pid");
   EXPECT_TRUE(std::filesystem::equivalent(c.tasks[0].program, kSrc + "/examples/seed_pid.fbd"));
   ASSERT_EQ(c.drivers.size(), 1u);
-  ASSERT_EQ(c.drivers[0].plants.size(), 1u);
-  EXPECT_EQ(c.drivers[0].plants[0].model, "second-order");  // 1/(s^2 + s + 1)
-  EXPECT_EQ(c.drivers[0].plants[0].input, "p0.d0.c0");
+  ASSERT_EQ(sim::settings_of(c.drivers[0]).plants.size(), 1u);
+  EXPECT_EQ(sim::settings_of(c.drivers[0]).plants[0].model, "second-order");  // 1/(s^2 + s + 1)
+  EXPECT_EQ(sim::settings_of(c.drivers[0]).plants[0].input, "p0.d0.c0");
 }
 
 TEST(Examples, plant_uses_every_key_of_the_schema_and_the_sim_kind) {
@@ -317,7 +318,7 @@ TEST(Examples, sixteen_runs_the_most_tasks_at_periods_from_1_to_100_ms) {
   EXPECT_EQ(lo, 0.001);
   EXPECT_EQ(hi, 0.1);
   ASSERT_EQ(c.drivers.size(), 1u);
-  EXPECT_EQ(c.drivers[0].plants.size(), kMaxTasks);
+  EXPECT_EQ(sim::settings_of(c.drivers[0]).plants.size(), kMaxTasks);
 }
 
 }  // namespace

@@ -300,8 +300,8 @@ TEST(ConfigErrors, one_dai_channel_has_one_plant) {
       "  - kind: sim\n"
       "    name: two\n"
       "    plants: [{input: p0.d0.c0, output: p0.d00.c0}]\n");
-  EXPECT_TRUE(has_diag(r, 7, 40, "dai channel p0.d0.c0 is already fed by the plant at line 4"));
-  EXPECT_TRUE(has_diag(r, 4, 40, "first fed here", Severity::kNote));
+  EXPECT_TRUE(has_diag(r, 7, 40, "input channel in/DIO/p0.d0.c0 is already provided at line 4; each input channel has one source"));
+  EXPECT_TRUE(has_diag(r, 4, 40, "first provided here", Severity::kNote));
   EXPECT_EQ(r.diags.error_count(), 1u) << r.render();  // sharing an input is fine
 }
 

@@ -6,7 +6,7 @@
 #include <cmath>
 #include <cstring>
 
-#include "io/plant.h"
+#include "io/drivers/sim/plant.h"
 #include "lang/compiler.h"
 #include "sched/program.h"
 

@@ -18,7 +18,7 @@
 #include "kernel_rt/rt_thread.h"
 #include "sched/control.h"
 #include "sched/jitter.h"
-#include "tests/runtime/runtime_fixture.h"
+#include "tests/support/runtime_fixture.h"
 
 namespace rtplc::sched {
 namespace {

@@ -1,0 +1,298 @@
+// The s7 driver's bridge thread and its kind (see driver.h).
+#include "io/drivers/s7/driver.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "io/drivers/s7/address.h"
+#include "io/drivers/s7/cli.h"
+#include "io/drivers/s7/protocol.h"
+#include "kernel_rt/clock.h"
+
+namespace rtplc::s7 {
+namespace {
+
+constexpr int64_t kStatusPeriodNs = 100000000;    // link rows and link events
+constexpr int64_t kLogIntervalNs = 5000000000;    // one down/up message per PLC per 5 s at most
+
+io::LinkState link_state(PlcState s) {
+  switch (s) {
+    case PlcState::kUnused: return io::LinkState::kUnused;
+    case PlcState::kIdle: return io::LinkState::kDown;
+    case PlcState::kProbing:
+    case PlcState::kHandshake: return io::LinkState::kConnecting;
+    case PlcState::kReady: return io::LinkState::kUp;
+  }
+  return io::LinkState::kDown;
+}
+
+EngineOptions engine_options(const io::DriverSetup& setup, const S7DriverSettings& s) {
+  EngineOptions o;
+  o.max_plcs = std::max<size_t>(s.plcs.size(), 1);
+  // The engine thread only moves bytes: below every task, so it never delays one.
+  o.sched_fifo_priority = setup.helper_priority;
+  o.cpu = setup.cpu;
+  return o;
+}
+
+}  // namespace
+
+S7Driver::S7Driver(const io::DriverSetup& setup)
+    : io::Driver(setup, "s7"),
+      settings_(settings_of(*setup.config)),
+      engine_(engine_options(setup, settings_)) {}
+
+Result<void> S7Driver::prepare() {
+  const size_t n = settings_.plcs.size();
+  acked_.assign(n, 0);
+  failed_.assign(n, 0);
+  rejected_.assign(n, 0);
+  pending_.assign(n, 0);
+  track_.assign(n, PlcTrack{});
+  for (size_t i = 0; i < n; ++i) {
+    const S7PlcConfig& pc = settings_.plcs[i];
+    PlcConfig c;
+    c.name = pc.name;
+    c.address = pc.address;
+    c.port = pc.port;
+    c.connection.local_tsap = pc.local_tsap.value_or(0x0100);
+    c.connection.remote_tsap = pc.remote_tsap.value_or(
+        remote_tsap(static_cast<ConnectionType>(pc.connection_type), pc.rack, pc.slot));
+    c.connection.setup = SetupParams{pc.amq, pc.amq, pc.pdu};
+    c.poll_period_ms = static_cast<uint32_t>(std::max(1.0, pc.poll_s * 1000.0));
+    c.reply_timeout_ms = static_cast<uint32_t>(std::max(1.0, pc.reply_timeout_s * 1000.0));
+    auto id = engine_.connect(c);
+    if (!id) return make_error("PLC " + pc.name + ": " + id.error());
+    plcs_.push_back(*id);
+    describe_link(static_cast<uint32_t>(i), pc.name, pc.address + ":" + std::to_string(pc.port));
+  }
+  auto plc_index = [&](const std::string& plc) -> int {
+    for (size_t i = 0; i < n; ++i) {
+      if (settings_.plcs[i].name == plc) return static_cast<int>(i);
+    }
+    return -1;
+  };
+  auto add = [&](const S7ChannelMap& m, int& plc) -> Result<ItemId> {
+    plc = plc_index(m.plc);
+    if (plc < 0) return make_error("channel " + m.channel + ": no PLC named " + m.plc);
+    auto addr = parse_address(m.item);
+    if (!addr) return make_error("channel " + m.channel + ": " + addr.error());
+    ItemConfig ic;
+    ic.address = *addr;
+    ic.scale = m.scale;
+    ic.offset = m.offset;
+    return engine_.add_item(plcs_[static_cast<size_t>(plc)], ic);
+  };
+  for (size_t i = 0; i < settings_.reads.size(); ++i) {
+    int plc = -1;
+    auto item = add(settings_.reads[i], plc);
+    if (!item) return make_error(item.error());
+    Read r;
+    r.item = *item;
+    r.index = static_cast<uint32_t>(i);
+    r.what = "PLC " + settings_.reads[i].plc + " item " + settings_.reads[i].item;
+    reads_.push_back(std::move(r));
+  }
+  for (size_t i = 0; i < settings_.writes.size(); ++i) {
+    int plc = -1;
+    auto item = add(settings_.writes[i], plc);
+    if (!item) return make_error(item.error());
+    Write w;
+    w.item = *item;
+    w.mode = settings_.writes[i].mode;
+    w.plc = static_cast<uint32_t>(plc);
+    w.what = "PLC " + settings_.writes[i].plc + " item " + settings_.writes[i].item;
+    writes_.push_back(std::move(w));
+  }
+  return {};
+}
+
+Result<void> S7Driver::on_start() {
+  if (auto r = engine_.start(); !r) return make_error(r.error());
+  engine_started_ = true;
+  return {};
+}
+
+void S7Driver::on_joined() noexcept {
+  if (engine_started_) engine_.stop();
+  engine_started_ = false;
+}
+
+void S7Driver::cycle(int64_t now) noexcept {
+  if (now >= next_status_) {
+    track_status(now);
+    publish_status();
+    next_status_ = now + kStatusPeriodNs;
+  }
+  const uint32_t k = begin_snapshot();
+  // Reads: the engine's latest sample of every item, in one snapshot.
+  for (Read& r : reads_) {
+    Sample s;
+    if (engine_.try_read(r.item, s)) r.last = s;  // a miss keeps the last sample, ageing
+    Quality q = r.last.quality_at(now);
+    // A value we cannot vouch for is never good: a REAL that is NaN or Inf.
+    if (!std::isfinite(r.last.value)) q = Quality::kBad;
+    put_input(k, r.index, r.last.value, q, r.last.timestamp_ns);
+    const bool refused = r.last.return_code != 0 && r.last.return_code != 0xFF;
+    if (refused && !r.refusal_logged) {
+      r.refusal_logged = true;
+      log(io::LinkEvent::Level::kError,
+          fmt::format("{}: read refused: {} (return code 0x{:02X})", r.what,
+                      item_error_message(r.last.return_code), r.last.return_code));
+    } else if (!refused && q == Quality::kGood) {
+      r.refusal_logged = false;
+    }
+  }
+
+  // Writes: each ends acknowledged, failed (then sent again) or still pending.
+  for (uint32_t j = 0; j < writes_.size(); ++j) {
+    Write& w = writes_[j];
+    if (w.ticket.id != 0) {
+      const WriteResult res = engine_.write_result(w.ticket);
+      if (res.state == WriteState::kAcknowledged) {
+        ++acked_[w.plc];
+        w.ticket = {};
+        w.failed = false;
+        w.refusal_logged = false;
+      } else if (res.state == WriteState::kFailed || res.state == WriteState::kRejected ||
+                 res.state == WriteState::kUnknown) {
+        ++failed_[w.plc];
+        w.ticket = {};
+        w.resend = true;
+        w.failed = true;
+        if (res.state == WriteState::kFailed && res.return_code != 0 && !w.refusal_logged) {
+          w.refusal_logged = true;
+          log(io::LinkEvent::Level::kError,
+              fmt::format("{}: write refused: {} (return code 0x{:02X})", w.what,
+                          item_error_message(res.return_code), res.return_code));
+        }
+      }
+    }
+    const bool plc_up = track_[w.plc].state == PlcState::kReady;
+    double value = 0;
+    Quality q = Quality::kBad;
+    const bool got = read_output(j, value, q);
+    const bool sendable = got && (q == Quality::kGood || q == Quality::kForced);
+    const Quality delivered = plc_up && !w.failed && w.sent && sendable ? Quality::kGood : Quality::kBad;
+    put_delivery(k, j, w.last, delivered, now);
+    if (!sendable) continue;  // nothing to send, or the task says the value is not to be sent
+    const bool changed = !w.sent || value != w.last;
+    const bool due = w.mode == S7WriteMode::kEveryCycle || changed || w.resend;
+    if (!due || w.ticket.id != 0) continue;  // one write per item in flight: the newest wins next
+    const WriteTicket t = engine_.write(w.item, value);
+    if (t.id == 0) {
+      ++rejected_[w.plc];  // the engine's queue is full: try again next cycle
+      continue;
+    }
+    w.ticket = t;
+    w.last = value;
+    w.sent = true;
+    w.resend = false;
+  }
+  end_snapshot(k, now);
+}
+
+// Link state changes seen since the last call: logged (rate-limited), and a
+// PLC that (re)connected gets every one of its outputs sent again.
+void S7Driver::track_status(int64_t now) noexcept {
+  for (size_t i = 0; i < plcs_.size(); ++i) {
+    PlcStatus st;
+    if (!engine_.try_status(plcs_[i], st)) continue;
+    PlcTrack& t = track_[i];
+    const std::string& name = settings_.plcs[i].name;
+    if (st.connects != t.connects) {
+      // A new session: the PLC may have restarted with its reset values.
+      for (Write& w : writes_) {
+        if (w.plc == i) w.resend = true;
+      }
+      t.connects = st.connects;
+    }
+    const bool was_ready = t.state == PlcState::kReady;
+    const bool ready = st.state == PlcState::kReady;
+    if (!t.ever_ready && !ready && st.connect_failures > 0 && !t.said_unreachable) {
+      t.said_unreachable = true;
+      log(io::LinkEvent::Level::kError,
+          fmt::format("PLC {} ({}:{}) unreachable at start: {}; retrying with backoff", name,
+                      settings_.plcs[i].address, settings_.plcs[i].port,
+                      st.last_error[0] ? st.last_error : "no answer"));
+    }
+    if (was_ready != ready && (t.ever_ready || ready)) {
+      if (now >= t.next_log_ns) {
+        std::string held = t.held_back ? fmt::format(" ({} earlier changes not logged)", t.held_back) : "";
+        if (ready) {
+          log(io::LinkEvent::Level::kInfo,
+              fmt::format("PLC {} connected (PDU {}, {} parallel jobs){}", name, st.pdu_size, st.amq, held));
+        } else {
+          log(io::LinkEvent::Level::kWarning,
+              fmt::format("PLC {} disconnected: {}; its channels are bad until it is back{}", name,
+                          st.last_error[0] ? st.last_error : "connection lost", held));
+        }
+        t.held_back = 0;
+        t.next_log_ns = now + kLogIntervalNs;
+      } else {
+        ++t.held_back;
+      }
+    }
+    if (ready) t.ever_ready = true;
+    t.state = st.state;
+  }
+}
+
+void S7Driver::publish_status() noexcept {
+  std::fill(pending_.begin(), pending_.end(), 0);
+  for (const Write& w : writes_) pending_[w.plc] += w.ticket.id != 0;
+  for (size_t i = 0; i < plcs_.size(); ++i) {
+    PlcStatus st;
+    if (!engine_.try_status(plcs_[i], st)) continue;
+    io::LinkStatus& ls = link_row(static_cast<uint32_t>(i));
+    const auto r = std::memory_order_relaxed;
+    ls.state.store(static_cast<uint8_t>(link_state(st.state)), r);
+    ls.quality.store(static_cast<uint8_t>(st.state == PlcState::kReady ? Quality::kGood : Quality::kBad), r);
+    ls.rtt_p50_us.store(st.rtt_p50_us, r);
+    ls.rtt_p99_us.store(st.rtt_p99_us, r);
+    ls.rtt_max_us.store(st.rtt_max_us, r);
+    ls.connects.store(st.connects, r);
+    ls.reconnects.store(st.reconnects, r);
+    ls.timeouts.store(st.timeouts, r);
+    ls.errors.store(st.errors, r);
+    ls.polls_completed.store(st.polls_completed, r);
+    ls.polls_missed.store(st.polls_missed, r);
+    ls.polls_offline.store(st.polls_offline, r);
+    ls.writes_acked.store(acked_[i], r);
+    ls.writes_failed.store(failed_[i], r);
+    ls.writes_pending.store(pending_[i], r);
+    ls.writes_rejected.store(rejected_[i], r);
+    for (size_t b = 0; b < io::kLinkLatencyBuckets; ++b) ls.latency[b].store(st.rtt_buckets.counts[b], r);
+  }
+}
+
+void S7Driver::on_stop() noexcept {
+  // Stopping: the tasks have set their outputs to their safe values. Send those,
+  // and give the PLCs a moment to acknowledge them, so shutdown loses no write.
+  const int64_t give_up = kernel_rt::monotonic_now_ns() + 1000000000;
+  for (;;) {
+    cycle(kernel_rt::monotonic_now_ns());
+    bool pending = false;
+    for (const Write& w : writes_) pending |= w.ticket.id != 0 || w.resend;
+    if (!pending || kernel_rt::monotonic_now_ns() > give_up) break;
+    kernel_rt::sleep_until_ns(kernel_rt::monotonic_now_ns() + 10000000);
+  }
+  track_status(kernel_rt::monotonic_now_ns());
+  publish_status();
+}
+
+namespace {
+
+Result<std::unique_ptr<io::Driver>> create(const io::DriverSetup& setup) {
+  auto d = std::make_unique<S7Driver>(setup);
+  if (auto r = d->prepare(); !r) return make_error(r.error());
+  return std::unique_ptr<io::Driver>(std::move(d));
+}
+
+}  // namespace
+
+const io::DriverKind kDriverKind{&kConfigKind, &create, &add_commands};
+
+}  // namespace rtplc::s7

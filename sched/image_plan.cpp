@@ -1,0 +1,216 @@
+// Planning the process image (see image_plan.h).
+#include "sched/image_plan.h"
+
+#include <algorithm>
+#include <set>
+
+#include "common/capacities.h"
+#include "common/text.h"
+
+namespace rtplc::sched {
+
+io::ChannelDesc channel_desc(const std::string& label, const std::string& key, io::ChannelDir dir,
+                             uint8_t kind, uint32_t region, uint32_t index) {
+  io::ChannelDesc d{};
+  copy_text(d.label, sizeof d.label, label);
+  copy_text(d.key, sizeof d.key, key);
+  d.dir = static_cast<uint8_t>(dir);
+  d.kind = kind;
+  d.region = static_cast<uint16_t>(region);
+  d.index = index;
+  return d;
+}
+
+std::vector<int> rate_monotonic_priorities(const config::RuntimeConfig& cfg,
+                                           std::span<const int64_t> periods) {
+  const size_t n = cfg.tasks.size();
+  std::vector<int64_t> distinct(periods.begin(), periods.end());
+  std::sort(distinct.begin(), distinct.end());
+  distinct.erase(std::unique(distinct.begin(), distinct.end()), distinct.end());
+  std::vector<int> prio(n);
+  for (size_t t = 0; t < n; ++t) {
+    if (cfg.tasks[t].priority) {
+      prio[t] = *cfg.tasks[t].priority;
+      continue;
+    }
+    const auto rank = std::lower_bound(distinct.begin(), distinct.end(), periods[t]) - distinct.begin();
+    int p = cfg.band_hi - static_cast<int>(rank);
+    // Rate-monotonic also against priorities the user set: never above a task
+    // with a shorter period, never below one with a longer period.
+    for (size_t u = 0; u < n; ++u) {
+      if (!cfg.tasks[u].priority) continue;
+      if (periods[u] < periods[t]) p = std::min(p, *cfg.tasks[u].priority - 1);
+    }
+    for (size_t u = 0; u < n; ++u) {
+      if (!cfg.tasks[u].priority) continue;
+      if (periods[u] > periods[t]) p = std::max(p, std::min(*cfg.tasks[u].priority + 1, cfg.band_hi));
+    }
+    prio[t] = std::clamp(p, cfg.band_lo, cfg.band_hi);
+  }
+  return prio;
+}
+
+bool plan_image(const config::RuntimeConfig& cfg, const std::string& name,
+                std::span<const TaskImage> images, std::span<const config::DriverClaims> claims,
+                PlanDiagnostics diags, ImagePlan& out) {
+  DiagnosticList& cdiag = *diags.config;
+  const size_t n_tasks = cfg.tasks.size();
+  bool ok = true;
+
+  for (const TaskImage& img : images) out.periods_ns.push_back(img.header().period_ns);
+  out.priorities = rate_monotonic_priorities(cfg, out.periods_ns);
+
+  // Regions: one per task's outputs, per driver, the set-points, unwired inputs.
+  io::ImageLayout& layout = out.layout;
+  layout.name = name;
+  for (size_t t = 0; t < n_tasks; ++t) {
+    layout.regions.push_back({"task:" + cfg.tasks[t].name, io::RegionKind::kTask,
+                              static_cast<uint32_t>(t), images[t].header().n_io_out + kSpareOutputs});
+  }
+  struct Produced {
+    uint32_t region;
+    uint32_t index;
+    std::string label;
+  };
+  std::map<std::string, Produced> produced;  // input channels a driver writes
+  const int driver_prio = std::min(cfg.band_hi + 1, config::kMaxFifoPriority);
+  for (size_t d = 0; d < cfg.drivers.size(); ++d) {
+    const config::DriverConfig& dc = cfg.drivers[d];
+    const config::DriverClaims& c = claims[d];
+    DriverPlan dp;
+    dp.region = static_cast<uint32_t>(layout.regions.size());
+    dp.n_provides = static_cast<uint32_t>(c.provides.size());
+    dp.first_link = layout.n_links;
+    dp.priority = dc.priority ? *dc.priority : driver_prio;
+    dp.helper_priority = std::max(1, cfg.band_lo - 1);
+    layout.n_links += c.links;
+    for (uint32_t i = 0; i < c.provides.size(); ++i) {
+      // Two sources of one input were refused when the config loaded.
+      produced.emplace(c.provides[i].key, Produced{dp.region, i, c.provides[i].label});
+    }
+    const size_t capacity = c.provides.size() + c.consumes.size();
+    layout.regions.push_back({"driver:" + dc.name, io::RegionKind::kDriver, static_cast<uint32_t>(d),
+                              static_cast<uint32_t>(std::max<size_t>(capacity, 1))});
+    out.drivers.push_back(std::move(dp));
+  }
+  out.setpoint_region = static_cast<uint32_t>(layout.regions.size());
+  layout.regions.push_back({"setpoints", io::RegionKind::kSetpoints, 0, 0});
+  out.unwired_region = static_cast<uint32_t>(layout.regions.size());
+  layout.regions.push_back({"unwired", io::RegionKind::kUnwired, 0, 0});
+
+  // Channels from every program's bindings.
+  std::vector<io::ChannelDesc>& descs = out.channels;
+  std::map<std::string, uint32_t>& by_key = out.channel_by_key;
+  std::map<std::string, std::pair<std::string, size_t>> label_owner;  // label -> key, task
+  uint32_t n_setpoints = 0, n_unwired = 0;
+  out.task_output_keys.assign(n_tasks, {});
+  for (size_t t = 0; t < n_tasks; ++t) {
+    const TaskImage& img = images[t];
+    DiagnosticList& pdiag = *diags.programs[t];
+    out.task_output_keys[t].assign(img.header().n_io_out, "");
+    for (const Binding& b : img.bindings()) {
+      const std::string key = binding_key(b);
+      const std::string label = img.str(b.label);
+      const SourcePos at{b.line, 1};
+      auto lab = label_owner.find(label);
+      if (lab != label_owner.end() && lab->second.first != key) {
+        pdiag.error(at, "label \"" + label + "\" already names channel " + lab->second.first +
+                            " in task " + cfg.tasks[lab->second.second].name +
+                            "; labels name one channel in the whole runtime");
+        ok = false;
+        continue;
+      }
+      label_owner.emplace(label, std::make_pair(key, t));
+      auto existing = by_key.find(key);
+      if (b.dir == BindingDir::kOutput) {
+        if (existing != by_key.end()) {
+          const io::ChannelDesc& e = descs[existing->second];
+          pdiag.error(at, "output " + key + " is already written by task " +
+                              cfg.tasks[e.region].name + ": each output has one writer");
+          ok = false;
+          continue;
+        }
+        out.task_output_keys[t][b.io_index] = key;
+        by_key[key] = static_cast<uint32_t>(descs.size());
+        descs.push_back(channel_desc(label, key, io::ChannelDir::kOutput, static_cast<uint8_t>(b.kind),
+                                     static_cast<uint32_t>(t), b.io_index));
+      } else if (existing == by_key.end()) {
+        io::ChannelDesc d = channel_desc(label, key, io::ChannelDir::kInput, static_cast<uint8_t>(b.kind), 0, 0);
+        if (b.dir == BindingDir::kSetpoint) {
+          d.dir = static_cast<uint8_t>(io::ChannelDir::kSetpoint);
+          d.region = static_cast<uint16_t>(out.setpoint_region);
+          d.index = n_setpoints++;
+          d.init = b.init;
+          d.retain = 1;
+        } else if (auto pr = produced.find(key); pr != produced.end()) {
+          d.region = static_cast<uint16_t>(pr->second.region);
+          d.index = pr->second.index;
+        } else {
+          d.region = static_cast<uint16_t>(out.unwired_region);
+          d.index = n_unwired++;
+          pdiag.warning(at, "no driver provides input " + key + " (\"" + label +
+                                "\"): it reads 0 with bad quality");
+        }
+        by_key[key] = static_cast<uint32_t>(descs.size());
+        descs.push_back(d);
+      }
+    }
+  }
+
+  // Driver inputs nobody reads still show in the monitor; what a driver
+  // consumes must be some task's output.
+  for (size_t d = 0; d < cfg.drivers.size(); ++d) {
+    const config::DriverConfig& dc = cfg.drivers[d];
+    const config::DriverClaims& c = claims[d];
+    DriverPlan& dp = out.drivers[d];
+    for (const config::ChannelClaim& p : c.provides) {
+      if (by_key.count(p.key)) continue;
+      const Produced& pr = produced[p.key];
+      by_key[p.key] = static_cast<uint32_t>(descs.size());
+      descs.push_back(channel_desc(pr.label, p.key, io::ChannelDir::kInput, 0, pr.region, pr.index));
+    }
+    for (uint32_t j = 0; j < c.consumes.size(); ++j) {
+      const config::ChannelClaim& q = c.consumes[j];
+      auto it = by_key.find(q.key);
+      if (it == by_key.end() || descs[it->second].dir != static_cast<uint8_t>(io::ChannelDir::kOutput)) {
+        cdiag.error(q.pos, "no task writes " + q.key + ", which driver " + dc.name + " sends");
+        ok = false;
+        dp.consumes.push_back({out.unwired_region, 0});
+        continue;
+      }
+      io::ChannelDesc& o = descs[it->second];
+      dp.consumes.push_back({o.region, o.index});
+      if (!o.has_delivery) {
+        // The first driver that sends an output reports how its delivery goes.
+        o.has_delivery = 1;
+        o.delivery_region = static_cast<uint16_t>(dp.region);
+        o.delivery_index = dp.n_provides + j;
+      }
+    }
+  }
+
+  // Safe outputs name outputs of their own task.
+  for (size_t t = 0; t < n_tasks; ++t) {
+    for (const config::SafeOutput& so : cfg.tasks[t].safe_outputs) {
+      bool found = false;
+      for (const Binding& b : images[t].bindings()) {
+        found |= b.dir == BindingDir::kOutput && so.label == images[t].str(b.label);
+      }
+      if (!found) {
+        cdiag.error(so.pos, "task " + cfg.tasks[t].name + " has no output labelled \"" + so.label + "\"");
+        ok = false;
+      }
+    }
+  }
+  if (descs.size() > kMaxChannels) {
+    cdiag.error(SourcePos{}, "more than " + std::to_string(kMaxChannels) + " channels");
+    ok = false;
+  }
+  layout.regions[out.setpoint_region].capacity = n_setpoints + kSpareSetpoints;
+  layout.regions[out.unwired_region].capacity = n_unwired + kSpareUnwired;
+  layout.channel_capacity = static_cast<uint32_t>(std::min<size_t>(kMaxChannels, descs.size() + 256));
+  layout.n_tasks = static_cast<uint32_t>(n_tasks);
+  return ok;
+}
+
+}  // namespace rtplc::sched

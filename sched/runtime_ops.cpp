@@ -1,0 +1,167 @@
+// The operator's verbs on a running runtime (see runtime.h): set-points,
+// swap and rollback, status and the start-up summary. Control thread only.
+#include "sched/runtime.h"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <thread>
+
+#include "common/text.h"
+#include "kernel_rt/clock.h"
+#include "lang/compiler.h"
+#include "sched/stats_source.h"
+
+namespace rtplc::sched {
+namespace {
+
+std::string fmt_ms(int64_t ns) { return format_number(static_cast<double>(ns) / 1e6) + " ms"; }
+
+}  // namespace
+
+// ---------------------------------------------------------------------------
+// Operator verbs
+
+Result<std::string> Runtime::set_value(const std::string& label, double value) {
+  const int c = image_.find_channel(label);
+  if (c < 0) return make_error("no channel is labelled \"" + label + "\"");
+  const io::ChannelDesc& d = image_.channel(static_cast<uint32_t>(c));
+  if (d.dir != static_cast<uint8_t>(io::ChannelDir::kSetpoint)) {
+    return make_error("\"" + label + "\" is " +
+                      (d.dir == static_cast<uint8_t>(io::ChannelDir::kInput) ? "an input" : "an output") +
+                      "; only set-points (asp, dsp) can be set");
+  }
+  if (!std::isfinite(value)) return make_error("the value must be a finite number");
+  if (d.kind == static_cast<uint8_t>(Kind::kDigital) && value != 0 && value != 1) {
+    return make_error("\"" + label + "\" is a digital set-point: 0 or 1");
+  }
+  const double before = setpoint_values_[d.index];
+  if (d.retain) {
+    // On disk first: once the operator sees OK, the value survives a crash.
+    RetainStore next = retain_;
+    next.set(label, value);
+    if (auto r = next.save(); !r) return make_error("not changed: cannot retain it: " + r.error());
+    retain_ = std::move(next);
+  }
+  setpoint_values_[d.index] = value;
+  publish_setpoints();
+  return label + " = " + format_number(value) + " (was " + format_number(before) + ")" +
+         (d.retain ? ", retained in " + retain_.path() : "");
+}
+
+Result<std::string> Runtime::install(Task& t, std::unique_ptr<LoadedProgram> next, bool keep_previous) {
+  const int64_t requested = kernel_rt::monotonic_now_ns();
+  const uint64_t swaps_before = image_.task_info(t.index()).swaps.load(std::memory_order_relaxed);
+  const Migration summary = next->migration;
+  const uint32_t n_blocks = next->image.header().n_instr;
+  if (!t.publish(std::move(next))) return make_error("a swap of task " + t.params().name + " is already in progress");
+  // The task takes it at its next cycle boundary: wait at most a few periods.
+  const int64_t deadline = requested + std::max<int64_t>(10 * t.params().period_ns, 2000000000);
+  while (!t.swap_applied()) {
+    if (kernel_rt::monotonic_now_ns() > deadline) {
+      // Cannot happen while the task runs; say so rather than hang the operator.
+      return make_error("task " + t.params().name + " did not take the new program (is it running?)");
+    }
+    std::this_thread::sleep_for(std::chrono::microseconds(200));
+  }
+  const int64_t applied = image_.task_info(t.index()).last_swap_ns.load(std::memory_order_relaxed);
+  std::unique_ptr<LoadedProgram> old = t.collect();
+  if (keep_previous && old) {
+    old->arena = TaskArena();  // its state is not needed for a rollback, only its code
+    previous_[t.index()] = std::move(old);
+  }
+  image_.task_info(t.index()).n_blocks = n_blocks;
+  (void)swaps_before;
+  std::string out = "task " + t.params().name + ": now running " + t.active().file + " (" +
+                    std::to_string(n_blocks) + " blocks), applied at a cycle boundary " +
+                    fmt_ms(applied - requested) + " after the request\n";
+  auto list = [&out](const char* what, const std::vector<std::string>& names) {
+    out += std::string("  ") + what + ": " + std::to_string(names.size());
+    for (size_t i = 0; i < names.size() && i < 12; ++i) out += (i ? ", " : " (") + names[i];
+    if (!names.empty()) out += names.size() > 12 ? ", ...)" : ")";
+    out += "\n";
+  };
+  list("kept state", summary.kept);
+  list("reset", summary.reset);
+  list("new", summary.added);
+  list("removed", summary.removed);
+  return out;
+}
+
+Result<std::string> Runtime::swap(const std::string& task, const std::string& source,
+                                  const std::string& file_label,
+                                  const std::vector<std::string>& drop_outputs) {
+  const int64_t t0 = kernel_rt::monotonic_now_ns();
+  Task* t = find_task(task);
+  if (t == nullptr) return make_error("no task named " + task);
+  lang::CompileOptions o;
+  o.name = task;
+  o.period_override = static_cast<double>(t->params().period_ns) / 1e9;  // the task keeps its grid
+  o.output_layout = task_output_keys_[t->index()];
+  lang::CompileResult r = lang::compile_source(source, o);
+  if (!r.ok()) {
+    return make_error("not swapped, the program has errors:\n" + r.diags.render(file_label, source));
+  }
+  const int64_t compiled = kernel_rt::monotonic_now_ns();
+  auto next = make_program(t->index(), std::move(*r.image), source, file_label, &t->active(), drop_outputs);
+  if (!next) return make_error("not swapped: " + next.error());
+  auto res = install(*t, std::move(next).value(), true);
+  if (!res) return res;
+  std::string warn = r.diags.warning_count() ? r.diags.render(file_label, source) : "";
+  return "compiled and verified in " + fmt_ms(compiled - t0) + "\n" + *res + warn;
+}
+
+Result<std::string> Runtime::rollback(const std::string& task, const std::vector<std::string>& drop_outputs) {
+  Task* t = find_task(task);
+  if (t == nullptr) return make_error("no task named " + task);
+  const std::unique_ptr<LoadedProgram>& prev = previous_[t->index()];
+  if (!prev) return make_error("task " + task + " has no previous program to roll back to");
+  auto copy = TaskImage::from_bytes(prev->image.bytes());
+  if (!copy) return make_error(copy.error());
+  auto next = make_program(t->index(), std::move(copy).value(), prev->source, prev->file, &t->active(), drop_outputs);
+  if (!next) return make_error("not rolled back: " + next.error());
+  return install(*t, std::move(next).value(), true);
+}
+
+std::string Runtime::status() const {
+  std::string s = "runtime " + name_ + " (pid " + std::to_string(getpid()) + "), " +
+                  std::to_string(tasks_.size()) + " tasks, " + std::to_string(drivers_.size()) +
+                  " drivers, " + std::to_string(image_.channel_count()) + " channels\n";
+  s += "shared memory " + image_.object_name() + ", control socket " + socket_path_ +
+       ", retain file " + retain_.path() + "\n";
+  for (uint32_t l = 0; l < image_.link_count(); ++l) s += "  " + link_status_line(link_snapshot(image_.link(l))) + "\n";
+  for (const auto& t : tasks_) {
+    const io::TaskInfo& ti = image_.task_info(t->index());
+    const auto* st = static_cast<const CycleStats*>(image_.task_stats(t->index()));
+    s += "  task " + t->params().name + ": " +
+         io::task_state_name(static_cast<io::TaskState>(ti.state.load())) + ", " +
+         t->active().file + ", period " + fmt_ms(t->params().period_ns) + ", " +
+         (ti.fifo ? "FIFO " + std::to_string(ti.priority) : std::string("OTHER")) + ", " +
+         std::to_string(st->cycles()) + " cycles, " + std::to_string(st->overruns()) +
+         " overruns, " + std::to_string(ti.swaps.load()) + " swaps, " +
+         std::to_string(ti.block_errors.load()) + " block errors\n";
+  }
+  return s;
+}
+
+std::vector<std::string> Runtime::describe() const {
+  std::vector<std::string> out;
+  for (const auto& t : tasks_) {
+    const TaskParams& p = t->params();
+    out.push_back("task " + p.name + ": " + t->active().file + ", " +
+                  std::to_string(t->active().image.header().n_instr) + " blocks, period " +
+                  fmt_ms(p.period_ns) + ", priority " + std::to_string(p.priority) +
+                  (p.cpu >= 0 ? ", cpu " + std::to_string(p.cpu) : "") +
+                  (p.watchdog ? ", watchdog " + std::to_string(p.watchdog) : ""));
+  }
+  for (const auto& d : drivers_) out.push_back("driver " + d->name() + " (" + d->kind() + ")");
+  const double bound = liu_layland_bound(tasks_.size());
+  out.push_back("Liu-Layland bound for " + std::to_string(tasks_.size()) + " tasks: " +
+                format_number(bound * 100) + "% utilisation");
+  return out;
+}
+
+std::vector<TaskStatsView> Runtime::stats_views() const { return read_task_stats(image_); }
+
+}  // namespace rtplc::sched

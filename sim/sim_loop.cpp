@@ -1,0 +1,282 @@
+// Closed-loop simulation in virtual time (see sim_loop.h).
+#include "sim/sim_loop.h"
+
+#include <time.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+
+#include "blocks/executor.h"
+#include "kernel_rt/clock.h"
+
+namespace rtplc::io {
+namespace {
+
+std::string address(const Binding& b) {
+  return "p" + std::to_string(b.p) + ".d" + std::to_string(b.d) + ".c" + std::to_string(b.c);
+}
+
+std::string list_channels(const TaskImage& img, BindingDir dir, const char* block) {
+  std::string s;
+  for (const Binding& b : img.bindings()) {
+    if (b.dir != dir || b.group != IoGroup::kDio || b.kind != Kind::kAnalog) continue;
+    s += std::string(s.empty() ? "" : ", ") + address(b) + " (\"" + img.str(b.label) + "\")";
+  }
+  return s.empty() ? std::string("the program has no ") + block + " block" : "it has " + s;
+}
+
+using kernel_rt::sleep_until_ns;
+
+int64_t now_ns() { return kernel_rt::monotonic_now_ns(); }
+
+std::string gp_quote(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) {
+    if (c == '\'') out += "''";
+    else out += c;
+  }
+  return out + "'";
+}
+
+}  // namespace
+
+Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const SimOptions& opt) {
+  if (!(opt.duration > 0) || opt.duration > 1e7) return make_error("duration must be in (0, 1e7] s");
+  const double dt = image.period_s();
+  SimTrace tr;
+  tr.dt = dt;
+  int steps = 0;
+  tr.plant_step = plant_step_for(dt, &steps);
+  tr.plant = plant.describe();
+
+  const Binding* pv = nullptr;
+  const Binding* mv = nullptr;
+  for (const Binding& b : image.bindings()) {
+    if (b.group != IoGroup::kDio || b.kind != Kind::kAnalog) continue;
+    if (b.dir == BindingDir::kInput && address(b) == opt.plant_output && !pv) pv = &b;
+    if (b.dir == BindingDir::kOutput && address(b) == opt.plant_input && !mv) mv = &b;
+  }
+  if (!mv) {
+    return make_error("no dao at " + opt.plant_input + " to drive the plant: " +
+                      list_channels(image, BindingDir::kOutput, "dao") +
+                      "; choose one with --plant-input");
+  }
+  if (!pv) {
+    return make_error("no dai at " + opt.plant_output + " to measure the plant: " +
+                      list_channels(image, BindingDir::kInput, "dai") +
+                      "; choose one with --plant-output");
+  }
+
+  TaskArena arena(image);
+  tr.columns.push_back("t");
+  tr.is_output.push_back(false);
+  std::vector<const Binding*> cols;
+  int analog_setpoints = 0;
+  for (const Binding& b : image.bindings()) {
+    cols.push_back(&b);
+    tr.columns.push_back(image.str(b.label));
+    tr.is_output.push_back(b.dir == BindingDir::kOutput);
+    if (&b == pv) tr.pv_column = static_cast<int>(tr.columns.size() - 1);
+    if (&b == mv) tr.mv_column = static_cast<int>(tr.columns.size() - 1);
+    if (b.dir == BindingDir::kSetpoint && b.kind == Kind::kAnalog) {
+      ++analog_setpoints;
+      tr.sp_column = static_cast<int>(tr.columns.size() - 1);
+    }
+    if (b.dir == BindingDir::kSetpoint) arena.io_in[b.io_index] = b.init;
+  }
+  if (analog_setpoints != 1) tr.sp_column = -1;
+
+  // Resolve set-point steps to input-buffer indices up front.
+  struct Pending {
+    uint32_t io;
+    double value;
+    double at;
+  };
+  std::vector<Pending> pending;
+  for (const SetpointStep& s : opt.steps) {
+    const Binding* found = nullptr;
+    for (const Binding& b : image.bindings()) {
+      if (b.dir == BindingDir::kSetpoint && s.label == image.str(b.label)) found = &b;
+    }
+    if (!found) return make_error("--step: no set-point labelled \"" + s.label + "\"");
+    if (found->kind == Kind::kDigital && s.value != 0 && s.value != 1) {
+      return make_error("--step: \"" + s.label + "\" is digital and takes 0 or 1");
+    }
+    pending.push_back({found->io_index, s.value, s.at});
+  }
+  std::sort(pending.begin(), pending.end(), [](auto& a, auto& b) { return a.at < b.at; });
+
+  plant.reset();
+  ExecContext ctx = make_context(image, arena);
+  const auto cycles = static_cast<uint64_t>(std::floor(opt.duration / dt + 1e-9)) + 1;
+  tr.rows.reserve(cycles);
+  const int64_t start = now_ns();
+  const auto period_ns = image.header().period_ns;
+  size_t next_step = 0;
+  for (uint64_t k = 0; k < cycles; ++k) {
+    const double t = static_cast<double>(k) * dt;
+    if (opt.realtime) sleep_until_ns(start + static_cast<int64_t>(k) * period_ns);
+    while (next_step < pending.size() && pending[next_step].at <= t + 1e-9) {
+      arena.io_in[pending[next_step].io] = pending[next_step].value;
+      ++next_step;
+    }
+    arena.io_in[pv->io_index] = plant.output();
+    execute_cycle(ctx);
+    const double u = arena.io_out[mv->io_index];
+    std::vector<double> row;
+    row.reserve(cols.size() + 1);
+    row.push_back(t);
+    for (const Binding* b : cols) {
+      row.push_back(b->dir == BindingDir::kOutput ? arena.io_out[b->io_index]
+                                                  : arena.io_in[b->io_index]);
+    }
+    tr.rows.push_back(std::move(row));
+    for (int s = 0; s < steps; ++s) plant.step(u, tr.plant_step);
+  }
+  tr.block_errors = arena.total_errors;
+  return tr;
+}
+
+StepMetrics step_metrics(const SimTrace& tr) {
+  StepMetrics m;
+  if (tr.pv_column < 0 || tr.rows.empty()) return m;
+  const auto pv = static_cast<size_t>(tr.pv_column);
+  // Analyse from the last set-point change.
+  size_t from = 0;
+  if (tr.sp_column >= 0) {
+    const auto sp = static_cast<size_t>(tr.sp_column);
+    m.has_setpoint = true;
+    for (size_t i = 1; i < tr.rows.size(); ++i) {
+      if (tr.rows[i][sp] != tr.rows[i - 1][sp]) from = i;
+    }
+    m.setpoint = tr.rows.back()[sp];
+  }
+  m.initial = tr.rows[from][pv];
+  m.final_value = tr.rows.back()[pv];
+  const double target = m.has_setpoint ? m.setpoint : m.final_value;
+  const double span = target - m.initial;
+  const double t0 = tr.rows[from][0];
+  if (std::fabs(span) < 1e-12) return m;
+  m.final_error_pct = std::fabs(m.final_value - target) / std::fabs(span) * 100.0;
+  m.peak = m.initial;
+  double t10 = -1, t90 = -1;
+  size_t last_outside = from;
+  bool ever_outside = false;
+  for (size_t i = from; i < tr.rows.size(); ++i) {
+    const double y = tr.rows[i][pv], t = tr.rows[i][0];
+    const double frac = (y - m.initial) / span;  // progress toward the target
+    if ((y - m.peak) * (span > 0 ? 1 : -1) > 0) {
+      m.peak = y;
+      m.peak_time = t - t0;
+    }
+    if (t10 < 0 && frac >= 0.1) t10 = t;
+    if (t90 < 0 && frac >= 0.9) t90 = t;
+    if (std::fabs(y - target) > 0.02 * std::fabs(span)) {
+      last_outside = i;
+      ever_outside = true;
+    }
+  }
+  const double over = (m.peak - target) / span * 100.0;
+  m.overshoot_pct = over > 0 ? over : 0.0;
+  if (t10 >= 0 && t90 >= 0) m.rise_time = t90 - t10;
+  if (!ever_outside) m.settling_time = 0;
+  else if (last_outside + 1 < tr.rows.size()) m.settling_time = tr.rows[last_outside + 1][0] - t0;
+  return m;
+}
+
+std::string format_metrics(const SimTrace& tr, const StepMetrics& m) {
+  if (tr.pv_column < 0) return "";
+  const std::string pv = tr.columns[static_cast<size_t>(tr.pv_column)];
+  char buf[512];
+  std::string out;
+  if (m.has_setpoint) {
+    std::snprintf(buf, sizeof buf, "%s: %g -> %g (set-point %s = %g), final error %.3f%% of the step\n",
+                  pv.c_str(), m.initial, m.final_value,
+                  tr.columns[static_cast<size_t>(tr.sp_column)].c_str(), m.setpoint, m.final_error_pct);
+  } else {
+    std::snprintf(buf, sizeof buf, "%s: %g -> %g (no single analog set-point to compare with)\n",
+                  pv.c_str(), m.initial, m.final_value);
+  }
+  out += buf;
+  std::snprintf(buf, sizeof buf, "  overshoot %.1f%% (peak %g at %g s)\n", m.overshoot_pct, m.peak,
+                m.peak_time);
+  out += buf;
+  if (m.rise_time >= 0) {
+    std::snprintf(buf, sizeof buf, "  rise time (10%%-90%%) %g s\n", m.rise_time);
+  } else {
+    std::snprintf(buf, sizeof buf, "  rise time: never reached 90%% of the step\n");
+  }
+  out += buf;
+  if (m.settling_time >= 0) {
+    std::snprintf(buf, sizeof buf, "  settling time (2%% band) %g s\n", m.settling_time);
+  } else {
+    std::snprintf(buf, sizeof buf, "  did not settle within 2%% of the step\n");
+  }
+  out += buf;
+  return out;
+}
+
+Result<void> write_csv(const SimTrace& tr, const std::string& path) {
+  std::string tmp = path + ".tmp";
+  FILE* f = std::fopen(tmp.c_str(), "w");
+  if (!f) return make_error("cannot write " + tmp + ": " + std::strerror(errno));
+  for (size_t i = 0; i < tr.columns.size(); ++i) {
+    std::fprintf(f, "%s%s", i ? "," : "", tr.columns[i].c_str());
+  }
+  std::fputc('\n', f);
+  for (const auto& row : tr.rows) {
+    for (size_t i = 0; i < row.size(); ++i) {
+      // t with as many decimals as it needs; values with full precision.
+      if (i == 0) std::fprintf(f, "%.6g", row[i]);
+      else std::fprintf(f, ",%.10g", row[i]);
+    }
+    std::fputc('\n', f);
+  }
+  const bool ok = std::fflush(f) == 0 && !std::ferror(f);
+  std::fclose(f);
+  if (!ok) return make_error("error writing " + tmp);
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    return make_error("cannot rename " + tmp + " to " + path + ": " + std::strerror(errno));
+  }
+  return {};
+}
+
+Result<void> write_plot(const SimTrace& tr, const std::string& csv_path, const std::string& png_path,
+                        const std::string& title) {
+  std::string script;
+  script += "set terminal pngcairo size 1100,760 enhanced font 'Sans,10'\n";
+  script += "set output " + gp_quote(png_path) + "\n";
+  script += "set datafile separator ','\n";
+  script += "set grid\nset key outside right top\n";
+  script += "set multiplot layout 2,1 title " + gp_quote(title) + " noenhanced\n";
+  std::string top, bottom;
+  // Inputs and set-points above (the measurement in bold), outputs below.
+  for (size_t c = 1; c < tr.columns.size(); ++c) {
+    const bool is_out = tr.is_output[c];
+    std::string item = gp_quote(csv_path) + " using 1:" + std::to_string(c + 1) +
+                       " with lines lw " + (static_cast<int>(c) == tr.pv_column ? "2.5" : "1.5") +
+                       " title " + gp_quote(tr.columns[c]) + " noenhanced";
+    std::string& panel = is_out ? bottom : top;
+    panel += panel.empty() ? item : ", " + item;
+  }
+  script += "set ylabel 'inputs and set-points'\n";
+  script += "plot " + (top.empty() ? std::string("0 notitle") : top) + "\n";
+  script += "set ylabel 'outputs'\nset xlabel 't (s)'\n";
+  script += "plot " + (bottom.empty() ? std::string("0 notitle") : bottom) + "\n";
+  script += "unset multiplot\n";
+  FILE* gp = popen("gnuplot 2>&1", "w");
+  if (!gp) return make_error("cannot start gnuplot (install the gnuplot-nox package)");
+  std::fputs(script.c_str(), gp);
+  const int rc = pclose(gp);
+  if (rc != 0) {
+    return make_error("gnuplot failed (exit " + std::to_string(rc) +
+                      "); is gnuplot installed? scripts/setup-deps installs it");
+  }
+  return {};
+}
+
+}  // namespace rtplc::io

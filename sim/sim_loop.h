@@ -1,0 +1,72 @@
+// Closed-loop simulation in virtual time (issue "Simulation", seed 6.4): one task
+// image against a simulated plant wired to a dao (plant input) and a dai (plant
+// measurement), the plant integrated by RK4 between control cycles. What
+// `rtplc sim` runs, and what the tests use to close real loops.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "blocks/image.h"
+#include "common/result.h"
+#include "io/drivers/sim/plant.h"
+
+namespace rtplc::io {
+
+// A set-point change during a run: `label` takes `value` at time `at` (seconds).
+struct SetpointStep {
+  std::string label;
+  double value = 0;
+  double at = 0;
+};
+
+struct SimOptions {
+  double duration = 30;              // seconds of plant time
+  std::string plant_input = "p0.d0.c0";   // the dao channel that drives the plant
+  std::string plant_output = "p0.d0.c0";  // the dai channel that measures it
+  std::vector<SetpointStep> steps;
+  bool realtime = false;             // pace cycles to the wall clock
+};
+
+struct SimTrace {
+  std::vector<std::string> columns;  // "t", then one label per input, set-point, output
+  std::vector<std::vector<double>> rows;
+  std::vector<bool> is_output;       // per column: written by the program
+  std::string plant;                 // description
+  double dt = 0;
+  double plant_step = 0;
+  int pv_column = -1;                // the plant measurement
+  int mv_column = -1;                // the plant input
+  int sp_column = -1;                // the set-point when the program has exactly one analog one
+  uint64_t block_errors = 0;
+};
+
+Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const SimOptions& opt);
+
+// Step-response figures of the measurement against its set-point, from the last
+// set-point change (or t = 0) to the end of the run.
+struct StepMetrics {
+  bool has_setpoint = false;
+  double setpoint = 0;
+  double initial = 0;
+  double final_value = 0;
+  double final_error_pct = 0;   // |final - setpoint| / |setpoint - initial| * 100
+  double overshoot_pct = 0;     // beyond the set-point, relative to the step size
+  double peak = 0;
+  double peak_time = 0;
+  double rise_time = -1;        // 10% -> 90% of the step; -1 if never reached
+  double settling_time = -1;    // enters and stays within 2% of the step; -1 if never
+};
+
+StepMetrics step_metrics(const SimTrace& trace);
+std::string format_metrics(const SimTrace& trace, const StepMetrics& m);
+
+Result<void> write_csv(const SimTrace& trace, const std::string& path);
+
+// Draws the signals with gnuplot into a PNG: measurement and set-points on top,
+// outputs below. `csv_path` must hold the trace (write_csv first).
+Result<void> write_plot(const SimTrace& trace, const std::string& csv_path,
+                        const std::string& png_path, const std::string& title);
+
+}  // namespace rtplc::io

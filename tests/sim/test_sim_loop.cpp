@@ -1,0 +1,89 @@
+// The closed-loop simulation of the seed's example 2 (section 6.4): set-point 50,
+// PID macro (4, 3, 1) around 1/(s^2 + s + 1), RK4 at 0.01 s, control at 0.1 s.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+#include "sim/sim_loop.h"
+#include "lang/compiler.h"
+
+namespace rtplc::io {
+namespace {
+
+const std::string kSrc = RTPLC_SOURCE_DIR;
+
+SimTrace run_seed(double duration, std::vector<SetpointStep> steps = {}) {
+  auto r = lang::compile_file(kSrc + "/examples/seed_pid.fbd");
+  EXPECT_TRUE(r.ok());
+  auto p = make_plant(kDefaultPlant);
+  SimOptions o;
+  o.duration = duration;
+  o.steps = std::move(steps);
+  auto t = run_closed_loop(*r.image, **p, o);
+  EXPECT_TRUE(t.ok()) << t.error();
+  return std::move(t).value();
+}
+
+TEST(SimLoop, seed_pid_settles_to_the_setpoint_after_an_overshoot) {
+  SimTrace t = run_seed(30);
+  ASSERT_EQ(t.columns, (std::vector<std::string>{"t", "ProcVal", "Setpoint", "ManiVal"}));
+  ASSERT_EQ(t.rows.size(), 301u);  // t = 0 .. 30 s at 0.1 s
+  EXPECT_DOUBLE_EQ(t.rows.back()[0], 30.0);
+  const double pv_end = t.rows.back()[1];
+  EXPECT_NEAR(pv_end, 50.0, 0.25);  // within 0.5 % at 30 s
+  StepMetrics m = step_metrics(t);
+  EXPECT_TRUE(m.has_setpoint);
+  EXPECT_DOUBLE_EQ(m.setpoint, 50);
+  EXPECT_GT(m.overshoot_pct, 5.0);  // it does overshoot ...
+  EXPECT_LT(m.overshoot_pct, 40.0);  // ... and stays stable
+  EXPECT_GT(m.settling_time, 0);
+  EXPECT_LT(m.settling_time, 30);
+  EXPECT_LT(m.final_error_pct, 0.5);
+  EXPECT_EQ(t.block_errors, 0u);
+  // The first cycle sees PV = 0: u = 4*(50 + 50*0.1/3) and no derivative kick.
+  EXPECT_NEAR(t.rows[0][3], 4 * (50 + 50 * 0.1 / 3), 1e-12);
+}
+
+TEST(SimLoop, a_setpoint_step_moves_the_loop_to_the_new_value) {
+  SimTrace t = run_seed(60, {{"Setpoint", 60, 30}});
+  EXPECT_EQ(t.rows[299][2], 50);
+  EXPECT_EQ(t.rows[300][2], 60);
+  EXPECT_NEAR(t.rows.back()[1], 60, 0.3);
+  StepMetrics m = step_metrics(t);
+  EXPECT_NEAR(m.initial, 50, 0.3);  // analysed from the change
+}
+
+TEST(SimLoop, wiring_errors_name_the_channels_the_program_has) {
+  auto r = lang::compile_file(kSrc + "/examples/seed_pid.fbd");
+  auto p = make_plant(kDefaultPlant);
+  SimOptions o;
+  o.plant_input = "p1.d0.c0";
+  auto t = run_closed_loop(*r.image, **p, o);
+  ASSERT_FALSE(t.ok());
+  EXPECT_NE(t.error().find("p0.d0.c0 (\"ManiVal\")"), std::string::npos) << t.error();
+  o = {};
+  o.steps = {{"Nope", 1, 1}};
+  t = run_closed_loop(*r.image, **p, o);
+  ASSERT_FALSE(t.ok());
+  EXPECT_NE(t.error().find("Nope"), std::string::npos);
+}
+
+TEST(SimLoop, csv_has_the_header_and_one_row_per_cycle) {
+  SimTrace t = run_seed(1);
+  const std::string path = ::testing::TempDir() + "/sim.csv";
+  ASSERT_TRUE(write_csv(t, path).ok());
+  std::ifstream f(path);
+  std::string line;
+  std::getline(f, line);
+  EXPECT_EQ(line, "t,ProcVal,Setpoint,ManiVal");
+  int rows = 0;
+  while (std::getline(f, line)) ++rows;
+  EXPECT_EQ(rows, 11);
+  std::remove(path.c_str());
+}
+
+}  // namespace
+}  // namespace rtplc::io
