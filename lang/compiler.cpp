@@ -18,6 +18,7 @@
 #include <tuple>
 
 #include "lang/lexer.h"
+#include "lang/macro_expander.h"
 #include "lang/parser.h"
 
 namespace rtplc::lang {

@@ -10,7 +10,7 @@
 
 #include "blocks/image.h"
 #include "common/diagnostic.h"
-#include "lang/checker.h"
+#include "lang/flat_program.h"
 
 namespace rtplc::lang {
 

@@ -1,20 +1,21 @@
-// Checking and macro expansion (spec fbd-language.md: macros, ids, kinds, errors).
+// FBD macro expansion (spec fbd-language.md: "Macros", "Blocks and ids",
+// "Errors"): Program (as written) -> CheckedProgram, a flat list of primitive
+// blocks in textual order with every input resolved to the block that produces
+// it. Everything FBD-specific about checking lives here and in
+// lang/fbd_arguments.cpp: macro declarations and definitions, arity against the
+// declaration, RETURN, recursion (reported with the call chain), nesting and size
+// limits, per-call expansion, F/D/M/N/P letters and their scopes. What any
+// language must satisfy is checked by lang/program_checks.h, called from
+// check_program() below.
 //
 // Names are resolved after the whole program is expanded, because a reference may
 // point at a block further down the file (a one-cycle delay). Each macro call
 // gets its own scope whose formals are aliases of the caller's arguments, and the
 // call's result id is an alias of the macro's RETURN id inside that scope; an
 // input is resolved by following aliases until a real block is reached.
-//
-// F and D ids (M and N inside a macro) are separate names: F5 and D5 may both
-// exist. The letter is part of the name and fixes the kind, so "F used where D is
-// needed" is decided by the letter and a reference always finds a block of the
-// kind it names.
-#include "lang/checker.h"
+#include "lang/macro_expander.h"
 
 #include <algorithm>
-#include <cctype>
-#include <cmath>
 #include <map>
 #include <string>
 #include <unordered_map>
@@ -22,62 +23,30 @@
 
 #include "common/capacities.h"
 #include "common/text.h"
+#include "lang/fbd_scope.h"
+#include "lang/program_checks.h"
 
 namespace rtplc::lang {
 namespace {
 
-bool is_analog_letter(char l) { return l == 'F' || l == 'M'; }
-bool is_value_letter(char l) { return l == 'F' || l == 'D' || l == 'M' || l == 'N'; }
-Kind letter_kind(char l) { return is_analog_letter(l) ? Kind::kAnalog : Kind::kDigital; }
-char top_letter(Kind k) { return k == Kind::kAnalog ? 'F' : 'D'; }
-char macro_letter(Kind k) { return k == Kind::kAnalog ? 'M' : 'N'; }
+using fbd::ArgumentContext;
+using fbd::Binding;
+using fbd::id_key;
+using fbd::is_value_letter;
+using fbd::letter_kind;
+using fbd::macro_letter;
+using fbd::ParamBinding;
+using fbd::PendingInput;
+using fbd::Scope;
+using fbd::top_letter;
 
-uint64_t id_key(Kind k, uint32_t n) { return (uint64_t{k == Kind::kDigital} << 32) | n; }
-
-
-struct Binding {
-  enum class What : uint8_t { kBlock, kAlias, kPoison };
-  What what = What::kBlock;
-  uint32_t flat = 0;      // kBlock
-  int alias_scope = -1;   // kAlias
-  Ref alias_ref;          // kAlias
-  SourcePos pos;          // where the name was introduced
-  bool is_formal = false;
-};
-
-struct ParamBinding {
-  bool known = false;  // false while dry-checking an uncalled macro
-  double value = 0;
-};
-
-struct Scope {
-  int parent = -1;
-  bool top = true;
-  std::string prefix;  // name prefix for blocks of this expansion ("F10.")
-  uint32_t call_line = 0;
-  SourcePos call_pos;
-  std::string macro;   // macro name, for notes
-  std::unordered_map<uint64_t, Binding> ids;
-  std::unordered_map<uint32_t, ParamBinding> params;
-};
-
-struct PendingInput {
-  uint32_t block;
-  uint32_t slot;
-  int scope;
-  Ref ref;
-};
-
-struct ChannelUse {
-  uint32_t line;
-  std::string label;
-};
-
-class Checker {
+class MacroExpander {
  public:
-  Checker(const Program& prog, DiagnosticList& d) : prog_(prog), diags_(d) {}
+  MacroExpander(const Program& prog, DiagnosticList& d) : prog_(prog), diags_(d) {}
 
-  CheckedProgram run() {
+  // Expands the program body and resolves every input. The result still has to
+  // pass the language-neutral whole-program checks.
+  CheckedProgram expand() {
     index_macros();
     out_.period = prog_.has_stime ? prog_.stime : kDefaultPeriod;
     out_.period_from_stime = prog_.has_stime;
@@ -86,10 +55,14 @@ class Checker {
     scopes_.push_back(Scope{});  // top level
     expand_body(prog_.body, 0);
     resolve_all();
-    check_channels();
-    check_unused();
+    return std::move(out_);
+  }
 
-    // Macros nobody calls are still checked, with unknown parameter values.
+  // What is left once the program itself is checked: macros nobody calls (still
+  // checked, with unknown parameter values), declarations without a use, and
+  // the default period. `p` is the expanded program; dry checks borrow it.
+  void check_leftovers(CheckedProgram& p) {
+    out_ = std::move(p);
     for (const MacroDef& def : prog_.defs) {
       if (expanded_.count(def.name) == 0 && valid_def_.count(def.name) != 0) dry_check(def);
     }
@@ -103,12 +76,7 @@ class Checker {
       diags_.note(SourcePos{}, "no stime(...) in the program: the task period defaults to " +
                                    format_number(kDefaultPeriod) + " s");
     }
-    if (out_.blocks.size() > kMaxBlocks) {
-      diags_.error(SourcePos{}, "the program expands to " + std::to_string(out_.blocks.size()) +
-                                    " blocks, more than the limit of " +
-                                    std::to_string(kMaxBlocks) + " (RTPLC_MAX_BLOCKS)");
-    }
-    return std::move(out_);
+    p = std::move(out_);
   }
 
  private:
@@ -215,11 +183,8 @@ class Checker {
     auto [it, fresh] = s.ids.emplace(key, b);
     if (!fresh) {
       const Binding& first = it->second;
-      std::string what = first.is_formal ? " is an input of the macro" : " is already defined";
-      diags_.error(target.pos,
-                   target.text() + what +
-                       (first.pos.line ? " (line " + std::to_string(first.pos.line) + ")" : "") +
-                       ": every block needs its own id",
+      const char* what = first.is_formal ? " is an input of the macro" : " is already defined";
+      diags_.error(target.pos, duplicate_name_message(target.text(), what, first.pos.line),
                    target.length);
       return false;
     }
@@ -278,10 +243,8 @@ class Checker {
         msg += ": " + c.name + " is a macro, call it as " +
                (c.has_target ? c.target.text() : std::string("F1")) + " = MACRO " + c.name +
                "(...)";
-      } else if (std::string hint = suggest_block(c.name); !hint.empty()) {
-        msg += "; did you mean '" + hint + "'?";
       } else {
-        msg += " (rtplc blocks lists all 58)";
+        msg += unknown_block_hint(c.name);
       }
       diags_.error(c.name_pos, msg, c.name_length);
       if (c.has_target) poison(scope, c.target);
@@ -320,14 +283,7 @@ class Checker {
     b.written = c.name;
     b.pos = c.pos;
     b.call_line = s.call_line;
-    bool ok = false;
-    switch (spec->signature) {
-      case Signature::kCompute: ok = compute_args(c, scope, b); break;
-      case Signature::kDeviceIn: ok = device_in_args(c, b); break;
-      case Signature::kSetpoint: ok = setpoint_args(c, b); break;
-      case Signature::kDeviceOut: ok = device_out_args(c, scope, b); break;
-    }
-    if (!ok) {
+    if (!fbd::bind_call_arguments(c, ArgumentContext{s, scope, staged_, diags_}, b)) {
       staged_.clear();
       if (c.has_target) poison(scope, c.target);
       note_expansion(scope);
@@ -346,7 +302,6 @@ class Checker {
       bind.flat = index;
       bind.pos = c.target.pos;
       define(scope, c.target, bind);
-      if (s.top) top_blocks_.push_back(index);
     }
     for (PendingInput& p : staged_) {
       p.block = index;
@@ -362,277 +317,6 @@ class Checker {
     b.pos = target.pos;
     define(scope, target, b);
     staged_.clear();
-  }
-
-  static std::string device_text(const FlatBlock& b) {
-    if (b.spec->signature == Signature::kSetpoint) {
-      return "d" + std::to_string(b.d) + ".c" + std::to_string(b.c);
-    }
-    return "p" + std::to_string(b.p) + ".d" + std::to_string(b.d) + ".c" + std::to_string(b.c);
-  }
-
-  // Accepts an input reference into slot `slot` of the block being built.
-  bool input_arg(const Arg& a, int scope, Kind want, const char* input_name, const char* block,
-                 uint32_t slot, FlatBlock& b) {
-    if (a.kind != Arg::Kind::kRef || !is_value_letter(a.ref.letter)) {
-      std::string found = a.kind == Arg::Kind::kNumber   ? "a number"
-                          : a.kind == Arg::Kind::kString ? "a string"
-                          : a.kind == Arg::Kind::kDevice ? "a device address"
-                                                         : "parameter " + a.ref.text();
-      diags_.error(a.pos, std::string("input '") + input_name + "' of " + block +
-                              " must be the id of a block" +
-                              (a.kind == Arg::Kind::kNumber
-                                   ? " (a constant input comes from a set-point block, asp)"
-                                   : "") +
-                              ", found " + found,
-                   a.length);
-      return false;
-    }
-    const Scope& s = scopes_[static_cast<size_t>(scope)];
-    const char l = a.ref.letter;
-    if (s.top && (l == 'M' || l == 'N')) {
-      diags_.error(a.pos, a.ref.text() + " is a macro-internal name; the program body uses F and D",
-                   a.length);
-      return false;
-    }
-    if (!s.top && (l == 'F' || l == 'D')) {
-      diags_.error(a.pos, a.ref.text() +
-                              ": a macro cannot see the program's blocks; pass the value in "
-                              "as an input (M/N)",
-                   a.length);
-      return false;
-    }
-    if (letter_kind(l) != want) {
-      diags_.error(a.pos, std::string(want == Kind::kAnalog ? "analog" : "digital") + " input '" +
-                              input_name + "' of " + block + " needs " +
-                              (s.top ? top_letter(want) : macro_letter(want)) +
-                              "<n>, but " + a.ref.text() + " is " +
-                              (want == Kind::kAnalog ? "digital" : "analog"),
-                   a.length);
-      return false;
-    }
-    staged_.push_back(PendingInput{0, slot, scope, a.ref});
-    b.in_pos[slot] = a.pos;
-    return true;
-  }
-
-  // A literal parameter, or P<n> inside a macro. Returns false on error.
-  bool param_arg(const Arg& a, int scope, const ParamSpec& ps, const char* block, double& out,
-                 bool& known) {
-    known = true;
-    if (a.kind == Arg::Kind::kRef && a.ref.letter == 'P') {
-      const Scope& s = scopes_[static_cast<size_t>(scope)];
-      if (s.top) {
-        diags_.error(a.pos, a.ref.text() + ": P<n> names a macro parameter and exists only inside "
-                                           "a macro definition",
-                     a.length);
-        return false;
-      }
-      auto it = s.params.find(a.ref.number);
-      if (it == s.params.end()) {
-        diags_.error(a.pos, a.ref.text() + " is not a parameter of MACRO " + s.macro, a.length);
-        return false;
-      }
-      known = it->second.known;
-      out = it->second.value;
-    } else if (a.kind == Arg::Kind::kNumber) {
-      out = a.number;
-    } else {
-      diags_.error(a.pos, std::string("parameter '") + ps.name + "' (" + ps.meaning + ") of " +
-                              block + " must be a number" +
-                              (a.kind == Arg::Kind::kRef ? ", not a block id: parameters are "
-                                                           "constants"
-                                                         : ""),
-                   a.length);
-      return false;
-    }
-    if (!known) return true;
-    std::string bound;
-    if (ps.integer && out != std::floor(out)) bound = "a whole number";
-    if (ps.min_exclusive ? !(out > ps.min) : !(out >= ps.min)) {
-      bound = ps.min_exclusive ? "greater than " + format_number(ps.min) : "at least " + format_number(ps.min);
-    }
-    if (!(out <= ps.max)) bound = "at most " + format_number(ps.max);
-    if (!bound.empty()) {
-      diags_.error(a.pos, std::string("parameter '") + ps.name + "' (" + ps.meaning + ") of " +
-                              block + " must be " + bound + ", found " + format_number(out),
-                   a.length);
-      return false;
-    }
-    return true;
-  }
-
-  bool compute_args(const Call& c, int scope, FlatBlock& b) {
-    const BlockSpec& sp = *b.spec;
-    // Inputs come first, then parameters; for and/or the input count varies.
-    size_t n_refs = 0;
-    while (n_refs < c.args.size() && c.args[n_refs].kind == Arg::Kind::kRef &&
-           is_value_letter(c.args[n_refs].ref.letter)) {
-      ++n_refs;
-    }
-    size_t n_in = std::clamp<size_t>(n_refs, sp.min_inputs, sp.max_inputs);
-    if (sp.min_inputs != sp.max_inputs && n_refs < sp.min_inputs) n_in = sp.min_inputs;
-    size_t required = 0;
-    for (uint8_t k = 0; k < sp.param_count; ++k) {
-      if (!sp.params[k].optional) required = k + 1u;
-    }
-    const size_t min_args = sp.min_inputs + required;
-    const size_t max_args = sp.max_inputs + sp.param_count;
-    if (c.args.size() < min_args || c.args.size() > max_args) {
-      diags_.error(c.name_pos, arity_message(sp, c.args.size()), c.name_length);
-      return false;
-    }
-    bool ok = true;
-    b.n_in = static_cast<uint32_t>(n_in);
-    for (size_t k = 0; k < n_in; ++k) {
-      if (k >= c.args.size()) break;
-      ok &= input_arg(c.args[k], scope, sp.input_kind[k], sp.input_names[k], sp.name,
-                      static_cast<uint32_t>(k), b);
-    }
-    const size_t n_params_given = c.args.size() - n_in;
-    if (n_params_given < required) {
-      diags_.error(c.name_pos, arity_message(sp, c.args.size()), c.name_length);
-      return false;
-    }
-    bool all_known = true;
-    for (uint8_t k = 0; k < sp.param_count; ++k) {
-      double v = sp.params[k].default_value;
-      if (k < n_params_given) {
-        bool known = true;
-        ok &= param_arg(c.args[n_in + k], scope, sp.params[k], sp.name, v, known);
-        all_known &= known;
-      }
-      b.params.push_back(v);
-    }
-    if (ok && all_known && std::string_view(sp.name) == "lim" && b.params[0] > b.params[1]) {
-      diags_.error(c.args[n_in].pos, "lim: lower limit " + format_number(b.params[0]) +
-                                         " is above the upper limit " + format_number(b.params[1]),
-                   c.args[n_in].length);
-      ok = false;
-    }
-    return ok;
-  }
-
-  static std::string arity_message(const BlockSpec& sp, size_t found) {
-    std::string form = std::string(sp.name) + "(";
-    for (uint8_t k = 0; k < sp.max_inputs; ++k) {
-      if (k) form += ", ";
-      form += k >= sp.min_inputs ? std::string("[") + sp.input_names[k] + "]" : sp.input_names[k];
-    }
-    for (uint8_t k = 0; k < sp.param_count; ++k) {
-      if (k || sp.max_inputs) form += ", ";
-      form += sp.params[k].optional ? std::string("[") + sp.params[k].name + "]" : sp.params[k].name;
-    }
-    form += ")";
-    return std::string(sp.name) + " takes " + form + ", found " + std::to_string(found) +
-           " argument" + (found == 1 ? "" : "s");
-  }
-
-  bool device(const Arg& a, char letter, uint32_t max, uint32_t& out, const char* block) {
-    if (a.kind != Arg::Kind::kDevice || a.device != letter) {
-      const char* what = letter == 'p' ? "processor" : letter == 'd' ? "module" : "channel";
-      diags_.error(a.pos, std::string(block) + " expects the " + what + " address here, like " +
-                              letter + "0",
-                   a.length);
-      return false;
-    }
-    if (a.device_no > max) {
-      diags_.error(a.pos, std::string(1, letter) + " number " + std::to_string(a.device_no) +
-                              " is out of range (0.." + std::to_string(max) + ")",
-                   a.length);
-      return false;
-    }
-    out = a.device_no;
-    return true;
-  }
-
-  bool label_arg(const Call& c, size_t idx, FlatBlock& b) {
-    if (idx >= c.args.size()) {
-      b.label = std::string(b.spec->name) + "_" + device_text(b);
-      for (char& ch : b.label) {
-        if (ch == '.') ch = '_';
-      }
-      return true;
-    }
-    const Arg& a = c.args[idx];
-    if (a.kind != Arg::Kind::kString) {
-      diags_.error(a.pos, std::string(b.spec->name) + " expects a \"label\" as its last argument",
-                   a.length);
-      return false;
-    }
-    if (a.text.empty() || a.text.size() > 31) {
-      diags_.error(a.pos, "a label must have 1 to 31 characters", a.length);
-      return false;
-    }
-    for (char ch : a.text) {
-      if (!(std::isalnum(static_cast<unsigned char>(ch)) || ch == '_' || ch == '-' || ch == '.')) {
-        diags_.error(a.pos, "label \"" + a.text +
-                                "\" may only use letters, digits, '_', '-' and '.' (it names a "
-                                "channel on the command line and in CSV headers)",
-                     a.length);
-        return false;
-      }
-    }
-    b.label = a.text;
-    return true;
-  }
-
-  bool device_in_args(const Call& c, FlatBlock& b) {
-    const char* n = b.spec->name;
-    if (c.args.size() < 3 || c.args.size() > 4) {
-      diags_.error(c.name_pos, std::string(n) + " takes (p, d, c, \"label\"), found " +
-                                   std::to_string(c.args.size()) + " arguments",
-                   c.name_length);
-      return false;
-    }
-    uint32_t p = 0, d = 0;
-    bool ok = device(c.args[0], 'p', 255, p, n) & device(c.args[1], 'd', 255, d, n) &
-              device(c.args[2], 'c', 65535, b.c, n);
-    b.p = static_cast<uint16_t>(p);
-    b.d = static_cast<uint16_t>(d);
-    return ok && label_arg(c, 3, b);
-  }
-
-  bool setpoint_args(const Call& c, FlatBlock& b) {
-    const char* n = b.spec->name;
-    if (c.args.size() < 3 || c.args.size() > 4) {
-      diags_.error(c.name_pos, std::string(n) + " takes (d, c, init, \"label\"), found " +
-                                   std::to_string(c.args.size()) + " arguments",
-                   c.name_length);
-      return false;
-    }
-    uint32_t d = 0;
-    bool ok = device(c.args[0], 'd', 255, d, n) & device(c.args[1], 'c', 65535, b.c, n);
-    b.d = static_cast<uint16_t>(d);
-    const Arg& init = c.args[2];
-    if (init.kind != Arg::Kind::kNumber) {
-      diags_.error(init.pos, std::string(n) + " expects its initial value here", init.length);
-      ok = false;
-    } else if (b.spec->out_kind == Kind::kDigital && init.number != 0 && init.number != 1) {
-      diags_.error(init.pos, "a digital set-point starts at 0 or 1", init.length);
-      ok = false;
-    } else {
-      b.init = init.number;
-    }
-    return ok && label_arg(c, 3, b);
-  }
-
-  bool device_out_args(const Call& c, int scope, FlatBlock& b) {
-    const char* n = b.spec->name;
-    if (c.args.size() < 4 || c.args.size() > 5) {
-      diags_.error(c.name_pos, std::string(n) + " takes (value, p, d, c, \"label\"), found " +
-                                   std::to_string(c.args.size()) + " arguments",
-                   c.name_length);
-      return false;
-    }
-    b.n_in = 1;
-    uint32_t p = 0, d = 0;
-    bool ok = input_arg(c.args[0], scope, b.spec->input_kind[0], "value", n, 0, b);
-    ok &= device(c.args[1], 'p', 255, p, n) & device(c.args[2], 'd', 255, d, n) &
-          device(c.args[3], 'c', 65535, b.c, n);
-    b.p = static_cast<uint16_t>(p);
-    b.d = static_cast<uint16_t>(d);
-    return ok && label_arg(c, 4, b);
   }
 
   void expand_macro_call(const Call& c, int scope) {
@@ -713,7 +397,8 @@ class Checker {
         ps.meaning = "macro parameter";
         double v = 0;
         bool known = true;
-        if (!param_arg(a, scope, ps, ("MACRO " + c.name).c_str(), v, known)) {
+        if (!fbd::bind_parameter(a, ArgumentContext{caller, scope, staged_, diags_}, ps,
+                                 ("MACRO " + c.name).c_str(), v, known)) {
           ok = false;
           continue;
         }
@@ -865,74 +550,9 @@ class Checker {
       if (!resolve(p.scope, p.ref, &flat)) continue;
       FlatBlock& b = out_.blocks[p.block];
       b.in[p.slot] = flat;
-      b.delayed[p.slot] = flat >= p.block;
-      used_.insert(flat);
     }
     // A call whose RETURN names an undefined block is reported here.
     for (const auto& [target, scope] : macro_results_) resolve(scope, target);
-  }
-
-  // One writer per output channel; one definition per set-point; a label names
-  // one channel (it is how `rtplc set` and the CSV header find it).
-  void check_channels() {
-    std::map<std::string, const FlatBlock*> writers, setpoints, inputs;
-    std::map<std::string, std::pair<std::string, const FlatBlock*>> labels;
-    for (const FlatBlock& b : out_.blocks) {
-      if (b.spec->io == IoGroup::kNone) continue;
-      std::string chan = channel_key(b);
-      auto prior = [&](const FlatBlock* f) { return " (line " + std::to_string(f->pos.line) + ")"; };
-      if (b.spec->signature == Signature::kDeviceOut) {
-        auto [it, fresh] = writers.emplace(chan, &b);
-        if (!fresh) {
-          diags_.error(b.pos, "channel " + chan + " is already written by " + it->second->written +
-                                  prior(it->second) + ": each output channel has one writer");
-          continue;
-        }
-      } else if (b.spec->signature == Signature::kSetpoint) {
-        auto [it, fresh] = setpoints.emplace(chan, &b);
-        if (!fresh) {
-          diags_.error(b.pos, "set-point " + chan + " is already defined" + prior(it->second));
-          continue;
-        }
-      } else {
-        auto [it, fresh] = inputs.emplace(chan, &b);
-        if (!fresh && it->second->label != b.label) {
-          diags_.warning(b.pos, "channel " + chan + " is read again under another label ('" +
-                                    b.label + "' here, '" + it->second->label + "'" +
-                                    prior(it->second) + ")");
-        }
-        if (!fresh) continue;
-      }
-      auto [lit, fresh_label] = labels.emplace(b.label, std::make_pair(chan, &b));
-      if (!fresh_label && lit->second.first != chan) {
-        diags_.error(b.pos, "label \"" + b.label + "\" already names channel " + lit->second.first +
-                                prior(lit->second.second) + "; give each channel its own label");
-      } else if (!fresh_label && b.spec->signature == Signature::kDeviceOut) {
-        diags_.error(b.pos, "label \"" + b.label + "\" is used for both reading and writing " +
-                                chan);
-      }
-    }
-  }
-
-  static std::string channel_key(const FlatBlock& b) {
-    std::string g = io_group_name(b.spec->io);
-    if (b.spec->device_kind != 0) g += std::string(1, b.spec->device_kind);
-    if (b.spec->signature == Signature::kSetpoint) {
-      return g + " d" + std::to_string(b.d) + ".c" + std::to_string(b.c);
-    }
-    return g + " p" + std::to_string(b.p) + ".d" + std::to_string(b.d) + ".c" +
-           std::to_string(b.c);
-  }
-
-  void check_unused() {
-    if (diags_.has_errors()) return;
-    for (uint32_t idx : top_blocks_) {
-      const FlatBlock& b = out_.blocks[idx];
-      if (b.spec->signature != Signature::kCompute) continue;
-      if (used_.count(idx) == 0) {
-        diags_.warning(b.pos, b.name + " (" + b.written + ") is computed but never used");
-      }
-    }
   }
 
   const Program& prog_;
@@ -942,9 +562,7 @@ class Checker {
   std::vector<PendingInput> pending_;
   std::vector<PendingInput> staged_;
   std::vector<std::string> stack_;
-  std::vector<uint32_t> top_blocks_;
   std::vector<std::pair<Ref, int>> macro_results_;
-  std::unordered_set<uint32_t> used_;
   std::map<std::string, const MacroDecl*> decls_;
   std::map<std::string, const MacroDef*> defs_;
   std::unordered_set<std::string> valid_def_;
@@ -956,7 +574,15 @@ class Checker {
 }  // namespace
 
 CheckedProgram check_program(const Program& prog, DiagnosticList& diags) {
-  return Checker(prog, diags).run();
+  // The order of the phases is the order diagnostics have always come in.
+  MacroExpander fbd(prog, diags);
+  CheckedProgram p = fbd.expand();
+  mark_delayed_inputs(p);
+  check_io_channels(p, diags);
+  warn_unused_results(p, diags);
+  fbd.check_leftovers(p);
+  check_program_size(p, diags);
+  return p;
 }
 
 }  // namespace rtplc::lang
