@@ -110,7 +110,7 @@ std::string render_plan_text(const Design& d, const Plan& p, const std::string& 
   return s;
 }
 
-std::string render_plan_json(const Design& d, const Plan& p) {
+std::string render_plan_json(const Design& d, const Plan& p, const std::string& simulation) {
   std::string s = "{\n";
   s += "  \"feasible\": " + std::string(p.feasible ? "true" : "false") + ",\n";
   s += "  \"T1\": " + json_seconds(p.t1) + ",\n";
@@ -147,8 +147,9 @@ std::string render_plan_json(const Design& d, const Plan& p) {
          ", \"delay_bound\": " + json_seconds(l.delay_bound) + ", \"max_delay\": " +
          (l.max_delay ? json_seconds(*l.max_delay) : std::string("null")) + "}";
   }
-  s += p.loops.empty() ? "]\n" : "\n  ]\n";
-  return s + "}\n";
+  s += p.loops.empty() ? "]" : "\n  ]";
+  if (!simulation.empty()) s += ",\n  \"simulation\": " + simulation;
+  return s + "\n}\n";
 }
 
 }  // namespace rtplc::fieldbus

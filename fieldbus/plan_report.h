@@ -12,7 +12,8 @@
 namespace rtplc::fieldbus {
 
 std::string render_plan_text(const Design& d, const Plan& p, const std::string& file);
-std::string render_plan_json(const Design& d, const Plan& p);
+// `simulation`, when not empty, is a JSON object added as the member "simulation".
+std::string render_plan_json(const Design& d, const Plan& p, const std::string& simulation = "");
 
 // JSON helpers shared with the simulation report.
 std::string json_string(const std::string& s);
