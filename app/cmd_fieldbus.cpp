@@ -1,7 +1,7 @@
 // `rtplc fieldbus plan FILE`: the fieldbus bandwidth planner and its bus
 // simulation (spec io-links.md, "Fieldbus bandwidth allocation"; docs/fieldbus.md).
-#include <CLI/CLI.hpp>
 #include <unistd.h>
+#include <CLI/CLI.hpp>
 
 #include <cmath>
 #include <cstdio>
@@ -104,7 +104,8 @@ void add_fieldbus_command(CLI::App& app) {
   fb->require_subcommand(1);
   auto a = std::make_shared<FieldbusArgs>();
   CLI::App* plan = fb->add_subcommand(
-      "plan", "Choose T_1, the sampling periods and frame offsets; check the bandwidth conditions.");
+      "plan",
+      "Choose T_1, the sampling periods and frame offsets; check the bandwidth conditions.");
   plan->footer(
       "Exit codes: 0 the design works, 1 the file has errors, 3 the design cannot work\n"
       "(the report says which condition fails and by how much). See docs/fieldbus.md.\n"
@@ -119,7 +120,8 @@ void add_fieldbus_command(CLI::App& app) {
   plan->add_option("--duration", a->duration, "simulated seconds of bus time (default 60)")
       ->check(CLI::Range(1e-3, 1e6));
   plan->add_option("--seed", a->seed, "seed of the random arrivals (default 1)");
-  plan->add_option("--plot", a->plot, "draw the simulated delay distributions into a PNG (gnuplot)");
+  plan->add_option("--plot", a->plot,
+                   "draw the simulated delay distributions into a PNG (gnuplot)");
   plan->add_option("--nonrt-packet", a->nonrt_packet, "what if: non-RT packets of this length");
   plan->add_option("--add-loop", a->add_loops, "what if: one more loop with this fixed period")
       ->take_all();

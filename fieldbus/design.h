@@ -33,26 +33,26 @@ struct LoopSpec {
   std::optional<Nanos> max_delay;  // loop-delay bound Phi_i
   int sensor_node = -1;            // -1: the planner places it
   int controller_node = -1;
-  SourcePos pos;                   // the loop's entry in the plan file
+  SourcePos pos;  // the loop's entry in the plan file
 };
 
 struct Design {
-  int nodes = 0;                // N
-  Nanos server_overhead = 0;    // sigma; R = N sigma
+  int nodes = 0;              // N
+  Nanos server_overhead = 0;  // sigma; R = N sigma
   Access access = Access::kPolling;
-  std::optional<Nanos> frame;   // T_1 forced by the file; else chosen
-  Nanos periodic_packet = 0;    // L_p
-  int rt_queues = 0;            // N_c
-  Nanos rt_packet = 0;          // L_c
+  std::optional<Nanos> frame;         // T_1 forced by the file; else chosen
+  Nanos periodic_packet = 0;          // L_p
+  int rt_queues = 0;                  // N_c
+  Nanos rt_packet = 0;                // L_c
   std::optional<Nanos> nonrt_packet;  // the non-RT packet the user means to use
-  Nanos nonrt_min_packet = 1;   // the shortest non-RT packet the link can carry
+  Nanos nonrt_min_packet = 1;         // the shortest non-RT packet the link can carry
   // Sporadic traffic of the simulation: arrivals per second per RT queue and per
   // node for non-RT packets; a negative non-RT rate means every node always has
   // non-RT data waiting (the worst case for the periodic traffic).
   double rt_rate = 10;
   double nonrt_rate = -1;
   std::vector<LoopSpec> loops;
-  std::string link_text;        // "CAN 11-bit id at 500 kbit/s", for the report
+  std::string link_text;  // "CAN 11-bit id at 500 kbit/s", for the report
 };
 
 }  // namespace rtplc::fieldbus

@@ -67,9 +67,9 @@ std::string LinkTiming::describe() const {
     rate.pop_back();
     if (dot) break;
   }
-  const char* unit = bit_rate >= 1e6 && std::fmod(bit_rate, 1e5) == 0 ? "Mbit/s"
+  const char* unit = bit_rate >= 1e6 && std::fmod(bit_rate, 1e5) == 0   ? "Mbit/s"
                      : bit_rate >= 1e3 && std::fmod(bit_rate, 100) == 0 ? "kbit/s"
-                                                                         : "bit/s";
+                                                                        : "bit/s";
   const char* name = layout == FrameLayout::kCan11   ? "CAN 11-bit id"
                      : layout == FrameLayout::kCan29 ? "CAN 29-bit id"
                                                      : "Modbus RTU";

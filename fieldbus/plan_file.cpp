@@ -109,8 +109,9 @@ std::optional<Nanos> read_packet(YamlReader& r, const Fields& f, const LinkConte
     if (!n) return std::nullopt;
     if (!link.timing) {
       if (link.ok) {
-        r.error(*by, "'bytes' needs the link's 'bit_rate' and 'layout' to become a time; give "
-                     "'packet: 100us' instead");
+        r.error(*by,
+                "'bytes' needs the link's 'bit_rate' and 'layout' to become a time; give "
+                "'packet: 100us' instead");
       }
       return std::nullopt;
     }
@@ -123,8 +124,9 @@ std::optional<Nanos> read_packet(YamlReader& r, const Fields& f, const LinkConte
     return link.timing->packet(static_cast<int>(*n));
   }
   if (required) {
-    r.error(f.where(), std::string(noun) + " needs 'packet' (a time such as 100us) or 'bytes' "
-                                           "(with the link's bit_rate and layout)");
+    r.error(f.where(), std::string(noun) +
+                           " needs 'packet' (a time such as 100us) or 'bytes' "
+                           "(with the link's bit_rate and layout)");
   }
   return std::nullopt;
 }
@@ -140,11 +142,14 @@ LinkContext parse_link(YamlReader& r, const Field& section, Design& d) {
                         ": the server has nobody to visit; a loop needs at least two nodes "
                         "(its sensor and its controller)");
       } else if (*n == 1) {
-        r.error(*x, "'nodes' is 1; a loop needs two nodes (its sensor and its controller send in "
-                    "the same frame)");
+        r.error(*x,
+                "'nodes' is 1; a loop needs two nodes (its sensor and its controller send in "
+                "the same frame)");
       } else if (*n > kMaxNodes) {
-        r.error(*x, "'nodes' is " + std::to_string(*n) + "; the PB byte holds a 7-bit node "
-                    "address, so a link has at most " + std::to_string(kMaxNodes) + " nodes");
+        r.error(*x, "'nodes' is " + std::to_string(*n) +
+                        "; the PB byte holds a 7-bit node "
+                        "address, so a link has at most " +
+                        std::to_string(kMaxNodes) + " nodes");
       } else {
         d.nodes = static_cast<int>(*n);
       }
@@ -158,15 +163,18 @@ LinkContext parse_link(YamlReader& r, const Field& section, Design& d) {
     if (auto s = r.text(*rate)) {
       bits = parse_bit_rate(*s);
       if (!bits) {
-        r.error(*rate, "'bit_rate' expects bits per second such as 500kbit/s, 1Mbit/s or 19200, "
-                       "got " + YamlReader::describe_node(rate->value));
+        r.error(*rate,
+                "'bit_rate' expects bits per second such as 500kbit/s, 1Mbit/s or 19200, "
+                "got " +
+                    YamlReader::describe_node(rate->value));
       }
     }
   }
   if (layout) {
     if (auto s = r.choice(*layout)) lay = parse_layout(*s);
   }
-  if (rate && !layout) r.error(rate->key_pos, "'bit_rate' needs 'layout' (can-11, can-29 or modbus-rtu)");
+  if (rate && !layout)
+    r.error(rate->key_pos, "'bit_rate' needs 'layout' (can-11, can-29 or modbus-rtu)");
   if (layout && !rate) r.error(layout->key_pos, "'layout' needs 'bit_rate' (such as 500kbit/s)");
   if (bits && lay) {
     ctx.timing = LinkTiming{*lay, *bits};
@@ -195,8 +203,9 @@ LinkContext parse_link(YamlReader& r, const Field& section, Design& d) {
     const int def = ctx.timing->layout == FrameLayout::kModbusRtu ? kModbusRequestChars : 0;
     d.server_overhead = ctx.timing->server_overhead(def);
   } else if (!layout && !rate) {
-    r.error(f.where(), "the link needs 'server_overhead' (a time such as 20us), or 'bit_rate' and "
-                       "'layout' to compute it");
+    r.error(f.where(),
+            "the link needs 'server_overhead' (a time such as 20us), or 'bit_rate' and "
+            "'layout' to compute it");
   }
   if (ctx.timing) d.nonrt_min_packet = ctx.timing->packet(0) > 0 ? ctx.timing->packet(0) : 1;
   if (const Field* x = f.get("access")) {
@@ -227,15 +236,18 @@ void parse_loop(YamlReader& r, const YAML::Node& n, SourcePos list_pos, Design& 
   const Field* per = f.get("period");
   const Field* phi = f.get("max_delay");
   if (per && phi) {
-    r.error(phi->key_pos, "a loop gives 'period' or 'max_delay', not both: with a fixed period "
-                          "there is nothing left for the planner to choose", YamlReader::width(phi->key));
+    r.error(phi->key_pos,
+            "a loop gives 'period' or 'max_delay', not both: with a fixed period "
+            "there is nothing left for the planner to choose",
+            YamlReader::width(phi->key));
   } else if (per) {
     l.period = read_time(r, *per);
   } else if (phi) {
     l.max_delay = read_time(r, *phi);
   } else {
-    r.error(f.where(), "a loop needs 'period' (fixed sampling period) or 'max_delay' (the bound "
-                       "Phi_i the planner picks a period for)");
+    r.error(f.where(),
+            "a loop needs 'period' (fixed sampling period) or 'max_delay' (the bound "
+            "Phi_i the planner picks a period for)");
   }
   for (const char* key : {"sensor", "controller"}) {
     const Field* x = f.get(key);
@@ -276,7 +288,8 @@ void parse_document(const std::string& text, PlanFile& out) {
     Fields f = r.fields(x->value, x->pos, "the periodic traffic", {kPeriodicKeys});
     bool given = false;
     if (f.is_map() || x->value.IsNull()) {
-      if (auto v = read_packet(r, f, link, "the periodic traffic", true, given)) d.periodic_packet = *v;
+      if (auto v = read_packet(r, f, link, "the periodic traffic", true, given))
+        d.periodic_packet = *v;
     }
   }
   if (const Field* x = top.get("realtime")) {
@@ -291,8 +304,10 @@ void parse_document(const std::string& text, PlanFile& out) {
       }
       if (const Field* q = f.get("rate")) {
         if (auto v = r.real(q->value, q->pos, "'rate'")) {
-          if (*v < 0) r.error(*q, "'rate' must be 0 or more arrivals per second");
-          else d.rt_rate = *v;
+          if (*v < 0)
+            r.error(*q, "'rate' must be 0 or more arrivals per second");
+          else
+            d.rt_rate = *v;
         }
       }
     }
@@ -311,8 +326,10 @@ void parse_document(const std::string& text, PlanFile& out) {
           } else if (auto v = config::parse_real(*s); v && *v >= 0) {
             d.nonrt_rate = *v;
           } else {
-            r.error(*q, "'rate' expects packets per second per node (such as 200) or "
-                        "'saturated', got " + YamlReader::describe_node(q->value));
+            r.error(*q,
+                    "'rate' expects packets per second per node (such as 200) or "
+                    "'saturated', got " +
+                        YamlReader::describe_node(q->value));
           }
         }
       }

@@ -7,14 +7,18 @@
 namespace rtplc::fieldbus {
 namespace {
 
-std::string t(Nanos x) { return format_time(x); }
+std::string t(Nanos x) {
+  return format_time(x);
+}
 
 std::string pad(std::string s, size_t w) {
   if (s.size() < w) s.append(w - s.size(), ' ');
   return s;
 }
 
-const char* access_name(Access a) { return a == Access::kTokenPassing ? "token passing" : "polling"; }
+const char* access_name(Access a) {
+  return a == Access::kTokenPassing ? "token passing" : "polling";
+}
 
 std::string frame_reason(const Design& d, const Plan& p) {
   if (d.frame) return "given by link.frame";
@@ -67,16 +71,16 @@ std::string render_plan_text(const Design& d, const Plan& p, const std::string& 
   } else {
     s += "T_1      " + t(p.t1) + " (" + frame_reason(d, p) + ")\n";
     s += "gamma    " + std::to_string(p.gamma) + " periodic packets in the busiest frame (lower " +
-         "bound " + std::to_string(p.gamma_lower_bound) + "; " +
-         std::to_string(p.periodic_nodes) + " nodes send periodic data)\n";
+         "bound " + std::to_string(p.gamma_lower_bound) + "; " + std::to_string(p.periodic_nodes) +
+         " nodes send periodic data)\n";
     s += "periodic gamma L_p + N_c L_c + R = " + std::to_string(p.gamma) + " * " +
          t(d.periodic_packet) + " + " + std::to_string(d.rt_queues) + " * " + t(d.rt_packet) +
          " + " + t(p.server_round) + " = " + t(p.periodic_part) +
          (p.periodic_part <= p.t1 ? " <= " : " > ") + "T_1\n";
     if (p.periodic_part <= p.t1) {
-      s += "L_n max  (T_1 - " + t(p.periodic_part) + ") / (N - gamma + 1) = " +
-           t(p.t1 - p.periodic_part) + " / " + std::to_string(d.nodes - p.gamma + 1) + " = " +
-           t(p.ln_max) + "\n";
+      s += "L_n max  (T_1 - " + t(p.periodic_part) +
+           ") / (N - gamma + 1) = " + t(p.t1 - p.periodic_part) + " / " +
+           std::to_string(d.nodes - p.gamma + 1) + " = " + t(p.ln_max) + "\n";
       s += "W        worst transfer delay of a periodic packet " + t(p.transfer_bound) +
            " (one packet in flight " + t(p.transfer_bound - p.periodic_part) +
            " + periodic part)\n";
@@ -91,8 +95,7 @@ std::string render_plan_text(const Design& d, const Plan& p, const std::string& 
     }
     s += "(* = chosen by the planner; offset in T_1 frames; delay bound D = T_i + W)\n";
     const size_t shown = std::min<size_t>(p.frame_load.size(), 32);
-    s += "frames   packets per frame over the " + std::to_string(p.hyperperiod) +
-         "-frame cycle:";
+    s += "frames   packets per frame over the " + std::to_string(p.hyperperiod) + "-frame cycle:";
     for (size_t f = 0; f < shown; ++f) s += " " + std::to_string(p.frame_load[f]);
     if (shown < p.frame_load.size()) s += " ...";
     s += "\n";
@@ -131,7 +134,8 @@ std::string render_plan_json(const Design& d, const Plan& p, const std::string& 
   s += "  \"failures\": [";
   for (size_t i = 0; i < p.failures.size(); ++i) {
     const Failure& f = p.failures[i];
-    s += std::string(i ? "," : "") + "\n    {\"condition\": " + json_string(to_string(f.condition)) +
+    s += std::string(i ? "," : "") +
+         "\n    {\"condition\": " + json_string(to_string(f.condition)) +
          ", \"loop\": " + json_string(f.loop) + ", \"shortfall\": " + json_seconds(f.shortfall) +
          ", \"message\": " + json_string(f.message) + "}";
   }
@@ -144,8 +148,9 @@ std::string render_plan_json(const Design& d, const Plan& p, const std::string& 
          ", \"fixed\": " + (l.fixed ? "true" : "false") +
          ", \"sensor_node\": " + std::to_string(l.sensor_node) +
          ", \"controller_node\": " + std::to_string(l.controller_node) +
-         ", \"delay_bound\": " + json_seconds(l.delay_bound) + ", \"max_delay\": " +
-         (l.max_delay ? json_seconds(*l.max_delay) : std::string("null")) + "}";
+         ", \"delay_bound\": " + json_seconds(l.delay_bound) +
+         ", \"max_delay\": " + (l.max_delay ? json_seconds(*l.max_delay) : std::string("null")) +
+         "}";
   }
   s += p.loops.empty() ? "]" : "\n  ]";
   if (!simulation.empty()) s += ",\n  \"simulation\": " + simulation;

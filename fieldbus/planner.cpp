@@ -11,7 +11,9 @@ namespace {
 
 constexpr int kPacketsPerSample = 2;  // the sensor's and the controller's
 
-std::string t(Nanos x) { return format_time(x); }
+std::string t(Nanos x) {
+  return format_time(x);
+}
 
 std::string per_frame(int64_t num, int64_t den) {
   char buf[32];
@@ -195,11 +197,11 @@ Plan plan(const Design& d) {
   Plan p;
   if (d.nodes < 2 || d.nodes > kMaxNodes) {
     fail(p, Condition::kLink, "",
-         d.nodes <= 0 ? "the link has no nodes: the server visits nobody, so nothing can be sent"
-                      : d.nodes == 1 ? "the link has one node; a loop needs two (its sensor and "
-                                       "its controller send in the same frame)"
-                                     : "the link has " + std::to_string(d.nodes) +
-                                           " nodes; the PB byte's 7-bit address allows 127",
+         d.nodes <= 0   ? "the link has no nodes: the server visits nobody, so nothing can be sent"
+         : d.nodes == 1 ? "the link has one node; a loop needs two (its sensor and "
+                          "its controller send in the same frame)"
+                        : "the link has " + std::to_string(d.nodes) +
+                              " nodes; the PB byte's 7-bit address allows 127",
          0);
     return p;
   }
@@ -227,15 +229,15 @@ Plan plan(const Design& d) {
 
   if (p.t1 < d.periodic_packet) {
     fail(p, Condition::kFrame, "",
-         "T_1 = " + t(p.t1) + " is shorter than one periodic packet (L_p = " +
-             t(d.periodic_packet) + ")",
+         "T_1 = " + t(p.t1) +
+             " is shorter than one periodic packet (L_p = " + t(d.periodic_packet) + ")",
          d.periodic_packet - p.t1);
   }
   if (d.rt_queues > 0 && p.t1 < d.rt_packet) {
-    fail(p, Condition::kFrame, "",
-         "T_1 = " + t(p.t1) + " is shorter than one real-time packet (L_c = " + t(d.rt_packet) +
-             ")",
-         d.rt_packet - p.t1);
+    fail(
+        p, Condition::kFrame, "",
+        "T_1 = " + t(p.t1) + " is shorter than one real-time packet (L_c = " + t(d.rt_packet) + ")",
+        d.rt_packet - p.t1);
   }
 
   const bool nodes_ok = check_nodes(d, p);
@@ -260,10 +262,10 @@ Plan plan(const Design& d) {
   const Nanos slack = p.t1 - p.periodic_part;
   if (slack < 0) {
     fail(p, Condition::kStability, "",
-         "gamma L_p + N_c L_c + R = " + std::to_string(p.gamma) + " * " +
-             t(d.periodic_packet) + " + " + std::to_string(d.rt_queues) + " * " +
-             t(d.rt_packet) + " + " + t(p.server_round) + " = " + t(p.periodic_part) +
-             " exceeds T_1 = " + t(p.t1) + " by " + t(-slack),
+         "gamma L_p + N_c L_c + R = " + std::to_string(p.gamma) + " * " + t(d.periodic_packet) +
+             " + " + std::to_string(d.rt_queues) + " * " + t(d.rt_packet) + " + " +
+             t(p.server_round) + " = " + t(p.periodic_part) + " exceeds T_1 = " + t(p.t1) + " by " +
+             t(-slack),
          -slack);
   }
   const int64_t divisor = std::max<int64_t>(1, d.nodes - p.gamma + 1);
@@ -290,9 +292,11 @@ Plan plan(const Design& d) {
   p.transfer_bound = in_flight + p.periodic_part;
   if (slack >= 0 && p.transfer_bound > p.t1) {
     fail(p, Condition::kC1, "",
-         "a periodic packet may wait " + t(in_flight) + " for the packet in flight at the frame "
-             "start, then the periodic part: " + t(p.transfer_bound) + " exceeds T_1 = " +
-             t(p.t1) + " by " + t(p.transfer_bound - p.t1),
+         "a periodic packet may wait " + t(in_flight) +
+             " for the packet in flight at the frame "
+             "start, then the periodic part: " +
+             t(p.transfer_bound) + " exceeds T_1 = " + t(p.t1) + " by " +
+             t(p.transfer_bound - p.t1),
          p.transfer_bound - p.t1);
   }
   for (LoopPlan& lp : p.loops) {

@@ -40,28 +40,28 @@ struct Failure {
 
 struct LoopPlan {
   std::string name;
-  Nanos period = 0;          // T_i = T_1 * 2^shift
+  Nanos period = 0;  // T_i = T_1 * 2^shift
   int shift = 0;
-  int64_t offset = -1;       // first T_1 frame of each period; -1 = not placed
+  int64_t offset = -1;  // first T_1 frame of each period; -1 = not placed
   int sensor_node = 0;
   int controller_node = 0;
-  Nanos delay_bound = 0;     // D_i <= T_i + W
+  Nanos delay_bound = 0;  // D_i <= T_i + W
   std::optional<Nanos> max_delay;
-  bool fixed = false;        // period given by the file
+  bool fixed = false;  // period given by the file
 };
 
 struct Plan {
   bool feasible = false;
   Nanos t1 = 0;
-  int gamma = 0;              // periodic packets in the busiest frame
-  int gamma_lower_bound = 0;  // no schedule of these periods can do better
-  int periodic_nodes = 0;     // N_p
-  Nanos server_round = 0;     // R = N sigma
-  Nanos periodic_part = 0;    // gamma L_p + N_c L_c + R
-  Nanos ln_max = 0;           // meaningful when periodic_part <= t1
-  Nanos nonrt_packet = 0;     // the non-RT packet the simulation uses
-  Nanos transfer_bound = 0;   // W: worst transfer delay of a periodic packet
-  int64_t hyperperiod = 1;    // frames after which the schedule repeats
+  int gamma = 0;                // periodic packets in the busiest frame
+  int gamma_lower_bound = 0;    // no schedule of these periods can do better
+  int periodic_nodes = 0;       // N_p
+  Nanos server_round = 0;       // R = N sigma
+  Nanos periodic_part = 0;      // gamma L_p + N_c L_c + R
+  Nanos ln_max = 0;             // meaningful when periodic_part <= t1
+  Nanos nonrt_packet = 0;       // the non-RT packet the simulation uses
+  Nanos transfer_bound = 0;     // W: worst transfer delay of a periodic packet
+  int64_t hyperperiod = 1;      // frames after which the schedule repeats
   std::vector<int> frame_load;  // periodic packets per frame, one per frame of the hyperperiod
   std::vector<LoopPlan> loops;  // in the file's order
   std::vector<Failure> failures;

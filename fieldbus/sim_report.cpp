@@ -12,7 +12,9 @@
 namespace rtplc::fieldbus {
 namespace {
 
-std::string t(Nanos x) { return format_time(x); }
+std::string t(Nanos x) {
+  return format_time(x);
+}
 
 std::string pad(std::string s, size_t w) {
   if (s.size() < w) s.append(w - s.size(), ' ');
@@ -20,7 +22,8 @@ std::string pad(std::string s, size_t w) {
 }
 
 std::string stats_row(const char* name, const DelayStats& s, const std::string& bound) {
-  if (s.count == 0) return pad(name, 12) + pad("0", 10) + pad("-", 12) + pad("-", 12) + pad("-", 12) + bound + "\n";
+  if (s.count == 0)
+    return pad(name, 12) + pad("0", 10) + pad("-", 12) + pad("-", 12) + pad("-", 12) + bound + "\n";
   return pad(name, 12) + pad(std::to_string(s.count), 10) + pad(t(s.p50), 12) + pad(t(s.p99), 12) +
          pad(t(s.max), 12) + bound + "\n";
 }
@@ -84,7 +87,8 @@ std::string render_sim_text(const Design& d, const Plan& p, const SimResult& r, 
          pad(std::to_string(l.lost), 6) + std::to_string(l.vacant) +
          (l.worst_delay > p.loops[i].delay_bound ? "  EXCEEDS" : "") + "\n";
   }
-  if (shown < r.loops.size()) s += "... " + std::to_string(r.loops.size() - shown) + " more loops\n";
+  if (shown < r.loops.size())
+    s += "... " + std::to_string(r.loops.size() - shown) + " more loops\n";
   s += simulation_holds(p, r)
            ? "verdict     the plan holds: every delay within its bound, nothing lost, no vacant "
              "sampling\n"
@@ -93,9 +97,11 @@ std::string render_sim_text(const Design& d, const Plan& p, const SimResult& r, 
 }
 
 std::string render_sim_json(const Plan& p, const SimResult& r, uint64_t seed) {
-  std::string s = "{\"duration\": " + json_seconds(r.duration) + ", \"seed\": " +
-                  std::to_string(seed) + ", \"holds\": " + (simulation_holds(p, r) ? "true" : "false");
-  s += ", \"periodic\": " + stats_json(r.periodic) + ", \"loop_delay\": " + stats_json(r.loop_delay);
+  std::string s = "{\"duration\": " + json_seconds(r.duration) +
+                  ", \"seed\": " + std::to_string(seed) +
+                  ", \"holds\": " + (simulation_holds(p, r) ? "true" : "false");
+  s +=
+      ", \"periodic\": " + stats_json(r.periodic) + ", \"loop_delay\": " + stats_json(r.loop_delay);
   s += ", \"realtime\": " + stats_json(r.realtime) + ", \"nonrt\": " + stats_json(r.nonrt);
   s += ", \"samples\": " + std::to_string(r.samples) +
        ", \"lost_samples\": " + std::to_string(r.lost_samples) +

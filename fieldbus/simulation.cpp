@@ -114,7 +114,8 @@ class BusSimulation {
     while (next_frame_ * p_.t1 < t || (inclusive && next_frame_ * p_.t1 == t)) {
       start_frame(next_frame_++);
     }
-    while (!arrivals_.empty() && (arrivals_.top().at < t || (inclusive && arrivals_.top().at == t))) {
+    while (!arrivals_.empty() &&
+           (arrivals_.top().at < t || (inclusive && arrivals_.top().at == t))) {
       const Arrival a = arrivals_.top();
       arrivals_.pop();
       if (a.queue >= 0) {
@@ -231,9 +232,8 @@ class BusSimulation {
     r_.duration = end;
     const double secs = to_seconds(end);
     r_.nonrt_per_second = static_cast<double>(r_.nonrt_packets) / secs;
-    r_.nonrt_bus_share =
-        static_cast<double>(r_.nonrt_packets) * static_cast<double>(p_.nonrt_packet) /
-        static_cast<double>(end);
+    r_.nonrt_bus_share = static_cast<double>(r_.nonrt_packets) *
+                         static_cast<double>(p_.nonrt_packet) / static_cast<double>(end);
     if (opt_.keep_samples) {
       r_.periodic_samples = periodic_;
       r_.loop_samples = loop_;
@@ -272,8 +272,9 @@ class BusSimulation {
 Result<SimResult> simulate(const Design& d, const Plan& p, const SimOptions& opt) {
   if (d.nodes < 2 || p.t1 <= 0) return make_error("the design has no usable link or frame");
   if (d.server_overhead <= 0) {
-    return make_error("the simulation needs a server overhead above 0 (an idle server would "
-                      "circle in no time)");
+    return make_error(
+        "the simulation needs a server overhead above 0 (an idle server would "
+        "circle in no time)");
   }
   if (p.loops.size() != d.loops.size()) return make_error("the plan does not match the design");
   if (opt.duration <= 0) return make_error("the simulated duration must be above 0");

@@ -45,14 +45,14 @@ struct SimResult {
   DelayStats periodic;    // queueing to complete receipt, every periodic packet
   DelayStats loop_delay;  // sensor sampling to the actuator's receipt of its control
   DelayStats realtime;
-  DelayStats nonrt;       // count only when the non-RT traffic saturates the bus
+  DelayStats nonrt;              // count only when the non-RT traffic saturates the bus
   int64_t samples = 0;           // periodic packets queued
   int64_t lost_samples = 0;      // overwritten before sent, or unused by the controller
   int64_t vacant_samplings = 0;  // controller samplings with no new sensor value
   int64_t late_packets = 0;      // periodic packets delivered later than T_1
   int64_t nonrt_packets = 0;
   double nonrt_per_second = 0;
-  double nonrt_bus_share = 0;    // fraction of bus time carrying non-RT packets
+  double nonrt_bus_share = 0;  // fraction of bus time carrying non-RT packets
   bool nonrt_saturated = false;
   std::vector<LoopSimStats> loops;
   // With SimOptions::keep_samples: every delay per class, in nanoseconds.

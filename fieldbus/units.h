@@ -30,7 +30,9 @@ std::optional<double> parse_bit_rate(std::string_view text);
 std::string format_time(Nanos t);
 
 // Seconds as a double, for JSON and plots.
-inline double to_seconds(Nanos t) { return static_cast<double>(t) / 1e9; }
+inline double to_seconds(Nanos t) {
+  return static_cast<double>(t) / 1e9;
+}
 
 // The time `bits` take at `bits_per_second`, rounded up to the next nanosecond
 // (a worst case must not shrink by rounding).

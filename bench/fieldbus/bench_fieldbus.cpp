@@ -37,9 +37,12 @@ Design thousand_loops() {
   std::mt19937_64 rng(1000);
   d.loops.push_back({"base", 2 * ms, std::nullopt, kMaxNodes - 2, kMaxNodes - 1, {}});
   for (int i = 1; i < 1000; ++i) {
-    d.loops.push_back({"loop" + std::to_string(i), std::nullopt,
-                       static_cast<Nanos>(120 + rng() % 1880) * ms, (2 * i) % 125,
-                       (2 * i + 1) % 125, {}});
+    d.loops.push_back({"loop" + std::to_string(i),
+                       std::nullopt,
+                       static_cast<Nanos>(120 + rng() % 1880) * ms,
+                       (2 * i) % 125,
+                       (2 * i + 1) % 125,
+                       {}});
   }
   return d;
 }
@@ -71,12 +74,13 @@ double best_of(int runs, F&& f) {
 void report(const char* name, const Design& d) {
   Plan p;
   const double plan_s = best_of(20, [&] { p = plan(d); });
-  std::printf("%s: %zu loops, %d nodes: %s, T_1 %s, gamma %d (lower bound %d), L_n max %s\n",
-              name, d.loops.size(), d.nodes, p.feasible ? "feasible" : "INFEASIBLE",
+  std::printf("%s: %zu loops, %d nodes: %s, T_1 %s, gamma %d (lower bound %d), L_n max %s\n", name,
+              d.loops.size(), d.nodes, p.feasible ? "feasible" : "INFEASIBLE",
               format_time(p.t1).c_str(), p.gamma, p.gamma_lower_bound,
               format_time(p.ln_max).c_str());
   for (size_t i = 0; i < p.failures.size() && i < 5; ++i) {
-    std::printf("  fails %s: %s\n", to_string(p.failures[i].condition), p.failures[i].message.c_str());
+    std::printf("  fails %s: %s\n", to_string(p.failures[i].condition),
+                p.failures[i].message.c_str());
   }
   std::printf("  planning                      %10.1f us\n", plan_s * 1e6);
   SimOptions opt;
@@ -88,12 +92,12 @@ void report(const char* name, const Design& d) {
   });
   std::printf("  simulating 10 min of bus time %10.3f s  (%.0fx faster than the bus)\n", sim_s,
               600 / sim_s);
-  std::printf("  simulated: %lld periodic packets, worst %s (bound W %s), lost %lld, vacant %lld, "
-              "%lld non-RT packets\n",
-              static_cast<long long>(r.periodic.count), format_time(r.periodic.max).c_str(),
-              format_time(p.transfer_bound).c_str(), static_cast<long long>(r.lost_samples),
-              static_cast<long long>(r.vacant_samplings),
-              static_cast<long long>(r.nonrt_packets));
+  std::printf(
+      "  simulated: %lld periodic packets, worst %s (bound W %s), lost %lld, vacant %lld, "
+      "%lld non-RT packets\n",
+      static_cast<long long>(r.periodic.count), format_time(r.periodic.max).c_str(),
+      format_time(p.transfer_bound).c_str(), static_cast<long long>(r.lost_samples),
+      static_cast<long long>(r.vacant_samplings), static_cast<long long>(r.nonrt_packets));
 }
 
 }  // namespace

@@ -41,9 +41,9 @@ TEST(FieldbusCli, plans_the_generic_example) {
 TEST(FieldbusCli, json_carries_the_fields_scripts_need) {
   const CliRun r = rtplc("fieldbus plan " + example("fieldbus.yaml") + " --json");
   EXPECT_EQ(r.rc, 0) << r.out;
-  for (const char* field : {"\"feasible\": true", "\"T1\": 0.005", "\"gamma\": 4",
-                            "\"periodic_part\": 0.0009", "\"Ln_max\": 0.000585714",
-                            "{\"name\": \"L2\", \"period\": 0.02, \"offset\": 0"}) {
+  for (const char* field :
+       {"\"feasible\": true", "\"T1\": 0.005", "\"gamma\": 4", "\"periodic_part\": 0.0009",
+        "\"Ln_max\": 0.000585714", "{\"name\": \"L2\", \"period\": 0.02, \"offset\": 0"}) {
     EXPECT_NE(r.out.find(field), std::string::npos) << field << "\n" << r.out;
   }
 }
@@ -69,9 +69,10 @@ TEST(FieldbusCli, a_broken_file_exits_1_with_a_positioned_error) {
   const std::string path = ::testing::TempDir() + "/broken-plan.yaml";
   FILE* f = std::fopen(path.c_str(), "w");
   ASSERT_NE(f, nullptr);
-  std::fputs("link: {nodes: 10, server_overhead: 20us}\nperiodic: {packet: 100us}\n"
-             "loops:\n  - {name: L1, perod: 5ms}\n",
-             f);
+  std::fputs(
+      "link: {nodes: 10, server_overhead: 20us}\nperiodic: {packet: 100us}\n"
+      "loops:\n  - {name: L1, perod: 5ms}\n",
+      f);
   std::fclose(f);
   const CliRun r = rtplc("fieldbus plan " + path);
   EXPECT_EQ(r.rc, 1) << r.out;

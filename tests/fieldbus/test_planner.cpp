@@ -115,8 +115,8 @@ TEST(FieldbusPlanner, refuses_a_fixed_period_that_is_not_harmonic) {
 TEST(FieldbusPlanner, explains_more_windows_than_periodic_nodes) {
   Design d = worked_example();
   d.nodes = 4;
-  d.loops = {{"a", 5 * ms, {}, -1, -1, {}}, {"b", 5 * ms, {}, -1, -1, {}},
-             {"c", 5 * ms, {}, -1, -1, {}}};
+  d.loops = {
+      {"a", 5 * ms, {}, -1, -1, {}}, {"b", 5 * ms, {}, -1, -1, {}}, {"c", 5 * ms, {}, -1, -1, {}}};
   const Plan p = plan(d);
   EXPECT_FALSE(p.feasible);
   EXPECT_EQ(p.gamma_lower_bound, 6);
@@ -170,8 +170,12 @@ TEST(FieldbusPlanner, window_schedule_meets_the_lower_bound_on_random_designs) {
     const int loops = 1 + static_cast<int>(rng() % 60);
     d.loops.push_back({"base", 1 * ms, {}, -1, -1, {}});
     for (int i = 1; i < loops; ++i) {
-      d.loops.push_back({"l" + std::to_string(i), std::nullopt,
-                         static_cast<Nanos>(2 + rng() % 300) * ms, -1, -1, {}});
+      d.loops.push_back({"l" + std::to_string(i),
+                         std::nullopt,
+                         static_cast<Nanos>(2 + rng() % 300) * ms,
+                         -1,
+                         -1,
+                         {}});
     }
     const Plan p = plan(d);
     ASSERT_EQ(p.gamma, p.gamma_lower_bound) << "trial " << trial;
@@ -188,7 +192,7 @@ TEST(FieldbusPlanner, window_schedule_meets_the_lower_bound_on_random_designs) {
         ASSERT_EQ(++per_node[static_cast<size_t>(l.controller_node)][static_cast<size_t>(f)], 1);
       }
       if (l.max_delay) {
-        EXPECT_LE(l.period + p.t1, *l.max_delay);        // the rule that chose it
+        EXPECT_LE(l.period + p.t1, *l.max_delay);      // the rule that chose it
         EXPECT_GT(2 * l.period + p.t1, *l.max_delay);  // and the longest such period
       }
     }

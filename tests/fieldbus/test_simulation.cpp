@@ -88,7 +88,9 @@ TEST(FieldbusSimulation, refuses_a_server_that_costs_nothing) {
 // within its D_i bound, with no lost sample and no vacant sampling.
 TEST(FieldbusSimulation, never_exceeds_the_planner_bound_on_random_designs) {
   std::mt19937_64 rng(4242);
-  auto pick = [&](int64_t lo, int64_t hi) { return lo + static_cast<int64_t>(rng() % static_cast<uint64_t>(hi - lo + 1)); };
+  auto pick = [&](int64_t lo, int64_t hi) {
+    return lo + static_cast<int64_t>(rng() % static_cast<uint64_t>(hi - lo + 1));
+  };
   int feasible = 0;
   for (int trial = 0; trial < 2000 && feasible < 60; ++trial) {
     Design d;
@@ -107,7 +109,8 @@ TEST(FieldbusSimulation, never_exceeds_the_planner_bound_on_random_designs) {
       if (rng() % 3 == 0) {
         d.loops.push_back({"f" + std::to_string(i), base << pick(0, 3), std::nullopt, -1, -1, {}});
       } else {
-        d.loops.push_back({"m" + std::to_string(i), std::nullopt, pick(2 * base / ms, 200) * ms, -1, -1, {}});
+        d.loops.push_back(
+            {"m" + std::to_string(i), std::nullopt, pick(2 * base / ms, 200) * ms, -1, -1, {}});
       }
     }
     if (rng() % 2) d.nonrt_packet = pick(20, 2000) * us;
@@ -117,7 +120,8 @@ TEST(FieldbusSimulation, never_exceeds_the_planner_bound_on_random_designs) {
     const SimResult r = run(d, p, 3000 * ms, static_cast<uint64_t>(trial));
     ASSERT_LE(r.periodic.max, p.transfer_bound) << "trial " << trial;
     for (size_t i = 0; i < r.loops.size(); ++i) {
-      ASSERT_LE(r.loops[i].worst_delay, p.loops[i].delay_bound) << "trial " << trial << " loop " << i;
+      ASSERT_LE(r.loops[i].worst_delay, p.loops[i].delay_bound)
+          << "trial " << trial << " loop " << i;
     }
     ASSERT_EQ(r.lost_samples, 0) << "trial " << trial;
     ASSERT_EQ(r.vacant_samplings, 0) << "trial " << trial;
