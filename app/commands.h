@@ -19,5 +19,6 @@ void add_run_commands(CLI::App& app);    // run, set, swap, status, stop
 void add_stats_commands(CLI::App& app);  // stats, monitor
 void add_doctor_command(CLI::App& app);
 void add_s7_command(CLI::App& app);
+void add_analyze_command(CLI::App& app);
 
 }  // namespace rtplc::app

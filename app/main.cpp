@@ -22,6 +22,7 @@ int main(int argc, char** argv) {
   rtplc::app::add_stats_commands(app);
   rtplc::app::add_doctor_command(app);
   rtplc::app::add_s7_command(app);
+  rtplc::app::add_analyze_command(app);
 
   try {
     app.parse(argc, argv);

@@ -8,6 +8,7 @@
 #include "lang/petri/reachability.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 
 #include "lang/petri/state_store.h"
@@ -48,19 +49,20 @@ class Explorer {
   std::vector<TransitionId> path_to(uint32_t id) const;
   Marking unpack(uint32_t id) const;
   bool covers_ancestor(uint32_t id, uint32_t* ancestor) const;
+  Pump make_pump(uint32_t ancestor, uint32_t id) const;
 
   const Net& net_;
   const ExploreOptions& opt_;
   MarkingLayout layout_;
   size_t words_ = 1;
-  std::vector<uint64_t> keys_;
-  std::vector<uint32_t> parent_;
-  std::vector<uint32_t> via_;
+  ChunkedArray<uint64_t> keys_;
+  ChunkedArray<uint32_t> parent_;
+  ChunkedArray<uint32_t> via_;
 };
 
 Marking Explorer::unpack(uint32_t id) const {
   Marking m(net_.place_count());
-  layout_.unpack(&keys_[size_t{id} * words_], m.data());
+  layout_.unpack(keys_.at(id), m.data());
   return m;
 }
 
@@ -77,9 +79,9 @@ std::vector<TransitionId> Explorer::path_to(uint32_t id) const {
 // True when marking `id` is >= some BFS ancestor in every place (and differs, as
 // every stored marking does).
 bool Explorer::covers_ancestor(uint32_t id, uint32_t* ancestor) const {
-  const uint64_t* k = &keys_[size_t{id} * words_];
+  const uint64_t* k = keys_.at(id);
   for (uint32_t a = parent_[id]; a != kNoParent; a = parent_[a]) {
-    const uint64_t* ka = &keys_[size_t{a} * words_];
+    const uint64_t* ka = keys_.at(a);
     bool ge = true;
     for (size_t p = 0; p < layout_.places() && ge; ++p) ge = layout_.get(k, p) >= layout_.get(ka, p);
     if (ge) {
@@ -88,6 +90,19 @@ bool Explorer::covers_ancestor(uint32_t id, uint32_t* ancestor) const {
     }
   }
   return false;
+}
+
+Pump Explorer::make_pump(uint32_t ancestor, uint32_t id) const {
+  Pump pump;
+  pump.prefix = path_to(ancestor);
+  const std::vector<TransitionId> full = path_to(id);
+  pump.cycle.assign(full.begin() + static_cast<std::ptrdiff_t>(pump.prefix.size()), full.end());
+  pump.start = unpack(ancestor);
+  pump.end = unpack(id);
+  for (size_t p = 0; p < pump.start.size(); ++p) {
+    if (pump.end[p] > pump.start[p]) pump.growing.push_back(static_cast<PlaceId>(p));
+  }
+  return pump;
 }
 
 ReachabilityResult Explorer::run() {
@@ -115,6 +130,7 @@ ReachabilityResult Explorer::run() {
   }
   layout_ = MarkingLayout(bits);
   words_ = layout_.words();
+  keys_ = ChunkedArray<uint64_t>(words_);
   r.key_words = words_;
   r.key_bits = layout_.total_bits();
 
@@ -159,104 +175,115 @@ ReachabilityResult Explorer::run() {
   std::vector<uint64_t> key(words_);
   layout_.pack(m0.data(), key.data());
   (void)table.insert(key.data(), 0);
-  keys_.insert(keys_.end(), key.begin(), key.end());
+  keys_.push_back(key.data());
   parent_.push_back(kNoParent);
-  via_.push_back(0);
-  for (size_t p = 0; p < np; ++p) r.max_tokens[p] = m0[p];
+  via_.push_back(uint32_t{0});
 
   bool recording = keep_ids;
   ReachabilityGraph graph;
-  std::vector<uint64_t> cur(words_);
-  std::vector<uint64_t> next(words_);
+  // Markings are explored in batches: the successors of a whole batch are
+  // computed and their table slots prefetched before any is looked up, so the
+  // cache misses of the lookups overlap. Insertion keeps the plain BFS order.
+  constexpr size_t kBatch = 16;
+  std::vector<uint64_t> succ(kBatch * nt * words_);
+  std::vector<uint32_t> succ_t(kBatch * nt);
+  std::vector<uint64_t> succ_h(kBatch * nt);
+  std::array<size_t, kBatch + 1> first{};
+  auto store_bytes = [&] { return table.bytes() + keys_.bytes() + parent_.bytes() + via_.bytes(); };
   size_t peak_bytes = 0;
-  auto store_bytes = [&] {
-    return table.bytes() + keys_.capacity() * sizeof(uint64_t) +
-           (parent_.capacity() + via_.capacity()) * sizeof(uint32_t);
-  };
 
   bool stop = false;
   uint64_t edges = 0;
-  for (size_t id = 0; id < parent_.size() && !stop; ++id) {
-    std::copy_n(&keys_[id * words_], words_, cur.data());
-    bool any = false;
-    for (size_t t = 0; t < nt; ++t) {
-      const PackedTransition& pt = packed[t];
-      bool en = true;
-      for (const auto& n : pt.needs) {
-        if (((cur[n.word] >> n.shift) & n.mask) < n.weight) {
-          en = false;
-          break;
-        }
-      }
-      if (!en) continue;
-      any = true;
-      ++edges;
-      r.fired[t] = true;
-      for (const auto& g : pt.grows) {
-        if (g.limit == UINT64_MAX || layout_.get(cur.data(), g.place) > g.limit) {
-          r.status = ExploreStatus::kTooManyTokens;
-          r.overflow_place = net_.place_label(g.place);
-          stop = true;
-        }
-      }
-      if (stop) break;
-      next = cur;
-      for (const auto& d : pt.deltas) next[d.word] = next[d.word] - d.sub + d.add;
-      const auto new_id = static_cast<uint32_t>(parent_.size());
-      const MarkingTable::Found f = table.insert(next.data(), new_id);
-      uint32_t target = new_id;
-      if (f.inserted) {
-        keys_.insert(keys_.end(), next.begin(), next.end());
-        parent_.push_back(static_cast<uint32_t>(id));
-        via_.push_back(static_cast<uint32_t>(t));
-        for (size_t p = 0; p < np; ++p) {
-          r.max_tokens[p] = std::max(r.max_tokens[p], layout_.get(next.data(), p));
-        }
-        uint32_t anc = 0;
-        if (!all_bounded && covers_ancestor(new_id, &anc)) {
-          Pump pump;
-          pump.prefix = path_to(anc);
-          std::vector<TransitionId> full = path_to(new_id);
-          pump.cycle.assign(full.begin() + static_cast<std::ptrdiff_t>(pump.prefix.size()), full.end());
-          pump.start = unpack(anc);
-          pump.end = unpack(new_id);
-          for (size_t p = 0; p < np; ++p) {
-            if (pump.end[p] > pump.start[p]) pump.growing.push_back(static_cast<PlaceId>(p));
+  size_t next_progress = 0;
+  for (size_t base = 0, end = 0; base < parent_.size() && !stop; base = end) {
+    end = std::min(base + kBatch, parent_.size());
+    size_t ns = 0;
+    for (size_t id = base; id < end && !stop; ++id) {
+      first[id - base] = ns;
+      const uint64_t* cur = keys_.at(id);
+      for (size_t t = 0; t < nt; ++t) {
+        const PackedTransition& pt = packed[t];
+        bool en = true;
+        for (const auto& n : pt.needs) {
+          if (((cur[n.word] >> n.shift) & n.mask) < n.weight) {
+            en = false;
+            break;
           }
-          r.pump = std::move(pump);
-          r.status = ExploreStatus::kUnbounded;
-          stop = true;
         }
-        if (parent_.size() >= opt_.max_markings && !stop) {
-          r.status = ExploreStatus::kLimit;
-          stop = true;
+        if (!en) continue;
+        for (const auto& g : pt.grows) {
+          if (g.limit == UINT64_MAX || layout_.get(cur, g.place) > g.limit) {
+            r.status = ExploreStatus::kTooManyTokens;
+            r.overflow_place = net_.place_label(g.place);
+            stop = true;
+          }
         }
-        if (recording && parent_.size() > opt_.graph_limit) {
-          recording = false;
-          graph = {};
-        }
-      } else if (recording) {
-        target = table.id_at(f.slot);
-      }
-      if (recording) graph.edges.push_back({static_cast<uint32_t>(id), target, static_cast<TransitionId>(t)});
-      if (stop) break;
-    }
-    if (!any) {
-      ++r.dead_markings;
-      if (r.dead_examples.size() < opt_.keep_dead) {
-        r.dead_examples.push_back(DeadMarking{unpack(static_cast<uint32_t>(id)),
-                                              path_to(static_cast<uint32_t>(id))});
+        uint64_t* next = &succ[ns * words_];
+        std::copy_n(cur, words_, next);
+        for (const auto& d : pt.deltas) next[d.word] = next[d.word] - d.sub + d.add;
+        succ_h[ns] = table.hash(next);
+        table.prefetch(succ_h[ns]);
+        succ_t[ns++] = static_cast<uint32_t>(t);
       }
     }
-    if ((id & 0xffff) == 0xffff) {
+    if (stop) break;
+    first[end - base] = ns;
+    for (size_t id = base; id < end && !stop; ++id) {
+      const size_t from = first[id - base], to = first[id - base + 1];
+      edges += to - from;
+      for (size_t k = from; k < to && !stop; ++k) {
+        const uint64_t* next = &succ[k * words_];
+        const uint32_t t = succ_t[k];
+        r.fired[t] = true;
+        const auto new_id = static_cast<uint32_t>(parent_.size());
+        const MarkingTable::Found f = table.insert(next, succ_h[k], new_id);
+        uint32_t target = new_id;
+        if (f.inserted) {
+          keys_.push_back(next);
+          parent_.push_back(static_cast<uint32_t>(id));
+          via_.push_back(t);
+          uint32_t anc = 0;
+          if (!all_bounded && covers_ancestor(new_id, &anc)) {
+            r.pump = make_pump(anc, new_id);
+            r.status = ExploreStatus::kUnbounded;
+            stop = true;
+          }
+          if (parent_.size() >= opt_.max_markings && !stop) {
+            r.status = ExploreStatus::kLimit;
+            stop = true;
+          }
+          if (recording && parent_.size() > opt_.graph_limit) {
+            recording = false;
+            graph = {};
+          }
+        } else if (recording) {
+          target = table.id_at(f.slot);
+        }
+        if (recording) graph.edges.push_back({static_cast<uint32_t>(id), target, t});
+      }
+      if (from == to) {
+        ++r.dead_markings;
+        if (r.dead_examples.size() < opt_.keep_dead) {
+          r.dead_examples.push_back(DeadMarking{unpack(static_cast<uint32_t>(id)),
+                                                path_to(static_cast<uint32_t>(id))});
+        }
+      }
+    }
+    if (end >= next_progress) {
+      next_progress = end + 0x10000;
       peak_bytes = std::max(peak_bytes, store_bytes());
       if (opt_.progress) {
         const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time).count();
-        opt_.progress(ExploreProgress{parent_.size(), id + 1, edges, s});
+        opt_.progress(ExploreProgress{parent_.size(), end, edges, s});
       }
     }
   }
 
+  // The most tokens per place: one sequential pass, cheaper than in the loop above.
+  for (size_t i = 0; i < keys_.size(); ++i) {
+    const uint64_t* k = keys_.at(i);
+    for (size_t p = 0; p < np; ++p) r.max_tokens[p] = std::max(r.max_tokens[p], layout_.get(k, p));
+  }
   r.markings = parent_.size();
   r.edges = edges;
   for (uint32_t v : r.max_tokens) r.max_tokens_in_place = std::max(r.max_tokens_in_place, v);

@@ -3,7 +3,10 @@
 #include "lang/petri/state_store.h"
 
 #include <algorithm>
+#include <sys/mman.h>
+
 #include <cstring>
+#include <new>
 
 namespace rtplc::petri {
 
@@ -51,77 +54,56 @@ void MarkingLayout::unpack(const uint64_t* key, uint32_t* tokens) const {
 MarkingTable::MarkingTable(size_t words, bool with_ids, size_t initial_capacity)
     : words_(words), with_ids_(with_ids), capacity_(16) {
   while (capacity_ < initial_capacity) capacity_ *= 2;
-  slots_.assign(capacity_ * words_, 0);
+  slots_ = allocate(capacity_ * words_, &base_, &mapped_);
   if (with_ids_) ids_.assign(capacity_, 0);
 }
 
-uint64_t MarkingTable::hash(const uint64_t* key, size_t words) {
-  // A multiply-xorshift mix per word (the 64-bit finaliser of a well-known mixer):
-  // consecutive markings differ in few bits, so every input bit must reach the top.
-  uint64_t h = 0x9e3779b97f4a7c15ULL;
-  for (size_t i = 0; i < words; ++i) {
-    uint64_t x = key[i] ^ h;
-    x ^= x >> 33;
-    x *= 0xff51afd7ed558ccdULL;
-    x ^= x >> 33;
-    x *= 0xc4ceb9fe1a85ec53ULL;
-    x ^= x >> 33;
-    h = x;
-  }
-  return h;
+MarkingTable::~MarkingTable() {
+  if (base_) munmap(base_, mapped_);
 }
 
-void MarkingTable::prefetch(const uint64_t* key) const {
-  const size_t slot = static_cast<size_t>(hash(key, words_)) & (capacity_ - 1);
-  __builtin_prefetch(&slots_[slot * words_]);
-}
-
-MarkingTable::Found MarkingTable::insert(const uint64_t* key, uint32_t id) {
-  if ((size_ + 1) * 4 > capacity_ * 3) grow();
-  const size_t mask = capacity_ - 1;
-  size_t slot = static_cast<size_t>(hash(key, words_)) & mask;
-  if (words_ == 1) {
-    for (;;) {
-      const uint64_t s = slots_[slot];
-      if (s == key[0]) return {slot, false};
-      if (s == 0) break;
-      slot = (slot + 1) & mask;
-    }
-    slots_[slot] = key[0];
-  } else {
-    for (;;) {
-      const uint64_t* s = &slots_[slot * words_];
-      if (s[0] == 0) break;
-      if (std::memcmp(s, key, words_ * sizeof(uint64_t)) == 0) return {slot, false};
-      slot = (slot + 1) & mask;
-    }
-    std::memcpy(&slots_[slot * words_], key, words_ * sizeof(uint64_t));
+uint64_t* MarkingTable::allocate(size_t n_words, void** base, size_t* mapped) {
+  constexpr size_t kHuge = size_t{2} << 20;
+  const size_t bytes = n_words * sizeof(uint64_t);
+  const size_t len = bytes >= kHuge ? bytes + kHuge : bytes;  // room to align to 2 MB
+  void* p = mmap(nullptr, len, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+  if (p == MAP_FAILED) throw std::bad_alloc();
+  *base = p;
+  *mapped = len;
+  auto addr = reinterpret_cast<uintptr_t>(p);
+  if (bytes >= kHuge) {
+    addr = (addr + kHuge - 1) & ~(uintptr_t{kHuge} - 1);
+    (void)madvise(reinterpret_cast<void*>(addr), bytes, MADV_HUGEPAGE);  // a hint only
   }
-  if (with_ids_) ids_[slot] = id;
-  ++size_;
-  return {slot, true};
+  return reinterpret_cast<uint64_t*>(addr);
 }
 
 void MarkingTable::grow() {
   const size_t new_capacity = capacity_ * 2;
-  std::vector<uint64_t> old = std::move(slots_);
-  std::vector<uint32_t> old_ids = std::move(ids_);
-  slots_.assign(new_capacity * words_, 0);
-  if (with_ids_) ids_.assign(new_capacity, 0);
+  void* new_base = nullptr;
+  size_t new_mapped = 0;
+  uint64_t* fresh = allocate(new_capacity * words_, &new_base, &new_mapped);
+  std::vector<uint32_t> new_ids;
+  if (with_ids_) new_ids.assign(new_capacity, 0);
   const size_t mask = new_capacity - 1;
   for (size_t i = 0; i < capacity_; ++i) {
-    const uint64_t* k = &old[i * words_];
+    const uint64_t* k = slots_ + i * words_;
     if (k[0] == 0) continue;
     size_t slot = static_cast<size_t>(hash(k, words_)) & mask;
-    while (slots_[slot * words_] != 0) slot = (slot + 1) & mask;
-    std::memcpy(&slots_[slot * words_], k, words_ * sizeof(uint64_t));
-    if (with_ids_) ids_[slot] = old_ids[i];
+    while (fresh[slot * words_] != 0) slot = (slot + 1) & mask;
+    std::memcpy(fresh + slot * words_, k, words_ * sizeof(uint64_t));
+    if (with_ids_) new_ids[slot] = ids_[i];
   }
+  munmap(base_, mapped_);
+  base_ = new_base;
+  mapped_ = new_mapped;
+  slots_ = fresh;
+  ids_ = std::move(new_ids);
   capacity_ = new_capacity;
 }
 
 size_t MarkingTable::bytes() const {
-  return slots_.capacity() * sizeof(uint64_t) + ids_.capacity() * sizeof(uint32_t);
+  return capacity_ * words_ * sizeof(uint64_t) + ids_.capacity() * sizeof(uint32_t);
 }
 
 }  // namespace rtplc::petri
