@@ -58,7 +58,7 @@ class MarkingLayout {
 template <typename T>
 class ChunkedArray {
  public:
-  static constexpr size_t kChunkBits = 16;
+  static constexpr size_t kChunkBits = 12;
   static constexpr size_t kChunk = size_t{1} << kChunkBits;  // records per chunk
 
   explicit ChunkedArray(size_t stride = 1) : stride_(stride) {}

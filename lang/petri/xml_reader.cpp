@@ -242,10 +242,15 @@ class XmlParser {
         return false;
       }
       if (starts("</")) {
+        const SourcePos tag = here();
         advance(2);
         std::string close;
         if (!name(close)) return false;
-        if (close != qname) return failb("</" + close + "> closes <" + qname + ">");
+        if (close != qname) {
+          diags_.error(tag, "</" + close + "> closes <" + qname + ">");
+          failed_ = true;
+          return false;
+        }
         skip_space();
         if (peek() != '>') return failb("expected '>' in end tag");
         advance();
