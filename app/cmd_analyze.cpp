@@ -3,8 +3,8 @@
 // graph, dead markings with their shortest firing sequences, bounds, dead
 // transitions and P-invariants, and prints them as text or JSON; optionally draws
 // the net (and a small reachability graph) for Graphviz and writes the net as PNML.
-#include <CLI/CLI.hpp>
 #include <unistd.h>
+#include <CLI/CLI.hpp>
 
 #include <chrono>
 #include <cstdio>
@@ -76,15 +76,18 @@ petri::Net load_net(const AnalyzeArgs& a) {
   f.read(text.data(), static_cast<std::streamsize>(text.size()));
   text.resize(static_cast<size_t>(f.gcount()));
   if (text.size() > kMaxFileBytes) {
-    std::fprintf(stderr, "rtplc analyze: %s is larger than %zu MB\n", a.file.c_str(), kMaxFileBytes >> 20);
+    std::fprintf(stderr, "rtplc analyze: %s is larger than %zu MB\n", a.file.c_str(),
+                 kMaxFileBytes >> 20);
     throw CLI::RuntimeError(kExitFailure);
   }
   const size_t first = text.find_first_not_of(" \t\r\n\xEF\xBB\xBF");
-  if (!ends_with(a.file, ".pnml") && !ends_with(a.file, ".xml") && (first == std::string::npos || text[first] != '<')) {
-    std::fprintf(stderr,
-                 "rtplc analyze: %s is not a PNML file. SFC programs will be analysed once the SFC\n"
-                 "front end lands; for now give a P/T net in PNML (.pnml) or --generate MODEL-N.\n",
-                 a.file.c_str());
+  if (!ends_with(a.file, ".pnml") && !ends_with(a.file, ".xml") &&
+      (first == std::string::npos || text[first] != '<')) {
+    std::fprintf(
+        stderr,
+        "rtplc analyze: %s is not a PNML file. SFC programs will be analysed once the SFC\n"
+        "front end lands; for now give a P/T net in PNML (.pnml) or --generate MODEL-N.\n",
+        a.file.c_str());
     throw CLI::RuntimeError(kExitFailure);
   }
   petri::PnmlReadResult r = petri::read_pnml(text);
@@ -107,10 +110,12 @@ class ProgressLine {
     const double every = tty_ ? 0.5 : 5.0;
     if (p.seconds < next_) return;
     next_ = p.seconds + every;
-    std::fprintf(stderr, "%s  %.1f s: %llu markings, %llu explored, %llu edges, %.2f M markings/s%s",
-                 tty_ ? "\r" : "", p.seconds, static_cast<unsigned long long>(p.markings),
-                 static_cast<unsigned long long>(p.explored), static_cast<unsigned long long>(p.edges),
-                 p.seconds > 0 ? static_cast<double>(p.markings) / p.seconds / 1e6 : 0.0, tty_ ? "   " : "\n");
+    std::fprintf(
+        stderr, "%s  %.1f s: %llu markings, %llu explored, %llu edges, %.2f M markings/s%s",
+        tty_ ? "\r" : "", p.seconds, static_cast<unsigned long long>(p.markings),
+        static_cast<unsigned long long>(p.explored), static_cast<unsigned long long>(p.edges),
+        p.seconds > 0 ? static_cast<double>(p.markings) / p.seconds / 1e6 : 0.0,
+        tty_ ? "   " : "\n");
     shown_ = true;
   }
   void done() {
@@ -140,19 +145,25 @@ void run_analyze(const AnalyzeArgs& a) {
     const petri::ReachabilityGraph* g = an.reach.graph ? &*an.reach.graph : nullptr;
     if (!write_file(a.dot, petri::write_dot(net, g))) throw CLI::RuntimeError(kExitFailure);
     if (!g && !a.json) {
-      std::fprintf(stderr, "rtplc analyze: %s has the net only (the reachability graph has more than %zu markings)\n",
+      std::fprintf(stderr,
+                   "rtplc analyze: %s has the net only (the reachability graph has more than %zu "
+                   "markings)\n",
                    a.dot.c_str(), kDotGraphLimit);
     }
   }
   const std::string out = a.json ? petri::render_json(net, an) : petri::render_text(net, an);
   std::fputs(out.c_str(), stdout);
   if (an.reach.status == petri::ExploreStatus::kLimit) {
-    std::fprintf(stderr, "rtplc analyze: stopped after %llu markings (--limit %llu); raise --limit for exact figures\n",
-                 static_cast<unsigned long long>(an.reach.markings), static_cast<unsigned long long>(a.limit));
+    std::fprintf(stderr,
+                 "rtplc analyze: stopped after %llu markings (--limit %llu); raise --limit for "
+                 "exact figures\n",
+                 static_cast<unsigned long long>(an.reach.markings),
+                 static_cast<unsigned long long>(a.limit));
     throw CLI::RuntimeError(kExitIncomplete);
   }
   if (an.reach.status == petri::ExploreStatus::kTooManyTokens) {
-    std::fprintf(stderr, "rtplc analyze: place %s outgrew its storage; the figures are incomplete\n",
+    std::fprintf(stderr,
+                 "rtplc analyze: place %s outgrew its storage; the figures are incomplete\n",
                  an.reach.overflow_place.c_str());
     throw CLI::RuntimeError(kExitIncomplete);
   }
@@ -173,11 +184,15 @@ void add_analyze_command(CLI::App& app) {
       "Examples:\n  rtplc analyze examples/petri/mutex.pnml\n"
       "  rtplc analyze examples/petri/deadlock.pnml --json --dot deadlock.dot\n"
       "  rtplc analyze --generate philosophers-10 --write-pnml phil10.pnml");
-  cmd->add_option("file", args->file, "P/T net in PNML (ISO/IEC 15909-2); SFC programs come with the SFC front end");
-  cmd->add_option("--generate", args->generate, "analyse a generated MCC model instead: philosophers-N, kanban-N");
+  cmd->add_option("file", args->file,
+                  "P/T net in PNML (ISO/IEC 15909-2); SFC programs come with the SFC front end");
+  cmd->add_option("--generate", args->generate,
+                  "analyse a generated MCC model instead: philosophers-N, kanban-N");
   cmd->add_flag("--json", args->json, "print the results as JSON");
-  cmd->add_option("--dot", args->dot, "write a Graphviz drawing of the net (and of the reachability graph when small)");
-  cmd->add_option("--write-pnml", args->write_pnml, "write the net as PNML (e.g. a generated model, for other tools)");
+  cmd->add_option("--dot", args->dot,
+                  "write a Graphviz drawing of the net (and of the reachability graph when small)");
+  cmd->add_option("--write-pnml", args->write_pnml,
+                  "write the net as PNML (e.g. a generated model, for other tools)");
   cmd->add_option("--limit", args->limit, "explore at most this many markings (default 50,000,000)")
       ->check(CLI::Range(uint64_t{1}, uint64_t{4'000'000'000}));
   cmd->add_flag("-q,--quiet", args->quiet, "no progress lines on stderr");

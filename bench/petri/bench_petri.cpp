@@ -56,7 +56,8 @@ Figures in_child(F work) {
   }
   close(fd[1]);
   Figures f;
-  if (read(fd[0], &f, sizeof f) != static_cast<ssize_t>(sizeof f)) std::fprintf(stderr, "child failed\n");
+  if (read(fd[0], &f, sizeof f) != static_cast<ssize_t>(sizeof f))
+    std::fprintf(stderr, "child failed\n");
   close(fd[0]);
   int status = 0;
   rusage ru{};
@@ -68,15 +69,19 @@ Figures in_child(F work) {
 void print(const char* who, const Case& c, const Figures& f) {
   const double per_s = f.seconds > 0 ? static_cast<double>(f.markings) / f.seconds : 0;
   const bool ok = f.markings == c.markings && f.edges == c.edges;
-  std::printf("  %-10s %9llu markings %10llu edges %s  %7.3f s  %6.2f M markings/s  %6.1f bytes/marking  peak %6.1f MB\n",
-              who, static_cast<unsigned long long>(f.markings), static_cast<unsigned long long>(f.edges),
-              ok ? "(exact)" : "(WRONG)", f.seconds, per_s / 1e6,
-              f.markings ? f.store_bytes / static_cast<double>(f.markings) : 0.0, static_cast<double>(f.peak_kb) / 1024);
+  std::printf(
+      "  %-10s %9llu markings %10llu edges %s  %7.3f s  %6.2f M markings/s  %6.1f bytes/marking  "
+      "peak %6.1f MB\n",
+      who, static_cast<unsigned long long>(f.markings), static_cast<unsigned long long>(f.edges),
+      ok ? "(exact)" : "(WRONG)", f.seconds, per_s / 1e6,
+      f.markings ? f.store_bytes / static_cast<double>(f.markings) : 0.0,
+      static_cast<double>(f.peak_kb) / 1024);
 }
 
 int run_case(const Case& c, bool reference) {
   std::printf("%s-%u (MCC: %llu markings, %llu edges)\n", c.name, c.n,
-              static_cast<unsigned long long>(c.markings), static_cast<unsigned long long>(c.edges));
+              static_cast<unsigned long long>(c.markings),
+              static_cast<unsigned long long>(c.edges));
   const Figures ours = in_child([&] {
     const Net net = c.make(c.n);
     ExploreOptions opt;
@@ -94,10 +99,11 @@ int run_case(const Case& c, bool reference) {
   });
   print("reference", c, ref);
   failures += ref.markings == c.markings && ref.edges == c.edges ? 0 : 1;
-  std::printf("  ratio      %.1fx faster, %.1fx less peak memory, %.1fx fewer bytes per marking\n",
-              ours.seconds > 0 ? ref.seconds / ours.seconds : 0.0,
-              ours.peak_kb > 0 ? static_cast<double>(ref.peak_kb) / static_cast<double>(ours.peak_kb) : 0.0,
-              ours.store_bytes > 0 ? ref.store_bytes / ours.store_bytes : 0.0);
+  std::printf(
+      "  ratio      %.1fx faster, %.1fx less peak memory, %.1fx fewer bytes per marking\n",
+      ours.seconds > 0 ? ref.seconds / ours.seconds : 0.0,
+      ours.peak_kb > 0 ? static_cast<double>(ref.peak_kb) / static_cast<double>(ours.peak_kb) : 0.0,
+      ours.store_bytes > 0 ? ref.store_bytes / ours.store_bytes : 0.0);
   return failures;
 }
 

@@ -7,7 +7,8 @@
 
 namespace rtplc::petri {
 
-Result<IntMatrix> compose(const std::vector<Module>& modules, const std::vector<std::string>& places,
+Result<IntMatrix> compose(const std::vector<Module>& modules,
+                          const std::vector<std::string>& places,
                           const std::vector<std::string>& transitions) {
   std::unordered_map<std::string, size_t> row, col;
   for (size_t i = 0; i < places.size(); ++i) row[places[i]] = i;
@@ -18,16 +19,19 @@ Result<IntMatrix> compose(const std::vector<Module>& modules, const std::vector<
     if (m.b.rows() != m.places.size() || m.b.cols() != m.transitions.size()) {
       return make_error("module " + m.name + ": its matrix is not places x transitions");
     }
-    auto [it, fresh] = per_module.try_emplace(m.name, IntMatrix(places.size(), transitions.size()), 0);
+    auto [it, fresh] =
+        per_module.try_emplace(m.name, IntMatrix(places.size(), transitions.size()), 0);
     IntMatrix& sum = it->second.first;
     ++it->second.second;
     for (size_t i = 0; i < m.places.size(); ++i) {
       auto r = row.find(m.places[i]);
-      if (r == row.end()) return make_error("module " + m.name + ": place " + m.places[i] + " is not in the net");
+      if (r == row.end())
+        return make_error("module " + m.name + ": place " + m.places[i] + " is not in the net");
       for (size_t j = 0; j < m.transitions.size(); ++j) {
         auto c = col.find(m.transitions[j]);
         if (c == col.end()) {
-          return make_error("module " + m.name + ": transition " + m.transitions[j] + " is not in the net");
+          return make_error("module " + m.name + ": transition " + m.transitions[j] +
+                            " is not in the net");
         }
         sum(r->second, c->second) += m.b(i, j);
       }
@@ -42,12 +46,13 @@ Result<IntMatrix> compose(const std::vector<Module>& modules, const std::vector<
         if (sum(i, j) == 0) continue;
         if (sum(i, j) % d != 0) {
           return make_error("module " + name + " is listed " + std::to_string(d) +
-                            " times with different entries at (" + places[i] + ", " + transitions[j] + ")");
+                            " times with different entries at (" + places[i] + ", " +
+                            transitions[j] + ")");
         }
         const std::string*& who = owner[i * transitions.size() + j];
         if (who) {
-          return make_error("modules " + *who + " and " + name + " both define the entry (" + places[i] + ", " +
-                            transitions[j] + ")");
+          return make_error("modules " + *who + " and " + name + " both define the entry (" +
+                            places[i] + ", " + transitions[j] + ")");
         }
         who = &name;
         b(i, j) = sum(i, j) / d;
@@ -140,9 +145,13 @@ Result<TransitionId> HierarchicalNet::add_sub_transition(size_t /*sub*/, std::st
   return net_.add_transition(std::move(id));
 }
 
-void HierarchicalNet::starts_on(size_t sub, TransitionId t) { net_.add_read(subs_[sub].step, t); }
+void HierarchicalNet::starts_on(size_t sub, TransitionId t) {
+  net_.add_read(subs_[sub].step, t);
+}
 
-void HierarchicalNet::finishes(size_t /*sub*/, PlaceId output, TransitionId t) { net_.add_read(output, t); }
+void HierarchicalNet::finishes(size_t /*sub*/, PlaceId output, TransitionId t) {
+  net_.add_read(output, t);
+}
 
 std::vector<Module> HierarchicalNet::modules() const {
   std::vector<Module> out;

@@ -34,7 +34,8 @@ struct Module {
   IntMatrix b;                           // places.size() x transitions.size()
 };
 
-Result<IntMatrix> compose(const std::vector<Module>& modules, const std::vector<std::string>& places,
+Result<IntMatrix> compose(const std::vector<Module>& modules,
+                          const std::vector<std::string>& places,
                           const std::vector<std::string>& transitions);
 
 // The block of `net` for the given places and every transition connected to them.

@@ -37,18 +37,21 @@ std::string write_dot(const Net& net, const ReachabilityGraph* graph) {
   o += "  subgraph cluster_net {\n    label=" + quote("net " + net.name()) + ";\n";
   for (PlaceId p = 0; p < net.place_count(); ++p) {
     const std::string t = tokens(net.place(p).initial);
-    o += "    p" + std::to_string(p) + " [shape=circle, label=" +
-         quote(net.place_label(p) + (t.empty() ? "" : "\n" + t)) + "];\n";
+    o += "    p" + std::to_string(p) +
+         " [shape=circle, label=" + quote(net.place_label(p) + (t.empty() ? "" : "\n" + t)) +
+         "];\n";
   }
   for (TransitionId t = 0; t < net.transition_count(); ++t) {
-    o += "    t" + std::to_string(t) + " [shape=box, style=filled, fillcolor=gray85, label=" +
-         quote(net.transition_label(t)) + "];\n";
+    o += "    t" + std::to_string(t) +
+         " [shape=box, style=filled, fillcolor=gray85, label=" + quote(net.transition_label(t)) +
+         "];\n";
   }
   for (TransitionId t = 0; t < net.transition_count(); ++t) {
     for (const ArcEnd& e : net.inputs(t)) {
       const std::string w = e.weight == 1 ? "" : " label=" + quote(std::to_string(e.weight)) + ",";
       if (net.post(e.place, t) == e.weight) {  // a read arc
-        o += "    p" + std::to_string(e.place) + " -> t" + std::to_string(t) + " [" + w + " dir=both, style=dashed];\n";
+        o += "    p" + std::to_string(e.place) + " -> t" + std::to_string(t) + " [" + w +
+             " dir=both, style=dashed];\n";
       } else {
         o += "    p" + std::to_string(e.place) + " -> t" + std::to_string(t) + " [" + w + "];\n";
       }
@@ -65,13 +68,14 @@ std::string write_dot(const Net& net, const ReachabilityGraph* graph) {
     std::vector<bool> has_out(graph->markings.size(), false);
     for (const auto& e : graph->edges) has_out[e.from] = true;
     for (size_t i = 0; i < graph->markings.size(); ++i) {
-      o += "    m" + std::to_string(i) + " [shape=box, style=rounded" + std::string(i == 0 ? ",penwidth=2" : "") +
+      o += "    m" + std::to_string(i) + " [shape=box, style=rounded" +
+           std::string(i == 0 ? ",penwidth=2" : "") +
            std::string(has_out[i] ? "" : ",color=red,fontcolor=red") + ", label=" +
            quote("M" + std::to_string(i) + "\n" + marking_text(net, graph->markings[i])) + "];\n";
     }
     for (const auto& e : graph->edges) {
-      o += "    m" + std::to_string(e.from) + " -> m" + std::to_string(e.to) + " [label=" +
-           quote(net.transition_label(e.transition)) + "];\n";
+      o += "    m" + std::to_string(e.from) + " -> m" + std::to_string(e.to) +
+           " [label=" + quote(net.transition_label(e.transition)) + "];\n";
     }
     o += "  }\n";
   }

@@ -8,8 +8,12 @@ namespace rtplc::petri {
 namespace {
 
 // Every id below is fresh, so these cannot fail.
-PlaceId place(Net& n, const std::string& id, uint32_t tokens) { return n.add_place(id, tokens).value(); }
-TransitionId transition(Net& n, const std::string& id) { return n.add_transition(id).value(); }
+PlaceId place(Net& n, const std::string& id, uint32_t tokens) {
+  return n.add_place(id, tokens).value();
+}
+TransitionId transition(Net& n, const std::string& id) {
+  return n.add_transition(id).value();
+}
 
 }  // namespace
 
@@ -108,7 +112,8 @@ Net kanban(uint32_t n) {
 Result<Net> generate(std::string_view spec) {
   const size_t dash = spec.rfind('-');
   if (dash == std::string_view::npos) {
-    return make_error("'" + std::string(spec) + "': write MODEL-N, e.g. philosophers-10 or kanban-5");
+    return make_error("'" + std::string(spec) +
+                      "': write MODEL-N, e.g. philosophers-10 or kanban-5");
   }
   const std::string_view model = spec.substr(0, dash);
   const std::string_view num = spec.substr(dash + 1);

@@ -29,8 +29,8 @@ struct PInvariant {
 
 struct InvariantResult {
   std::vector<PInvariant> invariants;
-  bool complete = true;        // false when the row cap stopped the computation
-  bool covered = false;        // every place lies in the support of some invariant
+  bool complete = true;  // false when the row cap stopped the computation
+  bool covered = false;  // every place lies in the support of some invariant
 };
 
 InvariantResult p_invariants(const Net& net, size_t max_rows = 20000);

@@ -35,7 +35,7 @@ void add_weight(std::vector<ArcEnd>& ends, PlaceId p, uint32_t w) {
     if (e.place == p) {
       const uint64_t sum = uint64_t{e.weight} + w;
       e.weight = sum > std::numeric_limits<uint32_t>::max() ? std::numeric_limits<uint32_t>::max()
-                                                             : static_cast<uint32_t>(sum);
+                                                            : static_cast<uint32_t>(sum);
       return;
     }
   }
@@ -43,8 +43,12 @@ void add_weight(std::vector<ArcEnd>& ends, PlaceId p, uint32_t w) {
 }
 }  // namespace
 
-void Net::add_input(PlaceId p, TransitionId t, uint32_t w) { add_weight(pre_[t], p, w); }
-void Net::add_output(TransitionId t, PlaceId p, uint32_t w) { add_weight(post_[t], p, w); }
+void Net::add_input(PlaceId p, TransitionId t, uint32_t w) {
+  add_weight(pre_[t], p, w);
+}
+void Net::add_output(TransitionId t, PlaceId p, uint32_t w) {
+  add_weight(post_[t], p, w);
+}
 void Net::add_read(PlaceId p, TransitionId t, uint32_t w) {
   add_input(p, t, w);
   add_output(t, p, w);
@@ -69,8 +73,12 @@ Result<Net> Net::from_incidence(const IntMatrix& b, const std::vector<std::strin
   for (size_t i = 0; i < b.rows(); ++i) {
     for (size_t j = 0; j < b.cols(); ++j) {
       const int64_t v = b(i, j);
-      if (v < 0) net.add_input(static_cast<PlaceId>(i), static_cast<TransitionId>(j), static_cast<uint32_t>(-v));
-      if (v > 0) net.add_output(static_cast<TransitionId>(j), static_cast<PlaceId>(i), static_cast<uint32_t>(v));
+      if (v < 0)
+        net.add_input(static_cast<PlaceId>(i), static_cast<TransitionId>(j),
+                      static_cast<uint32_t>(-v));
+      if (v > 0)
+        net.add_output(static_cast<TransitionId>(j), static_cast<PlaceId>(i),
+                       static_cast<uint32_t>(v));
     }
   }
   return net;

@@ -11,8 +11,12 @@ namespace rtplc::petri {
 namespace {
 
 std::string_view trim(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\n' || s.front() == '\t' || s.front() == '\r')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\n' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
+  while (!s.empty() &&
+         (s.front() == ' ' || s.front() == '\n' || s.front() == '\t' || s.front() == '\r'))
+    s.remove_prefix(1);
+  while (!s.empty() &&
+         (s.back() == ' ' || s.back() == '\n' || s.back() == '\t' || s.back() == '\r'))
+    s.remove_suffix(1);
   return s;
 }
 
@@ -69,7 +73,9 @@ class PnmlReader {
       diags_.error(root.pos, "the document has no <net>");
       return std::nullopt;
     }
-    if (nets > 1) diags_.warning(net_el->pos, "the document has " + std::to_string(nets) + " nets; only the first is read");
+    if (nets > 1)
+      diags_.warning(net_el->pos,
+                     "the document has " + std::to_string(nets) + " nets; only the first is read");
     const XmlAttribute* type = net_el->attribute("type");
     if (!type) {
       diags_.error(net_el->pos, "<net> has no type attribute");
@@ -77,7 +83,8 @@ class PnmlReader {
     }
     if (trim(type->value) != kPtNetType) {
       diags_.error(type->pos, "net type '" + type->value + "' is " + describe_type(type->value) +
-                                  "; only P/T nets (" + std::string(kPtNetType) + ") are supported");
+                                  "; only P/T nets (" + std::string(kPtNetType) +
+                                  ") are supported");
       return std::nullopt;
     }
     std::string name;
@@ -181,18 +188,25 @@ class PnmlReader {
       size_t hops = 0;
       for (;;) {
         if (auto p = net_.find_place(ref->value)) {
-          if (!r.is_place) diags_.error(ref->pos, "referenceTransition '" + id + "' names place '" + ref->value + "'");
-          else resolved_[id] = Node{true, *p};
+          if (!r.is_place)
+            diags_.error(ref->pos,
+                         "referenceTransition '" + id + "' names place '" + ref->value + "'");
+          else
+            resolved_[id] = Node{true, *p};
           break;
         }
         if (auto t = net_.find_transition(ref->value)) {
-          if (r.is_place) diags_.error(ref->pos, "referencePlace '" + id + "' names transition '" + ref->value + "'");
-          else resolved_[id] = Node{false, *t};
+          if (r.is_place)
+            diags_.error(ref->pos,
+                         "referencePlace '" + id + "' names transition '" + ref->value + "'");
+          else
+            resolved_[id] = Node{false, *t};
           break;
         }
         auto next = references_.find(ref->value);
         if (next == references_.end()) {
-          diags_.error(ref->pos, "reference '" + id + "' names '" + ref->value + "', which is not in the net");
+          diags_.error(ref->pos, "reference '" + id + "' names '" + ref->value +
+                                     "', which is not in the net");
           break;
         }
         if (++hops > references_.size()) {
@@ -209,7 +223,8 @@ class PnmlReader {
     if (auto t = net_.find_transition(a.value)) return Node{false, *t};
     auto r = resolved_.find(a.value);
     if (r != resolved_.end()) return r->second;
-    if (!references_.count(a.value)) diags_.error(a.pos, "arc end '" + a.value + "' is not a place or transition of the net");
+    if (!references_.count(a.value))
+      diags_.error(a.pos, "arc end '" + a.value + "' is not a place or transition of the net");
     return std::nullopt;
   }
 
@@ -226,7 +241,8 @@ class PnmlReader {
     if (const XmlElement* t = label_text(e, "inscription")) {
       auto v = parse_count(t->text);
       if (!v || *v == 0) {
-        diags_.error(t->pos, "arc inscription '" + std::string(trim(t->text)) + "' is not a positive integer");
+        diags_.error(t->pos, "arc inscription '" + std::string(trim(t->text)) +
+                                 "' is not a positive integer");
         return;
       }
       weight = *v;
@@ -242,11 +258,14 @@ class PnmlReader {
     auto d = node(*dst);
     if (!s || !d) return;
     if (s->is_place == d->is_place) {
-      diags_.error(e.pos, "arc '" + id->value + "' joins two " + (s->is_place ? "places" : "transitions"));
+      diags_.error(e.pos,
+                   "arc '" + id->value + "' joins two " + (s->is_place ? "places" : "transitions"));
       return;
     }
-    if (s->is_place) net_.add_input(s->index, d->index, weight);
-    else net_.add_output(s->index, d->index, weight);
+    if (s->is_place)
+      net_.add_input(s->index, d->index, weight);
+    else
+      net_.add_output(s->index, d->index, weight);
   }
 
   DiagnosticList& diags_;
@@ -264,7 +283,8 @@ std::string xml_id(std::string_view s) {
                     c == '_' || c == '-' || c == '.';
     out += ok ? c : '_';
   }
-  if (out.empty() || (out[0] >= '0' && out[0] <= '9') || out[0] == '-' || out[0] == '.') out = "n" + out;
+  if (out.empty() || (out[0] >= '0' && out[0] <= '9') || out[0] == '-' || out[0] == '.')
+    out = "n" + out;
   return out;
 }
 
@@ -290,7 +310,8 @@ std::string write_pnml(const Net& net) {
     const Place& pl = net.place(p);
     o += "      <place id=\"" + xml_escape(pl.id) + "\">";
     o += "<name><text>" + xml_escape(net.place_label(p)) + "</text></name>";
-    if (pl.initial) o += "<initialMarking><text>" + std::to_string(pl.initial) + "</text></initialMarking>";
+    if (pl.initial)
+      o += "<initialMarking><text>" + std::to_string(pl.initial) + "</text></initialMarking>";
     o += "</place>\n";
   }
   for (TransitionId t = 0; t < net.transition_count(); ++t) {
@@ -299,14 +320,16 @@ std::string write_pnml(const Net& net) {
   }
   size_t n = 0;
   auto arc = [&](const std::string& from, const std::string& to, uint32_t w) {
-    o += "      <arc id=\"arc" + std::to_string(n++) + "\" source=\"" + xml_escape(from) + "\" target=\"" +
-         xml_escape(to) + "\">";
+    o += "      <arc id=\"arc" + std::to_string(n++) + "\" source=\"" + xml_escape(from) +
+         "\" target=\"" + xml_escape(to) + "\">";
     if (w != 1) o += "<inscription><text>" + std::to_string(w) + "</text></inscription>";
     o += "</arc>\n";
   };
   for (TransitionId t = 0; t < net.transition_count(); ++t) {
-    for (const ArcEnd& e : net.inputs(t)) arc(net.place(e.place).id, net.transition(t).id, e.weight);
-    for (const ArcEnd& e : net.outputs(t)) arc(net.transition(t).id, net.place(e.place).id, e.weight);
+    for (const ArcEnd& e : net.inputs(t))
+      arc(net.place(e.place).id, net.transition(t).id, e.weight);
+    for (const ArcEnd& e : net.outputs(t))
+      arc(net.transition(t).id, net.place(e.place).id, e.weight);
   }
   o += "    </page>\n  </net>\n</pnml>\n";
   return o;

@@ -83,7 +83,8 @@ bool Explorer::covers_ancestor(uint32_t id, uint32_t* ancestor) const {
   for (uint32_t a = parent_[id]; a != kNoParent; a = parent_[a]) {
     const uint64_t* ka = keys_.at(a);
     bool ge = true;
-    for (size_t p = 0; p < layout_.places() && ge; ++p) ge = layout_.get(k, p) >= layout_.get(ka, p);
+    for (size_t p = 0; p < layout_.places() && ge; ++p)
+      ge = layout_.get(k, p) >= layout_.get(ka, p);
     if (ge) {
       *ancestor = a;
       return true;
@@ -120,7 +121,8 @@ ReachabilityResult Explorer::run() {
   std::vector<bool> bounded(np, false);
   bool all_bounded = true;
   for (size_t p = 0; p < np; ++p) {
-    if (p < opt_.place_bounds.size() && opt_.place_bounds[p] && *opt_.place_bounds[p] < (1ULL << 32)) {
+    if (p < opt_.place_bounds.size() && opt_.place_bounds[p] &&
+        *opt_.place_bounds[p] < (1ULL << 32)) {
       bits[p] = bits_for(std::max<uint64_t>(*opt_.place_bounds[p], m0[p]));
       bounded[p] = true;
     } else {
@@ -264,8 +266,8 @@ ReachabilityResult Explorer::run() {
       if (from == to) {
         ++r.dead_markings;
         if (r.dead_examples.size() < opt_.keep_dead) {
-          r.dead_examples.push_back(DeadMarking{unpack(static_cast<uint32_t>(id)),
-                                                path_to(static_cast<uint32_t>(id))});
+          r.dead_examples.push_back(
+              DeadMarking{unpack(static_cast<uint32_t>(id)), path_to(static_cast<uint32_t>(id))});
         }
       }
     }
@@ -273,7 +275,8 @@ ReachabilityResult Explorer::run() {
       next_progress = end + 0x10000;
       peak_bytes = std::max(peak_bytes, store_bytes());
       if (opt_.progress) {
-        const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time).count();
+        const double s =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time).count();
         opt_.progress(ExploreProgress{parent_.size(), end, edges, s});
       }
     }

@@ -34,8 +34,8 @@ struct ExploreProgress {
 
 struct ExploreOptions {
   uint64_t max_markings = 50'000'000;
-  size_t keep_dead = 10;    // dead markings kept with their firing sequences
-  size_t graph_limit = 0;   // keep the whole graph while it has at most this many markings
+  size_t keep_dead = 10;   // dead markings kept with their firing sequences
+  size_t graph_limit = 0;  // keep the whole graph while it has at most this many markings
   // Called about every 65,536 explored markings.
   std::function<void(const ExploreProgress&)> progress;
   // Structural bound of each place (P-invariants), empty or nullopt where unknown.

@@ -33,7 +33,8 @@ ReferenceResult reference_bfs(const Net& net, uint64_t max_markings) {
     bool any = false;
     for (TransitionId t = 0; t < net.transition_count(); ++t) {
       bool enabled = true;
-      for (const ArcEnd& e : net.inputs(t)) enabled = enabled && m[e.place] >= static_cast<int>(e.weight);
+      for (const ArcEnd& e : net.inputs(t))
+        enabled = enabled && m[e.place] >= static_cast<int>(e.weight);
       if (!enabled) continue;
       any = true;
       ++r.edges;
@@ -55,7 +56,8 @@ ReferenceResult reference_bfs(const Net& net, uint64_t max_markings) {
   r.markings = seen.size();
   // Each node: the vector's heap block, the vector itself, the next pointer and the
   // cached hash; plus one bucket pointer per bucket.
-  const size_t node = sizeof(std::vector<int>) + 2 * sizeof(void*) + net.place_count() * sizeof(int);
+  const size_t node =
+      sizeof(std::vector<int>) + 2 * sizeof(void*) + net.place_count() * sizeof(int);
   r.approx_bytes = seen.size() * node + seen.bucket_count() * sizeof(void*);
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return r;

@@ -73,10 +73,14 @@ std::string json_marking(const Net& net, const Marking& m, const std::vector<Pla
 
 const char* status_name(ExploreStatus s) {
   switch (s) {
-    case ExploreStatus::kComplete: return "complete";
-    case ExploreStatus::kLimit: return "limit";
-    case ExploreStatus::kUnbounded: return "unbounded";
-    case ExploreStatus::kTooManyTokens: return "too_many_tokens";
+    case ExploreStatus::kComplete:
+      return "complete";
+    case ExploreStatus::kLimit:
+      return "limit";
+    case ExploreStatus::kUnbounded:
+      return "unbounded";
+    case ExploreStatus::kTooManyTokens:
+      return "too_many_tokens";
   }
   return "?";
 }
@@ -93,8 +97,10 @@ std::string omega_text(const Net& net, const Pump& pump) {
     if (!grows && pump.start[p] == 0) continue;
     if (!s.empty()) s += ", ";
     s += net.place_label(static_cast<PlaceId>(p));
-    if (grows) s += "=omega";
-    else if (pump.start[p] != 1) s += "*" + std::to_string(pump.start[p]);
+    if (grows)
+      s += "=omega";
+    else if (pump.start[p] != 1)
+      s += "*" + std::to_string(pump.start[p]);
   }
   return s;
 }
@@ -131,31 +137,40 @@ std::string render_text(const Net& net, const Analysis& a) {
   o += "places:";
   for (size_t p = 0; p < np && p < kListMax; ++p) {
     o += " " + net.place_label(static_cast<PlaceId>(p));
-    if (net.place(static_cast<PlaceId>(p)).initial) o += "(" + std::to_string(net.place(static_cast<PlaceId>(p)).initial) + ")";
+    if (net.place(static_cast<PlaceId>(p)).initial)
+      o += "(" + std::to_string(net.place(static_cast<PlaceId>(p)).initial) + ")";
   }
   if (np > kListMax) o += " ... (" + std::to_string(np - kListMax) + " more)";
   o += "\ntransitions:";
-  for (size_t t = 0; t < nt && t < kListMax; ++t) o += " " + net.transition_label(static_cast<TransitionId>(t));
+  for (size_t t = 0; t < nt && t < kListMax; ++t)
+    o += " " + net.transition_label(static_cast<TransitionId>(t));
   if (nt > kListMax) o += " ... (" + std::to_string(nt - kListMax) + " more)";
   o += "\n\n";
   const IntMatrix b = net.incidence();
   if (np <= 60 && nt <= 30) {
     std::vector<std::string> pl, tl;
     for (size_t p = 0; p < np; ++p) pl.push_back(net.place_label(static_cast<PlaceId>(p)));
-    for (size_t t = 0; t < nt; ++t) tl.push_back(net.transition_label(static_cast<TransitionId>(t)));
-    o += "incidence matrix B = B+ - B- (rows: places, columns: transitions):\n" + b.to_string(pl, tl) + "\n";
+    for (size_t t = 0; t < nt; ++t)
+      tl.push_back(net.transition_label(static_cast<TransitionId>(t)));
+    o += "incidence matrix B = B+ - B- (rows: places, columns: transitions):\n" +
+         b.to_string(pl, tl) + "\n";
   } else {
     o += "incidence matrix B: " + std::to_string(np) + " x " + std::to_string(nt) + ", " +
-         std::to_string(b.nonzero_count()) + " non-zero entries (too wide to print; --json has it)\n\n";
+         std::to_string(b.nonzero_count()) +
+         " non-zero entries (too wide to print; --json has it)\n\n";
   }
 
   switch (r.status) {
-    case ExploreStatus::kComplete: o += "reachability graph: complete\n"; break;
+    case ExploreStatus::kComplete:
+      o += "reachability graph: complete\n";
+      break;
     case ExploreStatus::kLimit:
       o += "reachability graph: STOPPED at the limit of " + with_commas(a.max_markings) +
            " markings (--limit); the figures below are lower bounds\n";
       break;
-    case ExploreStatus::kUnbounded: o += "reachability graph: infinite (the net is unbounded, see below)\n"; break;
+    case ExploreStatus::kUnbounded:
+      o += "reachability graph: infinite (the net is unbounded, see below)\n";
+      break;
     case ExploreStatus::kTooManyTokens:
       o += "reachability graph: STOPPED: place " + r.overflow_place +
            " holds more tokens than its storage field (no P-invariant bounds it)\n";
@@ -163,21 +178,24 @@ std::string render_text(const Net& net, const Analysis& a) {
   }
   o += "  markings:   " + with_commas(r.markings) + "\n";
   o += "  edges:      " + with_commas(r.edges) + " (firings)\n";
-  o += "  time:       " + fixed(r.seconds, 3) + " s" + ", " + fixed(rate(r) / 1e6, 2) + " million markings/s, " +
-       fixed(r.bytes_per_marking(), 1) + " bytes/marking (" + std::to_string(r.key_bits) + " bits of tokens in " +
-       std::to_string(r.key_words) + " word" + (r.key_words == 1 ? "" : "s") + ")\n";
+  o += "  time:       " + fixed(r.seconds, 3) + " s" + ", " + fixed(rate(r) / 1e6, 2) +
+       " million markings/s, " + fixed(r.bytes_per_marking(), 1) + " bytes/marking (" +
+       std::to_string(r.key_bits) + " bits of tokens in " + std::to_string(r.key_words) + " word" +
+       (r.key_words == 1 ? "" : "s") + ")\n";
   const std::optional<bool> bounded = a.bounded();
   o += "  bounded:    " + std::string(!bounded ? "unknown" : *bounded ? "yes" : "NO") + "\n";
   if (r.status != ExploreStatus::kUnbounded) {
-    o += "  bound:      " + std::to_string(r.max_tokens_in_place) + " token" + (r.max_tokens_in_place == 1 ? "" : "s") +
-         " at most in one place" + (r.exact() ? "" : " (so far)") + (r.safe() ? " (safe)" : " (not safe)") + "\n";
+    o += "  bound:      " + std::to_string(r.max_tokens_in_place) + " token" +
+         (r.max_tokens_in_place == 1 ? "" : "s") + " at most in one place" +
+         (r.exact() ? "" : " (so far)") + (r.safe() ? " (safe)" : " (not safe)") + "\n";
   }
 
   if (r.pump) {
     const Pump& pm = *r.pump;
     std::string grow;
     for (PlaceId p : pm.growing) {
-      grow += (grow.empty() ? "" : ", ") + net.place_label(p) + " +" + std::to_string(pm.end[p] - pm.start[p]);
+      grow += (grow.empty() ? "" : ", ") + net.place_label(p) + " +" +
+              std::to_string(pm.end[p] - pm.start[p]);
     }
     o += "\nunbounded: each round of the pumping sequence adds tokens (" + grow + ")\n";
     o += "  reach:    " + sequence_text(net, pm.prefix) + "\n";
@@ -185,7 +203,8 @@ std::string render_text(const Net& net, const Analysis& a) {
     o += "  omega marking: " + omega_text(net, pm) + "\n";
   }
 
-  o += "\ndead markings (deadlocks): " + with_commas(r.dead_markings) + (r.exact() ? "" : " found so far") + "\n";
+  o += "\ndead markings (deadlocks): " + with_commas(r.dead_markings) +
+       (r.exact() ? "" : " found so far") + "\n";
   for (size_t i = 0; i < r.dead_examples.size(); ++i) {
     const DeadMarking& d = r.dead_examples[i];
     o += "  " + std::to_string(i + 1) + ". " + marking_text(net, d.marking) + "\n     after " +
@@ -203,8 +222,8 @@ std::string render_text(const Net& net, const Analysis& a) {
     ++n_dead;
     if (n_dead <= kListMax) dead += " " + net.transition_label(static_cast<TransitionId>(t));
   }
-  o += "dead transitions" + std::string(r.exact() ? "" : " (not fired in the part explored)") + ": " +
-       (n_dead == 0 ? std::string("none") : std::to_string(n_dead) + ":" + dead) + "\n";
+  o += "dead transitions" + std::string(r.exact() ? "" : " (not fired in the part explored)") +
+       ": " + (n_dead == 0 ? std::string("none") : std::to_string(n_dead) + ":" + dead) + "\n";
 
   o += "\nP-invariants: " + std::to_string(a.invariants.invariants.size()) +
        (a.invariants.complete ? "" : " (computation stopped early: too many)") +
@@ -227,9 +246,12 @@ std::string render_json(const Net& net, const Analysis& a) {
   field("places", std::to_string(np));
   field("transitions", std::to_string(nt));
   field("arcs", std::to_string(net.arc_count()));
-  field("place_names", json_list(np, [&](size_t p) { return json_string(net.place_label(static_cast<PlaceId>(p))); }));
-  field("transition_names",
-        json_list(nt, [&](size_t t) { return json_string(net.transition_label(static_cast<TransitionId>(t))); }));
+  field("place_names", json_list(np, [&](size_t p) {
+          return json_string(net.place_label(static_cast<PlaceId>(p)));
+        }));
+  field("transition_names", json_list(nt, [&](size_t t) {
+          return json_string(net.transition_label(static_cast<TransitionId>(t)));
+        }));
   const Marking m0 = net.initial_marking();
   field("initial_marking", json_list(np, [&](size_t p) { return std::to_string(m0[p]); }));
   if (np * nt <= 1'000'000) {
@@ -250,7 +272,8 @@ std::string render_json(const Net& net, const Analysis& a) {
                  ", \"sequence\": " + json_sequence(net, r.dead_examples[i].path) + "}";
         }));
   field("max_tokens_in_place", std::to_string(r.max_tokens_in_place));
-  field("place_max_tokens", json_list(np, [&](size_t p) { return std::to_string(r.max_tokens[p]); }));
+  field("place_max_tokens",
+        json_list(np, [&](size_t p) { return std::to_string(r.max_tokens[p]); }));
   field("safe", r.status != ExploreStatus::kUnbounded && r.safe() ? "true" : "false");
   std::vector<TransitionId> dead;
   for (size_t t = 0; t < nt; ++t) {
@@ -263,8 +286,8 @@ std::string render_json(const Net& net, const Analysis& a) {
           bool first = true;
           for (size_t p = 0; p < y.weights.size(); ++p) {
             if (y.weights[p] == 0) continue;
-            w += (first ? "" : ", ") + json_string(net.place_label(static_cast<PlaceId>(p))) + ": " +
-                 std::to_string(y.weights[p]);
+            w += (first ? "" : ", ") + json_string(net.place_label(static_cast<PlaceId>(p))) +
+                 ": " + std::to_string(y.weights[p]);
             first = false;
           }
           return "{\"weights\": " + w + "}, \"tokens\": " + std::to_string(y.token_sum) + "}";
@@ -272,14 +295,17 @@ std::string render_json(const Net& net, const Analysis& a) {
   field("p_invariants_complete", a.invariants.complete ? "true" : "false");
   if (r.pump) {
     const Pump& pm = *r.pump;
-    field("pump", "{\"prefix\": " + json_sequence(net, pm.prefix) + ", \"cycle\": " + json_sequence(net, pm.cycle) +
-                      ", \"growing\": " +
-                      json_list(pm.growing.size(), [&](size_t i) { return json_string(net.place_label(pm.growing[i])); }) +
-                      ", \"omega_marking\": " + json_marking(net, pm.start, pm.growing) + "}");
+    field("pump",
+          "{\"prefix\": " + json_sequence(net, pm.prefix) +
+              ", \"cycle\": " + json_sequence(net, pm.cycle) + ", \"growing\": " +
+              json_list(pm.growing.size(),
+                        [&](size_t i) { return json_string(net.place_label(pm.growing[i])); }) +
+              ", \"omega_marking\": " + json_marking(net, pm.start, pm.growing) + "}");
   } else {
     field("pump", "null");
   }
-  if (r.status == ExploreStatus::kTooManyTokens) field("overflow_place", json_string(r.overflow_place));
+  if (r.status == ExploreStatus::kTooManyTokens)
+    field("overflow_place", json_string(r.overflow_place));
   field("seconds", fixed(r.seconds, 6));
   field("markings_per_second", fixed(rate(r), 0));
   o += "  \"bytes_per_marking\": " + fixed(r.bytes_per_marking(), 2) + "\n}\n";

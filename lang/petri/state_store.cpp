@@ -2,8 +2,8 @@
 // issue item 4, "Speed and memory").
 #include "lang/petri/state_store.h"
 
-#include <algorithm>
 #include <sys/mman.h>
+#include <algorithm>
 
 #include <cstring>
 #include <new>
@@ -21,7 +21,8 @@ MarkingLayout::MarkingLayout(const std::vector<uint32_t>& bits) {
   // bit 63 free for the occupied flag.
   std::vector<size_t> order(bits.size());
   for (size_t i = 0; i < order.size(); ++i) order[i] = i;
-  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return bits[a] > bits[b]; });
+  std::stable_sort(order.begin(), order.end(),
+                   [&](size_t a, size_t b) { return bits[a] > bits[b]; });
   std::vector<uint32_t> used{1};  // bits used per word; word 0 starts with the flag
   fields_.resize(bits.size());
   for (size_t p : order) {

@@ -64,7 +64,9 @@ class ChunkedArray {
   explicit ChunkedArray(size_t stride = 1) : stride_(stride) {}
   size_t size() const { return size_; }
   T* at(size_t i) { return chunks_[i >> kChunkBits].data() + (i & (kChunk - 1)) * stride_; }
-  const T* at(size_t i) const { return chunks_[i >> kChunkBits].data() + (i & (kChunk - 1)) * stride_; }
+  const T* at(size_t i) const {
+    return chunks_[i >> kChunkBits].data() + (i & (kChunk - 1)) * stride_;
+  }
   T& operator[](size_t i) { return *at(i); }
   const T& operator[](size_t i) const { return *at(i); }
   void push_back(const T* record) {

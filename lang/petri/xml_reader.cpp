@@ -46,13 +46,16 @@ class XmlParser {
     return false;
   }
   void skip_space() {
-    while (!at_end() && (peek() == ' ' || peek() == '\t' || peek() == '\n' || peek() == '\r')) advance();
+    while (!at_end() && (peek() == ' ' || peek() == '\t' || peek() == '\n' || peek() == '\r'))
+      advance();
   }
   static bool name_char(char c) {
     return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
            c == '-' || c == '.' || c == ':' || (static_cast<unsigned char>(c) >= 0x80);
   }
-  static bool name_start(char c) { return name_char(c) && !(c >= '0' && c <= '9') && c != '-' && c != '.'; }
+  static bool name_start(char c) {
+    return name_char(c) && !(c >= '0' && c <= '9') && c != '-' && c != '.';
+  }
 
   bool name(std::string& out) {
     if (at_end() || !name_start(peek())) return failb("expected a name");
@@ -121,24 +124,34 @@ class XmlParser {
   bool reference(std::string& out) {
     const SourcePos start = here();
     const size_t semi = s_.find(';', i_);
-    if (semi == std::string_view::npos || semi - i_ > 12) return failb("'&' does not start a reference (write &amp;)");
+    if (semi == std::string_view::npos || semi - i_ > 12)
+      return failb("'&' does not start a reference (write &amp;)");
     const std::string_view ref = s_.substr(i_ + 1, semi - i_ - 1);
     uint32_t cp = 0;
-    if (ref == "lt") cp = '<';
-    else if (ref == "gt") cp = '>';
-    else if (ref == "amp") cp = '&';
-    else if (ref == "quot") cp = '"';
-    else if (ref == "apos") cp = '\'';
+    if (ref == "lt")
+      cp = '<';
+    else if (ref == "gt")
+      cp = '>';
+    else if (ref == "amp")
+      cp = '&';
+    else if (ref == "quot")
+      cp = '"';
+    else if (ref == "apos")
+      cp = '\'';
     else if (ref.size() >= 2 && ref[0] == '#') {
       const bool hex = ref[1] == 'x';
       const std::string_view digits = ref.substr(hex ? 2 : 1);
       if (digits.empty()) return failb("empty character reference");
       for (char c : digits) {
         uint32_t d = 0;
-        if (c >= '0' && c <= '9') d = static_cast<uint32_t>(c - '0');
-        else if (hex && c >= 'a' && c <= 'f') d = static_cast<uint32_t>(c - 'a' + 10);
-        else if (hex && c >= 'A' && c <= 'F') d = static_cast<uint32_t>(c - 'A' + 10);
-        else return failb("bad digit in character reference");
+        if (c >= '0' && c <= '9')
+          d = static_cast<uint32_t>(c - '0');
+        else if (hex && c >= 'a' && c <= 'f')
+          d = static_cast<uint32_t>(c - 'a' + 10);
+        else if (hex && c >= 'A' && c <= 'F')
+          d = static_cast<uint32_t>(c - 'A' + 10);
+        else
+          return failb("bad digit in character reference");
         cp = cp * (hex ? 16 : 10) + d;
         if (cp > 0x10FFFF) return failb("character reference out of range");
       }
@@ -198,14 +211,16 @@ class XmlParser {
 
   // element ::= '<' Name (S Attribute)* S? ('/>' | '>' content '</' Name S? '>')
   bool element(XmlElement& e, size_t depth) {
-    if (depth > kMaxXmlDepth) return failb("elements nested deeper than " + std::to_string(kMaxXmlDepth));
+    if (depth > kMaxXmlDepth)
+      return failb("elements nested deeper than " + std::to_string(kMaxXmlDepth));
     e.pos = here();
     advance();  // '<'
     std::string qname;
     if (!name(qname)) return false;
     e.name = local(qname);
     for (;;) {
-      const bool had_space = !at_end() && (peek() == ' ' || peek() == '\t' || peek() == '\n' || peek() == '\r');
+      const bool had_space =
+          !at_end() && (peek() == ' ' || peek() == '\t' || peek() == '\n' || peek() == '\r');
       skip_space();
       if (at_end()) return failb("unterminated start tag <" + qname + ">");
       if (starts("/>")) {
@@ -319,12 +334,23 @@ std::string xml_escape(std::string_view s) {
   out.reserve(s.size());
   for (char c : s) {
     switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      case '\'': out += "&apos;"; break;
-      default: out += c;
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      case '\'':
+        out += "&apos;";
+        break;
+      default:
+        out += c;
     }
   }
   return out;

@@ -40,9 +40,9 @@ TEST(AnalyzeCli, reports_the_deadlock_of_the_example) {
 TEST(AnalyzeCli, json_has_the_required_fields) {
   const CliRun r = run(kExamples + "mutex.pnml --json");
   EXPECT_EQ(r.code, 0) << r.out;
-  for (const char* f : {"\"places\": 5,", "\"transitions\": 4,", "\"markings\": 3,", "\"edges\": 4,",
-                        "\"dead_markings\": 0,", "\"max_tokens_in_place\": 1,", "\"safe\": true,",
-                        "\"dead_transitions\": [],"}) {
+  for (const char* f : {"\"places\": 5,", "\"transitions\": 4,", "\"markings\": 3,",
+                        "\"edges\": 4,", "\"dead_markings\": 0,", "\"max_tokens_in_place\": 1,",
+                        "\"safe\": true,", "\"dead_transitions\": [],"}) {
     EXPECT_NE(r.out.find(f), std::string::npos) << f << "\n" << r.out;
   }
 }
@@ -70,7 +70,8 @@ TEST(AnalyzeCli, non_pnml_file_is_refused_with_a_pointer_to_sfc) {
 
 TEST(AnalyzeCli, bad_pnml_shows_file_line_col) {
   const std::string f = std::string(RTPLC_BINARY_DIR) + "/broken.pnml";
-  std::ofstream(f) << "<pnml>\n<net id=\"n\" type=\"http://www.pnml.org/version-2009/grammar/ptnet\">\n<page>\n</net>";
+  std::ofstream(f) << "<pnml>\n<net id=\"n\" "
+                      "type=\"http://www.pnml.org/version-2009/grammar/ptnet\">\n<page>\n</net>";
   const CliRun r = run(f);
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.out.find("broken.pnml:4:1: error"), std::string::npos) << r.out;

@@ -33,7 +33,7 @@ TEST(Invariants, deadlock_net_has_its_four_token_loops) {
   EXPECT_TRUE(r.complete);
   EXPECT_TRUE(r.covered);
   EXPECT_EQ(texts(net, r), (std::vector<std::string>{"A0 + A1 + A2 = 1", "A1 + A2 + B2 + R1 = 1",
-                                                    "A2 + B1 + B2 + R2 = 1", "B0 + B1 + B2 = 1"}));
+                                                     "A2 + B1 + B2 + R2 = 1", "B0 + B1 + B2 = 1"}));
   for (const PInvariant& y : r.invariants) EXPECT_TRUE(is_invariant(net, y));
 }
 
@@ -42,9 +42,10 @@ TEST(Invariants, kanban_has_one_invariant_per_station_and_two_across_the_synchro
   // place also balances the other's machine.
   const Net net = kanban(3);
   const InvariantResult r = p_invariants(net);
-  EXPECT_EQ(texts(net, r), (std::vector<std::string>{"P2 + Pm3 + Pback3 + Pout3 = 3", "Pm1 + Pback1 + Pout1 + P1 = 3",
-                                                    "Pm2 + Pback2 + Pout2 + P2 = 3", "Pm2 + Pback2 + Pout2 + P3 = 3",
-                                                    "Pm3 + Pback3 + Pout3 + P3 = 3", "Pm4 + Pback4 + Pout4 + P4 = 3"}));
+  EXPECT_EQ(texts(net, r), (std::vector<std::string>{
+                               "P2 + Pm3 + Pback3 + Pout3 = 3", "Pm1 + Pback1 + Pout1 + P1 = 3",
+                               "Pm2 + Pback2 + Pout2 + P2 = 3", "Pm2 + Pback2 + Pout2 + P3 = 3",
+                               "Pm3 + Pback3 + Pout3 + P3 = 3", "Pm4 + Pback4 + Pout4 + P4 = 3"}));
   for (const auto& b : structural_bounds(net, r)) EXPECT_EQ(b, 3u);
 }
 

@@ -21,9 +21,10 @@ const IntMatrix kBs1 = IntMatrix::from_rows({
 });
 
 Net sub_pn_s1() {
-  auto net = Net::from_incidence(kBs1, {"L1", "L0", "V11", "V10", "Z12", "Z11", "Z10", "D21", "D20"},
-                                 {"tL0", "tL1", "tv10", "tv11", "tz10", "tz11", "tz12", "tz13", "tD20", "tD21"},
-                                 {1, 0, 0, 1, 0, 0, 1, 1, 0});
+  auto net = Net::from_incidence(
+      kBs1, {"L1", "L0", "V11", "V10", "Z12", "Z11", "Z10", "D21", "D20"},
+      {"tL0", "tL1", "tv10", "tv11", "tz10", "tz11", "tz12", "tz13", "tD20", "tD21"},
+      {1, 0, 0, 1, 0, 0, 1, 1, 0});
   EXPECT_TRUE(net.ok()) << net.error();
   return std::move(net.value());
 }
@@ -78,7 +79,8 @@ TEST(Net, state_equation_reproduces_the_spec_trace_of_step_s1) {
 
 TEST(Net, state_equation_refuses_a_transition_that_is_not_enabled) {
   const Net n = sub_pn_s1();
-  auto x = state_equation_step(n, n.initial_marking(), {1, 0, 0, 0, 0, 0, 0, 0, 0, 0});  // tL0 needs L0
+  auto x =
+      state_equation_step(n, n.initial_marking(), {1, 0, 0, 0, 0, 0, 0, 0, 0, 0});  // tL0 needs L0
   ASSERT_FALSE(x.ok());
   EXPECT_NE(x.error().find("tL0"), std::string::npos);
 }

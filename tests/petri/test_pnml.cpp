@@ -11,7 +11,8 @@ namespace {
 
 std::string doc(const std::string& body, const std::string& type = std::string(kPtNetType)) {
   return "<?xml version=\"1.0\"?>\n<pnml xmlns=\"http://www.pnml.org/version-2009/grammar/pnml\">\n"
-         "<net id=\"n\" type=\"" + type + "\">\n" + body + "\n</net>\n</pnml>\n";
+         "<net id=\"n\" type=\"" +
+         type + "\">\n" + body + "\n</net>\n</pnml>\n";
 }
 
 void expect_same_net(const Net& a, const Net& b) {
@@ -22,7 +23,8 @@ void expect_same_net(const Net& a, const Net& b) {
     EXPECT_EQ(a.place(p).initial, b.place(p).initial);
     EXPECT_EQ(a.place_label(p), b.place_label(p));
   }
-  for (TransitionId t = 0; t < a.transition_count(); ++t) EXPECT_EQ(a.transition(t).id, b.transition(t).id);
+  for (TransitionId t = 0; t < a.transition_count(); ++t)
+    EXPECT_EQ(a.transition(t).id, b.transition(t).id);
   EXPECT_EQ(a.input_matrix(), b.input_matrix());
   EXPECT_EQ(a.output_matrix(), b.output_matrix());
 }
@@ -32,7 +34,8 @@ std::string first_error(const PnmlReadResult& r) {
 }
 
 TEST(Pnml, write_then_read_gives_the_same_net) {
-  for (const Net& net : {testing::deadlock_net(), testing::producer_net(), kanban(2), philosophers(3)}) {
+  for (const Net& net :
+       {testing::deadlock_net(), testing::producer_net(), kanban(2), philosophers(3)}) {
     const PnmlReadResult r = read_pnml(write_pnml(net));
     ASSERT_TRUE(r.net.has_value()) << net.name() << ": " << first_error(r);
     EXPECT_EQ(r.net->name(), net.name());
@@ -96,7 +99,8 @@ TEST(Pnml, coloured_net_is_refused_by_name) {
 }
 
 TEST(Pnml, malformed_xml_is_reported_with_its_position) {
-  const PnmlReadResult r = read_pnml("<pnml>\n  <net id=\"n\" type=\"x\">\n    <page id=\"p\">\n  </net>\n</pnml>\n");
+  const PnmlReadResult r =
+      read_pnml("<pnml>\n  <net id=\"n\" type=\"x\">\n    <page id=\"p\">\n  </net>\n</pnml>\n");
   ASSERT_FALSE(r.net.has_value());
   ASSERT_FALSE(r.diags.items().empty());
   EXPECT_EQ(first_error(r), "</net> closes <page>");
@@ -105,7 +109,8 @@ TEST(Pnml, malformed_xml_is_reported_with_its_position) {
 }
 
 TEST(Pnml, unknown_arc_end_is_an_error_at_the_attribute) {
-  const PnmlReadResult r = read_pnml(doc("<page id=\"p\"><place id=\"a\"/>\n<arc id=\"x\" source=\"a\" target=\"nowhere\"/></page>"));
+  const PnmlReadResult r = read_pnml(doc(
+      "<page id=\"p\"><place id=\"a\"/>\n<arc id=\"x\" source=\"a\" target=\"nowhere\"/></page>"));
   ASSERT_FALSE(r.net.has_value());
   EXPECT_NE(first_error(r).find("'nowhere'"), std::string::npos);
   EXPECT_EQ(r.diags.items().front().pos.line, 5u);
@@ -131,10 +136,19 @@ TEST(Pnml, bad_contents_are_errors_not_crashes) {
     EXPECT_FALSE(r.net.has_value()) << c;
     EXPECT_TRUE(r.diags.has_errors()) << c;
   }
-  EXPECT_FALSE(read_pnml(doc("<page id=\"p\"><place id=\"a\"><initialMarking><text>-1</text></initialMarking></place></page>")).net);
+  EXPECT_FALSE(
+      read_pnml(doc("<page id=\"p\"><place "
+                    "id=\"a\"><initialMarking><text>-1</text></initialMarking></place></page>"))
+          .net);
   EXPECT_FALSE(read_pnml(doc("<page id=\"p\"><place id=\"a\"/><place id=\"a\"/></page>")).net);
-  EXPECT_FALSE(read_pnml(doc("<page id=\"p\"><place id=\"a\"/><place id=\"b\"/><arc id=\"x\" source=\"a\" target=\"b\"/></page>")).net);
-  EXPECT_FALSE(read_pnml(doc("<page id=\"p\"><place id=\"a\"/><transition id=\"t\"/><arc id=\"x\" source=\"a\" target=\"t\"><inscription><text>0</text></inscription></arc></page>")).net);
+  EXPECT_FALSE(read_pnml(doc("<page id=\"p\"><place id=\"a\"/><place id=\"b\"/><arc id=\"x\" "
+                             "source=\"a\" target=\"b\"/></page>"))
+                   .net);
+  EXPECT_FALSE(
+      read_pnml(
+          doc("<page id=\"p\"><place id=\"a\"/><transition id=\"t\"/><arc id=\"x\" source=\"a\" "
+              "target=\"t\"><inscription><text>0</text></inscription></arc></page>"))
+          .net);
   std::string deep;
   for (int i = 0; i < 1000; ++i) deep += "<page id=\"p" + std::to_string(i) + "\">";
   const PnmlReadResult r = read_pnml(doc(deep));
@@ -143,8 +157,9 @@ TEST(Pnml, bad_contents_are_errors_not_crashes) {
 }
 
 TEST(Pnml, character_references_and_cdata_are_decoded) {
-  const PnmlReadResult r = read_pnml(doc(
-      "<name><text>caf&#xE9; &amp; <![CDATA[<tea>]]></text></name><page id=\"p\"><place id=\"a\"/></page>"));
+  const PnmlReadResult r =
+      read_pnml(doc("<name><text>caf&#xE9; &amp; <![CDATA[<tea>]]></text></name><page "
+                    "id=\"p\"><place id=\"a\"/></page>"));
   ASSERT_TRUE(r.net.has_value()) << first_error(r);
   EXPECT_EQ(r.net->name(), "caf\xC3\xA9 & <tea>");
 }

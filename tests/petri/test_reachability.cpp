@@ -32,7 +32,8 @@ TEST(Reachability, finds_the_deadlock_and_the_shortest_sequence_into_it) {
   ASSERT_EQ(r.dead_markings, 1u);
   ASSERT_EQ(r.dead_examples.size(), 1u);
   EXPECT_EQ(marking_text(net, r.dead_examples[0].marking), "A1, B1");
-  EXPECT_EQ(names(net, r.dead_examples[0].path), (std::vector<std::string>{"takeR1_A", "takeR2_B"}));
+  EXPECT_EQ(names(net, r.dead_examples[0].path),
+            (std::vector<std::string>{"takeR1_A", "takeR2_B"}));
   EXPECT_TRUE(r.safe());
   for (bool f : r.fired) EXPECT_TRUE(f);
 }
@@ -42,7 +43,8 @@ TEST(Reachability, shortest_sequence_is_shortest_when_a_longer_one_comes_first) 
   // one, but listed last so a depth-first search would find the long one first.
   Net n;
   const PlaceId a = n.add_place("a", 1).value(), b = n.add_place("b").value();
-  const PlaceId c = n.add_place("c").value(), d = n.add_place("d").value(), e = n.add_place("e").value();
+  const PlaceId c = n.add_place("c").value(), d = n.add_place("d").value(),
+                e = n.add_place("e").value();
   auto arc = [&n](const std::string& id, PlaceId from, PlaceId to) {
     const TransitionId t = n.add_transition(id).value();
     n.add_input(from, t);
@@ -119,7 +121,8 @@ TEST(Reachability, stops_at_the_marking_limit) {
 
 TEST(Reachability, dead_transitions_are_those_never_enabled) {
   Net n;
-  const PlaceId a = n.add_place("a", 1).value(), b = n.add_place("b").value(), never = n.add_place("never").value();
+  const PlaceId a = n.add_place("a", 1).value(), b = n.add_place("b").value(),
+                never = n.add_place("never").value();
   const TransitionId ab = n.add_transition("ab").value();
   n.add_input(a, ab);
   n.add_output(ab, b);
@@ -160,7 +163,8 @@ TEST(Reachability, markings_spanning_several_words_work) {
   // 30 places of 5 tokens each need 90 bits: two words.
   Net n;
   std::vector<PlaceId> ps;
-  for (int i = 0; i < 30; ++i) ps.push_back(n.add_place("p" + std::to_string(i), i == 0 ? 5 : 0).value());
+  for (int i = 0; i < 30; ++i)
+    ps.push_back(n.add_place("p" + std::to_string(i), i == 0 ? 5 : 0).value());
   for (int i = 0; i < 30; ++i) {
     const TransitionId t = n.add_transition("t" + std::to_string(i)).value();
     n.add_input(ps[static_cast<size_t>(i)], t);

@@ -10,8 +10,10 @@ namespace rtplc::petri::testing {
 // Two processes take resources R1, R2 in opposite orders: one deadlock {A1, B1}.
 inline Net deadlock_net() {
   Net n("deadlock");
-  const PlaceId a0 = n.add_place("A0", 1).value(), a1 = n.add_place("A1").value(), a2 = n.add_place("A2").value();
-  const PlaceId b0 = n.add_place("B0", 1).value(), b1 = n.add_place("B1").value(), b2 = n.add_place("B2").value();
+  const PlaceId a0 = n.add_place("A0", 1).value(), a1 = n.add_place("A1").value(),
+                a2 = n.add_place("A2").value();
+  const PlaceId b0 = n.add_place("B0", 1).value(), b1 = n.add_place("B1").value(),
+                b2 = n.add_place("B2").value();
   const PlaceId r1 = n.add_place("R1", 1).value(), r2 = n.add_place("R2", 1).value();
   auto step = [&n](const std::string& id, PlaceId from, PlaceId res, PlaceId to) {
     const TransitionId t = n.add_transition(id).value();
