@@ -172,6 +172,23 @@ ReachabilityResult Explorer::run() {
     }
   }
 
+  // The enabledness tests of every transition in one flat array (fewer cache
+  // lines than a vector per transition), word-0 one-bit weight-1 inputs as a mask.
+  std::vector<PackedTransition::Need> needs;
+  std::vector<uint32_t> need_begin(nt + 1, 0);
+  std::vector<uint64_t> all_set(nt, 0);
+  for (size_t t = 0; t < nt; ++t) {
+    need_begin[t] = static_cast<uint32_t>(needs.size());
+    for (const auto& n : packed[t].needs) {
+      if (n.word == 0 && n.mask == 1 && n.weight == 1) {
+        all_set[t] |= uint64_t{1} << n.shift;
+      } else {
+        needs.push_back(n);
+      }
+    }
+  }
+  need_begin[nt] = static_cast<uint32_t>(needs.size());
+
   const bool keep_ids = opt_.graph_limit > 0;
   MarkingTable table(words_, keep_ids);
   std::vector<uint64_t> key(words_);
@@ -204,15 +221,18 @@ ReachabilityResult Explorer::run() {
       first[id - base] = ns;
       const uint64_t* cur = keys_.at(id);
       for (size_t t = 0; t < nt; ++t) {
-        const PackedTransition& pt = packed[t];
+        // Safe input places with weight 1 are tested all at once; the rest field by field.
+        if ((cur[0] & all_set[t]) != all_set[t]) continue;
         bool en = true;
-        for (const auto& n : pt.needs) {
+        for (uint32_t i = need_begin[t]; i < need_begin[t + 1]; ++i) {
+          const PackedTransition::Need& n = needs[i];
           if (((cur[n.word] >> n.shift) & n.mask) < n.weight) {
             en = false;
             break;
           }
         }
         if (!en) continue;
+        const PackedTransition& pt = packed[t];
         for (const auto& g : pt.grows) {
           if (g.limit == UINT64_MAX || layout_.get(cur, g.place) > g.limit) {
             r.status = ExploreStatus::kTooManyTokens;
