@@ -20,6 +20,7 @@ void add_run_commands(CLI::App& app);    // run, set, swap, status, stop
 void add_stats_commands(CLI::App& app);  // stats, monitor
 void add_doctor_command(CLI::App& app);
 void add_fieldbus_command(CLI::App& app);  // fieldbus plan
+void add_analyze_command(CLI::App& app);   // analyze (Petri nets)
 // Driver kinds add their own commissioning commands (io/drivers/driver.h).
 void add_driver_commands(CLI::App& app);
 

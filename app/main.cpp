@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
   rtplc::app::add_run_commands(app);
   rtplc::app::add_stats_commands(app);
   rtplc::app::add_doctor_command(app);
+  rtplc::app::add_analyze_command(app);
   rtplc::app::add_driver_commands(app);
   rtplc::app::add_fieldbus_command(app);
 

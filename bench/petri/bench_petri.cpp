@@ -1,0 +1,136 @@
+// bench_petri: reachability speed and memory (issue item 4, "Speed and memory").
+//
+// Each case runs twice, each run in its own child process so that its peak
+// resident memory is its own (wait4's ru_maxrss): once with the packed store
+// (explore(), bit-packed markings in an open-addressing table) and once with the
+// reference in the same binary (reference_bfs(): std::unordered_set of
+// std::vector<int>, std::deque queue). Both must find the MCC's figures.
+//   philosophers  Philosophers-10: 59,049 markings, 459,270 edges
+//   kanban        Kanban-5: 2,546,432 markings, 24,460,016 edges
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "lang/petri/generators.h"
+#include "lang/petri/invariants.h"
+#include "lang/petri/reachability.h"
+#include "lang/petri/reference_bfs.h"
+
+using namespace rtplc::petri;
+
+namespace {
+
+struct Case {
+  const char* name;
+  Net (*make)(uint32_t);
+  uint32_t n;
+  uint64_t markings;
+  uint64_t edges;
+};
+
+struct Figures {
+  uint64_t markings = 0;
+  uint64_t edges = 0;
+  double seconds = 0;
+  double store_bytes = 0;  // the search's own estimate of its store
+  long peak_kb = 0;        // the child's peak resident set
+};
+
+// Runs `work` in a child; its Figures come back through a pipe.
+template <typename F>
+Figures in_child(F work) {
+  int fd[2];
+  if (pipe(fd) != 0) std::exit(1);
+  const pid_t pid = fork();
+  if (pid == 0) {
+    close(fd[0]);
+    Figures f = work();
+    if (write(fd[1], &f, sizeof f) != static_cast<ssize_t>(sizeof f)) _exit(1);
+    _exit(0);
+  }
+  close(fd[1]);
+  Figures f;
+  if (read(fd[0], &f, sizeof f) != static_cast<ssize_t>(sizeof f))
+    std::fprintf(stderr, "child failed\n");
+  close(fd[0]);
+  int status = 0;
+  rusage ru{};
+  wait4(pid, &status, 0, &ru);
+  f.peak_kb = ru.ru_maxrss;
+  return f;
+}
+
+void print(const char* who, const Case& c, const Figures& f) {
+  const double per_s = f.seconds > 0 ? static_cast<double>(f.markings) / f.seconds : 0;
+  const bool ok = f.markings == c.markings && f.edges == c.edges;
+  std::printf(
+      "  %-10s %9llu markings %10llu edges %s  %7.3f s  %6.2f M markings/s  %6.1f bytes/marking  "
+      "peak %6.1f MB\n",
+      who, static_cast<unsigned long long>(f.markings), static_cast<unsigned long long>(f.edges),
+      ok ? "(exact)" : "(WRONG)", f.seconds, per_s / 1e6,
+      f.markings ? f.store_bytes / static_cast<double>(f.markings) : 0.0,
+      static_cast<double>(f.peak_kb) / 1024);
+}
+
+int run_case(const Case& c, bool reference) {
+  std::printf("%s-%u (MCC: %llu markings, %llu edges)\n", c.name, c.n,
+              static_cast<unsigned long long>(c.markings),
+              static_cast<unsigned long long>(c.edges));
+  const Figures ours = in_child([&] {
+    const Net net = c.make(c.n);
+    ExploreOptions opt;
+    opt.place_bounds = structural_bounds(net, p_invariants(net));
+    const ReachabilityResult r = explore(net, opt);
+    return Figures{r.markings, r.edges, r.seconds, static_cast<double>(r.store_bytes), 0};
+  });
+  print("packed", c, ours);
+  int failures = ours.markings == c.markings && ours.edges == c.edges ? 0 : 1;
+  if (!reference) return failures;
+  const Figures ref = in_child([&] {
+    const Net net = c.make(c.n);
+    const ReferenceResult r = reference_bfs(net);
+    return Figures{r.markings, r.edges, r.seconds, static_cast<double>(r.approx_bytes), 0};
+  });
+  print("reference", c, ref);
+  failures += ref.markings == c.markings && ref.edges == c.edges ? 0 : 1;
+  std::printf(
+      "  ratio      %.1fx faster, %.1fx less peak memory, %.1fx fewer bytes per marking\n",
+      ours.seconds > 0 ? ref.seconds / ours.seconds : 0.0,
+      ours.peak_kb > 0 ? static_cast<double>(ref.peak_kb) / static_cast<double>(ours.peak_kb) : 0.0,
+      ours.store_bytes > 0 ? ref.store_bytes / ours.store_bytes : 0.0);
+  return failures;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string only;
+  bool reference = true;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--case" && i + 1 < argc) {
+      only = argv[++i];
+    } else if (a == "--no-reference") {
+      reference = false;
+    } else {
+      std::fprintf(stderr, "usage: bench_petri [--case philosophers|kanban] [--no-reference]\n");
+      return 2;
+    }
+  }
+  const std::vector<Case> cases = {
+      {"philosophers", philosophers, 10, 59049, 459270},
+      {"kanban", kanban, 5, 2546432, 24460016},
+  };
+  int failures = 0;
+  for (const Case& c : cases) {
+    if (!only.empty() && only != c.name) continue;
+    failures += run_case(c, reference);
+  }
+  return failures == 0 ? 0 : 1;
+}
