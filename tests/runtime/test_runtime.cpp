@@ -69,7 +69,11 @@ TEST(Runtime, tasks_keep_their_periods) {
     EXPECT_NEAR(accounted, expected, 0.02 * expected + 2) << rt->task(t).params().name;
     // And nearly all of them ran: a cycle skipped now and then is the machine's
     // noise on a kernel that is not PREEMPT_RT, not a task losing its period.
-    EXPECT_GE(static_cast<double>(st.cycles()), 0.97 * accounted) << rt->task(t).params().name;
+    // Only a SCHED_FIFO task is owed that; under SCHED_OTHER any other process
+    // may take the CPU for as long as the kernel likes.
+    if (rt->image().task_info(t).fifo) {
+      EXPECT_GE(static_cast<double>(st.cycles()), 0.97 * accounted) << rt->task(t).params().name;
+    }
   }
   // Rate-monotonic: the shorter the period, the higher the priority.
   EXPECT_GT(rt->task(0).params().priority, rt->task(1).params().priority);
@@ -95,6 +99,10 @@ TEST(Runtime, an_overrunning_task_is_counted_and_does_not_disturb_a_higher_prior
       "  - {name: heavy, program: heavy.fbd, period: " + std::to_string(period_us) +
       "us, priority: 20, cpu: " + c + "}\n");
   ASSERT_NE(rt, nullptr);
+  if (!rt->image().task_info(0).fifo || !rt->image().task_info(1).fifo) {
+    rt->stop();
+    GTEST_SKIP() << "the tasks did not get SCHED_FIFO: priorities mean nothing under SCHED_OTHER";
+  }
   const int64_t first = rt->task(0).first_release_ns();
   sleep_s(1.5);
   rt->stop();
