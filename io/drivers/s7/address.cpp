@@ -10,6 +10,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <bit>
 #include <cctype>
 #include <charconv>
@@ -98,7 +99,7 @@ Result<DataType> parse_type_suffix(std::string_view name, DataType natural, std:
     DataType type;
   };
   static constexpr Entry kTypes[] = {
-      {"BOOL", DataType::kBool}, {"BYTE", DataType::kByte},   {"CHAR", DataType::kChar}, {"SINT", DataType::kChar},
+      {"BOOL", DataType::kBool}, {"BYTE", DataType::kByte},   {"CHAR", DataType::kChar}, {"SINT", DataType::kSInt},
       {"USINT", DataType::kByte}, {"WORD", DataType::kWord},  {"INT", DataType::kInt},   {"UINT", DataType::kWord},
       {"DWORD", DataType::kDWord}, {"UDINT", DataType::kDWord}, {"DINT", DataType::kDInt}, {"REAL", DataType::kReal},
   };
@@ -112,7 +113,8 @@ Result<DataType> parse_type_suffix(std::string_view name, DataType natural, std:
     return e.type;
   }
   return make_error(fmt::format(
-      "bad S7 address '{}': unknown type '{}' (known: BOOL, BYTE, CHAR, WORD, INT, DWORD, DINT, REAL)", text, name));
+      "bad S7 address '{}': unknown type '{}' (known: BOOL, BYTE, USINT, CHAR, SINT, WORD, UINT, INT, DWORD, UDINT, "
+      "DINT, REAL)", text, name));
 }
 
 }  // namespace
@@ -122,6 +124,7 @@ size_t type_size(DataType t) {
     case DataType::kBool:
     case DataType::kByte:
     case DataType::kChar:
+    case DataType::kSInt:
       return 1;
     case DataType::kWord:
     case DataType::kInt:
@@ -141,6 +144,7 @@ std::string_view type_name(DataType t) {
     case DataType::kBool: return "BOOL";
     case DataType::kByte: return "BYTE";
     case DataType::kChar: return "CHAR";
+    case DataType::kSInt: return "SINT";
     case DataType::kWord: return "WORD";
     case DataType::kInt: return "INT";
     case DataType::kDWord: return "DWORD";
@@ -257,7 +261,7 @@ void encode_raw(DataType t, uint64_t raw, std::span<uint8_t> out) {
 
 double raw_to_double(DataType t, uint64_t raw) {
   switch (t) {
-    case DataType::kChar: return static_cast<double>(static_cast<int8_t>(raw & 0xFF));
+    case DataType::kSInt: return static_cast<double>(static_cast<int8_t>(raw & 0xFF));
     case DataType::kInt: return static_cast<double>(static_cast<int16_t>(raw & 0xFFFF));
     case DataType::kDInt: return static_cast<double>(static_cast<int32_t>(raw & 0xFFFFFFFF));
     case DataType::kReal: return static_cast<double>(std::bit_cast<float>(static_cast<uint32_t>(raw)));
@@ -265,27 +269,146 @@ double raw_to_double(DataType t, uint64_t raw) {
   }
 }
 
-uint64_t double_to_raw(DataType t, double v) {
-  if (t == DataType::kReal) return std::bit_cast<uint32_t>(static_cast<float>(v));
-  if (t == DataType::kBool) return v != 0.0 ? 1 : 0;
-  if (std::isnan(v)) return 0;
-  double lo = 0;
-  double hi = 0;
+TypeRange type_range(DataType t) {
   switch (t) {
-    case DataType::kChar: lo = -128; hi = 127; break;
-    case DataType::kInt: lo = -32768; hi = 32767; break;
-    case DataType::kDInt: lo = -2147483648.0; hi = 2147483647.0; break;
-    case DataType::kByte: hi = 255; break;
-    case DataType::kDWord: hi = 4294967295.0; break;
-    default: hi = 65535; break;
+    case DataType::kBool: return {0, 1};
+    case DataType::kByte:
+    case DataType::kChar: return {0, 255};
+    case DataType::kSInt: return {-128, 127};
+    case DataType::kWord:
+    case DataType::kCounter:
+    case DataType::kTimer: return {0, 65535};
+    case DataType::kInt: return {-32768, 32767};
+    case DataType::kDWord: return {0, 4294967295.0};
+    case DataType::kDInt: return {-2147483648.0, 2147483647.0};
+    case DataType::kReal: return {-std::numeric_limits<float>::max(), std::numeric_limits<float>::max()};
   }
-  const double r = std::round(std::min(hi, std::max(lo, v)));
-  const auto s = static_cast<int64_t>(r);
-  const uint64_t mask = type_size(t) == 1 ? 0xFFu : type_size(t) == 2 ? 0xFFFFu : 0xFFFFFFFFu;
-  return static_cast<uint64_t>(s) & mask;
+  return {0, 0};
+}
+
+std::string range_text(DataType t) {
+  const TypeRange r = type_range(t);
+  if (t == DataType::kReal) return fmt::format("{}..{}", static_cast<float>(r.lo), static_cast<float>(r.hi));
+  return fmt::format("{}..{}", static_cast<int64_t>(r.lo), static_cast<int64_t>(r.hi));
+}
+
+namespace {
+
+// A double that converts to a finite float: below FLT_MAX plus half its ulp
+// (2^128 - 2^103); from there on it rounds to infinity. So 3.4028235e38, the
+// range as printed, is accepted and ends FLT_MAX.
+bool fits_float(double d) { return std::fabs(d) < 0x1.ffffffp127; }
+
+uint64_t width_mask(DataType t) {
+  const size_t n = type_size(t);
+  return n == 1 ? 0xFFu : n == 2 ? 0xFFFFu : 0xFFFFFFFFu;
+}
+
+Error out_of_range(DataType t, std::string_view text) {
+  return make_error(fmt::format("{} is out of range for {} ({})", text, type_name(t), range_text(t)));
+}
+
+// CHAR: one character, or its code in hex. A lone digit is the digit: "7" is
+// 0x37, never 7, so a single character always means itself.
+Result<uint64_t> parse_char(std::string_view text) {
+  if (text.size() == 1) return uint64_t{static_cast<unsigned char>(text[0])};
+  const auto how = "a CHAR takes one character (MB0:CHAR=A) or its code in hex (MB0:CHAR=0x41)";
+  if (text.size() > 2 && text[0] == '0' && (text[1] == 'x' || text[1] == 'X')) {
+    uint64_t code = 0;
+    const std::string_view digits = text.substr(2);
+    auto [p, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), code, 16);
+    if (p != digits.data() + digits.size() || (ec != std::errc() && ec != std::errc::result_out_of_range)) {
+      return make_error(fmt::format("'{}' is not a hex character code; {}", text, how));
+    }
+    if (ec == std::errc::result_out_of_range || code > 0xFF) {
+      return make_error(fmt::format("{} is out of range for CHAR (one character, or a code 0x00..0xFF)", text));
+    }
+    return code;
+  }
+  if (text.empty()) return make_error(fmt::format("an empty value is not a CHAR; {}", how));
+  const bool digits = std::all_of(text.begin(), text.end(), [](char c) { return c >= '0' && c <= '9'; });
+  if (digits) {
+    uint64_t code = 0;
+    std::from_chars(text.data(), text.data() + text.size(), code);
+    if (code <= 0xFF) {
+      return make_error(fmt::format("'{}' is not one character; {}: for the code {} write 0x{:02X}", text, how, code, code));
+    }
+  }
+  return make_error(fmt::format("'{}' is not one character; {}", text, how));
+}
+
+Result<uint64_t> parse_real(std::string_view text, const std::string& low) {
+  double d = 0;
+  auto [p, ec] = std::from_chars(low.data(), low.data() + low.size(), d);
+  if (low.empty() || p != low.data() + low.size() ||
+      (ec != std::errc() && ec != std::errc::result_out_of_range)) {
+    return make_error(fmt::format("'{}' is not a REAL value (e.g. 3.25, -1e3)", text));
+  }
+  if (ec == std::errc() && (std::isnan(d) || std::isinf(d))) {
+    return make_error(fmt::format("{} is not a finite number; REAL takes {}", text, range_text(DataType::kReal)));
+  }
+  // Too large or too small for a double (1e400, 1e-400; from_chars leaves no
+  // value to look at), or too large for a float (1e39): never written as inf.
+  if (ec == std::errc::result_out_of_range) return out_of_range(DataType::kReal, text);
+  if (!fits_float(d)) return out_of_range(DataType::kReal, text);
+  return uint64_t{std::bit_cast<uint32_t>(static_cast<float>(d))};
+}
+
+// Integer types: an optional sign, then decimal or 0x hex digits. Hex is a
+// number like decimal (INT=0xFFFF is out of range, not -1).
+Result<uint64_t> parse_integer(DataType t, std::string_view text, std::string_view low) {
+  std::string_view s = low;
+  const bool neg = !s.empty() && s[0] == '-';
+  if (!s.empty() && (s[0] == '-' || s[0] == '+')) s.remove_prefix(1);
+  int base = 10;
+  if (s.size() > 2 && s[0] == '0' && s[1] == 'x') {
+    s.remove_prefix(2);
+    base = 16;
+  }
+  uint64_t magnitude = 0;
+  auto [p, ec] = std::from_chars(s.data(), s.data() + s.size(), magnitude, base);
+  const bool whole = !s.empty() && p == s.data() + s.size();
+  if (whole && ec == std::errc::result_out_of_range) return out_of_range(t, text);
+  if (!whole || ec != std::errc()) {
+    double d = 0;
+    auto [q, dec] = std::from_chars(low.data(), low.data() + low.size(), d);
+    if (!low.empty() && dec == std::errc() && q == low.data() + low.size() && std::isfinite(d)) {
+      return make_error(fmt::format("{} is not a whole number; {} takes whole numbers {}", text, type_name(t),
+                                    range_text(t)));
+    }
+    return make_error(fmt::format("'{}' is not a {} value (a whole number {}, decimal or hex as 0x1F)", text,
+                                  type_name(t), range_text(t)));
+  }
+  // Every type's range lies within -2^31..2^32-1, so a larger magnitude is out.
+  if (magnitude > 0xFFFFFFFFu) return out_of_range(t, text);
+  const int64_t v = neg ? -static_cast<int64_t>(magnitude) : static_cast<int64_t>(magnitude);
+  const TypeRange r = type_range(t);
+  if (static_cast<double>(v) < r.lo || static_cast<double>(v) > r.hi) return out_of_range(t, text);
+  return static_cast<uint64_t>(v) & width_mask(t);
+}
+
+}  // namespace
+
+bool value_to_raw(DataType t, double v, uint64_t& raw) noexcept {
+  if (std::isnan(v)) return false;
+  if (t == DataType::kBool) {
+    raw = v != 0.0 ? 1 : 0;
+    return true;
+  }
+  if (t == DataType::kReal) {
+    if (!fits_float(v)) return false;  // also +-inf
+    raw = std::bit_cast<uint32_t>(static_cast<float>(v));
+    return true;
+  }
+  const TypeRange r = type_range(t);
+  const double whole = std::round(v);
+  if (!(whole >= r.lo && whole <= r.hi)) return false;
+  raw = static_cast<uint64_t>(static_cast<int64_t>(whole)) & width_mask(t);
+  return true;
 }
 
 Result<uint64_t> parse_value(DataType t, std::string_view text) {
+  if (t == DataType::kChar) return parse_char(text);
   std::string low;
   for (char ch : text) low.push_back(static_cast<char>(std::tolower(static_cast<unsigned char>(ch))));
   if (t == DataType::kBool) {
@@ -293,50 +416,25 @@ Result<uint64_t> parse_value(DataType t, std::string_view text) {
     if (low == "0" || low == "false" || low == "off") return uint64_t{0};
     return make_error(fmt::format("'{}' is not a BOOL value (use 1/0, true/false, on/off)", text));
   }
-  if (t == DataType::kReal) {
-    float f = 0;
-    auto [p, ec] = std::from_chars(low.data(), low.data() + low.size(), f);
-    if (ec != std::errc() || p != low.data() + low.size() || low.empty()) {
-      return make_error(fmt::format("'{}' is not a REAL value (e.g. 3.25, -1e3)", text));
-    }
-    return uint64_t{std::bit_cast<uint32_t>(f)};
-  }
-  int64_t v = 0;
-  std::string_view s = low;
-  const bool neg = !s.empty() && s[0] == '-';
-  if (neg) s.remove_prefix(1);
-  int base = 10;
-  if (s.size() > 2 && s[0] == '0' && s[1] == 'x') {
-    s.remove_prefix(2);
-    base = 16;
-  }
-  auto [p, ec] = std::from_chars(s.data(), s.data() + s.size(), v, base);
-  if (s.empty() || ec != std::errc() || p != s.data() + s.size()) {
-    return make_error(fmt::format("'{}' is not a {} value (decimal, or hex as 0x1F)", text, type_name(t)));
-  }
-  if (neg) v = -v;
-  int64_t lo = 0;
-  int64_t hi = 0;
-  switch (t) {
-    case DataType::kChar: lo = -128; hi = 255; break;
-    case DataType::kByte: lo = -128; hi = 255; break;
-    case DataType::kInt: lo = -32768; hi = 65535; break;
-    case DataType::kWord: lo = -32768; hi = 65535; break;
-    case DataType::kDInt:
-    case DataType::kDWord: lo = std::numeric_limits<int32_t>::min(); hi = std::numeric_limits<uint32_t>::max(); break;
-    default: lo = 0; hi = 65535; break;
-  }
-  if (v < lo || v > hi) {
-    return make_error(fmt::format("{} does not fit a {} ({}..{})", text, type_name(t), lo, hi));
-  }
-  const uint64_t mask = type_size(t) == 1 ? 0xFFu : type_size(t) == 2 ? 0xFFFFu : 0xFFFFFFFFu;
-  return static_cast<uint64_t>(v) & mask;
+  if (t == DataType::kReal) return parse_real(text, low);
+  return parse_integer(t, text, low);
+}
+
+Result<uint64_t> encode_value(const ItemAddress& a, std::string_view text) {
+  auto v = parse_value(a.type, text);
+  if (!v) return make_error(fmt::format("{}: {}", format_address(a), v.error()));
+  return v;
 }
 
 std::string format_value(DataType t, uint64_t raw) {
   switch (t) {
     case DataType::kBool: return raw != 0 ? "true" : "false";
-    case DataType::kChar:
+    case DataType::kChar: {
+      const auto c = static_cast<unsigned char>(raw & 0xFF);
+      if (c > 0x20 && c < 0x7F) return std::string(1, static_cast<char>(c));
+      return fmt::format("0x{:02X}", c);
+    }
+    case DataType::kSInt:
     case DataType::kInt:
     case DataType::kDInt: return fmt::format("{}", static_cast<int64_t>(raw_to_double(t, raw)));
     case DataType::kReal: return fmt::format("{}", std::bit_cast<float>(static_cast<uint32_t>(raw)));

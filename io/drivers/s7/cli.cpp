@@ -31,7 +31,15 @@ constexpr const char* kAddressHelp =
     "  DB1.DBX0.0  bit 0 of byte 0 of DB1     DB1.DBB2  byte     DB1.DBW4  word     DB1.DBD8  double word\n"
     "  MB0 MW2 MD4 M0.1   flags (merker)      IB0 IW0 I0.0   inputs      QB0 QW0 Q0.1   outputs\n"
     "  C0  counter 0      T0  timer 0 (raw S5TIME word)\n"
-    "  Append :TYPE to reinterpret: DB1.DBD8:REAL  DB1.DBW4:INT  MD4:DINT  MB0:CHAR\n";
+    "  Append :TYPE to reinterpret: DB1.DBD8:REAL  DB1.DBW4:INT  MD4:DINT  MB0:SINT  MB0:CHAR\n";
+
+constexpr const char* kValueHelp =
+    "Values (write, fake-plc --set) must fit the type, or nothing is written:\n"
+    "  BOOL 1/0, true/false, on/off    BYTE 0..255    SINT -128..127    WORD, C, T 0..65535\n"
+    "  INT -32768..32767    DWORD 0..4294967295    DINT -2147483648..2147483647\n"
+    "  REAL a finite number within +-3.4028235e38 (e.g. 3.25, -1e3)\n"
+    "  Whole numbers in decimal or hex (0x1F); hex is a number, so INT=0xFFFF is refused: write -1\n"
+    "  CHAR one character (MB0:CHAR=A; MB0:CHAR=7 is the digit 7), or its code in hex (MB0:CHAR=0x0D)\n";
 
 struct Target {
   std::string host;
@@ -144,8 +152,10 @@ void run_write(const Target& t, const std::vector<std::string>& assignments) {
   const auto items = parse_addresses(names);
   std::vector<uint64_t> raws;
   for (size_t i = 0; i < items.size(); ++i) {
-    auto v = parse_value(items[i].type, values[i]);
-    if (!v) fail(kExitUsage, fmt::format("{}: {}", names[i], v.error()));
+    // Every value is checked against its item's type before anything is sent:
+    // nothing reaches the PLC when one of them is wrong.
+    auto v = encode_value(items[i], values[i]);
+    if (!v) fail(kExitUsage, v.error());
     raws.push_back(*v);
   }
   Session s = connect_or_fail(t);
@@ -284,8 +294,8 @@ void run_fake(const FakeOptions& f) {
       const size_t eq = s.find('=');
       auto a = eq == std::string::npos ? Result<ItemAddress>(make_error("")) : parse_address(s.substr(0, eq));
       if (!a) fail(kExitUsage, fmt::format("--set '{}' must be ADDR=VALUE: {}", s, a.error()));
-      auto v = parse_value(a->type, s.substr(eq + 1));
-      if (!v) fail(kExitUsage, v.error());
+      auto v = encode_value(*a, s.substr(eq + 1));
+      if (!v) fail(kExitUsage, fmt::format("--set '{}': {}", s, v.error()));
       if (a->type == DataType::kBool) {
         Bytes cur = fake.read_memory(*ep, a->area, a->db, a->start, 1);
         if (cur.empty()) fail(kExitUsage, fmt::format("--set '{}': outside the fake's memory", s));
@@ -318,7 +328,7 @@ void add_commands(CLI::App& app) {
   CLI::App* s7 = app.add_subcommand(
       "s7", "Talk to Siemens S7 PLCs over ISO-on-TCP: read, write, info, poll, fake-plc");
   s7->require_subcommand(1);
-  s7->footer(std::string("\n") + kAddressHelp +
+  s7->footer(std::string("\n") + kAddressHelp + kValueHelp +
              "\nExamples:\n"
              "  rtplc s7 read 192.168.0.10 DB1.DBW4 DB1.DBD8:REAL M0.1\n"
              "  rtplc s7 write 192.168.0.10 DB1.DBW4=12 Q0.1=1 --slot 1\n"
@@ -336,7 +346,8 @@ void add_commands(CLI::App& app) {
   static std::vector<std::string> write_items;
   CLI::App* write = s7->add_subcommand("write", "Write items given as ADDR=VALUE; prints what was written");
   add_target_options(write, write_t);
-  write->add_option("ADDR=VALUE", write_items, "e.g. DB1.DBW4=12 DB1.DBD8:REAL=3.5 M0.1=true")->required();
+  write->add_option("ADDR=VALUE", write_items, "e.g. DB1.DBW4=12 DB1.DBD8:REAL=3.5 M0.1=true MB0:CHAR=A")->required();
+  write->footer(std::string("\n") + kValueHelp + "Exit code 2 (nothing sent) when a value does not fit its type.\n");
   write->callback([] { run_write(write_t, write_items); });
 
   static Target info_t;

@@ -205,8 +205,17 @@ void Engine::Impl::drain_writes(int64_t now) {
       continue;
     }
     const DataType t = it.cfg.address.type;
-    w.raw = cmd.is_value ? double_to_raw(t, (cmd.value - it.cfg.offset) / it.cfg.scale) : cmd.raw;
     Plc& p = plcs[it.plc];
+    w.raw = cmd.raw;
+    // A value the item cannot hold fails here, never clamped or wrapped: a PLC
+    // holding 32767 (or -25536) where the task meant 40000 would look delivered.
+    if (cmd.is_value && !value_to_raw(t, (cmd.value - it.cfg.offset) / it.cfg.scale, w.raw)) {
+      finish_write(w, WriteState::kFailed, 0, &p);
+      ++p.st.errors;
+      set_error(p, fmt::format("write of {} refused: out of range for {} ({})", cmd.value, type_name(t),
+                               range_text(t)));
+      continue;
+    }
     w.expires_ns = now + static_cast<int64_t>(p.cfg.write_timeout_ms) * kMs;
     p.pending.push_back(w);
     if (touched != it.plc && touched != kNoId) {
