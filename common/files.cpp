@@ -1,9 +1,13 @@
 // Folder helpers (see files.h).
 #include "common/files.h"
 
+#include <fcntl.h>
+#include <sys/file.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 
 namespace rtplc {
@@ -23,6 +27,61 @@ Result<void> make_folders(const std::string& dir, mode_t mode, mode_t parent_mod
     return make_error("cannot create " + dir + ": " + std::strerror(errno));
   }
   return {};
+}
+
+Result<void> ensure_private_folder(const std::string& dir) {
+  if (auto r = make_folders(dir, 0700, 0755); !r) return r;
+  struct stat st {};
+  if (lstat(dir.c_str(), &st) != 0) return make_error("cannot inspect " + dir + ": " + std::strerror(errno));
+  if (S_ISLNK(st.st_mode)) return make_error("refusing " + dir + ": it is a symbolic link, not a folder");
+  if (!S_ISDIR(st.st_mode)) return make_error("refusing " + dir + ": it is not a folder");
+  if (st.st_uid != geteuid()) {
+    return make_error("refusing " + dir + ": it belongs to uid " + std::to_string(st.st_uid) +
+                      ", not to this user (uid " + std::to_string(geteuid()) +
+                      "); another user could replace what we put there. Remove it, or choose "
+                      "another path");
+  }
+  if ((st.st_mode & 077) != 0) {
+    char mode[8];
+    std::snprintf(mode, sizeof mode, "%04o", static_cast<unsigned>(st.st_mode & 07777));
+    return make_error("refusing " + dir + ": its mode " + mode +
+                      " lets other users in; it must be 0700 (chmod 700 " + dir + ")");
+  }
+  return {};
+}
+
+FileLock& FileLock::operator=(FileLock&& o) noexcept {
+  if (this != &o) {
+    if (fd_ >= 0) close(fd_);
+    fd_ = o.fd_;
+    path_ = std::move(o.path_);
+    o.fd_ = -1;
+  }
+  return *this;
+}
+
+FileLock::~FileLock() {
+  if (fd_ >= 0) close(fd_);  // releases the lock; the file stays (removing it would race)
+}
+
+Result<FileLock> FileLock::acquire(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, 0600);
+  if (fd < 0) return make_error("cannot open the lock file " + path + ": " + std::strerror(errno));
+  if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
+    char buf[32] = {};
+    const ssize_t n = pread(fd, buf, sizeof buf - 1, 0);
+    close(fd);
+    const std::string pid = n > 0 ? std::string(buf, static_cast<size_t>(n)) : "?";
+    return make_error("already running (pid " + pid.substr(0, pid.find('\n')) + ", holding " + path + ")");
+  }
+  const std::string pid = std::to_string(getpid()) + "\n";
+  if (ftruncate(fd, 0) != 0 || pwrite(fd, pid.data(), pid.size(), 0) < 0) {
+    // The pid is only for messages; the lock itself is what counts.
+  }
+  FileLock l;
+  l.fd_ = fd;
+  l.path_ = path;
+  return l;
 }
 
 }  // namespace rtplc

@@ -16,4 +16,33 @@ std::string folder_of(const std::string& path);
 // created, gets `mode`. Existing folders are left as they are.
 Result<void> make_folders(const std::string& dir, mode_t mode, mode_t parent_mode);
 
+// Makes sure `dir` is a folder only its owner can enter: created with mode 0700
+// (parents 0755) when missing; when it exists it must be a real folder (not a
+// link), owned by this process's user, with no rights for group or others.
+// Refuses otherwise, saying whose it is: a folder another local user prepared
+// would let that user replace our socket and read our commands.
+Result<void> ensure_private_folder(const std::string& dir);
+
+// An exclusive lock on a file held for the life of the object (flock): how a
+// runtime knows no other runtime of the same name runs, whatever a shared-memory
+// object claims. The file holds the owner's pid for messages.
+class FileLock {
+ public:
+  FileLock() = default;
+  FileLock(FileLock&& o) noexcept : fd_(o.fd_), path_(std::move(o.path_)) { o.fd_ = -1; }
+  FileLock& operator=(FileLock&& o) noexcept;
+  FileLock(const FileLock&) = delete;
+  FileLock& operator=(const FileLock&) = delete;
+  ~FileLock();
+
+  // Takes the lock without waiting; fails naming the holder's pid when another
+  // process holds it.
+  static Result<FileLock> acquire(const std::string& path);
+  bool held() const { return fd_ >= 0; }
+
+ private:
+  int fd_ = -1;
+  std::string path_;
+};
+
 }  // namespace rtplc

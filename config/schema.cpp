@@ -34,6 +34,10 @@ const KeySpec kRuntimeKeys[] = {
      "Path of the control socket (`rtplc stats`, `set`, `swap`); created with mode 0600."},
     {"retain_file", ValueType::kPath, false, kNoMin, kNoMax, nullptr, "(chosen by the runtime)",
      "File holding the retained values (set-points) across restarts."},
+    {"monitor_group", ValueType::kText, false, kNoMin, kNoMax, "a group name", "(none: owner only)",
+     "A group whose members may read the process image (`rtplc monitor`, `stats`, an HMI): "
+     "the image is then mode 0640 with this group instead of 0600. Nobody but the owner "
+     "can write it or use the control socket."},
     {"priority_band", ValueType::kIntegerPair, false, kMinFifoPriority, kMaxFifoPriority, nullptr,
      "[10, 49]",
      "SCHED_FIFO priorities the tasks may use, `[lo, hi]`; the default stays below the "

@@ -138,21 +138,35 @@ Result<ProcessImage> ProcessImage::create(const ImageLayout& layout) {
 
   ProcessImage img;
   img.object_ = shm_name(layout.name);
-  int fd = shm_open(img.object_.c_str(), O_RDWR | O_CREAT | O_EXCL, 0644);
+  const mode_t mode = layout.monitor_gid >= 0 ? 0640 : 0600;
+  int fd = shm_open(img.object_.c_str(), O_RDWR | O_CREAT | O_EXCL, mode);
   if (fd < 0 && errno == EEXIST) {
-    // Left by a runtime that died (kill -9, power loss)? Reuse the name only then.
-    Result<ProcessImage> old = attach(layout.name);
-    if (old.ok() && old->header().pid != getpid() && old->liveness().alive) {
-      return make_error("a runtime named '" + layout.name + "' is already running (pid " +
-                        std::to_string(old->header().pid) + "); stop it or choose another runtime name");
+    // Left by a runtime that died (kill -9, power loss), or planted. The caller
+    // holds the runtime's lock, so no live runtime of this name uses it.
+    if (shm_unlink(img.object_.c_str()) != 0) {
+      struct stat st {};
+      const int probe = shm_open(img.object_.c_str(), O_RDONLY, 0);
+      const bool known = probe >= 0 && fstat(probe, &st) == 0;
+      if (probe >= 0) close(probe);
+      return make_error("cannot replace the shared memory " + img.object_ + " left there" +
+                        (known ? " by uid " + std::to_string(st.st_uid) : std::string()) + ": " +
+                        errno_text(errno) + "; remove /dev/shm" + img.object_ +
+                        " as its owner or root, or choose another runtime name");
     }
-    shm_unlink(img.object_.c_str());
-    fd = shm_open(img.object_.c_str(), O_RDWR | O_CREAT | O_EXCL, 0644);
+    fd = shm_open(img.object_.c_str(), O_RDWR | O_CREAT | O_EXCL, mode);
   }
   if (fd < 0) {
     return make_error("cannot create shared memory " + img.object_ + ": " + errno_text(errno));
   }
-  fchmod(fd, 0644);  // whatever the umask: tools of other users may read
+  // Whatever the umask: exactly the owner, plus the monitor group when there is one.
+  if (layout.monitor_gid >= 0 && fchown(fd, static_cast<uid_t>(-1), static_cast<gid_t>(layout.monitor_gid)) != 0) {
+    const int e = errno;
+    close(fd);
+    shm_unlink(img.object_.c_str());
+    return make_error("cannot give " + img.object_ + " to group " + std::to_string(layout.monitor_gid) + ": " +
+                      errno_text(e));
+  }
+  fchmod(fd, mode);
   if (ftruncate(fd, static_cast<off_t>(total)) != 0) {
     const int e = errno;
     close(fd);
@@ -210,6 +224,11 @@ Result<ProcessImage> ProcessImage::attach(const std::string& name) {
   ProcessImage img;
   img.object_ = shm_name(name);
   const int fd = shm_open(img.object_.c_str(), O_RDONLY, 0);
+  if (fd < 0 && errno == EACCES) {
+    return make_error("the image of runtime '" + name + "' (" + img.object_ +
+                      ") is readable by its owner only; run this as that user, or set "
+                      "runtime.monitor_group in its config and join that group");
+  }
   if (fd < 0) {
     return make_error("no runtime named '" + name + "' is running (" + img.object_ + ": " +
                       errno_text(errno) + "); start one with `rtplc run CONFIG`");
@@ -218,6 +237,12 @@ Result<ProcessImage> ProcessImage::attach(const std::string& name) {
   if (fstat(fd, &st) != 0 || st.st_size < static_cast<off_t>(sizeof(ImageHeader))) {
     close(fd);
     return make_error(img.object_ + " is too small to be a process image");
+  }
+  if (st.st_uid != 0 && st.st_uid != geteuid()) {
+    close(fd);
+    return make_error("refusing " + img.object_ + ": it belongs to uid " + std::to_string(st.st_uid) +
+                      ", neither root nor you (uid " + std::to_string(geteuid()) +
+                      "): it is not a runtime you started, and what it shows cannot be trusted");
   }
   const auto size = static_cast<size_t>(st.st_size);
   void* base = mmap(nullptr, size, PROT_READ, MAP_SHARED, fd, 0);
@@ -347,18 +372,17 @@ uint32_t ProcessImage::begin_write(uint32_t r) const noexcept {
   // Only this region's writer changes `published`, so a relaxed read is exact.
   const uint64_t next = ring(r).published.load(std::memory_order_relaxed) + 1;
   const uint32_t k = static_cast<uint32_t>(next % kRingSlots);
-  SlotHeader& s = slot(r, k);
-  s.version.store(s.version.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
-  // Orders the odd version before the data stores that follow.
-  std::atomic_thread_fence(std::memory_order_release);
+  // Odd: being written. The acq_rel read-modify-write keeps the stores that
+  // follow after it (see the protocol in process_image.h).
+  slot(r, k).version.fetch_add(1, std::memory_order_acq_rel);
   return k;
 }
 
 void ProcessImage::put(uint32_t r, uint32_t k, uint32_t index, double value, Quality q,
                        int64_t timestamp_ns) const noexcept {
-  store_relaxed(values(r, k) + index, value);
-  std::atomic_ref<uint8_t>(quality(r, k)[index]).store(static_cast<uint8_t>(q), std::memory_order_relaxed);
-  std::atomic_ref<int64_t>(timestamps(r, k)[index]).store(timestamp_ns, std::memory_order_relaxed);
+  store_value(values(r, k) + index, value);
+  std::atomic_ref<uint8_t>(quality(r, k)[index]).store(static_cast<uint8_t>(q), std::memory_order_release);
+  std::atomic_ref<int64_t>(timestamps(r, k)[index]).store(timestamp_ns, std::memory_order_release);
 }
 
 void ProcessImage::end_write(uint32_t r, uint32_t k, int64_t now_ns, uint64_t cycle) const noexcept {
@@ -382,14 +406,13 @@ bool ProcessImage::read_values(uint32_t r, const uint32_t* src, uint32_t n, doub
     const uint64_t v1 = s.version.load(std::memory_order_acquire);
     if (v1 & 1) continue;
     const double* vals = values(r, k);
-    for (uint32_t i = 0; i < n; ++i) scratch[i] = load_relaxed(vals + src[i]);
+    for (uint32_t i = 0; i < n; ++i) scratch[i] = load_value(vals + src[i]);
     if (quality_out != nullptr) {
       uint8_t* q = quality(r, k);
       for (uint32_t i = 0; i < n; ++i) {
-        quality_out[i] = static_cast<Quality>(std::atomic_ref<uint8_t>(q[src[i]]).load(std::memory_order_relaxed));
+        quality_out[i] = static_cast<Quality>(std::atomic_ref<uint8_t>(q[src[i]]).load(std::memory_order_acquire));
       }
     }
-    std::atomic_thread_fence(std::memory_order_acquire);  // the loads above before the re-check
     if (s.version.load(std::memory_order_relaxed) == v1) {
       if (published_seen) *published_seen = pub;
       return true;
@@ -421,11 +444,10 @@ ChannelValue ProcessImage::read_at(uint32_t r, uint32_t index) const noexcept {
     const SlotHeader& s = slot(r, k);
     const uint64_t v1 = s.version.load(std::memory_order_acquire);
     if (v1 & 1) continue;
-    cv.value = load_relaxed(values(r, k) + d.index);
-    cv.quality = static_cast<Quality>(std::atomic_ref<uint8_t>(quality(r, k)[d.index]).load(std::memory_order_relaxed));
-    cv.timestamp_ns = std::atomic_ref<int64_t>(timestamps(r, k)[d.index]).load(std::memory_order_relaxed);
-    if (cv.timestamp_ns == 0) cv.timestamp_ns = s.written_ns.load(std::memory_order_relaxed);
-    std::atomic_thread_fence(std::memory_order_acquire);
+    cv.value = load_value(values(r, k) + d.index);
+    cv.quality = static_cast<Quality>(std::atomic_ref<uint8_t>(quality(r, k)[d.index]).load(std::memory_order_acquire));
+    cv.timestamp_ns = std::atomic_ref<int64_t>(timestamps(r, k)[d.index]).load(std::memory_order_acquire);
+    if (cv.timestamp_ns == 0) cv.timestamp_ns = s.written_ns.load(std::memory_order_acquire);
     if (s.version.load(std::memory_order_relaxed) == v1) {
       cv.fresh = true;
       return cv;

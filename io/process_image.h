@@ -13,27 +13,29 @@
 //
 // Exchange protocol (writer: the region's one thread; readers: anyone):
 //   writer  begin_write(): slot k = (published + 1) % kRingSlots;
-//                          k.version = odd (release)   — "being written"
-//           fills k's values (plain stores: a task's executor writes them in place)
-//           end_write():   k.version = even (release); published = n + 1 (release)
+//                          k.version += 1 (odd: "being written"), an acq_rel
+//                          read-modify-write, so no store after it moves before it
+//           fills k's values, qualities and times (release stores; a task's
+//           executor writes its outputs in place the same way)
+//           end_write():   k.version += 1 (even, release); published = n + 1 (release)
 //   reader  n = published (acquire); k = n % kRingSlots; v1 = k.version (acquire);
-//           odd -> retry; copy; fence(acquire); v2 = k.version; v1 != v2 -> retry
-// The writer never waits. A reader only ever reads the last *completed* slot, so a
-// reader that preempts the writer (a SCHED_FIFO task preempting a driver on the
-// same CPU, the case where a plain seqlock spins forever) reads a slot the writer
-// is not touching; a retry is needed only if the writer completed kRingSlots-1
-// more snapshots during one copy. Readers on the RT path bound their retries and
-// keep their previous values if they run out (counted, never blocking).
+//           odd -> retry; copy (acquire loads, so the re-check below cannot move
+//           before them); v2 = k.version; v1 != v2 -> retry
+// If a load saw a store of a later write into slot k, that write's odd
+// increment happens-before the re-check, which then differs: a torn copy is
+// never accepted. The writer never waits. A reader only ever reads the last
+// *completed* slot, so a reader that preempts the writer (a SCHED_FIFO task
+// preempting a driver on the same CPU, the case where a plain seqlock spins
+// forever) reads a slot the writer is not touching; a retry is needed only if
+// the writer completed kRingSlots-1 more snapshots during one copy. Readers on
+// the RT path bound their retries and keep their previous values if they run
+// out (counted, never blocking).
 //
-// Every value, quality and timestamp is stored and loaded as a relaxed atomic
-// (std::atomic_ref on the plain arrays of the slot): one plain move each on
-// x86-64 and AArch64, and no data race in C++ terms. The ordering comes from the
-// version: the writer's release fence after the odd version keeps the data
-// stores after it, the release store of the even version keeps them before
-// it; the reader's acquire fence after the copy keeps its data loads before
-// the second version load. ThreadSanitizer checks this same code (it sees only
-// atomic accesses to the data, so no race to report; the fences it does not
-// model only order, they never make a race appear or vanish).
+// Every value, quality and timestamp is an atomic access (std::atomic_ref on the
+// plain arrays of the slot): release stores and acquire loads, each one plain
+// move on x86-64 (stlr/ldar on AArch64), and no data race in C++ terms. There
+// are no standalone fences, so ThreadSanitizer models this very code, the one
+// that ships.
 //
 // The channel table grows while tools read it (a hot swap adds outputs): the
 // runtime writes the new ChannelDesc, then stores n_channels with release;
@@ -198,12 +200,12 @@ struct alignas(64) LinkStatus {
 enum class TaskState : uint8_t { kStarting = 0, kRunning = 1, kStoppedWatchdog = 2, kStopped = 3 };
 const char* task_state_name(TaskState s);
 
-// Relaxed atomic access to the plain arrays of a snapshot (see the protocol).
-inline double load_relaxed(const double* p) noexcept {
-  return std::atomic_ref<const double>(*p).load(std::memory_order_relaxed);
+// Atomic access to the plain arrays of a snapshot (see the protocol).
+inline double load_value(const double* p) noexcept {
+  return std::atomic_ref<const double>(*p).load(std::memory_order_acquire);
 }
-inline void store_relaxed(double* p, double v) noexcept {
-  std::atomic_ref<double>(*p).store(v, std::memory_order_relaxed);
+inline void store_value(double* p, double v) noexcept {
+  std::atomic_ref<double>(*p).store(v, std::memory_order_release);
 }
 
 // What a reader gets for one channel.
@@ -237,7 +239,9 @@ struct ImageLayout {
   std::vector<Region> regions;
   uint32_t n_tasks = 0;
   size_t task_stats_bytes = 0;  // one opaque stats block per task (sched/jitter.h)
-  uint32_t n_links = 0;         // LinkStatus entries (S7 PLCs)
+  uint32_t n_links = 0;         // LinkStatus entries (one per remote peer)
+  // Who may read it: the owner only, or also this group (runtime.monitor_group).
+  int monitor_gid = -1;         // -1: mode 0600; else 0640 with this group
 };
 
 // A mapping of the process image: created (read-write) by the runtime, attached
@@ -251,10 +255,14 @@ class ProcessImage {
   ProcessImage& operator=(const ProcessImage&) = delete;
   ~ProcessImage();
 
-  // Creates "/rtplc-<name>", replacing a stale one left by a dead runtime; refuses
-  // when a live runtime owns it. Mode 0644: readable by tools, writable by us.
+  // Creates "/rtplc-<name>", mode 0600 (0640 for the monitor group). An object
+  // of that name left behind (a runtime that died, or one planted by someone) is
+  // removed first: whether another runtime of that name runs is decided by the
+  // caller's lock (common/files.h FileLock), never by what an object says.
   static Result<ProcessImage> create(const ImageLayout& layout);
-  // Attaches read-only to a running runtime's image.
+  // Attaches read-only to a running runtime's image. Refuses an object that
+  // belongs neither to root nor to the caller: another local user could have
+  // put it there to show made-up values.
   static Result<ProcessImage> attach(const std::string& name);
   static std::string shm_name(const std::string& name) { return "/rtplc-" + name; }
 

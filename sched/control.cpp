@@ -1,6 +1,7 @@
 // The control socket server and client (see control.h).
 #include "sched/control.h"
 
+#include <fcntl.h>
 #include <poll.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
@@ -14,12 +15,15 @@
 
 #include "common/files.h"
 #include "kernel_rt/clock.h"
+#include "kernel_rt/rt_thread.h"
 #include "sched/runtime.h"
 
 namespace rtplc::sched {
 namespace {
 
 constexpr size_t kMaxLine = 4096;
+constexpr size_t kMaxClients = 256;
+constexpr int kRequestTimeoutMs = 10000;
 constexpr size_t kMaxSource = 64u << 20;  // the compiler refuses more anyway
 
 bool send_all(int fd, const std::string& s) {
@@ -31,22 +35,6 @@ bool send_all(int fd, const std::string& s) {
       return false;
     }
     done += static_cast<size_t>(n);
-  }
-  return true;
-}
-
-// Reads until `want` bytes or EOF/timeout; returns what arrived.
-bool read_exact(int fd, std::string& out, size_t want, int timeout_ms) {
-  const int64_t deadline = kernel_rt::monotonic_now_ns() + int64_t{timeout_ms} * 1000000;
-  char buf[8192];
-  while (out.size() < want) {
-    const int64_t left_ms = (deadline - kernel_rt::monotonic_now_ns()) / 1000000;
-    if (left_ms <= 0) return false;
-    pollfd p{fd, POLLIN, 0};
-    if (poll(&p, 1, static_cast<int>(left_ms)) <= 0) return false;
-    const ssize_t n = recv(fd, buf, std::min(sizeof buf, want - out.size()), 0);
-    if (n <= 0) return false;
-    out.append(buf, static_cast<size_t>(n));
   }
   return true;
 }
@@ -96,7 +84,7 @@ Result<void> ControlServer::start(const std::string& path) {
   sockaddr_un addr{};
   if (path.size() >= sizeof addr.sun_path) return make_error("control socket path too long: " + path);
   // Create the folder chain (e.g. /run/rtplc); the last folder is private.
-  if (auto r = make_folders(folder_of(path), 0700, 0755); !r) return r;
+  if (auto r = ensure_private_folder(folder_of(path)); !r) return r;
   // A socket left by a dead runtime: connecting fails, so remove it. A live one
   // answers: then another runtime owns the name.
   if (access(path.c_str(), F_OK) == 0) {
@@ -119,7 +107,17 @@ Result<void> ControlServer::start(const std::string& path) {
     return make_error("cannot listen on " + path + ": " + std::strerror(e));
   }
   chmod(path.c_str(), 0600);
-  thread_ = std::thread([this] { run(); });
+  fcntl(listen_fd_, F_SETFL, fcntl(listen_fd_, F_GETFL) | O_NONBLOCK);
+  kernel_rt::ThreadSpec spec;
+  spec.name = "rtplc:control";
+  auto t = kernel_rt::start_thread(spec, [this] { run(); });
+  if (!t) {
+    close(listen_fd_);
+    listen_fd_ = -1;
+    unlink(path.c_str());
+    return make_error("control thread: " + t.error());
+  }
+  thread_ = std::move(t).value();
   return {};
 }
 
@@ -133,19 +131,116 @@ void ControlServer::stop() {
   }
 }
 
+// The event loop: any number of clients at once, each read and written without
+// blocking, so an idle or slow client never delays another's `status` or
+// `stop`. A request must arrive whole within kRequestTimeoutMs; the loop holds at
+// most kMaxClients connections and answers any beyond that at once with an error.
 void ControlServer::run() {
+  struct Client {
+    int fd = -1;
+    std::string in;
+    std::string out;
+    size_t sent = 0;
+    int64_t deadline = 0;
+    bool answered = false;
+  };
+  std::vector<Client> clients;
+  std::vector<pollfd> fds;
+  auto answer = [](Client& c, const std::string& framed) {
+    c.out = framed;
+    c.sent = 0;
+    c.answered = true;
+  };
   while (!quit_.load(std::memory_order_acquire)) {
-    pollfd p{listen_fd_, POLLIN, 0};
-    const int n = poll(&p, 1, 100);
+    fds.clear();
+    fds.push_back({listen_fd_, POLLIN, 0});
+    for (const Client& c : clients) fds.push_back({c.fd, static_cast<short>(c.answered ? POLLOUT : POLLIN), 0});
+    const int n = poll(fds.data(), static_cast<nfds_t>(fds.size()), 100);
     rt_.reap();
     rt_.tick(log_);
     watch_tasks();
-    if (n <= 0) continue;
-    const int fd = accept4(listen_fd_, nullptr, nullptr, SOCK_CLOEXEC);
-    if (fd < 0) continue;
-    handle(fd);
-    close(fd);
+    const int64_t now = kernel_rt::monotonic_now_ns();
+    if (n > 0 && (fds[0].revents & POLLIN)) {
+      for (;;) {
+        const int fd = accept4(listen_fd_, nullptr, nullptr, SOCK_CLOEXEC | SOCK_NONBLOCK);
+        if (fd < 0) break;
+        if (clients.size() >= kMaxClients) {
+          const std::string busy = frame(false, "too many clients are connected to this runtime; try again");
+          [[maybe_unused]] const ssize_t w = send(fd, busy.data(), busy.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+          close(fd);
+          continue;
+        }
+        Client c;
+        c.fd = fd;
+        c.deadline = now + int64_t{kRequestTimeoutMs} * 1000000;
+        clients.push_back(std::move(c));
+      }
+    }
+    for (size_t i = 0; i < clients.size(); ++i) {
+      Client& c = clients[i];
+      const short rev = i + 1 < fds.size() && fds[i + 1].fd == c.fd ? fds[i + 1].revents : 0;
+      bool drop = false;
+      if (!c.answered && (rev & (POLLIN | POLLHUP | POLLERR))) {
+        char buf[16384];
+        const ssize_t got = recv(c.fd, buf, sizeof buf, 0);
+        if (got <= 0) {
+          drop = got == 0 || (errno != EAGAIN && errno != EINTR);
+        } else {
+          c.in.append(buf, static_cast<size_t>(got));
+          std::string response;
+          switch (parse_request(c.in, response)) {
+            case RequestState::kIncomplete: break;
+            case RequestState::kComplete:
+            case RequestState::kBad: answer(c, response); break;
+          }
+        }
+      }
+      if (!c.answered && now > c.deadline) answer(c, frame(false, "the request did not arrive whole in time"));
+      if (c.answered && c.sent < c.out.size()) {
+        const ssize_t w = send(c.fd, c.out.data() + c.sent, c.out.size() - c.sent, MSG_NOSIGNAL | MSG_DONTWAIT);
+        if (w > 0) c.sent += static_cast<size_t>(w);
+        else if (errno != EAGAIN && errno != EINTR) drop = true;
+      }
+      if (c.answered && c.sent >= c.out.size()) drop = true;
+      if (c.answered && now > c.deadline + int64_t{kRequestTimeoutMs} * 1000000) drop = true;  // never reads
+      if (drop) {
+        close(c.fd);
+        clients[i] = std::move(clients.back());
+        clients.pop_back();
+        --i;
+      }
+    }
   }
+  for (Client& c : clients) close(c.fd);
+}
+
+ControlServer::RequestState ControlServer::parse_request(const std::string& in, std::string& response) {
+  const size_t nl = in.find('\n');
+  if (nl == std::string::npos) {
+    if (in.size() > kMaxLine) {
+      response = frame(false, "malformed request: expected one line");
+      return RequestState::kBad;
+    }
+    return RequestState::kIncomplete;
+  }
+  const std::vector<std::string> w = split(in.substr(0, nl));
+  if (w.empty()) {
+    response = frame(false, "empty request");
+    return RequestState::kBad;
+  }
+  std::string body;
+  if (w[0] == "swap" && w.size() >= 4) {
+    char* end = nullptr;
+    const unsigned long long want = std::strtoull(w[3].c_str(), &end, 10);
+    if (*end != '\0' || want > kMaxSource) {
+      response = frame(false, "bad source size");
+      return RequestState::kBad;
+    }
+    if (in.size() - nl - 1 < want) return RequestState::kIncomplete;
+    body = in.substr(nl + 1, want);
+  }
+  response = execute(w, body);
+  return RequestState::kComplete;
 }
 
 void ControlServer::watch_tasks() {
@@ -181,17 +276,7 @@ static std::vector<std::string> drop_list(const std::string& word) {
   return out;
 }
 
-void ControlServer::handle(int fd) {
-  std::string line;
-  if (!read_line(fd, line, 2000)) {
-    send_all(fd, frame(false, "malformed request: expected one line"));
-    return;
-  }
-  const std::vector<std::string> w = split(line);
-  if (w.empty()) {
-    send_all(fd, frame(false, "empty request"));
-    return;
-  }
+std::string ControlServer::execute(const std::vector<std::string>& w, const std::string& source) {
   const std::string& verb = w[0];
   Result<std::string> res = make_error("unknown request '" + verb + "' (ping, status, set, swap, rollback, stop)");
   if (verb == "ping" && w.size() == 1) {
@@ -208,18 +293,9 @@ void ControlServer::handle(int fd) {
       if (res) log_(false, "set " + *res);
     }
   } else if (verb == "swap" && (w.size() == 4 || (w.size() == 5 && w[4].rfind("drop=", 0) == 0))) {
-    char* end = nullptr;
-    const unsigned long long n = std::strtoull(w[3].c_str(), &end, 10);
-    std::string source;
-    if (*end != '\0' || n > kMaxSource) {
-      res = make_error("bad source size");
-    } else if (!read_exact(fd, source, n, 10000)) {
-      res = make_error("the source text did not arrive whole");
-    } else {
-      res = rt_.swap(w[1], source, w[2], w.size() == 5 ? drop_list(w[4]) : std::vector<std::string>{});
-      if (res) log_(false, "swap: " + res->substr(0, res->find('\n', res->find('\n') + 1)));
-      else log_(true, "swap of " + w[1] + " refused: " + res.error().substr(0, res.error().find('\n')));
-    }
+    res = rt_.swap(w[1], source, w[2], w.size() == 5 ? drop_list(w[4]) : std::vector<std::string>{});
+    if (res) log_(false, "swap: " + res->substr(0, res->find('\n', res->find('\n') + 1)));
+    else log_(true, "swap of " + w[1] + " refused: " + res.error().substr(0, res.error().find('\n')));
   } else if (verb == "rollback" && (w.size() == 2 || (w.size() == 3 && w[2].rfind("drop=", 0) == 0))) {
     res = rt_.rollback(w[1], w.size() == 3 ? drop_list(w[2]) : std::vector<std::string>{});
     if (res) log_(false, "rollback: " + res->substr(0, res->find('\n')));
@@ -229,13 +305,20 @@ void ControlServer::handle(int fd) {
   } else if (verb == "set" || verb == "swap" || verb == "rollback") {
     res = make_error("wrong number of arguments for '" + verb + "'");
   }
-  send_all(fd, res ? frame(true, *res) : frame(false, res.error()));
+  return res ? frame(true, *res) : frame(false, res.error());
 }
 
 Result<std::string> control_request(const std::string& socket_path, const std::string& line,
                                     const std::string& payload, int timeout_ms) {
   sockaddr_un addr{};
   if (socket_path.size() >= sizeof addr.sun_path) return make_error("socket path too long");
+  // Talk only to a socket root or we own: a socket another user put in our way
+  // would receive our commands (and could answer anything).
+  struct stat st {};
+  if (lstat(socket_path.c_str(), &st) == 0 && st.st_uid != 0 && st.st_uid != geteuid()) {
+    return make_error("refusing the control socket " + socket_path + ": it belongs to uid " +
+                      std::to_string(st.st_uid) + ", neither root nor you");
+  }
   const int fd = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
   if (fd < 0) return make_error(std::string("socket: ") + std::strerror(errno));
   addr.sun_family = AF_UNIX;

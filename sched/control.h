@@ -1,6 +1,7 @@
 // The runtime's control channel (spec runtime.md, "Hot swap": local only, a Unix
 // socket with mode 0600 — loading code is the most privileged act in a PLC).
 //
+// Any number of clients at once (an event loop; see ControlServer::run).
 // Wire format, one request per connection:
 //   request   VERB [ARG ...]\n            (ARGs are separated by single spaces)
 //             swap TASK NAME BYTES\n<BYTES of source text>
@@ -20,6 +21,7 @@
 #include <vector>
 
 #include "common/result.h"
+#include "kernel_rt/rt_thread.h"
 
 namespace rtplc::sched {
 
@@ -43,15 +45,18 @@ class ControlServer {
   bool stop_requested() const { return stop_requested_.load(std::memory_order_acquire); }
 
  private:
+  enum class RequestState { kIncomplete, kComplete, kBad };
   void run();
-  void handle(int fd);
+  // A request that has arrived whole is executed and its framed answer set.
+  RequestState parse_request(const std::string& in, std::string& response);
+  std::string execute(const std::vector<std::string>& words, const std::string& source);
   void watch_tasks();
 
   Runtime& rt_;
   Log log_;
   std::string path_;
   int listen_fd_ = -1;
-  std::thread thread_;
+  kernel_rt::RtThread thread_;
   std::atomic<bool> quit_{false};
   std::atomic<bool> stop_requested_{false};
   std::vector<uint8_t> last_state_;

@@ -1,6 +1,7 @@
 // Loading, starting and operating the runtime (see runtime.h).
 #include "sched/runtime.h"
 
+#include <grp.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -12,6 +13,7 @@
 #include <thread>
 
 #include "common/capacities.h"
+#include "common/files.h"
 #include "common/text.h"
 #include "kernel_rt/clock.h"
 #include "kernel_rt/rt_kernel.h"
@@ -31,9 +33,11 @@ std::string read_file(const std::string& path) {
 }  // namespace
 
 std::string default_socket_path(const std::string& name) {
+  // A folder of our own, checked before use (ensure_private_folder): root's is
+  // /run/rtplc, a user's lives in their runtime folder or in /tmp.
   if (geteuid() == 0) return "/run/rtplc/" + name + ".sock";
   if (const char* x = std::getenv("XDG_RUNTIME_DIR"); x && *x) {
-    return std::string(x) + "/rtplc-" + name + ".sock";
+    return std::string(x) + "/rtplc/" + name + ".sock";
   }
   return "/tmp/rtplc-" + std::to_string(geteuid()) + "/" + name + ".sock";
 }
@@ -89,6 +93,32 @@ std::unique_ptr<Runtime> Runtime::load(const config::RuntimeConfig& cfg, const R
     report.ok = false;
     return nullptr;
   }
+  // One runtime of a name at a time, decided by a lock in the runtime's own
+  // folder (the socket's, which must be private to us), never by a pid in
+  // shared memory that anyone could have written.
+  const std::string folder = folder_of(rt->socket_path_);
+  if (auto r = ensure_private_folder(folder); !r) {
+    report.files[0].diags.error(cfg.socket_pos, "control socket folder: " + r.error());
+    report.ok = false;
+    return nullptr;
+  }
+  auto lock = FileLock::acquire(folder + "/" + rt->name_ + ".lock");
+  if (!lock) {
+    report.files[0].diags.error(cfg.name_pos, "runtime '" + rt->name_ + "' is " + lock.error() +
+                                                  "; stop it or choose another runtime name");
+    report.ok = false;
+    return nullptr;
+  }
+  rt->lock_ = std::move(lock).value();
+  if (!cfg.monitor_group.empty()) {
+    const group* g = getgrnam(cfg.monitor_group.c_str());
+    if (g == nullptr) {
+      report.files[0].diags.error(cfg.monitor_group_pos, "no group named '" + cfg.monitor_group + "' on this machine");
+      report.ok = false;
+      return nullptr;
+    }
+    rt->monitor_gid_ = static_cast<int>(g->gr_gid);
+  }
   // Drivers keep pointers into their config entries: the runtime owns a copy.
   rt->config_ = cfg;
   if (!rt->build(rt->config_, report)) {
@@ -143,6 +173,7 @@ bool Runtime::build(const config::RuntimeConfig& cfg, LoadReport& report) {
   for (size_t t = 0; t < n_tasks; ++t) pd.programs.push_back(&report.files[file_of[t]].diags);
   if (!plan_image(cfg, name_, images, claims, pd, plan_)) return false;
   plan_.layout.task_stats_bytes = sizeof(CycleStats);
+  plan_.layout.monitor_gid = monitor_gid_;
   const std::vector<int64_t>& periods = plan_.periods_ns;
   const std::vector<int>& prio = plan_.priorities;
   const io::ImageLayout& layout = plan_.layout;

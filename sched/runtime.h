@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "common/diagnostic.h"
+#include "common/files.h"
 #include "common/result.h"
 #include "config/config.h"
 #include "io/drivers/driver.h"
@@ -115,6 +116,8 @@ class Runtime {
   void publish_setpoints();
   Result<std::string> install(Task& t, std::unique_ptr<LoadedProgram> next, bool keep_previous);
 
+  FileLock lock_;  // held while this runtime lives: no second one of its name
+  int monitor_gid_ = -1;
   config::RuntimeConfig config_;
   std::string name_;
   std::string socket_path_;

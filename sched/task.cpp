@@ -108,27 +108,27 @@ void Task::write_outputs(LoadedProgram& p, bool safe) noexcept {
   ExecContext ctx = make_context(p.image, p.arena);
   if (safe) {
     for (size_t i = 0; i < p.output_slots.size(); ++i) {
-      io::store_relaxed(slot + p.output_slots[i], p.safe_values[i]);
+      io::store_value(slot + p.output_slots[i], p.safe_values[i]);
     }
   } else if (p.outputs_in_place) {
     // The executor writes the outputs straight into the snapshot being built
-    // (relaxed atomic stores, see blocks/executor_body.inc and io/process_image.h).
+    // (atomic release stores, see blocks/executor_body.inc and io/process_image.h).
     ctx.io_out = slot;
     execute_cycle(ctx);
   } else {
     execute_cycle(ctx);
     const double* out = p.arena.io_out.data();
     for (size_t i = 0; i < p.output_slots.size(); ++i) {
-      io::store_relaxed(slot + p.output_slots[i], out[i]);
+      io::store_value(slot + p.output_slots[i], out[i]);
     }
   }
-  for (const LoadedProgram::Dropped& d : p.dropped) io::store_relaxed(slot + d.index, d.safe_value);
+  for (const LoadedProgram::Dropped& d : p.dropped) io::store_value(slot + d.index, d.safe_value);
   if (quality_refresh_ > 0) {
     // Qualities change only with the program: each ring slot takes them once.
     --quality_refresh_;
     uint8_t* q = image_.quality(region_, k);
     for (size_t i = 0; i < p.output_quality.size(); ++i) {
-      std::atomic_ref<uint8_t>(q[i]).store(p.output_quality[i], std::memory_order_relaxed);
+      std::atomic_ref<uint8_t>(q[i]).store(p.output_quality[i], std::memory_order_release);
     }
   }
   image_.slot(region_, k).region_state.store(safe ? 1 : 0, std::memory_order_relaxed);
