@@ -15,7 +15,8 @@ namespace rtplc::s7 {
 namespace {
 
 constexpr int64_t kStatusPeriodNs = 100000000;    // link rows and link events
-constexpr int64_t kLogIntervalNs = 5000000000;    // one down/up message per PLC per 5 s at most
+constexpr int64_t kLogIntervalNs = 5000000000;    // then one down/up message per PLC per 5 s at most
+constexpr uint32_t kLogBurst = 4;                 // messages logged at once before the limit applies
 
 io::LinkState link_state(PlcState s) {
   switch (s) {
@@ -50,7 +51,9 @@ Result<void> S7Driver::prepare() {
   failed_.assign(n, 0);
   rejected_.assign(n, 0);
   pending_.assign(n, 0);
-  track_.assign(n, PlcTrack{});
+  PlcTrack fresh;
+  fresh.log_budget = kLogBurst;
+  track_.assign(n, fresh);
   for (size_t i = 0; i < n; ++i) {
     const S7PlcConfig& pc = settings_.plcs[i];
     PlcConfig c;
@@ -74,20 +77,22 @@ Result<void> S7Driver::prepare() {
     }
     return -1;
   };
-  auto add = [&](const S7ChannelMap& m, int& plc) -> Result<ItemId> {
+  auto add = [&](const S7ChannelMap& m, int& plc, DataType& type) -> Result<ItemId> {
     plc = plc_index(m.plc);
     if (plc < 0) return make_error("channel " + m.channel + ": no PLC named " + m.plc);
     auto addr = parse_address(m.item);
     if (!addr) return make_error("channel " + m.channel + ": " + addr.error());
     ItemConfig ic;
     ic.address = *addr;
+    type = addr->type;
     ic.scale = m.scale;
     ic.offset = m.offset;
     return engine_.add_item(plcs_[static_cast<size_t>(plc)], ic);
   };
   for (size_t i = 0; i < settings_.reads.size(); ++i) {
     int plc = -1;
-    auto item = add(settings_.reads[i], plc);
+    DataType type = DataType::kByte;
+    auto item = add(settings_.reads[i], plc, type);
     if (!item) return make_error(item.error());
     Read r;
     r.item = *item;
@@ -97,12 +102,16 @@ Result<void> S7Driver::prepare() {
   }
   for (size_t i = 0; i < settings_.writes.size(); ++i) {
     int plc = -1;
-    auto item = add(settings_.writes[i], plc);
+    DataType type = DataType::kByte;
+    auto item = add(settings_.writes[i], plc, type);
     if (!item) return make_error(item.error());
     Write w;
     w.item = *item;
     w.mode = settings_.writes[i].mode;
     w.plc = static_cast<uint32_t>(plc);
+    w.type = type;
+    w.scale = settings_.writes[i].scale;
+    w.offset = settings_.writes[i].offset;
     w.what = "PLC " + settings_.writes[i].plc + " item " + settings_.writes[i].item;
     writes_.push_back(std::move(w));
   }
@@ -139,59 +148,83 @@ void S7Driver::cycle(int64_t now) noexcept {
     if (refused && !r.refusal_logged) {
       r.refusal_logged = true;
       log(io::LinkEvent::Level::kError,
-          fmt::format("{}: read refused: {} (return code 0x{:02X})", r.what,
-                      item_error_message(r.last.return_code), r.last.return_code));
+          fmt::format("{}: read refused by the PLC: {}", r.what, item_error_message(r.last.return_code)));
     } else if (!refused && q == Quality::kGood) {
       r.refusal_logged = false;
     }
   }
 
-  // Writes: each ends acknowledged, failed (then sent again) or still pending.
-  for (uint32_t j = 0; j < writes_.size(); ++j) {
-    Write& w = writes_[j];
-    if (w.ticket.id != 0) {
-      const WriteResult res = engine_.write_result(w.ticket);
-      if (res.state == WriteState::kAcknowledged) {
-        ++acked_[w.plc];
-        w.ticket = {};
-        w.failed = false;
-        w.refusal_logged = false;
-      } else if (res.state == WriteState::kFailed || res.state == WriteState::kRejected ||
-                 res.state == WriteState::kUnknown) {
-        ++failed_[w.plc];
-        w.ticket = {};
-        w.resend = true;
-        w.failed = true;
-        if (res.state == WriteState::kFailed && res.return_code != 0 && !w.refusal_logged) {
-          w.refusal_logged = true;
-          log(io::LinkEvent::Level::kError,
-              fmt::format("{}: write refused: {} (return code 0x{:02X})", w.what,
-                          item_error_message(res.return_code), res.return_code));
-        }
+  for (uint32_t j = 0; j < writes_.size(); ++j) cycle_write(j, k, now);
+  end_snapshot(k, now);
+}
+
+// Output j: collect the outcome of its write in flight, send it when due, and
+// publish its delivery entry.
+void S7Driver::cycle_write(uint32_t j, uint32_t k, int64_t now) noexcept {
+  Write& w = writes_[j];
+  if (w.ticket.id != 0) {
+    const WriteResult res = engine_.write_result(w.ticket);
+    if (res.state == WriteState::kAcknowledged) {
+      ++acked_[w.plc];
+      w.ticket = {};
+      w.failed = false;
+      w.refusal_logged = false;
+    } else if (res.state == WriteState::kFailed || res.state == WriteState::kRejected ||
+               res.state == WriteState::kUnknown) {
+      ++failed_[w.plc];
+      w.ticket = {};
+      w.failed = true;
+      const bool refused = res.state == WriteState::kFailed && res.return_code != 0 && res.return_code != 0xFF;
+      // Lost with the link (or never sent): send it again. Refused by the PLC:
+      // it would be refused again; wait for a new value or a reconnect.
+      w.resend = !refused;
+      if (refused && !w.refusal_logged) {
+        w.refusal_logged = true;
+        log(io::LinkEvent::Level::kError,
+            fmt::format("{}: write refused by the PLC: {}", w.what, item_error_message(res.return_code)));
       }
     }
-    const bool plc_up = track_[w.plc].state == PlcState::kReady;
-    double value = 0;
-    Quality q = Quality::kBad;
-    const bool got = read_output(j, value, q);
-    const bool sendable = got && (q == Quality::kGood || q == Quality::kForced);
-    const Quality delivered = plc_up && !w.failed && w.sent && sendable ? Quality::kGood : Quality::kBad;
-    put_delivery(k, j, w.last, delivered, now);
-    if (!sendable) continue;  // nothing to send, or the task says the value is not to be sent
+  }
+  double value = 0;
+  Quality q = Quality::kBad;
+  const bool got = read_output(j, value, q);
+  const bool sendable = got && (q == Quality::kGood || q == Quality::kForced);
+  if (sendable) {
     const bool changed = !w.sent || value != w.last;
     const bool due = w.mode == S7WriteMode::kEveryCycle || changed || w.resend;
-    if (!due || w.ticket.id != 0) continue;  // one write per item in flight: the newest wins next
-    const WriteTicket t = engine_.write(w.item, value);
-    if (t.id == 0) {
-      ++rejected_[w.plc];  // the engine's queue is full: try again next cycle
-      continue;
-    }
-    w.ticket = t;
-    w.last = value;
-    w.sent = true;
-    w.resend = false;
+    // One write per item in flight: the newest value goes out after it.
+    if (due && w.ticket.id == 0) send(w, value);
   }
-  end_snapshot(k, now);
+  const bool plc_up = track_[w.plc].state == PlcState::kReady;
+  const bool good = plc_up && sendable && w.sent && !w.failed && !w.out_of_range;
+  put_delivery(k, j, w.last, good ? Quality::kGood : Quality::kBad, now);
+}
+
+void S7Driver::send(Write& w, double value) noexcept {
+  uint64_t raw = 0;
+  if (!value_to_raw(w.type, (value - w.offset) / w.scale, raw)) {
+    const bool same = w.out_of_range && (value == w.refused_value || (std::isnan(value) && std::isnan(w.refused_value)));
+    if (!same) ++failed_[w.plc];
+    w.out_of_range = true;
+    w.refused_value = value;
+    if (!w.range_logged) {
+      w.range_logged = true;
+      log(io::LinkEvent::Level::kError,
+          fmt::format("{}: {} does not fit {} ({}); not sent, the PLC keeps {} (once per item)", w.what, value,
+                      type_name(w.type), range_text(w.type), w.sent ? fmt::format("{}", w.last) : "its value"));
+    }
+    return;
+  }
+  w.out_of_range = false;
+  const WriteTicket t = engine_.write_raw(w.item, raw);
+  if (t.id == 0) {
+    ++rejected_[w.plc];  // the engine's queue is full: try again next cycle
+    return;
+  }
+  w.ticket = t;
+  w.last = value;
+  w.sent = true;
+  w.resend = false;
 }
 
 // Link state changes seen since the last call: logged (rate-limited), and a
@@ -202,6 +235,7 @@ void S7Driver::track_status(int64_t now) noexcept {
     if (!engine_.try_status(plcs_[i], st)) continue;
     PlcTrack& t = track_[i];
     const std::string& name = settings_.plcs[i].name;
+    const uint64_t new_sessions = st.connects - t.connects;
     if (st.connects != t.connects) {
       // A new session: the PLC may have restarted with its reset values.
       for (Write& w : writes_) {
@@ -211,6 +245,7 @@ void S7Driver::track_status(int64_t now) noexcept {
     }
     const bool was_ready = t.state == PlcState::kReady;
     const bool ready = st.state == PlcState::kReady;
+    if (new_sessions > 0) t.ever_ready = true;  // even if it is gone again by now
     if (!t.ever_ready && !ready && st.connect_failures > 0 && !t.said_unreachable) {
       t.said_unreachable = true;
       log(io::LinkEvent::Level::kError,
@@ -218,25 +253,39 @@ void S7Driver::track_status(int64_t now) noexcept {
                       settings_.plcs[i].address, settings_.plcs[i].port,
                       st.last_error[0] ? st.last_error : "no answer"));
     }
-    if (was_ready != ready && (t.ever_ready || ready)) {
-      if (now >= t.next_log_ns) {
-        std::string held = t.held_back ? fmt::format(" ({} earlier changes not logged)", t.held_back) : "";
-        if (ready) {
-          log(io::LinkEvent::Level::kInfo,
-              fmt::format("PLC {} connected (PDU {}, {} parallel jobs){}", name, st.pdu_size, st.amq, held));
-        } else {
-          log(io::LinkEvent::Level::kWarning,
-              fmt::format("PLC {} disconnected: {}; its channels are bad until it is back{}", name,
-                          st.last_error[0] ? st.last_error : "connection lost", held));
-        }
-        t.held_back = 0;
-        t.next_log_ns = now + kLogIntervalNs;
-      } else {
-        ++t.held_back;
-      }
+    // Link changes since the last look. We look every 100 ms and a link can go
+    // down and up (or up and down) in between, so count from the sessions made
+    // (each an up; each up but a current one followed by a down), not from the
+    // two states alone: ups = n, downs = n + was_ready - ready.
+    const int64_t changes = 2 * static_cast<int64_t>(new_sessions) + (was_ready ? 1 : 0) - (ready ? 1 : 0);
+    if (changes > 0) t.unlogged += static_cast<uint32_t>(changes);
+    if (t.log_budget < kLogBurst && now >= t.next_refill_ns) {
+      ++t.log_budget;
+      t.next_refill_ns = now + kLogIntervalNs;
     }
-    if (ready) t.ever_ready = true;
+    if (t.unlogged > 0 && t.log_budget > 0) {
+      if (t.log_budget == kLogBurst) t.next_refill_ns = now + kLogIntervalNs;
+      --t.log_budget;
+      log_link_change(i, st);
+      t.unlogged = 0;
+    }
     t.state = st.state;
+  }
+}
+
+void S7Driver::log_link_change(size_t i, const PlcStatus& st) noexcept {
+  const PlcTrack& t = track_[i];
+  const std::string& name = settings_.plcs[i].name;
+  // Changes the rate limit held back: say how many, so a flapping link shows.
+  const std::string held =
+      t.unlogged > 1 ? fmt::format(" ({} link changes since the last message)", t.unlogged) : std::string();
+  if (st.state == PlcState::kReady) {
+    log(io::LinkEvent::Level::kInfo,
+        fmt::format("PLC {} connected (PDU {}, {} parallel jobs){}", name, st.pdu_size, st.amq, held));
+  } else {
+    log(io::LinkEvent::Level::kWarning,
+        fmt::format("PLC {} disconnected: {}; its channels are bad until it is back{}", name,
+                    st.last_error[0] ? st.last_error : "connection lost", held));
   }
 }
 
@@ -275,7 +324,7 @@ void S7Driver::on_stop() noexcept {
   for (;;) {
     cycle(kernel_rt::monotonic_now_ns());
     bool pending = false;
-    for (const Write& w : writes_) pending |= w.ticket.id != 0 || w.resend;
+    for (const Write& w : writes_) pending |= w.ticket.id != 0 || (w.resend && !w.out_of_range);
     if (!pending || kernel_rt::monotonic_now_ns() > give_up) break;
     kernel_rt::sleep_until_ns(kernel_rt::monotonic_now_ns() + 10000000);
   }

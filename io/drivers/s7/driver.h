@@ -10,14 +10,27 @@
 //   writes (ewa/ewd): the task's output -> engine.write() when it changed (or
 //          every cycle, as configured), and every output again after its PLC
 //          reconnected (a restarted PLC holds its reset values). Each write ends
-//          acknowledged, failed (then sent again) or still pending. An output
-//          the task marks bad (a swap dropped it) is not sent. Its delivery
-//          entry is bad while its PLC is not connected or its last write failed.
+//          acknowledged, failed or still pending. A write lost with the link is
+//          sent again; one the PLC refused (no such DB, ...) is not, until the
+//          value changes or the PLC reconnects: it would only be refused again.
+//          An output the task marks bad (a swap dropped it) is not sent. Its
+//          delivery entry is bad while its PLC is not connected or its last
+//          write failed or was refused.
+//   range:  an output is converted to its item's type (after scale and offset)
+//          and never clamped or wrapped: 40000 for an INT item, NaN for a REAL,
+//          -1 for a WORD are refused. Such a value is not sent (the PLC keeps
+//          what it had), counts once in writes_failed per refused value, turns
+//          the delivery entry bad until a value that fits is sent, and is
+//          logged once per item with the type's range. Why not clamp: a PLC
+//          holding 32767 where the task meant 40000 looks delivered, and is not.
 //   status: each PLC's state, round-trip times and histogram, timeouts, errors,
 //          reconnects and write counts -> the image's generic link rows.
-//   log:    link down/up (at most one message per PLC every few seconds, with a
-//          count of what was held back), a PLC unreachable at start, and each
-//          item the PLC refuses, once per item, with the S7 return code by name.
+//   log:    link down/up (the first few at once, then at most one per PLC every
+//          few seconds; a message held back is logged when the interval ends,
+//          with the PLC's state then and a count of the changes in between, so
+//          the last word in the log is always the link's current state), a PLC
+//          unreachable at start, and each item the PLC refuses, once per item,
+//          with the S7 return code by name.
 #pragma once
 
 #include <memory>
@@ -48,11 +61,17 @@ class S7Driver final : public io::Driver {
     ItemId item;
     S7WriteMode mode;
     uint32_t plc;  // index into plcs_
-    double last = 0;
+    DataType type = DataType::kByte;
+    double scale = 1;
+    double offset = 0;
+    double last = 0;       // the value last sent
     bool sent = false;
     bool resend = false;
-    bool failed = false;  // the last write ended failed
+    bool failed = false;   // the last write ended failed or refused
     bool refusal_logged = false;
+    bool out_of_range = false;  // the task's current value does not fit the type
+    bool range_logged = false;
+    double refused_value = 0;   // the value out_of_range refers to (counted once)
     WriteTicket ticket;
     std::string what;
   };
@@ -61,15 +80,22 @@ class S7Driver final : public io::Driver {
     uint64_t connects = 0;
     bool ever_ready = false;
     bool said_unreachable = false;
-    int64_t next_log_ns = 0;  // rate limit of down/up messages
-    uint32_t held_back = 0;   // changes not logged because of it
+    // Rate limit of down/up messages: a budget of messages, one more every
+    // interval up to the burst; changes made while it is empty are counted and
+    // summed up in the next message.
+    uint32_t log_budget = 0;
+    int64_t next_refill_ns = 0;
+    uint32_t unlogged = 0;    // link changes since the last message
   };
 
   Result<void> on_start() override;
   void cycle(int64_t now_ns) noexcept override;
   void on_stop() noexcept override;
   void on_joined() noexcept override;
+  void cycle_write(uint32_t j, uint32_t k, int64_t now_ns) noexcept;
+  void send(Write& w, double value) noexcept;
   void track_status(int64_t now_ns) noexcept;
+  void log_link_change(size_t i, const PlcStatus& st) noexcept;
   void publish_status() noexcept;
 
   const S7DriverSettings& settings_;
