@@ -6,6 +6,10 @@
 // "costs nothing" is asserted as "no poll of a healthy PLC was missed".
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <string>
+#include <utility>
+
 #include <cstring>
 #include <vector>
 
@@ -144,6 +148,35 @@ TEST(Engine, acknowledges_writes_and_the_plc_holds_the_values) {
   const EngineCounters c = rig.engine.counters();
   EXPECT_EQ(c.writes_queued, 4u);
   EXPECT_EQ(c.writes_acked, 4u);
+}
+
+// A value the item cannot hold (after scale and offset) fails without being
+// sent: 40000 used to be clamped to 32767 and acknowledged.
+TEST(Engine, fails_a_value_its_item_cannot_hold_instead_of_clamping_it) {
+  Rig rig;
+  rig.add_plc(FakeBehavior{});
+  const ItemId i = rig.item(0, "DB2.DBW10:INT");
+  const ItemId scaled = rig.item(0, "DB2.DBB12", 0.1);  // raw = value / 0.1
+  rig.start();
+  ASSERT_TRUE(wait_for([&] { return rig.good(i) && rig.good(scaled); }));
+  const uint8_t marker[] = {0x12, 0x34, 0x56};
+  rig.fake.write_memory(rig.eps[0], Area::kDB, 2, 10, marker);
+  for (const auto& [item, value] : {std::pair{i, 40000.0}, std::pair{i, -32769.0}, std::pair{i, std::nan("")},
+                                    std::pair{scaled, 25.6}}) {
+    const WriteTicket t = rig.engine.write(item, value);
+    ASSERT_TRUE(wait_for([&] { return rig.engine.write_result(t).state != WriteState::kPending; }));
+    EXPECT_EQ(rig.engine.write_result(t).state, WriteState::kFailed) << value;
+  }
+  EXPECT_EQ(rig.fake.read_memory(rig.eps[0], Area::kDB, 2, 10, 3), (Bytes{0x12, 0x34, 0x56}));
+  // The status says why (it is published every 250 ms).
+  EXPECT_TRUE(wait_for([&] {
+    return std::string(rig.engine.status(rig.plcs[0]).last_error).find("out of range for BYTE (0..255)") !=
+           std::string::npos;
+  })) << rig.engine.status(rig.plcs[0]).last_error;
+  const WriteTicket ok = rig.engine.write(scaled, 25.5);
+  ASSERT_TRUE(wait_for([&] { return rig.engine.write_result(ok).state != WriteState::kPending; }));
+  EXPECT_EQ(rig.engine.write_result(ok).state, WriteState::kAcknowledged);
+  EXPECT_EQ(rig.fake.read_memory(rig.eps[0], Area::kDB, 2, 12, 1), Bytes{255});
 }
 
 TEST(Engine, fails_a_write_the_plc_refuses_and_one_it_never_gets) {
