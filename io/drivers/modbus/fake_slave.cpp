@@ -197,12 +197,18 @@ void FakeSlave::handle(Client& c, const uint8_t* frame, size_t len, std::vector<
     drop = true;
     return;
   }
+  if (magic == kMagicBadLength && pdu.size() >= 2 && !(pdu[0] & 0x80) && pdu[0] <= 4) {
+    // A byte count that does not match the request: two bytes too many.
+    pdu[1] = static_cast<uint8_t>(pdu[1] + 2);
+    pdu.push_back(0);
+    pdu.push_back(0);
+  }
   std::vector<uint8_t> reply;
   uint16_t tid = be16(frame);
   if (magic == kMagicBadId) tid = static_cast<uint16_t>(tid + 1);
   put16(reply, tid);
   put16(reply, 0);
-  put16(reply, static_cast<uint32_t>(pdu.size()) + 1 + (magic == kMagicBadLength ? 3u : 0u));
+  put16(reply, static_cast<uint32_t>(pdu.size()) + 1);
   reply.push_back(unit);
   reply.insert(reply.end(), pdu.begin(), pdu.end());
   int64_t due = kernel_rt::monotonic_now_ns() + opt_.reply_delay_ns;

@@ -5,7 +5,7 @@
 //   65281..65291  (0xFF01..0xFF0B)  answers with exception (address - 0xFF00)
 //   65500  kMagicDelay      answers after `delay_ns`
 //   65501  kMagicDrop       closes the connection instead of answering
-//   65502  kMagicBadLength  answers with a wrong MBAP length
+//   65502  kMagicBadLength  answers reads with a byte count two bytes too long
 //   65503  kMagicSilent     never answers
 //   65504  kMagicBadId      answers with another transaction id
 // Whole-slave faults for tests: set_silent() (accepts, never answers), kill()
