@@ -30,10 +30,10 @@ const KeySpec kModbusKeys[] = {
 
 const KeySpec kSlaveKeys[] = {
     {"name", ValueType::kName, true, 0, 0, nullptr, "", "The slave's name in maps, status and logs."},
-    {"address", ValueType::kText, false, 0, 0, "numeric IPv4", "",
+    {"address", ValueType::kText, false, 0, 0, "numeric IPv4", "none: RTU",
      "Modbus TCP: the slave's IPv4 address (give `address` or `device`)."},
     {"port", ValueType::kInteger, false, 1, 65535, nullptr, "502", "Modbus TCP port."},
-    {"device", ValueType::kText, false, 0, 0, "serial device", "",
+    {"device", ValueType::kText, false, 0, 0, "serial device", "none: TCP",
      "Modbus RTU: the serial device (/dev/ttyUSB0); slaves naming the same device share the line."},
     {"baud", ValueType::kInteger, false, 300, 4000000, nullptr, "19200", "RTU: bits per second."},
     {"parity", ValueType::kChoice, false, 0, 0, "N|E|O", "E", "RTU: none, even or odd."},
