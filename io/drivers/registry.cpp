@@ -8,7 +8,8 @@
 
 #define RTPLC_BUILTIN_DRIVERS(X) \
   X(sim)                         \
-  X(s7)
+  X(s7)                         \
+  X(modbus)
 
 #define RTPLC_DECLARE_DRIVER(ns) \
   namespace rtplc::ns {          \

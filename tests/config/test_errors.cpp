@@ -249,11 +249,11 @@ TEST(ConfigErrors, unknown_driver_kind_lists_the_known_ones_and_nothing_else) {
   LoadResult r = parse(
       "tasks: [{program: a.fbd}]\n"
       "drivers:\n"
-      "  - kind: modbus\n"
+      "  - kind: profinet\n"
       "    host: 10.0.0.2\n"
       "  - name: x\n");
   EXPECT_TRUE(
-      has_diag(r, 3, 11, "unknown driver kind 'modbus'; known kinds: " + known_driver_kinds()));
+      has_diag(r, 3, 11, "unknown driver kind 'profinet'; known kinds: " + known_driver_kinds()));
   EXPECT_TRUE(
       has_diag(r, 5, 5, "a driver needs 'kind' (a driver kind (" + known_driver_kinds() + "))"));
   // Keys of the unknown kind are not blamed: the kind is the mistake.

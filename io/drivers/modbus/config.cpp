@@ -1,0 +1,414 @@
+// The `modbus` driver kind of the configuration (issue 9, item 1): slaves over
+// TCP or RTU with their poll period, timeout, retries and batching caps, and
+// the maps from the PLC blocks' X/Y/M/R channels to Modbus items. Every value
+// is checked here with a position, so a config that loads never fails later.
+#include <arpa/inet.h>
+
+#include <fmt/format.h>
+
+#include <map>
+#include <string>
+
+#include "io/drivers/modbus/config.h"
+
+#include "blocks/image.h"
+#include "config/yaml_reader.h"
+
+namespace rtplc::modbus {
+using namespace config;
+namespace {
+
+const KeySpec kModbusKeys[] = {
+    {"slaves", ValueType::kList, true, 1, 1024, "modbus-slave", "",
+     "The slaves this driver polls: TCP slaves each on their own connection, RTU units "
+     "naming one `device` share its line."},
+    {"read", ValueType::kList, false, 0, 65536, "modbus-map", "no reads",
+     "Items read into `prx`/`pry`/`prm`/`prr` channels (`in/PLC<device>/pN.dN.cN`)."},
+    {"write", ValueType::kList, false, 0, 65536, "modbus-map", "no writes",
+     "Items written from `pwy`/`pwm`/`pwr` channels (`out/PLC<device>/pN.dN.cN`)."},
+};
+
+const KeySpec kSlaveKeys[] = {
+    {"name", ValueType::kName, true, 0, 0, nullptr, "", "The slave's name in maps, status and logs."},
+    {"address", ValueType::kText, false, 0, 0, "numeric IPv4", "none: RTU",
+     "Modbus TCP: the slave's IPv4 address (give `address` or `device`)."},
+    {"port", ValueType::kInteger, false, 1, 65535, nullptr, "502", "Modbus TCP port."},
+    {"device", ValueType::kText, false, 0, 0, "serial device", "none: TCP",
+     "Modbus RTU: the serial device (/dev/ttyUSB0); slaves naming the same device share the line."},
+    {"baud", ValueType::kInteger, false, 300, 4000000, nullptr, "19200", "RTU: bits per second."},
+    {"parity", ValueType::kChoice, false, 0, 0, "N|E|O", "E", "RTU: none, even or odd."},
+    {"data_bits", ValueType::kInteger, false, 5, 8, nullptr, "8", "RTU: data bits."},
+    {"stop_bits", ValueType::kInteger, false, 1, 2, nullptr, "1", "RTU: stop bits."},
+    {"unit", ValueType::kInteger, false, 0, 247, nullptr, "1", "The unit (slave) id."},
+    {"poll", ValueType::kDuration, false, 0.001, 3600, nullptr, "100ms",
+     "Every read item of this slave is read this often (unless its map says `poll`)."},
+    {"timeout", ValueType::kDuration, false, 0.001, 60, nullptr, "500ms",
+     "A request unanswered this long is a timeout."},
+    {"retries", ValueType::kInteger, false, 0, 10, nullptr, "1",
+     "Further attempts after a timeout before the poll fails (TCP: then reconnect)."},
+    {"m_offset", ValueType::kInteger, false, 0, 65535, nullptr, "0",
+     "M channels map to coil `address + m_offset`."},
+    {"max_registers", ValueType::kInteger, false, 1, 125, nullptr, "125",
+     "At most this many registers per read request (contiguous items are batched)."},
+    {"max_bits", ValueType::kInteger, false, 1, 2000, nullptr, "2000",
+     "At most this many coils or discrete inputs per read request."},
+};
+
+const KeySpec kMapKeys[] = {
+    {"device", ValueType::kChoice, true, 0, 0, "X|Y|M|R", "",
+     "The block's device letter: X discrete input, Y coil, M coil at `m_offset`, R register."},
+    {"channel", ValueType::kChannel, true, 0, 0, nullptr, "",
+     "The block's address pN.dN.cN (its p, d, c)."},
+    {"slave", ValueType::kName, true, 0, 0, nullptr, "", "A name from `slaves`."},
+    {"address", ValueType::kInteger, true, 0, 65535, nullptr, "", "The 0-based protocol address."},
+    {"table", ValueType::kChoice, false, 0, 0, "hr|ir", "hr",
+     "R reads only: holding registers or input registers."},
+    {"type", ValueType::kChoice, false, 0, 0, "u16|i16|u32|i32|f32", "u16",
+     "R only: the register's type; u32/i32/f32 take two registers."},
+    {"word_order", ValueType::kChoice, false, 0, 0, "high_first|low_first", "high_first",
+     "R two-register types: which word comes first."},
+    {"scale", ValueType::kReal, false, 0, 0, nullptr, "1",
+     "R only: engineering value = raw * scale + offset (writes apply the inverse)."},
+    {"offset", ValueType::kReal, false, 0, 0, nullptr, "0", "See scale."},
+    {"poll", ValueType::kDuration, false, 0.001, 3600, nullptr, "the slave's",
+     "Reads only: this item's poll period (items with equal periods are batched together)."},
+    {"mode", ValueType::kChoice, false, 0, 0, "on_change|every_cycle", "on_change",
+     "Writes only: send when the task's value changes (and again after a failure or a "
+     "reconnect), or every driver cycle."},
+};
+
+const SectionSpec kModbusSection{
+    "modbus", "a modbus driver", "`kind: modbus`",
+    "The Modbus master, TCP and RTU. Each TCP slave has its own I/O thread (below the task "
+    "band) with its own timeout, so a slave that is slow, silent or gone costs the others "
+    "nothing; RTU units on one line are served in turn, and a unit that stopped answering is "
+    "polled less often until it answers. Contiguous items of one slave, table and poll period "
+    "are read with as few requests as the caps allow. `period` is how often the driver "
+    "exchanges values with the process image (and the longest a write waits before it is "
+    "sent). A slave that times out marks exactly its channels bad, keeping their last "
+    "values; its statistics are a link row in `rtplc status` and `rtplc monitor`.",
+    kModbusKeys};
+const SectionSpec kSlaveSection{"modbus-slave", "a Modbus slave", "`slaves:` entries of a modbus driver", "",
+                                kSlaveKeys};
+const SectionSpec kMapSection{"modbus-map", "a channel map", "`read:` and `write:` entries of a modbus driver",
+                              "", kMapKeys};
+const SectionSpec* const kSubsections[] = {&kSlaveSection, &kMapSection};
+
+void parse_slave(YamlReader& r, const YAML::Node& node, SourcePos where, ModbusSettings& out) {
+  SlaveConfig sc;
+  sc.pos = YamlReader::pos(node).line ? YamlReader::pos(node) : where;
+  sc.name_pos = sc.address_pos = sc.pos;
+  Fields f = r.fields(node, sc.pos, kSlaveSection.noun, {kSlaveSection.keys});
+  if (!f.is_map()) return;
+  bool ok = true;
+  if (const Field* n = f.get("name")) {
+    sc.name_pos = n->pos;
+    if (auto v = r.name(*n)) sc.name = *v;
+    else ok = false;
+  } else {
+    ok = false;
+  }
+  const Field* addr = f.get("address");
+  const Field* dev = f.get("device");
+  if ((addr != nullptr) == (dev != nullptr)) {
+    r.error(addr ? addr->pos : dev ? dev->pos : sc.pos,
+            "a Modbus slave needs exactly one of 'address' (TCP) or 'device' (RTU)");
+    ok = false;
+  }
+  if (addr) {
+    sc.address_pos = addr->pos;
+    if (auto v = r.text(*addr)) {
+      in_addr probe{};
+      if (inet_pton(AF_INET, v->c_str(), &probe) == 1) {
+        sc.address = *v;
+      } else {
+        r.error(*addr, "'address' must be a numeric IPv4 address (the driver never waits on DNS), got '" + *v + "'");
+        ok = false;
+      }
+    } else {
+      ok = false;
+    }
+  }
+  if (dev) {
+    sc.address_pos = dev->pos;
+    if (auto v = r.text(*dev)) sc.device = *v;
+    else ok = false;
+  }
+  auto int_key = [&](const char* key, auto& dst) {
+    if (const Field* k = f.get(key)) {
+      if (auto v = r.integer(*k)) dst = static_cast<std::remove_reference_t<decltype(dst)>>(*v);
+      else ok = false;
+    }
+  };
+  int_key("port", sc.port);
+  int_key("baud", sc.baud);
+  int_key("data_bits", sc.data_bits);
+  int_key("stop_bits", sc.stop_bits);
+  int_key("unit", sc.unit);
+  int_key("retries", sc.retries);
+  int_key("m_offset", sc.m_offset);
+  int_key("max_registers", sc.max_registers);
+  int_key("max_bits", sc.max_bits);
+  if (const Field* p = f.get("parity")) {
+    if (auto v = r.choice(*p)) sc.parity = (*v)[0];
+    else ok = false;
+  }
+  for (const char* key : {"port"}) {
+    if (f.get(key) && !sc.device.empty()) {
+      r.error(*f.get(key), fmt::format("'{}' applies to TCP slaves only", key));
+      ok = false;
+    }
+  }
+  for (const char* key : {"baud", "parity", "data_bits", "stop_bits"}) {
+    if (f.get(key) && sc.device.empty() && dev == nullptr) {
+      r.error(*f.get(key), fmt::format("'{}' applies to RTU slaves (with 'device') only", key));
+      ok = false;
+    }
+  }
+  if (const Field* p = f.get("poll")) {
+    if (auto v = r.duration(*p)) sc.poll_s = *v;
+    else ok = false;
+  }
+  if (const Field* p = f.get("timeout")) {
+    if (auto v = r.duration(*p)) sc.timeout_s = *v;
+    else ok = false;
+  }
+  if (ok) out.slaves.push_back(std::move(sc));
+}
+
+void parse_map(YamlReader& r, const YAML::Node& node, SourcePos where, bool write, std::vector<ChannelMap>& out) {
+  ChannelMap m;
+  m.pos = YamlReader::pos(node).line ? YamlReader::pos(node) : where;
+  m.channel_pos = m.slave_pos = m.pos;
+  Fields f = r.fields(node, m.pos, kMapSection.noun, {kMapSection.keys});
+  if (!f.is_map()) return;
+  bool ok = true;
+  if (const Field* d = f.get("device")) {
+    if (auto v = r.choice(*d)) m.device = (*v)[0];
+    else ok = false;
+  }
+  if (write && m.device == 'X' && f.get("device")) {
+    r.error(*f.get("device"), "X maps to discrete inputs, which a master cannot write (use Y, M or R)");
+    ok = false;
+  }
+  if (const Field* c = f.get("channel")) {
+    m.channel_pos = c->pos;
+    if (auto a = r.channel(*c)) {
+      m.addr = *a;
+      m.channel = to_string(*a);
+    } else {
+      ok = false;
+    }
+  }
+  if (const Field* s = f.get("slave")) {
+    m.slave_pos = s->pos;
+    if (auto v = r.name(*s)) m.slave = *v;
+    else ok = false;
+  }
+  int64_t address = 0;
+  if (const Field* a = f.get("address")) {
+    if (auto v = r.integer(*a)) address = *v;
+    else ok = false;
+  }
+  const bool reg = m.device == 'R';
+  m.item.table = m.device == 'X' ? Table::kDiscreteInput : reg ? Table::kHoldingRegister : Table::kCoil;
+  m.item.type = reg ? ItemType::kU16 : ItemType::kBit;
+  m.item.address = static_cast<uint16_t>(address);
+  for (const char* key : {"table", "type", "word_order", "scale", "offset"}) {
+    if (f.get(key) && !reg) {
+      r.error(*f.get(key), fmt::format("'{}' applies to R (register) maps only", key));
+      ok = false;
+    }
+  }
+  if (const Field* t = f.get("table"); t && reg) {
+    if (auto v = r.choice(*t)) {
+      if (*v == "ir") {
+        if (write) {
+          r.error(*t, "input registers are read-only: a write map writes holding registers");
+          ok = false;
+        }
+        m.item.table = Table::kInputRegister;
+      }
+    } else {
+      ok = false;
+    }
+  }
+  if (const Field* t = f.get("type"); t && reg) {
+    if (auto v = r.choice(*t)) {
+      auto a = parse_address(fmt::format("hr:0:{}", *v));
+      if (a) m.item.type = a->type;
+    } else {
+      ok = false;
+    }
+  }
+  if (const Field* w = f.get("word_order"); w && reg) {
+    if (auto v = r.choice(*w)) {
+      if (width(m.item) != 2) {
+        r.error(*w, "'word_order' applies to two-register types (u32, i32, f32) only");
+        ok = false;
+      }
+      m.item.swapped = *v == "low_first";
+    } else {
+      ok = false;
+    }
+  }
+  if (ok && address + width(m.item) > 65536) {
+    r.error(*f.get("address"), "a two-register value needs address + 1 <= 65535");
+    ok = false;
+  }
+  for (const char* key : {"scale", "offset"}) {
+    if (const Field* k = f.get(key); k && reg) {
+      if (auto v = r.real(k->value, k->pos, std::string("'") + key + "'")) {
+        (std::string(key) == "scale" ? m.scale : m.offset) = *v;
+      } else {
+        ok = false;
+      }
+    }
+  }
+  if (m.scale == 0) {
+    r.error(f.get("scale") ? f.get("scale")->pos : m.pos, "'scale' must not be 0");
+    ok = false;
+  }
+  if (const Field* p = f.get("poll")) {
+    if (write) {
+      r.error(*p, "'poll' applies to read maps only");
+      ok = false;
+    } else if (auto v = r.duration(*p)) {
+      m.poll_s = *v;
+    } else {
+      ok = false;
+    }
+  }
+  if (const Field* k = f.get("mode")) {
+    if (!write) {
+      r.error(*k, "'mode' applies to write maps only");
+      ok = false;
+    } else if (auto v = r.choice(*k)) {
+      m.mode = *v == "every_cycle" ? WriteMode::kEveryCycle : WriteMode::kOnChange;
+    } else {
+      ok = false;
+    }
+  }
+  if (ok) out.push_back(std::move(m));
+}
+
+void parse_modbus(YamlReader& r, const Fields& f, DriverConfig& out) {
+  ModbusSettings s;
+  if (const Field* slaves = f.get("slaves")) {
+    if (auto items = r.list(*slaves)) {
+      for (const YAML::Node& n : *items) parse_slave(r, n, slaves->pos, s);
+    }
+  }
+  for (const char* key : {"read", "write"}) {
+    const Field* list = f.get(key);
+    if (!list) continue;
+    auto items = r.list(*list);
+    if (!items) continue;
+    const bool write = std::string(key) == "write";
+    for (const YAML::Node& n : *items) {
+      parse_map(r, n, list->pos, write, write ? s.writes : s.reads);
+    }
+  }
+  std::map<std::string, const SlaveConfig*> names;
+  std::map<std::string, const SlaveConfig*> lines;  // RTU device -> first slave on it
+  for (const SlaveConfig& sc : s.slaves) {
+    auto [it, fresh] = names.emplace(sc.name, &sc);
+    if (!fresh) {
+      r.error(sc.name_pos, fmt::format("slave name '{}' is used twice (first at line {})", sc.name,
+                                       it->second->name_pos.line));
+    }
+    if (!sc.rtu()) continue;
+    auto [line, first] = lines.emplace(sc.device, &sc);
+    if (first) continue;
+    const SlaveConfig& o = *line->second;
+    if (o.baud != sc.baud || o.parity != sc.parity || o.data_bits != sc.data_bits || o.stop_bits != sc.stop_bits) {
+      r.error(sc.address_pos, fmt::format("slave '{}' is on {} with other line settings than '{}' (line {})",
+                                          sc.name, sc.device, o.name, o.pos.line));
+    }
+    if (o.unit == sc.unit) {
+      r.error(sc.address_pos, fmt::format("slave '{}' has unit {} on {}, as '{}' (line {}) has", sc.name,
+                                          sc.unit, sc.device, o.name, o.pos.line));
+    }
+  }
+  for (auto* maps : {&s.reads, &s.writes}) {
+    std::map<std::string, SourcePos> seen;
+    for (ChannelMap& m : *maps) {
+      auto it = names.find(m.slave);
+      if (it == names.end()) {
+        r.error(m.slave_pos, "no slave named '" + m.slave + "' in this driver's slaves");
+        continue;
+      }
+      if (m.device == 'M') {
+        const uint32_t coil = uint32_t{m.item.address} + it->second->m_offset;
+        if (coil > 65535) {
+          r.error(m.pos, fmt::format("M address {} + m_offset {} is beyond coil 65535", m.item.address,
+                                     it->second->m_offset));
+        }
+        m.item.address = static_cast<uint16_t>(coil);
+      }
+      const std::string key = std::string(1, m.device) + "/" + m.channel;
+      auto [seen_it, fresh] = seen.emplace(key, m.channel_pos);
+      if (!fresh) {
+        r.error(m.channel_pos, fmt::format("channel {} {} is mapped twice (first at line {})", m.device, m.channel,
+                                           seen_it->second.line));
+      }
+    }
+  }
+  out.settings = std::move(s);
+}
+
+std::string modbus_doc() {
+  return "Example: a register pair as a float into `prr(p1, d0, c0, ...)`, a coil from "
+         "`pwy(..., p1, d0, c1, ...)`:\n\n```yaml\ndrivers:\n  - kind: modbus\n    name: field\n"
+         "    slaves:\n      - {name: pump, address: 10.0.0.20, unit: 1, poll: 50ms, timeout: 200ms}\n"
+         "      - {name: meter, device: /dev/ttyUSB0, baud: 19200, parity: E, unit: 7}\n"
+         "    read:\n      - {device: R, channel: p1.d0.c0, slave: pump, address: 4, type: f32}\n"
+         "      - {device: X, channel: p1.d0.c2, slave: meter, address: 3}\n"
+         "    write:\n      - {device: Y, channel: p1.d0.c1, slave: pump, address: 21}\n```\n\n"
+         "See docs/modbus.md for the commissioning commands and the fake slave.\n";
+}
+
+// Each read map provides a channel (region index = map index); each write map
+// consumes a task output; each slave is one link row.
+DriverClaims modbus_claims(const DriverConfig& d) {
+  const ModbusSettings& s = settings_of(d);
+  DriverClaims c;
+  for (const ChannelMap& m : s.reads) {
+    c.provides.push_back({read_key(m), fmt::format("{}.{}.{}", d.name, m.device, m.channel), m.channel_pos});
+  }
+  for (const ChannelMap& m : s.writes) {
+    c.consumes.push_back({write_key(m), fmt::format("{}.{}.{}", d.name, m.device, m.channel), m.channel_pos});
+  }
+  c.links = static_cast<uint32_t>(s.slaves.size());
+  return c;
+}
+
+}  // namespace
+
+std::string SlaveConfig::peer() const {
+  if (rtu()) return fmt::format("{} unit {}", device, unit);
+  return fmt::format("{}:{} unit {}", address, port, unit);
+}
+
+const ModbusSettings& settings_of(const DriverConfig& d) {
+  static const ModbusSettings kNone;
+  const auto* s = std::any_cast<ModbusSettings>(&d.settings);
+  return s ? *s : kNone;
+}
+
+std::string read_key(const ChannelMap& m) {
+  return channel_key(BindingDir::kInput, IoGroup::kPlc, m.device, m.addr.p, m.addr.d, m.addr.c);
+}
+
+std::string write_key(const ChannelMap& m) {
+  return channel_key(BindingDir::kOutput, IoGroup::kPlc, m.device, m.addr.p, m.addr.d, m.addr.c);
+}
+
+const DriverKind kConfigKind{
+    "modbus",         "Modbus TCP and RTU slaves, for prx/pry/prm/prr/pwy/pwm/pwr",
+    &kModbusSection,  kSubsections,
+    &parse_modbus,    &modbus_claims,
+    &modbus_doc,
+};
+
+}  // namespace rtplc::modbus

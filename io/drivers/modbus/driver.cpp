@@ -1,0 +1,230 @@
+// The modbus driver's bridge thread and its kind (see driver.h).
+#include "io/drivers/modbus/driver.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include "io/drivers/modbus/cli.h"
+#include "kernel_rt/clock.h"
+
+namespace rtplc::modbus {
+namespace {
+
+constexpr int64_t kStatusPeriodNs = 100000000;
+
+}  // namespace
+
+ModbusDriver::ModbusDriver(const io::DriverSetup& setup)
+    : io::Driver(setup, "modbus"),
+      settings_(settings_of(*setup.config)),
+      exchange_(settings_.reads.size(), settings_.writes.size(), settings_.slaves.size()) {}
+
+ModbusDriver::~ModbusDriver() { on_joined(); }
+
+Result<void> ModbusDriver::prepare() {
+  const auto& s = settings_;
+  LineOptions opt;
+  opt.driver = name();
+  opt.wake_ns = setup().period_ns;
+  // Lines only move bytes: below every task, so a slave never delays one.
+  opt.priority = setup().helper_priority;
+  opt.cpu = setup().cpu;
+  opt.events = setup().events;
+  std::map<std::string, std::vector<uint32_t>> rtu_lines;
+  std::vector<std::vector<uint32_t>> groups;
+  for (uint32_t i = 0; i < s.slaves.size(); ++i) {
+    const SlaveConfig& sc = s.slaves[i];
+    describe_link(i, sc.name, sc.peer());
+    if (sc.rtu()) rtu_lines[sc.device].push_back(i);
+    else groups.push_back({i});
+  }
+  for (auto& [device, slaves] : rtu_lines) groups.push_back(slaves);
+  std::vector<uint32_t> line_of(s.slaves.size(), 0);
+  for (auto& g : groups) {
+    for (uint32_t slave : g) line_of[slave] = static_cast<uint32_t>(lines_.size());
+    lines_.push_back(std::make_unique<Line>(s, g, exchange_, opt));
+  }
+  auto slave_index = [&](const std::string& name) -> uint32_t {
+    for (uint32_t i = 0; i < s.slaves.size(); ++i) {
+      if (s.slaves[i].name == name) return i;
+    }
+    return 0;  // the parser refused maps naming no slave
+  };
+  reads_.assign(s.reads.size(), ItemSample{});
+  for (const ChannelMap& m : s.writes) {
+    Write w;
+    w.slave = slave_index(m.slave);
+    w.line = line_of[w.slave];
+    writes_.push_back(w);
+  }
+  track_.assign(s.slaves.size(), SlaveTrack{});
+  return {};
+}
+
+Result<void> ModbusDriver::on_start() {
+  for (auto& l : lines_) {
+    if (auto r = l->start(); !r) return make_error(r.error());
+  }
+  return {};
+}
+
+void ModbusDriver::on_joined() noexcept {
+  for (auto& l : lines_) l->join();
+}
+
+void ModbusDriver::cycle(int64_t now) noexcept {
+  if (now >= next_status_) {
+    track_status();
+    publish_status();
+    next_status_ = now + kStatusPeriodNs;
+  }
+  const uint32_t k = begin_snapshot();
+  for (uint32_t i = 0; i < reads_.size(); ++i) {
+    exchange_.samples[i].try_load(reads_[i]);  // a miss keeps the last sample
+    const ItemSample& smp = reads_[i];
+    const Quality q = smp.good && std::isfinite(smp.value) ? Quality::kGood : Quality::kBad;
+    put_input(k, i, smp.value, q, smp.timestamp_ns);
+  }
+  for (uint32_t j = 0; j < writes_.size(); ++j) {
+    Write& w = writes_[j];
+    const ChannelMap& m = settings_.writes[j];
+    if (w.in_flight != 0) {
+      WriteOutcome out;
+      if (exchange_.outcomes[j].try_load(out) && out.seq == w.in_flight) {
+        w.in_flight = 0;
+        if (out.ok) {
+          ++track_[w.slave].acked;
+          w.failed = false;
+          w.refusal_logged = false;
+        } else {
+          ++track_[w.slave].failed;
+          w.failed = true;
+          w.resend = true;
+          if (out.exception != 0 && !w.refusal_logged) {
+            w.refusal_logged = true;
+            log(io::LinkEvent::Level::kError,
+                fmt::format("slave {}: write of {} refused: {}", m.slave, to_string(m.item), exception_text(out.exception)));
+          }
+        }
+      }
+    }
+    const bool up = slave_up(w.slave);
+    double value = 0;
+    Quality q = Quality::kBad;
+    const bool got = read_output(j, value, q);
+    const bool sendable = got && (q == Quality::kGood || q == Quality::kForced);
+    double raw = m.item.type == ItemType::kBit ? (value != 0 ? 1.0 : 0.0) : (value - m.offset) / m.scale;
+    if (m.item.type != ItemType::kBit && m.item.type != ItemType::kF32) raw = std::round(raw);
+    const bool in_range = fits(m.item, raw);
+    const Quality delivered = up && !w.failed && w.sent && sendable && in_range ? Quality::kGood : Quality::kBad;
+    put_delivery(k, j, w.last, delivered, now);
+    if (!sendable) continue;
+    const bool changed = !w.sent || value != w.last;
+    const bool due = m.mode == WriteMode::kEveryCycle || changed || w.resend;
+    if (!due || w.in_flight != 0) continue;  // one write per item in flight: the newest wins next
+    if (!in_range) {
+      if (changed) {
+        ++track_[w.slave].rejected;
+        log(io::LinkEvent::Level::kError,
+            fmt::format("slave {}: {} = {} is out of range for {}; not sent", m.slave, to_string(m.item), value,
+                        type_name(m.item.type)));
+      }
+      w.last = value;
+      w.sent = true;
+      w.failed = true;
+      continue;
+    }
+    if (!up && w.sent) continue;  // sent again once the slave is back (track_status)
+    WriteJob job;
+    job.write = j;
+    job.seq = w.next_seq;
+    encode(m.item, raw, job.words);
+    if (!lines_[w.line]->push(job)) {
+      ++track_[w.slave].rejected;  // the line's queue is full: try again next cycle
+      continue;
+    }
+    ++w.next_seq;
+    w.in_flight = job.seq;
+    w.last = value;
+    w.sent = true;
+    w.resend = false;
+  }
+  end_snapshot(k, now);
+}
+
+// A slave that (re)connected gets every one of its outputs sent again (it may
+// have restarted with its reset values).
+void ModbusDriver::track_status() noexcept {
+  for (uint32_t i = 0; i < track_.size(); ++i) {
+    SlaveTrack& t = track_[i];
+    if (!exchange_.status[i].try_load(t.st)) continue;
+    if (t.st.connects != t.connects) {
+      for (Write& w : writes_) {
+        if (w.slave == i) w.resend = true;
+      }
+      t.connects = t.st.connects;
+    }
+  }
+}
+
+void ModbusDriver::publish_status() noexcept {
+  for (SlaveTrack& t : track_) t.pending = 0;
+  for (const Write& w : writes_) track_[w.slave].pending += w.in_flight != 0;
+  for (uint32_t i = 0; i < track_.size(); ++i) {
+    const SlaveTrack& t = track_[i];
+    const UnitStatus& st = t.st;
+    io::LinkStatus& ls = link_row(i);
+    const auto r = std::memory_order_relaxed;
+    ls.state.store(st.state, r);
+    ls.quality.store(static_cast<uint8_t>(slave_up(i) ? Quality::kGood : Quality::kBad), r);
+    ls.rtt_p50_us.store(st.rtt_p50_us, r);
+    ls.rtt_p99_us.store(st.rtt_p99_us, r);
+    ls.rtt_max_us.store(st.rtt_max_us, r);
+    ls.connects.store(st.connects, r);
+    ls.reconnects.store(st.reconnects, r);
+    ls.timeouts.store(st.timeouts, r);
+    ls.errors.store(st.errors, r);
+    ls.polls_completed.store(st.polls_completed, r);
+    ls.polls_missed.store(st.polls_missed, r);
+    ls.polls_offline.store(st.polls_offline, r);
+    ls.writes_acked.store(t.acked, r);
+    ls.writes_failed.store(t.failed, r);
+    ls.writes_pending.store(t.pending, r);
+    ls.writes_rejected.store(t.rejected, r);
+    for (size_t b = 0; b < io::kLinkLatencyBuckets; ++b) ls.latency[b].store(st.buckets.counts[b], r);
+  }
+}
+
+void ModbusDriver::on_stop() noexcept {
+  // The tasks have set their outputs to their safe values: queue those (the
+  // lines send what is queued before they end), and give the slaves a moment.
+  const int64_t give_up = kernel_rt::monotonic_now_ns() + 1000000000;
+  for (;;) {
+    cycle(kernel_rt::monotonic_now_ns());
+    bool pending = false;
+    for (uint32_t j = 0; j < writes_.size(); ++j) {
+      pending |= writes_[j].in_flight != 0 && slave_up(writes_[j].slave);
+    }
+    if (!pending || kernel_rt::monotonic_now_ns() > give_up) break;
+    kernel_rt::sleep_until_ns(kernel_rt::monotonic_now_ns() + 5000000);
+  }
+  track_status();
+  publish_status();
+}
+
+namespace {
+
+Result<std::unique_ptr<io::Driver>> create(const io::DriverSetup& setup) {
+  auto d = std::make_unique<ModbusDriver>(setup);
+  if (auto r = d->prepare(); !r) return make_error(r.error());
+  return std::unique_ptr<io::Driver>(std::move(d));
+}
+
+}  // namespace
+
+const io::DriverKind kDriverKind{&kConfigKind, &create, &add_commands};
+
+}  // namespace rtplc::modbus

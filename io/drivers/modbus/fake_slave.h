@@ -1,0 +1,95 @@
+// A Modbus TCP slave with deterministic fault injection (issue 9, item 3), in
+// the style of libmodbus's unit-test server: ordinary requests read and write
+// four 65536-entry tables; a request whose address range covers a magic
+// address misbehaves in one defined way, every time:
+//   65281..65291  (0xFF01..0xFF0B)  answers with exception (address - 0xFF00)
+//   65500  kMagicDelay      answers after `delay_ns`
+//   65501  kMagicDrop       closes the connection instead of answering
+//   65502  kMagicBadLength  answers reads with a byte count two bytes too long
+//   65503  kMagicSilent     never answers
+//   65504  kMagicBadId      answers with another transaction id
+// Whole-slave faults for tests: set_silent() (accepts, never answers), kill()
+// and restart() (gone, then back on the same port), a delay on every reply.
+// One thread serves every client with poll(); the tables are behind a mutex
+// (this is a test peer, not an RT path). `rtplc modbus fake-slave` serves it.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "common/result.h"
+#include "io/drivers/modbus/address.h"
+
+namespace rtplc::modbus {
+
+inline constexpr uint16_t kMagicExceptionBase = 0xFF00;
+inline constexpr uint16_t kMagicDelay = 65500;
+inline constexpr uint16_t kMagicDrop = 65501;
+inline constexpr uint16_t kMagicBadLength = 65502;
+inline constexpr uint16_t kMagicSilent = 65503;
+inline constexpr uint16_t kMagicBadId = 65504;
+
+struct FakeSlaveOptions {
+  std::string bind = "127.0.0.1";
+  uint16_t port = 0;             // 0: any free port
+  std::vector<uint8_t> units;    // units that answer; empty: every unit
+  int64_t delay_ns = 2000000000; // kMagicDelay's delay
+  int64_t reply_delay_ns = 0;    // every reply waits this long (a slow slave)
+};
+
+class FakeSlave {
+ public:
+  explicit FakeSlave(FakeSlaveOptions opt = {});
+  ~FakeSlave();
+  FakeSlave(const FakeSlave&) = delete;
+  FakeSlave& operator=(const FakeSlave&) = delete;
+
+  Result<void> start();
+  void stop();
+  uint16_t port() const { return port_; }
+
+  // Gone: the listener and every connection closed. restart() listens again.
+  void kill();
+  Result<void> restart();
+  void set_silent(bool silent) { silent_.store(silent); }
+
+  uint16_t get(Table t, uint16_t address) const;
+  void set(Table t, uint16_t address, uint16_t value);
+  // An engineering value at an item (encode()d), for tests and --set.
+  void put(const Address& a, double value);
+  double value(const Address& a) const;
+  uint64_t requests() const { return requests_.load(); }
+  uint64_t writes() const { return writes_.load(); }
+
+ private:
+  struct Client {
+    int fd = -1;
+    std::vector<uint8_t> in;
+  };
+  struct Pending {
+    int fd;
+    int64_t due_ns;
+    std::vector<uint8_t> bytes;
+  };
+  void run();
+  void handle(Client& c, const uint8_t* frame, size_t len, std::vector<Pending>& out, bool& drop);
+  std::vector<uint8_t> answer(const uint8_t* pdu, size_t len, uint16_t& magic);
+  Result<void> listen();
+
+  FakeSlaveOptions opt_;
+  mutable std::mutex mu_;
+  std::vector<uint16_t> tables_[4];
+  std::atomic<int> listen_fd_{-1};
+  std::atomic<bool> stop_{false};
+  std::atomic<bool> silent_{false};
+  std::atomic<bool> kill_{false};
+  std::atomic<uint64_t> requests_{0}, writes_{0};
+  uint16_t port_ = 0;
+  std::thread thread_;
+};
+
+}  // namespace rtplc::modbus
