@@ -8,8 +8,9 @@
 
 #define RTPLC_BUILTIN_DRIVERS(X) \
   X(sim)                         \
-  X(s7)                         \
-  X(modbus)
+  X(s7)                          \
+  X(modbus)                      \
+  /* one line per driver, above this one */
 
 #define RTPLC_DECLARE_DRIVER(ns) \
   namespace rtplc::ns {          \
