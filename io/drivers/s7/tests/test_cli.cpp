@@ -30,7 +30,8 @@ class S7Cli : public ::testing::Test {
   int write(const std::vector<std::string>& assignments) {
     CLI::App app("rtplc");
     add_commands(app);
-    std::vector<std::string> args = {"rtplc", "s7", "write", "127.0.0.1", "--port", std::to_string(fake_.port(0))};
+    std::vector<std::string> args = {"rtplc",     "s7",     "write",
+                                     "127.0.0.1", "--port", std::to_string(fake_.port(0))};
     args.insert(args.end(), assignments.begin(), assignments.end());
     std::vector<const char*> argv;
     for (const std::string& a : args) argv.push_back(a.c_str());
@@ -48,8 +49,9 @@ class S7Cli : public ::testing::Test {
 
 TEST_F(S7Cli, write_refuses_out_of_range_values_before_connecting) {
   const Bytes before = memory();
-  for (const char* bad : {"DB1.DBW4:INT=32768", "DB1.DBD4:DINT=2147483648", "DB1.DBB4:CHAR=200", "DB1.DBB4=256",
-                          "DB1.DBW4=-1", "DB1.DBW4:INT=1.5", "DB1.DBD4:REAL=1e39", "DB1.DBD4:REAL=nan"}) {
+  for (const char* bad :
+       {"DB1.DBW4:INT=32768", "DB1.DBD4:DINT=2147483648", "DB1.DBB4:CHAR=200", "DB1.DBB4=256",
+        "DB1.DBW4=-1", "DB1.DBW4:INT=1.5", "DB1.DBD4:REAL=1e39", "DB1.DBD4:REAL=nan"}) {
     EXPECT_EQ(write({bad}), kExitUsage) << bad;
   }
   // One bad value among good ones: nothing at all is written.
