@@ -405,12 +405,14 @@ Result<std::unique_ptr<LoadedProgram>> Runtime::make_program(uint32_t t, TaskIma
     // sending it: refused, unless the operator asked for exactly that drop.
     std::vector<std::string> unasked;
     std::vector<bool> used(drop_outputs.size(), false);
+    std::set<std::string> written;  // the new program's output keys
+    for (const Binding& nb : p->image.bindings()) {
+      if (nb.dir == BindingDir::kOutput) written.insert(binding_key(nb));
+    }
     for (const Binding& b : running->image.bindings()) {
       if (b.dir != BindingDir::kOutput) continue;
       const std::string key = binding_key(b);
-      bool kept = false;
-      for (const Binding& nb : p->image.bindings()) kept |= nb.dir == BindingDir::kOutput && binding_key(nb) == key;
-      if (kept) continue;
+      if (written.count(key)) continue;
       const std::string label = running->image.str(b.label);
       const auto asked = std::find(drop_outputs.begin(), drop_outputs.end(), label);
       if (asked == drop_outputs.end()) {

@@ -14,6 +14,7 @@
 #include <cstdio>
 #include <thread>
 
+#include "io/drivers/s7/fake_plc.h"
 #include "sched/control.h"
 #include "tests/support/runtime_fixture.h"
 
@@ -170,6 +171,29 @@ TEST(WrongData, after_kill_9_every_tool_says_not_running_shows_stale_and_fails) 
   EXPECT_NE(status.status, 0) << status.out;
   EXPECT_NE(status.out.find("not running (died at"), std::string::npos) << status.out;
   shm_unlink(io::ProcessImage::shm_name(name).c_str());
+}
+
+// The figures `rtplc run` prints when it stops include every link's line.
+TEST(WrongData, the_stats_printed_at_shutdown_include_the_link_lines) {
+  s7::FakePlc plc;
+  auto ep = plc.add_endpoint({"127.0.0.1", 0, {}});
+  ASSERT_TRUE(ep.ok()) << ep.error();
+  ASSERT_TRUE(plc.start().ok());
+  RuntimeFixture fx;
+  fx.write("e.fbd", "%%\nF1 = era(p1, d0, c0, \"Volt\")\newa(F1, p1, d0, c1, \"Echo\")\nEND\n");
+  const std::string name = fx.unique_name();
+  const std::string cfg = fx.write(
+      "e.yaml", "runtime:\n  name: " + name + "\n  socket: " + fx.dir() + "/e.sock\n  retain_file: " + fx.dir() +
+                    "/e.retain\ntasks:\n  - {name: e, program: e.fbd, period: 10ms}\ndrivers:\n  - kind: s7\n"
+                    "    plcs: [{name: panel01, address: 127.0.0.1, port: " + std::to_string(plc.port(0)) +
+                    ", poll: 50ms}]\n    read: [{channel: p1.d0.c0, plc: panel01, item: DB10.DBD0:REAL}]\n"
+                    "    write: [{channel: p1.d0.c1, plc: panel01, item: DB10.DBD4:REAL}]\n");
+  ToolRun r = run_tool("run " + cfg + " --duration 1.5 --no-lock");
+  plc.stop();
+  EXPECT_EQ(r.status, 0) << r.out;
+  EXPECT_NE(r.out.find("T: 0"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("L: 0 (panel01) s7 127.0.0.1:" + std::to_string(plc.port(0)) + " up"), std::string::npos)
+      << r.out;
 }
 
 }  // namespace
