@@ -29,6 +29,48 @@ Result<void> make_folders(const std::string& dir, mode_t mode, mode_t parent_mod
   return {};
 }
 
+namespace {
+bool write_all(int fd, const std::string& s) {
+  size_t done = 0;
+  while (done < s.size()) {
+    const ssize_t n = ::write(fd, s.data() + done, s.size() - done);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      return false;
+    }
+    done += static_cast<size_t>(n);
+  }
+  return true;
+}
+}  // namespace
+
+Result<void> write_file_atomically(const std::string& path, const std::string& text, mode_t mode) {
+  const std::string dir = folder_of(path);
+  if (auto r = make_folders(dir, 0750, 0750); !r) return r;
+  const std::string tmp = path + ".tmp";
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, mode);
+  if (fd < 0) return make_error("cannot write " + tmp + ": " + std::strerror(errno));
+  const bool ok = write_all(fd, text) && fsync(fd) == 0;
+  const int e = errno;
+  close(fd);
+  if (!ok) {
+    unlink(tmp.c_str());
+    return make_error("cannot write " + tmp + ": " + std::strerror(e));
+  }
+  if (rename(tmp.c_str(), path.c_str()) != 0) {
+    const int re = errno;
+    unlink(tmp.c_str());
+    return make_error("cannot replace " + path + ": " + std::strerror(re));
+  }
+  // The rename itself must reach the disk, or a power cut could bring back the old file.
+  const int dfd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (dfd >= 0) {
+    fsync(dfd);
+    close(dfd);
+  }
+  return {};
+}
+
 Result<void> ensure_private_folder(const std::string& dir) {
   if (auto r = make_folders(dir, 0700, 0755); !r) return r;
   struct stat st {};

@@ -16,6 +16,12 @@ std::string folder_of(const std::string& path);
 // created, gets `mode`. Existing folders are left as they are.
 Result<void> make_folders(const std::string& dir, mode_t mode, mode_t parent_mode);
 
+// Replaces `path` with `text` so that a reader — or the next start after a
+// crash or power cut — finds either the old file or the new one, whole: write a
+// temporary file, fsync it, rename it over `path`, fsync the folder. Creates the
+// folder (0750) if needed.
+Result<void> write_file_atomically(const std::string& path, const std::string& text, mode_t mode);
+
 // Makes sure `dir` is a folder only its owner can enter: created with mode 0700
 // (parents 0755) when missing; when it exists it must be a real folder (not a
 // link), owned by this process's user, with no rights for group or others.

@@ -95,6 +95,8 @@ struct RuntimeConfig {
   SourcePos socket_pos;
   std::string retain_path;  // empty: the runtime chooses
   SourcePos retain_pos;
+  bool programs_from_config = false;  // runtime.programs: config (else: the saved programs)
+  SourcePos programs_pos;
   std::string monitor_group;  // empty: the image is readable by its owner only
   SourcePos monitor_group_pos;
   int band_lo = kDefaultBandLo;  // SCHED_FIFO band of the tasks, inclusive

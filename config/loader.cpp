@@ -72,6 +72,10 @@ void parse_runtime(YamlReader& r, const Field& section, RuntimeConfig& cfg) {
     cfg.retain_pos = x->pos;
     if (auto v = r.path(*x)) cfg.retain_path = *v;
   }
+  if (const Field* x = f.get("programs")) {
+    cfg.programs_pos = x->pos;
+    if (auto v = r.choice(*x)) cfg.programs_from_config = *v == "config";
+  }
   if (const Field* x = f.get("monitor_group")) {
     cfg.monitor_group_pos = x->pos;
     if (auto v = r.text(*x)) cfg.monitor_group = *v;

@@ -34,6 +34,10 @@ const KeySpec kRuntimeKeys[] = {
      "Path of the control socket (`rtplc stats`, `set`, `swap`); created with mode 0600."},
     {"retain_file", ValueType::kPath, false, kNoMin, kNoMax, nullptr, "(chosen by the runtime)",
      "File holding the retained values (set-points) across restarts."},
+    {"programs", ValueType::kChoice, false, kNoMin, kNoMax, "saved|config", "saved",
+     "What a task runs when the runtime starts: `saved`, the program it ran last (the "
+     "last swap survives a restart, like a PLC's boot application; the start says so), "
+     "or `config`, always the file this configuration names."},
     {"monitor_group", ValueType::kText, false, kNoMin, kNoMax, "a group name", "(none: owner only)",
      "A group whose members may read the process image (`rtplc monitor`, `stats`, an HMI): "
      "the image is then mode 0640 with this group instead of 0600. Nobody but the owner "

@@ -82,6 +82,7 @@ std::unique_ptr<Runtime> Runtime::load(const config::RuntimeConfig& cfg, const R
   rt->retain_ = RetainStore(!opt.retain_override.empty() ? opt.retain_override
                             : !cfg.retain_path.empty()   ? cfg.retain_path
                                                          : default_retain_path(rt->name_));
+  rt->programs_ = ProgramStore(folder_of(rt->retain_.path()) + "/" + rt->name_ + ".programs");
   rt->lock_memory_ = cfg.lock_memory && opt.lock_memory;
   rt->cpu_dma_latency_ = cfg.cpu_dma_latency;
   // build_channels keeps a reference to the config file's entry while it adds one
@@ -138,11 +139,41 @@ bool Runtime::build(const config::RuntimeConfig& cfg, LoadReport& report) {
   std::vector<std::string> sources;
   std::vector<size_t> file_of(n_tasks, 0);
   bool ok = true;
+  if (auto r = programs_.load(); !r) {
+    cdiag.warning(SourcePos{}, "the saved programs are ignored: " + r.error() + "; running the config's files");
+  }
+  origins_.assign(n_tasks, "");
   for (size_t t = 0; t < n_tasks; ++t) {
     const config::TaskConfig& tc = cfg.tasks[t];
     lang::CompileOptions o;
     o.name = tc.name;
     if (tc.period_s) o.period_override = *tc.period_s;
+    // The boot program: what this task ran last, unless the config says otherwise.
+    std::optional<ProgramVersion> saved = cfg.programs_from_config ? std::nullopt : programs_.current(tc.name);
+    std::optional<lang::CompileResult> from_store;
+    if (saved) {
+      auto text = programs_.source(saved->hash);
+      const std::string config_text = read_file(tc.program);
+      if (!text) {
+        cdiag.warning(tc.program_pos, "task " + tc.name + ": " + text.error() + "; running " + tc.program);
+      } else if (ProgramStore::hash_of(config_text) != saved->hash) {
+        lang::CompileResult r = lang::compile_source(*text, o);
+        if (r.ok()) {
+          const std::string label = "saved program " + saved->hash + " of task " + tc.name;
+          origins_[t] = saved->origin;
+          notices_.push_back("task " + tc.name + " runs the program it ran last (" + saved->origin + ", " +
+                             saved->hash + "), not " + tc.program + " as the config names: set "
+                             "runtime.programs: config to run the config's file");
+          file_of[t] = report.files.size();
+          report.files.push_back({label, *text, r.diags});
+          images.push_back(std::move(*r.image));
+          sources.push_back(*text);
+          continue;
+        }
+        cdiag.warning(tc.program_pos, "task " + tc.name + ": its saved program " + saved->hash +
+                                          " no longer compiles; running " + tc.program);
+      }
+    }
     lang::CompileResult r = lang::compile_file(tc.program, o);
     file_of[t] = report.files.size();
     report.files.push_back({tc.program, read_file(tc.program), r.diags});
@@ -155,6 +186,14 @@ bool Runtime::build(const config::RuntimeConfig& cfg, LoadReport& report) {
     }
     images.push_back(std::move(*r.image));
     sources.push_back(report.files.back().text);
+    origins_[t] = "config " + tc.program;
+    // The store always says what runs: the config's file is now the current version.
+    const auto cur = programs_.current(tc.name);
+    if (!cur || cur->hash != ProgramStore::hash_of(sources.back())) {
+      if (auto p = programs_.push(tc.name, sources.back(), origins_[t]); !p) {
+        cdiag.warning(SourcePos{}, "task " + tc.name + ": cannot keep its program for restarts: " + p.error());
+      }
+    }
   }
   if (!ok) return false;
 
@@ -474,6 +513,7 @@ Result<std::vector<std::string>> Runtime::start() {
     rt_.rt_kernel = kernel_rt::running_on_rt_kernel();
     if (!rt_.rt_kernel) notices.push_back("the kernel is not PREEMPT_RT: expect wake latencies of a general-purpose kernel");
   }
+  notices.insert(notices.end(), notices_.begin(), notices_.end());
   image_.header().state.store(1, std::memory_order_release);
   // A common grid: every thread's first release is the same instant, far enough
   // ahead that all threads are waiting for it.

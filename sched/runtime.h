@@ -24,6 +24,7 @@
 #include "io/process_image.h"
 #include "kernel_rt/rt_process.h"
 #include "sched/image_plan.h"
+#include "sched/program_store.h"
 #include "sched/retain.h"
 #include "sched/stats_render.h"
 #include "sched/task.h"
@@ -91,6 +92,7 @@ class Runtime {
   const std::string& name() const { return name_; }
   const std::string& socket_path() const { return socket_path_; }
   const std::string& retain_path() const { return retain_.path(); }
+  const ProgramStore& programs() const { return programs_; }
   io::ProcessImage& image() { return image_; }
   size_t task_count() const { return tasks_.size(); }
   Task& task(size_t i) { return *tasks_[i]; }
@@ -124,6 +126,9 @@ class Runtime {
   io::ProcessImage image_;
   kernel_rt::RtProcess rt_;
   RetainStore retain_;
+  ProgramStore programs_;             // the boot programs (program_store.h)
+  std::vector<std::string> origins_;  // per task: where its running program came from
+  std::vector<std::string> notices_;  // said once at start
   RuntimeOptions options_;
   bool lock_memory_ = true;
   bool cpu_dma_latency_ = true;

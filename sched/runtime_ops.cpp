@@ -106,22 +106,62 @@ Result<std::string> Runtime::swap(const std::string& task, const std::string& so
   const int64_t compiled = kernel_rt::monotonic_now_ns();
   auto next = make_program(t->index(), std::move(*r.image), source, file_label, &t->active(), drop_outputs);
   if (!next) return make_error("not swapped: " + next.error());
+  // On disk before the task takes it: once the operator sees OK, a restart
+  // (or kill -9) runs this code.
+  auto kept = programs_.push(task, source, "swap " + file_label);
+  if (!kept) return make_error("not swapped: cannot keep the program for restarts: " + kept.error());
   auto res = install(*t, std::move(next).value(), true);
-  if (!res) return res;
+  if (!res) {
+    (void)programs_.pop(task);
+    return res;
+  }
+  origins_[t->index()] = kept->origin;
+  std::string note;
+  const double period = static_cast<double>(t->params().period_ns) / 1e9;
+  if (r.program.period_from_stime && std::abs(r.program.period - period) > 1e-9 * period) {
+    note = "note: the program says stime(" + format_number(r.program.period) + ") but task " + task +
+           " keeps its period of " + format_number(period) + " s; a period changes with the config and a restart\n";
+  }
   std::string warn = r.diags.warning_count() ? r.diags.render(file_label, source) : "";
-  return "compiled and verified in " + fmt_ms(compiled - t0) + "\n" + *res + warn;
+  return "compiled and verified in " + fmt_ms(compiled - t0) + "\n" + *res + "  kept for restarts as program " +
+         kept->hash + "\n" + note + warn;
 }
 
 Result<std::string> Runtime::rollback(const std::string& task, const std::vector<std::string>& drop_outputs) {
   Task* t = find_task(task);
   if (t == nullptr) return make_error("no task named " + task);
-  const std::unique_ptr<LoadedProgram>& prev = previous_[t->index()];
-  if (!prev) return make_error("task " + task + " has no previous program to roll back to");
-  auto copy = TaskImage::from_bytes(prev->image.bytes());
-  if (!copy) return make_error(copy.error());
-  auto next = make_program(t->index(), std::move(copy).value(), prev->source, prev->file, &t->active(), drop_outputs);
+  // The version before the current one, from the store (it survives restarts
+  // and keeps several); a runtime whose store could not be written keeps the
+  // one it replaced in memory.
+  const std::vector<ProgramVersion>& h = programs_.history(task);
+  std::string source, label;
+  if (h.size() >= 2) {
+    const ProgramVersion& prev = h[h.size() - 2];
+    auto text = programs_.source(prev.hash);
+    if (!text) return make_error("not rolled back: " + text.error());
+    source = *text;
+    label = prev.origin.substr(prev.origin.find(' ') + 1);
+  } else if (const std::unique_ptr<LoadedProgram>& prev = previous_[t->index()]; prev && h.empty()) {
+    source = prev->source;
+    label = prev->file;
+  } else {
+    return make_error("task " + task + " has no previous program to roll back to");
+  }
+  lang::CompileOptions o;
+  o.name = task;
+  o.period_override = static_cast<double>(t->params().period_ns) / 1e9;
+  o.output_layout = task_output_keys_[t->index()];
+  lang::CompileResult r = lang::compile_source(source, o);
+  if (!r.ok()) return make_error("not rolled back, the previous program no longer compiles:\n" + r.diags.render(label, source));
+  auto next = make_program(t->index(), std::move(*r.image), source, label, &t->active(), drop_outputs);
   if (!next) return make_error("not rolled back: " + next.error());
-  return install(*t, std::move(next).value(), true);
+  auto res = install(*t, std::move(next).value(), false);
+  if (!res) return res;
+  if (h.size() >= 2) {
+    if (auto p = programs_.pop(task); !p) *res += "warning: the rollback is not kept for restarts: " + p.error() + "\n";
+    if (auto cur = programs_.current(task)) origins_[t->index()] = cur->origin;
+  }
+  return res;
 }
 
 std::string Runtime::status() const {
@@ -136,7 +176,8 @@ std::string Runtime::status() const {
     const auto* st = static_cast<const CycleStats*>(image_.task_stats(t->index()));
     s += "  task " + t->params().name + ": " +
          io::task_state_name(static_cast<io::TaskState>(ti.state.load())) + ", " +
-         t->active().file + ", period " + fmt_ms(t->params().period_ns) + ", " +
+         t->active().file + " (program " + ProgramStore::hash_of(t->active().source) + ", " +
+         origins_[t->index()] + "), period " + fmt_ms(t->params().period_ns) + ", " +
          (ti.fifo ? "FIFO " + std::to_string(ti.priority) : std::string("OTHER")) + ", " +
          std::to_string(st->cycles()) + " cycles, " + std::to_string(st->overruns()) +
          " overruns, " + std::to_string(ti.swaps.load()) + " swaps, " +
