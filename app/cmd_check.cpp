@@ -2,11 +2,14 @@
 #include <CLI/CLI.hpp>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <iostream>
 #include <memory>
 
+#include "app/arguments.h"
 #include "app/commands.h"
 #include "blocks/registry.h"
 #include "config/config.h"
@@ -87,6 +90,7 @@ void run_check_config(const CheckArgs& a) {
 }
 
 void run_check(const CheckArgs& a) {
+  require_program(a.file, "check", true);
   if (is_config(a.file)) {
     run_check_config(a);
     return;
@@ -102,6 +106,12 @@ void run_check(const CheckArgs& a) {
 }
 
 void run_compile(const CheckArgs& a) {
+  require_program(a.file, "compile");
+  if (!a.output.empty() && input_kind(a.output) == InputKind::kFolder) {
+    std::fprintf(stderr, "rtplc compile: -o %s is a folder; give the image file's name, e.g. %s/%s\n",
+                 a.output.c_str(), a.output.c_str(), "prog.img");
+    throw CLI::RuntimeError(kExitUsage);
+  }
   lang::CompileResult r = lang::compile_file(a.file, options_from(a));
   if (!report(a.file, r, a.werror)) throw CLI::RuntimeError(kExitFailure);
   std::string out = a.output;
@@ -116,13 +126,17 @@ void run_compile(const CheckArgs& a) {
     std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
     auto bytes = r.image->bytes();
     f.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+    f.close();
     if (!f) {
+      std::remove(tmp.c_str());
       std::fprintf(stderr, "rtplc compile: cannot write %s\n", tmp.c_str());
       throw CLI::RuntimeError(kExitFailure);
     }
   }
   if (std::rename(tmp.c_str(), out.c_str()) != 0) {
-    std::fprintf(stderr, "rtplc compile: cannot rename %s to %s\n", tmp.c_str(), out.c_str());
+    const int e = errno;
+    std::remove(tmp.c_str());
+    std::fprintf(stderr, "rtplc compile: cannot write %s: %s\n", out.c_str(), std::strerror(e));
     throw CLI::RuntimeError(kExitFailure);
   }
   std::printf("%s -> %s (%zu bytes, %u blocks)\n", a.file.c_str(), out.c_str(),
@@ -183,7 +197,8 @@ void add_check_commands(CLI::App& app) {
   check->add_flag("--explain", args->explain,
                   "print execution order, delayed references, I/O bindings and sizes");
   check->add_flag("--werror", args->werror, "treat warnings as errors");
-  check->add_option("--period", args->period, "override stime: task period in seconds");
+  check->add_option("--period", args->period, "override stime: task period in seconds")
+      ->check(positive_seconds());
   check->callback([args] { run_check(*args); });
 
   CLI::App* compile = app.add_subcommand(
@@ -191,7 +206,8 @@ void add_check_commands(CLI::App& app) {
   compile->add_option("file", args->file, "control algorithm file (.fbd)")->required();
   compile->add_option("-o,--output", args->output, "image file (default: FILE with .img)");
   compile->add_flag("--werror", args->werror, "treat warnings as errors");
-  compile->add_option("--period", args->period, "override stime: task period in seconds");
+  compile->add_option("--period", args->period, "override stime: task period in seconds")
+      ->check(positive_seconds());
   compile->callback([args] { run_compile(*args); });
 
   CLI::App* blocks = app.add_subcommand("blocks", "List the primitive blocks and their contracts.");

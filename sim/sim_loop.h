@@ -27,6 +27,9 @@ struct SimOptions {
   std::string plant_output = "p0.d0.c0";  // the dai channel that measures it
   std::vector<SetpointStep> steps;
   bool realtime = false;             // pace cycles to the wall clock
+  // A program with neither the dao nor the dai above (a logic test) runs open
+  // loop, without the plant, instead of being refused.
+  bool open_loop_if_unwired = false;
 };
 
 struct SimTrace {
@@ -40,7 +43,14 @@ struct SimTrace {
   int mv_column = -1;                // the plant input
   int sp_column = -1;                // the set-point when the program has exactly one analog one
   uint64_t block_errors = 0;
+  bool open_loop = false;            // ran without a plant (nothing wired to it)
+  // The loop diverged: the measurement left every sensible range (not finite,
+  // or beyond kDivergenceFactor times the largest set-point). -1 = it did not.
+  double diverged_at = -1;
+  double diverged_value = 0;
 };
+
+inline constexpr double kDivergenceFactor = 1e6;
 
 Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const SimOptions& opt);
 
