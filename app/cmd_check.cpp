@@ -27,6 +27,7 @@ struct CheckArgs {
   std::string output;
   std::string block;
   bool markdown = false;
+  bool paths = false;
 };
 
 // Prints diagnostics; returns true when the program compiled.
@@ -73,6 +74,14 @@ void run_check_config(const CheckArgs& a) {
     std::fprintf(stderr, "%s: the configuration has errors\n", a.file.c_str());
     throw CLI::RuntimeError(kExitFailure);
   }
+  if (a.paths) {
+    // For scripts/deploy: exactly the files the configuration needs, and where
+    // it keeps its state (only what the configuration itself sets).
+    for (const config::TaskConfig& t : cfg.config->tasks) std::printf("program %s\n", t.program.c_str());
+    if (!cfg.config->retain_path.empty()) std::printf("retain_file %s\n", cfg.config->retain_path.c_str());
+    if (!cfg.config->socket_path.empty()) std::printf("socket %s\n", cfg.config->socket_path.c_str());
+    return;
+  }
   sched::RuntimeOptions opt;
   opt.name_override = "check-" + std::to_string(getpid());  // never clashes with a running one
   opt.lock_memory = false;
@@ -91,6 +100,11 @@ void run_check_config(const CheckArgs& a) {
 
 void run_check(const CheckArgs& a) {
   require_program(a.file, "check", true);
+  if (a.paths && !is_config(a.file)) {
+    std::fprintf(stderr, "rtplc check: --paths lists a configuration's files; %s is a program\n",
+                 a.file.c_str());
+    throw CLI::RuntimeError(kExitUsage);
+  }
   if (is_config(a.file)) {
     run_check_config(a);
     return;
@@ -197,6 +211,9 @@ void add_check_commands(CLI::App& app) {
   check->add_flag("--explain", args->explain,
                   "print execution order, delayed references, I/O bindings and sizes");
   check->add_flag("--werror", args->werror, "treat warnings as errors");
+  check->add_flag("--paths", args->paths,
+                  "configuration only: list the program files it names (\"program PATH\") and the\n"
+                  "retain_file and socket it sets, one per line, without loading the runtime");
   check->add_option("--period", args->period, "override stime: task period in seconds")
       ->check(positive_seconds());
   check->callback([args] { run_check(*args); });
