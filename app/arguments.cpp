@@ -78,7 +78,8 @@ void require_program(const std::string& path, const char* cmd, bool config_ok) {
       why = "no such file";
       break;
     case InputKind::kFolder:
-      why = "is a folder, not a file; give one .fbd program";
+      why = config_ok ? "is a folder, not a file; give one .fbd program or .yaml configuration"
+                      : "is a folder, not a file; give one .fbd program";
       break;
     case InputKind::kConfig:
       if (config_ok) return;

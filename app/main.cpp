@@ -32,7 +32,7 @@ bool unknown_command(CLI::App& app, const char* word) {
     }
   }
   std::fprintf(stderr, "rtplc: unknown command '%s'%s; `rtplc --help` lists the commands\n", word,
-               best.empty() ? "" : ("; did you mean '" + best + "'?").c_str());
+               best.empty() ? "" : (" (did you mean '" + best + "'?)").c_str());
   return true;
 }
 
