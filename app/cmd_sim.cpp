@@ -94,7 +94,14 @@ void run_sim(const SimArgs& a) {
   opt.open_loop_if_unwired = !a.plant_given;
   for (const std::string& s : a.steps) opt.steps.push_back(parse_step(s, a.duration));
 
-  if (!a.quiet) {
+  const bool open_loop = io::runs_open_loop(*r.image, opt);
+  if (!a.quiet && open_loop) {
+    std::printf("rtplc sim: %s, period %g s, no plant (open loop), %g s%s\n", a.file.c_str(),
+                r.image->period_s(), a.duration, a.realtime ? ", real time" : " of simulated time");
+    std::printf("open loop: the program has no dao at %s and no dai at %s, so no plant is attached;\n"
+                "  inputs stay at 0, set-points follow --step (--plant-input/--plant-output wire a plant)\n",
+                a.plant_input.c_str(), a.plant_output.c_str());
+  } else if (!a.quiet) {
     std::printf("rtplc sim: %s, period %g s, plant %s (RK4, step %g s), %g s%s\n", a.file.c_str(),
                 r.image->period_s(), (*plant)->describe().c_str(),
                 io::plant_step_for(r.image->period_s()), a.duration,
@@ -105,11 +112,7 @@ void run_sim(const SimArgs& a) {
     std::fprintf(stderr, "rtplc sim: %s\n", trace.error().c_str());
     throw CLI::RuntimeError(kExitFailure);
   }
-  if (trace->open_loop && !a.quiet) {
-    std::printf("open loop: the program has no dao at %s and no dai at %s, so no plant is attached;\n"
-                "  inputs stay at 0, set-points follow --step (--plant-input/--plant-output wire a plant)\n",
-                a.plant_input.c_str(), a.plant_output.c_str());
-  }
+
   io::StepMetrics m = io::step_metrics(*trace);
   if (!a.quiet) {
     std::printf("%zu cycles", trace->rows.size());
@@ -120,6 +123,7 @@ void run_sim(const SimArgs& a) {
   // A diverging loop has no step response worth reporting: say it, and fail.
   const bool diverged = trace->diverged_at >= 0;
   if (diverged) {
+    std::fflush(stdout);
     std::fprintf(stderr,
                  "rtplc sim: UNSTABLE: the measurement diverged (%g at t = %g s, beyond %g times the "
                  "largest set-point)%s\n",

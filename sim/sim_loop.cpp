@@ -44,6 +44,22 @@ std::string gp_quote(const std::string& s) {
 
 }  // namespace
 
+std::pair<const Binding*, const Binding*> plant_bindings(const TaskImage& image, const SimOptions& opt) {
+  const Binding* pv = nullptr;
+  const Binding* mv = nullptr;
+  for (const Binding& b : image.bindings()) {
+    if (b.group != IoGroup::kDio || b.kind != Kind::kAnalog) continue;
+    if (b.dir == BindingDir::kInput && address(b) == opt.plant_output && !pv) pv = &b;
+    if (b.dir == BindingDir::kOutput && address(b) == opt.plant_input && !mv) mv = &b;
+  }
+  return {pv, mv};
+}
+
+bool runs_open_loop(const TaskImage& image, const SimOptions& opt) {
+  const auto [pv, mv] = plant_bindings(image, opt);
+  return opt.open_loop_if_unwired && pv == nullptr && mv == nullptr;
+}
+
 Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const SimOptions& opt) {
   if (!(opt.duration > 0) || opt.duration > 1e7) return make_error("duration must be in (0, 1e7] s");
   const double dt = image.period_s();
@@ -53,14 +69,9 @@ Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const Sim
   tr.plant_step = plant_step_for(dt, &steps);
   tr.plant = plant.describe();
 
-  const Binding* pv = nullptr;
-  const Binding* mv = nullptr;
-  for (const Binding& b : image.bindings()) {
-    if (b.group != IoGroup::kDio || b.kind != Kind::kAnalog) continue;
-    if (b.dir == BindingDir::kInput && address(b) == opt.plant_output && !pv) pv = &b;
-    if (b.dir == BindingDir::kOutput && address(b) == opt.plant_input && !mv) mv = &b;
-  }
+  const auto [pv, mv] = plant_bindings(image, opt);
   if (!mv && !pv && opt.open_loop_if_unwired) tr.open_loop = true;
+  if (tr.open_loop) tr.plant = "none (open loop)";
   if (!mv && !tr.open_loop) {
     return make_error("no dao at " + opt.plant_input + " to drive the plant: " +
                       list_channels(image, BindingDir::kOutput, "dao") +

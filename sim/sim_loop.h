@@ -6,6 +6,7 @@
 
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "blocks/image.h"
@@ -53,6 +54,11 @@ struct SimTrace {
 inline constexpr double kDivergenceFactor = 1e6;
 
 Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const SimOptions& opt);
+// The dai measuring and the dao driving the plant (opt.plant_output / plant_input),
+// each nullptr when the program has none.
+std::pair<const Binding*, const Binding*> plant_bindings(const TaskImage& image, const SimOptions& opt);
+// Whether run_closed_loop will run `image` open loop (nothing wired to the plant).
+bool runs_open_loop(const TaskImage& image, const SimOptions& opt);
 
 // Step-response figures of the measurement against its set-point, from the last
 // set-point change (or t = 0) to the end of the run.
