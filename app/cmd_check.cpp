@@ -67,6 +67,11 @@ bool is_config(const std::string& f) {
 // A runtime configuration: everything `rtplc run` checks before it starts a
 // thread — the YAML, every program, one writer per output, the plant wiring.
 void run_check_config(const CheckArgs& a) {
+  if (a.period > 0) {
+    std::fprintf(stderr, "rtplc check: --period applies to one program; in %s each task's period is "
+                 "its `period:` key (or its program's stime)\n", a.file.c_str());
+    throw CLI::RuntimeError(kExitUsage);
+  }
   config::LoadResult cfg = config::load_config(a.file);
   const bool color = isatty(STDERR_FILENO) != 0;
   if (!cfg.diags.items().empty()) std::fputs(cfg.render(color).c_str(), stderr);

@@ -58,6 +58,12 @@ TEST(Cli, period_zero_negative_or_nan_is_refused_by_check_compile_and_sim) {
   EXPECT_EQ(run_tool("check " + kPid + " --period 0.05").status, 0);
 }
 
+TEST(Cli, check_of_a_configuration_refuses_a_period_it_would_ignore) {
+  const ToolRun r = run_tool("check " + kExamples + "/seed_pid.yaml --period 0.05");
+  EXPECT_EQ(r.status, 2) << r.out;
+  EXPECT_TRUE(has(r, "--period applies to one program")) << r.out;
+}
+
 TEST(Cli, run_duration_zero_or_negative_is_refused_not_run_forever) {
   for (const char* v : {"0", "-1", "nan"}) {
     const ToolRun r = run_tool("run " + kExamples + "/seed_pid.yaml --duration " + v);
