@@ -2,11 +2,14 @@
 #include <CLI/CLI.hpp>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <iostream>
 #include <memory>
 
+#include "app/arguments.h"
 #include "app/commands.h"
 #include "blocks/registry.h"
 #include "config/config.h"
@@ -24,6 +27,7 @@ struct CheckArgs {
   std::string output;
   std::string block;
   bool markdown = false;
+  bool paths = false;
 };
 
 // Prints diagnostics; returns true when the program compiled.
@@ -63,12 +67,25 @@ bool is_config(const std::string& f) {
 // A runtime configuration: everything `rtplc run` checks before it starts a
 // thread — the YAML, every program, one writer per output, the plant wiring.
 void run_check_config(const CheckArgs& a) {
+  if (a.period > 0) {
+    std::fprintf(stderr, "rtplc check: --period applies to one program; in %s each task's period is "
+                 "its `period:` key (or its program's stime)\n", a.file.c_str());
+    throw CLI::RuntimeError(kExitUsage);
+  }
   config::LoadResult cfg = config::load_config(a.file);
   const bool color = isatty(STDERR_FILENO) != 0;
   if (!cfg.diags.items().empty()) std::fputs(cfg.render(color).c_str(), stderr);
   if (!cfg.ok()) {
     std::fprintf(stderr, "%s: the configuration has errors\n", a.file.c_str());
     throw CLI::RuntimeError(kExitFailure);
+  }
+  if (a.paths) {
+    // For scripts/deploy: exactly the files the configuration needs, and where
+    // it keeps its state (only what the configuration itself sets).
+    for (const config::TaskConfig& t : cfg.config->tasks) std::printf("program %s\n", t.program.c_str());
+    if (!cfg.config->retain_path.empty()) std::printf("retain_file %s\n", cfg.config->retain_path.c_str());
+    if (!cfg.config->socket_path.empty()) std::printf("socket %s\n", cfg.config->socket_path.c_str());
+    return;
   }
   sched::RuntimeOptions opt;
   opt.name_override = "check-" + std::to_string(getpid());  // never clashes with a running one
@@ -87,6 +104,12 @@ void run_check_config(const CheckArgs& a) {
 }
 
 void run_check(const CheckArgs& a) {
+  require_program(a.file, "check", true);
+  if (a.paths && !is_config(a.file)) {
+    std::fprintf(stderr, "rtplc check: --paths lists a configuration's files; %s is a program\n",
+                 a.file.c_str());
+    throw CLI::RuntimeError(kExitUsage);
+  }
   if (is_config(a.file)) {
     run_check_config(a);
     return;
@@ -102,6 +125,12 @@ void run_check(const CheckArgs& a) {
 }
 
 void run_compile(const CheckArgs& a) {
+  require_program(a.file, "compile");
+  if (!a.output.empty() && input_kind(a.output) == InputKind::kFolder) {
+    std::fprintf(stderr, "rtplc compile: -o %s is a folder; give the image file's name, e.g. %s/%s\n",
+                 a.output.c_str(), a.output.c_str(), "prog.img");
+    throw CLI::RuntimeError(kExitUsage);
+  }
   lang::CompileResult r = lang::compile_file(a.file, options_from(a));
   if (!report(a.file, r, a.werror)) throw CLI::RuntimeError(kExitFailure);
   std::string out = a.output;
@@ -116,13 +145,17 @@ void run_compile(const CheckArgs& a) {
     std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
     auto bytes = r.image->bytes();
     f.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+    f.close();
     if (!f) {
+      std::remove(tmp.c_str());
       std::fprintf(stderr, "rtplc compile: cannot write %s\n", tmp.c_str());
       throw CLI::RuntimeError(kExitFailure);
     }
   }
   if (std::rename(tmp.c_str(), out.c_str()) != 0) {
-    std::fprintf(stderr, "rtplc compile: cannot rename %s to %s\n", tmp.c_str(), out.c_str());
+    const int e = errno;
+    std::remove(tmp.c_str());
+    std::fprintf(stderr, "rtplc compile: cannot write %s: %s\n", out.c_str(), std::strerror(e));
     throw CLI::RuntimeError(kExitFailure);
   }
   std::printf("%s -> %s (%zu bytes, %u blocks)\n", a.file.c_str(), out.c_str(),
@@ -183,7 +216,11 @@ void add_check_commands(CLI::App& app) {
   check->add_flag("--explain", args->explain,
                   "print execution order, delayed references, I/O bindings and sizes");
   check->add_flag("--werror", args->werror, "treat warnings as errors");
-  check->add_option("--period", args->period, "override stime: task period in seconds");
+  check->add_flag("--paths", args->paths,
+                  "configuration only: list the program files it names (\"program PATH\") and the\n"
+                  "retain_file and socket it sets, one per line, without loading the runtime");
+  check->add_option("--period", args->period, "override stime: task period in seconds")
+      ->check(positive_seconds());
   check->callback([args] { run_check(*args); });
 
   CLI::App* compile = app.add_subcommand(
@@ -191,7 +228,8 @@ void add_check_commands(CLI::App& app) {
   compile->add_option("file", args->file, "control algorithm file (.fbd)")->required();
   compile->add_option("-o,--output", args->output, "image file (default: FILE with .img)");
   compile->add_flag("--werror", args->werror, "treat warnings as errors");
-  compile->add_option("--period", args->period, "override stime: task period in seconds");
+  compile->add_option("--period", args->period, "override stime: task period in seconds")
+      ->check(positive_seconds());
   compile->callback([args] { run_compile(*args); });
 
   CLI::App* blocks = app.add_subcommand("blocks", "List the primitive blocks and their contracts.");

@@ -6,11 +6,14 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
+#include <cstring>
 #include <cstdio>
 #include <ctime>
 #include <memory>
 #include <thread>
 
+#include "app/arguments.h"
 #include "app/commands.h"
 #include "config/config.h"
 #include "kernel_rt/clock.h"
@@ -51,8 +54,17 @@ std::string drop_word(const ClientArgs& a) {
   return w;
 }
 
+// --socket, else the path the runtime of that name published in its process
+// image (its config's runtime.socket), else the name's default. attach()
+// refuses an image owned by anyone but root or us, so the path is trusted.
 std::string socket_for(const ClientArgs& a) {
-  return a.socket.empty() ? sched::default_socket_path(a.name) : a.socket;
+  if (!a.socket.empty()) return a.socket;
+  if (auto img = io::ProcessImage::attach(a.name); img.ok()) {
+    const io::ImageHeader& h = img->header();
+    const size_t n = strnlen(h.socket_path, sizeof h.socket_path);
+    if (n > 0 && n < sizeof h.socket_path) return std::string(h.socket_path, n);
+  }
+  return sched::default_socket_path(a.name);
 }
 
 [[noreturn]] void fail(const std::string& msg, int code = kExitFailure) {
@@ -61,6 +73,14 @@ std::string socket_for(const ClientArgs& a) {
 }
 
 void run_runtime(const RunArgs& a) {
+  if (const InputKind k = input_kind(a.config); k != InputKind::kConfig) {
+    fail("rtplc run: " + a.config + ": " +
+             (k == InputKind::kMissing  ? std::string("no such file")
+              : k == InputKind::kFolder ? std::string("is a folder")
+                                        : std::string("is not a runtime configuration (.yaml)")) +
+             "; `rtplc run` takes a runtime configuration, e.g. examples/seed_pid.yaml",
+         kExitUsage);
+  }
   config::LoadResult cfg = config::load_config(a.config);
   if (!cfg.diags.items().empty()) std::fputs(cfg.render(isatty(STDERR_FILENO)).c_str(), stderr);
   if (!cfg.ok()) fail(a.config + ": the configuration has errors; nothing started");
@@ -137,12 +157,19 @@ void run_set(const ClientArgs& a) {
 void run_swap(const ClientArgs& a) {
   if (a.rollback) {
     if (a.task.empty()) fail("rtplc swap --rollback TASK", kExitUsage);
+    if (!a.file.empty()) {
+      fail("rtplc swap --rollback " + a.task + " " + a.file +
+               ": --rollback goes back to the task's previous code and takes no FILE; "
+               "to load FILE, leave out --rollback",
+           kExitUsage);
+    }
     auto r = sched::control_request(socket_for(a), "rollback " + a.task + drop_word(a));
     if (!r) fail("rtplc swap --rollback: " + r.error());
     std::fputs(r->c_str(), stdout);
     return;
   }
   if (a.task.empty() || a.file.empty()) fail("rtplc swap TASK FILE (or --rollback TASK)", kExitUsage);
+  require_program(a.file, "swap");
   std::string err;
   auto text = lang::read_text_file(a.file, &err);
   if (!text) fail("rtplc swap: " + err);
@@ -161,6 +188,23 @@ void run_swap(const ClientArgs& a) {
                                   *text, 60000);
   if (!r) fail("rtplc swap: " + r.error());
   std::fputs(r->c_str(), stdout);
+  // A running task keeps its time grid (the runtime compiles the new code for
+  // the task's period): say so when the file asks for another one.
+  if (auto img = io::ProcessImage::attach(a.name); img.ok()) {
+    for (uint32_t t = 0; t < img->header().n_tasks; ++t) {
+      const io::TaskInfo& ti = img->task_info(t);
+      if (a.task != ti.name) continue;
+      const double running = static_cast<double>(ti.period_ns) / 1e9;
+      const double wanted = local.image->period_s();
+      if (std::fabs(wanted - running) > 1e-9 * running) {
+        std::fprintf(stderr,
+                     "rtplc swap: note: %s says stime %g s, but task %s keeps its period of %g s "
+                     "(a running task's period never changes; the new code was compiled for %g s). "
+                     "Restart the runtime to change the period.\n",
+                     a.file.c_str(), wanted, a.task.c_str(), running, running);
+      }
+    }
+  }
 }
 
 void run_simple(const ClientArgs& a, const char* verb) {
@@ -181,7 +225,8 @@ void run_simple(const ClientArgs& a, const char* verb) {
 }
 
 void add_client_options(CLI::App* c, ClientArgs& a) {
-  c->add_option("--name", a.name, "runtime name (runtime.name in the config; default rtplc)");
+  c->add_option("--name", a.name, "runtime name (runtime.name in the config; default rtplc)")
+      ->check(runtime_name());
   c->add_option("--socket", a.socket, "control socket path (default from the name)");
 }
 
@@ -200,8 +245,10 @@ void add_run_commands(CLI::App& app) {
       "  rtplc run examples/seed_pid.yaml\n"
       "  rtplc run examples/sixteen.yaml --duration 20");
   r->add_option("config", run->config, "runtime configuration (.yaml)")->required();
-  r->add_option("--name", run->name, "run under this name instead of runtime.name");
-  r->add_option("--duration", run->duration, "stop after this many seconds");
+  r->add_option("--name", run->name, "run under this name instead of runtime.name")
+      ->check(runtime_name());
+  r->add_option("--duration", run->duration, "stop after this many seconds")
+      ->check(positive_seconds());
   r->add_flag("--count-faults", run->count_faults, "count minor page faults per cycle (test mode)");
   r->add_flag("--no-lock", run->no_lock, "do not lock memory (mlockall)");
   r->add_flag("-q,--quiet", run->quiet, "log only errors");

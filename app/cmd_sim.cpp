@@ -3,9 +3,11 @@
 #include <CLI/CLI.hpp>
 #include <unistd.h>
 
+#include <cmath>
 #include <cstdio>
 #include <memory>
 
+#include "app/arguments.h"
 #include "app/commands.h"
 #include "io/drivers/sim/plant.h"
 #include "sim/sim_loop.h"
@@ -26,9 +28,11 @@ struct SimArgs {
   double period = 0;
   bool realtime = false;
   bool quiet = false;
+  bool allow_unstable = false;
+  bool plant_given = false;  // --plant, --plant-input or --plant-output on the command line
 };
 
-io::SetpointStep parse_step(const std::string& s) {
+io::SetpointStep parse_step(const std::string& s, double duration) {
   // LABEL=VALUE@TIME
   const size_t eq = s.find('='), at = s.find('@');
   if (eq == std::string::npos || at == std::string::npos || at < eq) {
@@ -49,10 +53,21 @@ io::SetpointStep parse_step(const std::string& s) {
     std::fprintf(stderr, "rtplc sim: --step '%s': VALUE and SECONDS must be numbers\n", s.c_str());
     throw CLI::RuntimeError(kExitUsage);
   }
+  if (!std::isfinite(st.value)) {
+    std::fprintf(stderr, "rtplc sim: --step '%s': VALUE must be a finite number\n", s.c_str());
+    throw CLI::RuntimeError(kExitUsage);
+  }
+  if (!std::isfinite(st.at) || st.at < 0 || st.at > duration) {
+    std::fprintf(stderr,
+                 "rtplc sim: --step '%s': SECONDS must be within the run, 0 to %g s (--duration)\n",
+                 s.c_str(), duration);
+    throw CLI::RuntimeError(kExitUsage);
+  }
   return st;
 }
 
 void run_sim(const SimArgs& a) {
+  require_program(a.file, "sim");
   lang::CompileOptions copt;
   if (a.period > 0) copt.period_override = a.period;
   lang::CompileResult r = lang::compile_file(a.file, copt);
@@ -75,9 +90,18 @@ void run_sim(const SimArgs& a) {
   opt.plant_input = a.plant_input;
   opt.plant_output = a.plant_output;
   opt.realtime = a.realtime;
-  for (const std::string& s : a.steps) opt.steps.push_back(parse_step(s));
+  // Asked for a plant by name: a program that cannot take it is an error, not a logic test.
+  opt.open_loop_if_unwired = !a.plant_given;
+  for (const std::string& s : a.steps) opt.steps.push_back(parse_step(s, a.duration));
 
-  if (!a.quiet) {
+  const bool open_loop = io::runs_open_loop(*r.image, opt);
+  if (!a.quiet && open_loop) {
+    std::printf("rtplc sim: %s, period %g s, no plant (open loop), %g s%s\n", a.file.c_str(),
+                r.image->period_s(), a.duration, a.realtime ? ", real time" : " of simulated time");
+    std::printf("open loop: the program has no dao at %s and no dai at %s, so no plant is attached;\n"
+                "  inputs stay at 0, set-points follow --step (--plant-input/--plant-output wire a plant)\n",
+                a.plant_input.c_str(), a.plant_output.c_str());
+  } else if (!a.quiet) {
     std::printf("rtplc sim: %s, period %g s, plant %s (RK4, step %g s), %g s%s\n", a.file.c_str(),
                 r.image->period_s(), (*plant)->describe().c_str(),
                 io::plant_step_for(r.image->period_s()), a.duration,
@@ -88,11 +112,23 @@ void run_sim(const SimArgs& a) {
     std::fprintf(stderr, "rtplc sim: %s\n", trace.error().c_str());
     throw CLI::RuntimeError(kExitFailure);
   }
+
   io::StepMetrics m = io::step_metrics(*trace);
   if (!a.quiet) {
     std::printf("%zu cycles", trace->rows.size());
     if (trace->block_errors) std::printf(", %llu block errors (outputs held)", static_cast<unsigned long long>(trace->block_errors));
-    std::printf("\n%s", io::format_metrics(*trace, m).c_str());
+    if (trace->diverged_at < 0) std::printf("\n%s", io::format_metrics(*trace, m).c_str());
+    else std::printf("\n");
+  }
+  // A diverging loop has no step response worth reporting: say it, and fail.
+  const bool diverged = trace->diverged_at >= 0;
+  if (diverged) {
+    std::fflush(stdout);
+    std::fprintf(stderr,
+                 "rtplc sim: UNSTABLE: the measurement diverged (%g at t = %g s, beyond %g times the "
+                 "largest set-point)%s\n",
+                 trace->diverged_value, trace->diverged_at, io::kDivergenceFactor,
+                 a.allow_unstable ? "; --allow-unstable: not an error" : "; --allow-unstable accepts it");
   }
   std::string csv = a.csv;
   std::string tmp_csv;
@@ -119,6 +155,7 @@ void run_sim(const SimArgs& a) {
     }
     if (!a.quiet) std::printf("wrote %s\n", a.plot.c_str());
   }
+  if (diverged && !a.allow_unstable) throw CLI::RuntimeError(kExitFailure);
 }
 
 }  // namespace
@@ -129,7 +166,9 @@ void add_sim_command(CLI::App& app) {
       "sim", "Run an FBD program in closed loop against a simulated plant (no hardware needed).");
   sim->footer(std::string(
       "The plant's input is the program's dao at --plant-input and its measurement goes to the\n"
-      "dai at --plant-output (both p0.d0.c0 by default, as in the seed's example). Set-points\n"
+      "dai at --plant-output (both p0.d0.c0 by default, as in the seed's example). A program\n"
+      "with neither runs open loop, without a plant (a logic test), and says so. A loop whose\n"
+      "measurement diverges is reported UNSTABLE with exit code 1 (--allow-unstable: 0). Set-points\n"
       "start at their init value; --step changes one during the run. The CSV has a column t and\n"
       "one per input, set-point and output block (its label), one row per task cycle.\n"
       "Plants (--plant):\n") + io::plant_help() +
@@ -138,14 +177,20 @@ void add_sim_command(CLI::App& app) {
       "  rtplc sim examples/seed_pid.fbd --plant fopdt:K=2,T=4,L=0.5 --step Setpoint=60@20");
   sim->add_option("file", a->file, "control algorithm file (.fbd)")->required();
   sim->add_option("--duration", a->duration, "simulated seconds (default 30)")
-      ->check(CLI::Range(1e-3, 1e7));
-  sim->add_option("--plant", a->plant, "plant model (default second-order = 1/(s^2+s+1))");
+      ->check(positive_seconds() & CLI::Range(1e-3, 1e7));
+  sim->add_option("--plant", a->plant, "plant model (default second-order = 1/(s^2+s+1))")
+      ->each([a](const std::string&) { a->plant_given = true; });
   sim->add_option("--csv", a->csv, "write the trace as CSV");
   sim->add_option("--plot", a->plot, "draw the trace into a PNG (needs gnuplot)");
-  sim->add_option("--plant-input", a->plant_input, "dao channel pN.dN.cN that drives the plant");
-  sim->add_option("--plant-output", a->plant_output, "dai channel pN.dN.cN that measures the plant");
+  sim->add_option("--plant-input", a->plant_input, "dao channel pN.dN.cN that drives the plant")
+      ->each([a](const std::string&) { a->plant_given = true; });
+  sim->add_option("--plant-output", a->plant_output, "dai channel pN.dN.cN that measures the plant")
+      ->each([a](const std::string&) { a->plant_given = true; });
   sim->add_option("--step", a->steps, "set-point change LABEL=VALUE@SECONDS (repeatable)");
-  sim->add_option("--period", a->period, "override stime: task period in seconds");
+  sim->add_option("--period", a->period, "override stime: task period in seconds")
+      ->check(positive_seconds());
+  sim->add_flag("--allow-unstable", a->allow_unstable,
+                "a diverging loop is reported but is not an error (exit 0)");
   sim->add_flag("--realtime", a->realtime, "pace cycles to the wall clock");
   sim->add_flag("-q,--quiet", a->quiet, "print nothing but errors");
   sim->callback([a] { run_sim(*a); });

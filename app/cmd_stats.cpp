@@ -10,6 +10,7 @@
 #include <memory>
 #include <thread>
 
+#include "app/arguments.h"
 #include "app/commands.h"
 #include "io/process_image.h"
 #include "kernel_rt/rt_kernel.h"
@@ -19,6 +20,9 @@
 
 namespace rtplc::app {
 namespace {
+
+// Faster refreshes only burn a CPU the tasks may need (and flood a terminal).
+constexpr double kMinRefresh_s = 0.05;
 
 struct ViewArgs {
   std::string name = "rtplc";
@@ -163,18 +167,20 @@ void add_stats_commands(CLI::App& app) {
       "task's release to its thread running; exec is the cycle's run time. Lines starting with\n"
       "T: read like cyclictest's (microseconds). docs/jitter.md explains every column.\n"
       "Examples:\n  rtplc stats\n  rtplc stats --json\n  rtplc stats --hist jitter.hist && scripts/plot-jitter jitter.hist");
-  stats->add_option("--name", a->name, "runtime name (default rtplc)");
+  stats->add_option("--name", a->name, "runtime name (default rtplc)")->check(runtime_name());
   stats->add_flag("--json", a->json, "machine-readable output");
   stats->add_option("--hist", a->hist, "also write the latency histograms to this file");
-  stats->add_option("--watch", a->watch, "refresh every this many seconds");
+  stats->add_option("--watch", a->watch, "refresh every this many seconds (at least 0.05)")
+      ->check(seconds_at_least(kMinRefresh_s));
   stats->callback([a] { run_stats(*a); });
 
   CLI::App* mon = app.add_subcommand("monitor", "Live values, quality and age of every channel.");
   mon->footer("Attaches read-only to the running runtime's process image.\n"
               "Examples:\n  rtplc monitor\n  rtplc monitor --once --filter SV_");
-  mon->add_option("--name", a->name, "runtime name (default rtplc)");
+  mon->add_option("--name", a->name, "runtime name (default rtplc)")->check(runtime_name());
   mon->add_flag("--once", a->once, "print once and exit");
-  mon->add_option("--interval", a->interval, "refresh period in seconds (default 1)");
+  mon->add_option("--interval", a->interval, "refresh period in seconds (default 1, at least 0.05)")
+      ->check(seconds_at_least(kMinRefresh_s));
   mon->add_option("--filter", a->filter, "only channels whose label or address contains this");
   mon->callback([a] { run_monitor(*a); });
 }

@@ -2,9 +2,41 @@
 #include <CLI/CLI.hpp>
 
 #include <cstdio>
+#include <cstring>
 #include <exception>
+#include <string>
 
 #include "app/commands.h"
+#include "common/diagnostic.h"
+#include "common/version.h"
+
+namespace {
+
+std::string version_text() {
+  return std::string("rtplc ") + rtplc::kVersion + " (commit " + rtplc::kGitCommit + ", " +
+         rtplc::kBuildType + " build)";
+}
+
+// CLI11 reports a mistyped command as "A subcommand is required": name it, and
+// the nearest command, instead.
+bool unknown_command(CLI::App& app, const char* word) {
+  if (word[0] == '-') return false;
+  std::string best;
+  size_t best_d = 3;
+  for (const CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) {
+    if (sub->get_name() == word) return false;
+    const size_t d = rtplc::edit_distance(sub->get_name(), word);
+    if (d < best_d) {
+      best_d = d;
+      best = sub->get_name();
+    }
+  }
+  std::fprintf(stderr, "rtplc: unknown command '%s'%s; `rtplc --help` lists the commands\n", word,
+               best.empty() ? "" : (" (did you mean '" + best + "'?)").c_str());
+  return true;
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{
@@ -14,7 +46,9 @@ int main(int argc, char** argv) {
       "Run `rtplc <command> --help` for the details of each command."};
   app.require_subcommand(1);
   app.fallthrough(false);
-  app.set_version_flag("--version", "rtplc 0.1.0");
+  app.set_version_flag("--version", version_text());
+  CLI::App* version = app.add_subcommand("version", "Print the version, git commit and build type.");
+  version->callback([] { std::printf("%s\n", version_text().c_str()); });
 
   rtplc::app::add_check_commands(app);
   rtplc::app::add_sim_command(app);
@@ -25,6 +59,7 @@ int main(int argc, char** argv) {
   rtplc::app::add_driver_commands(app);
   rtplc::app::add_fieldbus_command(app);
 
+  if (argc > 1 && unknown_command(app, argv[1])) return rtplc::app::kExitUsage;
   try {
     app.parse(argc, argv);
   } catch (const CLI::RuntimeError& e) {

@@ -36,6 +36,8 @@ class DiagnosticList {
 
   size_t error_count() const { return errors_; }
   size_t warning_count() const { return warnings_; }
+  // Diagnostics counted but not kept (past kMaxRecorded); render() says how many.
+  size_t dropped_count() const { return dropped_; }
   bool has_errors() const { return errors_ > 0; }
   const std::vector<Diagnostic>& items() const { return items_; }
 
@@ -47,7 +49,14 @@ class DiagnosticList {
   std::vector<Diagnostic> items_;
   size_t errors_ = 0;
   size_t warnings_ = 0;
+  size_t dropped_ = 0;
 };
+
+// `text` safe to print on a terminal: printable ASCII, tabs and valid UTF-8 as
+// they are, every other byte (controls, NUL, DEL, broken UTF-8) as \xNN, so
+// escapes in a binary file cannot reach the terminal and a NUL cannot cut the
+// output short. Newlines are kept only when asked.
+std::string escape_for_terminal(std::string_view text, bool keep_newlines = false);
 
 // Returns line `line` (1-based) of `source` without its newline, or "" if out of range.
 std::string_view source_line(std::string_view source, uint32_t line);

@@ -135,6 +135,10 @@ struct alignas(64) ImageHeader {
   uint64_t owner_start_ticks;     // the runtime's process start time (/proc/PID/stat, field 22)
   std::atomic<int64_t> heartbeat_ns;           // CLOCK_MONOTONIC, a few times a second
   std::atomic<int64_t> heartbeat_realtime_ns;  // the same instant, CLOCK_REALTIME (for "died at")
+  // The control socket this runtime listens on (runtime.socket may move it away
+  // from the name's default): clients given only --name read it here. Written
+  // once by the runtime before it starts any thread; "" = the default path.
+  char socket_path[108];
 };
 
 // Per-task header in the image, followed by the task's timing statistics

@@ -231,6 +231,9 @@ bool Runtime::build(const config::RuntimeConfig& cfg, LoadReport& report) {
     return false;
   }
   image_ = std::move(img).value();
+  if (socket_path_.size() < sizeof image_.header().socket_path) {
+    std::memcpy(image_.header().socket_path, socket_path_.c_str(), socket_path_.size() + 1);
+  }
   for (const io::ChannelDesc& d : descs) {
     if (auto r = image_.add_channel(d); !r) {
       cdiag.error(SourcePos{}, r.error());

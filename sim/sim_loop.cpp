@@ -44,6 +44,22 @@ std::string gp_quote(const std::string& s) {
 
 }  // namespace
 
+std::pair<const Binding*, const Binding*> plant_bindings(const TaskImage& image, const SimOptions& opt) {
+  const Binding* pv = nullptr;
+  const Binding* mv = nullptr;
+  for (const Binding& b : image.bindings()) {
+    if (b.group != IoGroup::kDio || b.kind != Kind::kAnalog) continue;
+    if (b.dir == BindingDir::kInput && address(b) == opt.plant_output && !pv) pv = &b;
+    if (b.dir == BindingDir::kOutput && address(b) == opt.plant_input && !mv) mv = &b;
+  }
+  return {pv, mv};
+}
+
+bool runs_open_loop(const TaskImage& image, const SimOptions& opt) {
+  const auto [pv, mv] = plant_bindings(image, opt);
+  return opt.open_loop_if_unwired && pv == nullptr && mv == nullptr;
+}
+
 Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const SimOptions& opt) {
   if (!(opt.duration > 0) || opt.duration > 1e7) return make_error("duration must be in (0, 1e7] s");
   const double dt = image.period_s();
@@ -53,19 +69,15 @@ Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const Sim
   tr.plant_step = plant_step_for(dt, &steps);
   tr.plant = plant.describe();
 
-  const Binding* pv = nullptr;
-  const Binding* mv = nullptr;
-  for (const Binding& b : image.bindings()) {
-    if (b.group != IoGroup::kDio || b.kind != Kind::kAnalog) continue;
-    if (b.dir == BindingDir::kInput && address(b) == opt.plant_output && !pv) pv = &b;
-    if (b.dir == BindingDir::kOutput && address(b) == opt.plant_input && !mv) mv = &b;
-  }
-  if (!mv) {
+  const auto [pv, mv] = plant_bindings(image, opt);
+  if (!mv && !pv && opt.open_loop_if_unwired) tr.open_loop = true;
+  if (tr.open_loop) tr.plant = "none (open loop)";
+  if (!mv && !tr.open_loop) {
     return make_error("no dao at " + opt.plant_input + " to drive the plant: " +
                       list_channels(image, BindingDir::kOutput, "dao") +
                       "; choose one with --plant-input");
   }
-  if (!pv) {
+  if (!pv && !tr.open_loop) {
     return make_error("no dai at " + opt.plant_output + " to measure the plant: " +
                       list_channels(image, BindingDir::kInput, "dai") +
                       "; choose one with --plant-output");
@@ -109,6 +121,13 @@ Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const Sim
     pending.push_back({found->io_index, s.value, s.at});
   }
   std::sort(pending.begin(), pending.end(), [](auto& a, auto& b) { return a.at < b.at; });
+  // What "diverged" means is relative to the largest value the loop is asked for.
+  double scale = 1;
+  for (const Binding& b : image.bindings()) {
+    if (b.dir == BindingDir::kSetpoint && std::isfinite(b.init)) scale = std::max(scale, std::fabs(b.init));
+  }
+  for (const Pending& p : pending) scale = std::max(scale, std::fabs(p.value));
+  const double diverge_limit = kDivergenceFactor * scale;
 
   plant.reset();
   ExecContext ctx = make_context(image, arena);
@@ -124,9 +143,16 @@ Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const Sim
       arena.io_in[pending[next_step].io] = pending[next_step].value;
       ++next_step;
     }
-    arena.io_in[pv->io_index] = plant.output();
+    if (pv) {
+      const double y = plant.output();
+      if (tr.diverged_at < 0 && (!std::isfinite(y) || std::fabs(y) > diverge_limit)) {
+        tr.diverged_at = t;
+        tr.diverged_value = y;
+      }
+      arena.io_in[pv->io_index] = y;
+    }
     execute_cycle(ctx);
-    const double u = arena.io_out[mv->io_index];
+    const double u = mv ? arena.io_out[mv->io_index] : 0.0;
     std::vector<double> row;
     row.reserve(cols.size() + 1);
     row.push_back(t);
@@ -135,7 +161,9 @@ Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const Sim
                                                   : arena.io_in[b->io_index]);
     }
     tr.rows.push_back(std::move(row));
-    for (int s = 0; s < steps; ++s) plant.step(u, tr.plant_step);
+    if (!tr.open_loop) {
+      for (int s = 0; s < steps; ++s) plant.step(u, tr.plant_step);
+    }
   }
   tr.block_errors = arena.total_errors;
   return tr;

@@ -6,6 +6,7 @@
 
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "blocks/image.h"
@@ -27,6 +28,9 @@ struct SimOptions {
   std::string plant_output = "p0.d0.c0";  // the dai channel that measures it
   std::vector<SetpointStep> steps;
   bool realtime = false;             // pace cycles to the wall clock
+  // A program with neither the dao nor the dai above (a logic test) runs open
+  // loop, without the plant, instead of being refused.
+  bool open_loop_if_unwired = false;
 };
 
 struct SimTrace {
@@ -40,9 +44,21 @@ struct SimTrace {
   int mv_column = -1;                // the plant input
   int sp_column = -1;                // the set-point when the program has exactly one analog one
   uint64_t block_errors = 0;
+  bool open_loop = false;            // ran without a plant (nothing wired to it)
+  // The loop diverged: the measurement left every sensible range (not finite,
+  // or beyond kDivergenceFactor times the largest set-point). -1 = it did not.
+  double diverged_at = -1;
+  double diverged_value = 0;
 };
 
+inline constexpr double kDivergenceFactor = 1e6;
+
 Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const SimOptions& opt);
+// The dai measuring and the dao driving the plant (opt.plant_output / plant_input),
+// each nullptr when the program has none.
+std::pair<const Binding*, const Binding*> plant_bindings(const TaskImage& image, const SimOptions& opt);
+// Whether run_closed_loop will run `image` open loop (nothing wired to the plant).
+bool runs_open_loop(const TaskImage& image, const SimOptions& opt);
 
 // Step-response figures of the measurement against its set-point, from the last
 // set-point change (or t = 0) to the end of the run.

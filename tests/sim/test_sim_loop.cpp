@@ -85,5 +85,40 @@ TEST(SimLoop, csv_has_the_header_and_one_row_per_cycle) {
   std::remove(path.c_str());
 }
 
+TEST(SimLoop, the_seed_pid_on_an_unstable_tf_plant_is_flagged_as_diverged) {
+  auto r = lang::compile_file(kSrc + "/examples/seed_pid.fbd");
+  ASSERT_TRUE(r.ok());
+  auto p = make_plant("tf:2,1/1,3,1");
+  ASSERT_TRUE(p.ok()) << p.error();
+  SimOptions o;
+  auto t = run_closed_loop(*r.image, **p, o);
+  ASSERT_TRUE(t.ok()) << t.error();
+  EXPECT_GE(t->diverged_at, 0);
+  EXPECT_TRUE(!std::isfinite(t->diverged_value) || std::fabs(t->diverged_value) > kDivergenceFactor * 50);
+  // The stable default plant is not.
+  EXPECT_LT(run_seed(30).diverged_at, 0);
+}
+
+TEST(SimLoop, a_program_without_plant_channels_runs_open_loop_only_when_allowed) {
+  auto r = lang::compile_source(
+      "%%\nstime(0.1)\nD1 = dsp(d0, c0, 0, \"Start\")\nD2 = time(D1, 1)\n"
+      "ddo(D2, p0, d0, c1, \"Motor\")\nEND\n%%\n");
+  ASSERT_TRUE(r.ok()) << r.diags.render("logic", "");
+  auto p = make_plant(kDefaultPlant);
+  SimOptions o;
+  o.duration = 3;
+  o.steps = {{"Start", 1, 1}};
+  EXPECT_FALSE(run_closed_loop(*r.image, **p, o).ok());  // asked for a plant: refused
+  EXPECT_FALSE(runs_open_loop(*r.image, o));
+  o.open_loop_if_unwired = true;
+  EXPECT_TRUE(runs_open_loop(*r.image, o));
+  auto t = run_closed_loop(*r.image, **p, o);
+  ASSERT_TRUE(t.ok()) << t.error();
+  EXPECT_TRUE(t->open_loop);
+  EXPECT_EQ(t->pv_column, -1);
+  EXPECT_EQ(t->rows.back().back(), 1);  // Motor on 1 s after Start
+  EXPECT_EQ(t->rows[15].back(), 0);     // not before
+}
+
 }  // namespace
 }  // namespace rtplc::io

@@ -1,0 +1,28 @@
+// Checks shared by the subcommands' command lines: numbers that must be positive
+// and finite, runtime names, and what kind of file an argument really is, so a
+// wrong argument is refused with one clear line and exit code 2 instead of being
+// ignored or failing deep inside a library.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include <string>
+
+namespace rtplc::app {
+
+// A number of seconds > 0 and finite (rejects 0, negatives, nan, inf).
+CLI::Validator positive_seconds();
+// Like positive_seconds, and at least `min_s` (refresh periods: no busy loop).
+CLI::Validator seconds_at_least(double min_s);
+// A runtime name: 1 to 31 letters, digits, '_' or '-' (it names files and shared memory).
+CLI::Validator runtime_name();
+
+enum class InputKind { kMissing, kFolder, kConfig, kTaskImage, kProgram };
+InputKind input_kind(const std::string& path);
+
+// Refuses (exit 2, with what the file is and what to give instead) any input
+// that is not one of the kinds `cmd` accepts: an FBD program always, a
+// configuration when `config_ok`.
+void require_program(const std::string& path, const char* cmd, bool config_ok = false);
+
+}  // namespace rtplc::app
