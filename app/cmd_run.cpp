@@ -188,23 +188,8 @@ void run_swap(const ClientArgs& a) {
                                   *text, 60000);
   if (!r) fail("rtplc swap: " + r.error());
   std::fputs(r->c_str(), stdout);
-  // A running task keeps its time grid (the runtime compiles the new code for
-  // the task's period): say so when the file asks for another one.
-  if (auto img = io::ProcessImage::attach(a.name); img.ok()) {
-    for (uint32_t t = 0; t < img->header().n_tasks; ++t) {
-      const io::TaskInfo& ti = img->task_info(t);
-      if (a.task != ti.name) continue;
-      const double running = static_cast<double>(ti.period_ns) / 1e9;
-      const double wanted = local.image->period_s();
-      if (std::fabs(wanted - running) > 1e-9 * running) {
-        std::fprintf(stderr,
-                     "rtplc swap: note: %s says stime %g s, but task %s keeps its period of %g s "
-                     "(a running task's period never changes; the new code was compiled for %g s). "
-                     "Restart the runtime to change the period.\n",
-                     a.file.c_str(), wanted, a.task.c_str(), running, running);
-      }
-    }
-  }
+  // The runtime's answer says when the file's stime differs from the task's
+  // period (the task keeps its grid).
 }
 
 void run_simple(const ClientArgs& a, const char* verb) {

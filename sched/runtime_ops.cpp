@@ -119,8 +119,9 @@ Result<std::string> Runtime::swap(const std::string& task, const std::string& so
   std::string note;
   const double period = static_cast<double>(t->params().period_ns) / 1e9;
   if (r.program.period_from_stime && std::abs(r.program.period - period) > 1e-9 * period) {
-    note = "note: the program says stime(" + format_number(r.program.period) + ") but task " + task +
-           " keeps its period of " + format_number(period) + " s; a period changes with the config and a restart\n";
+    note = "note: " + file_label + " says stime " + format_number(r.program.period) + " s, but task " + task +
+           " keeps its period of " + format_number(period) +
+           " s (a running task's period never changes). Restart the runtime to change the period.\n";
   }
   std::string warn = r.diags.warning_count() ? r.diags.render(file_label, source) : "";
   return "compiled and verified in " + fmt_ms(compiled - t0) + "\n" + *res + "  kept for restarts as program " +
