@@ -4,6 +4,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <thread>
@@ -17,6 +18,23 @@ namespace rtplc::sched {
 namespace {
 
 std::string fmt_ms(int64_t ns) { return format_number(static_cast<double>(ns) / 1e6) + " ms"; }
+
+// The steps of an SFC program that were active when a swap took effect, split
+// into those the new program kept by name and those it no longer has. An SFC
+// step's flag is the block named step.<Step> (docs/sfc.md); FBD names never
+// look like that. `old` has stopped running, so its arena may be read here.
+void active_steps(const LoadedProgram& old, const Migration& m, std::vector<std::string>& kept,
+                  std::vector<std::string>& lost, bool& is_sfc) {
+  const auto blocks = old.image.blocks();
+  for (size_t i = 0; i < blocks.size(); ++i) {
+    const std::string name = old.image.str(blocks[i].name);
+    if (name.rfind("step.", 0) != 0 || name.find('.', 5) != std::string::npos) continue;
+    is_sfc = true;
+    if (old.arena.values.size() <= old.image.code()[i].out || old.arena.values[old.image.code()[i].out] == 0) continue;
+    const bool carried = std::find(m.kept.begin(), m.kept.end(), name) != m.kept.end();
+    (carried ? kept : lost).push_back(name.substr(5));
+  }
+}
 
 }  // namespace
 
@@ -67,6 +85,9 @@ Result<std::string> Runtime::install(Task& t, std::unique_ptr<LoadedProgram> nex
   }
   const int64_t applied = image_.task_info(t.index()).last_swap_ns.load(std::memory_order_relaxed);
   std::unique_ptr<LoadedProgram> old = t.collect();
+  std::vector<std::string> steps_kept, steps_lost;
+  bool is_sfc = false;
+  if (old) active_steps(*old, summary, steps_kept, steps_lost, is_sfc);
   if (keep_previous && old) {
     old->arena = TaskArena();  // its state is not needed for a rollback, only its code
     previous_[t.index()] = std::move(old);
@@ -86,6 +107,10 @@ Result<std::string> Runtime::install(Task& t, std::unique_ptr<LoadedProgram> nex
   list("reset", summary.reset);
   list("new", summary.added);
   list("removed", summary.removed);
+  if (is_sfc) {
+    list("active steps kept", steps_kept);
+    if (!steps_lost.empty()) list("active steps the new chart does not have (now inactive)", steps_lost);
+  }
   return out;
 }
 
