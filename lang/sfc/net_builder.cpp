@@ -97,7 +97,7 @@ class NetBuilder {
     }
     // The paper's sub-PN matrices and the composition modules.
     const petri::IntMatrix whole = net.incidence();
-    out.modules.push_back(petri::module_of(net, "main", main_loop_places()));
+    out.modules.push_back(main_module(net, whole));
     std::vector<bool> listed(c_.modules.size(), false);
     for (size_t s = 0; s < c_.steps.size(); ++s) {
       SubNet sn;
@@ -125,6 +125,27 @@ class NetBuilder {
     std::vector<petri::PlaceId> v = step_place_;
     v.insert(v.end(), main_places_.begin(), main_places_.end());
     return v;
+  }
+
+  // The main loop's block of B: its places and the transitions that move
+  // their tokens (sub-PN events only read them: zero columns, left out).
+  petri::Module main_module(const petri::Net& net, const petri::IntMatrix& whole) const {
+    petri::Module mod;
+    mod.name = "main";
+    const std::vector<petri::PlaceId> ps = main_loop_places();
+    std::vector<petri::TransitionId> ts;
+    for (petri::TransitionId t = 0; t < net.transition_count(); ++t) {
+      bool moves = false;
+      for (petri::PlaceId p : ps) moves = moves || whole(p, t) != 0;
+      if (moves) ts.push_back(t);
+    }
+    mod.b = petri::IntMatrix(ps.size(), ts.size());
+    for (size_t i = 0; i < ps.size(); ++i) {
+      mod.places.push_back(net.place(ps[i]).id);
+      for (size_t j = 0; j < ts.size(); ++j) mod.b(i, j) = whole(ps[i], ts[j]);
+    }
+    for (petri::TransitionId t : ts) mod.transitions.push_back(net.transition(t).id);
+    return mod;
   }
 
   size_t module_of_place(const std::string& place) const { return ix_.places.at(place).module; }

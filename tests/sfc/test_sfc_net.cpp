@@ -105,6 +105,8 @@ TEST(SfcNet, the_whole_net_is_the_papers_22_by_23_and_composes_from_its_modules)
   EXPECT_EQ(net.transition_count(), 23u);
   EXPECT_EQ(n.modules.front().places,
             (std::vector<std::string>{"S0", "S1", "S2", "S3", "S4", "S5", "S6", "P1", "P0"}));
+  EXPECT_EQ(n.modules.front().transitions,
+            (std::vector<std::string>{"t0", "t1", "t2", "t3", "t4", "t5", "t6", "tp10", "tp11"}));
   auto composed = petri::compose(n.modules, petri::place_ids(net), petri::transition_ids(net));
   ASSERT_TRUE(composed) << composed.error();
   EXPECT_EQ(*composed, net.incidence());
