@@ -12,6 +12,7 @@
 #include "common/text.h"
 #include "kernel_rt/clock.h"
 #include "lang/compiler.h"
+#include "lang/sfc/builder.h"
 #include "sched/stats_source.h"
 
 namespace rtplc::sched {
@@ -165,7 +166,24 @@ std::string Runtime::status() const {
          (ti.fifo ? "FIFO " + std::to_string(ti.priority) : std::string("OTHER")) + ", " +
          std::to_string(st->cycles()) + " cycles, " + std::to_string(st->overruns()) +
          " overruns, " + std::to_string(ti.swaps.load()) + " swaps, " +
-         std::to_string(ti.block_errors.load()) + " block errors\n";
+         std::to_string(ti.block_errors.load()) + " block errors";
+    // An SFC task: its step flags are output channels on the step-flag processor
+    // labelled <chart>.<step> (docs/sfc.md); list the active ones.
+    std::string steps;
+    bool is_sfc = false;
+    const TaskImage& img = t->active().image;
+    for (const Binding& b : img.bindings()) {
+      if (b.dir != BindingDir::kOutput || b.p != lang::sfc::kStepFlagProcessor) continue;
+      const std::string label = img.str(b.label);
+      const int c = image_.find_channel(label);
+      if (c < 0) continue;
+      is_sfc = true;
+      if (image_.read_channel(static_cast<uint32_t>(c)).value != 0) {
+        steps += (steps.empty() ? "" : " ") + label.substr(label.find('.') + 1);
+      }
+    }
+    if (is_sfc) s += ", active steps: " + (steps.empty() ? std::string("none") : steps);
+    s += "\n";
   }
   return s;
 }
