@@ -17,6 +17,9 @@ std::string step_of_flag(const std::string& name) {
 }
 
 std::string closest_name(const std::string& name, const std::vector<std::string>& candidates) {
+  // A hint is for a typo among a handful of names; a huge chart gets none
+  // rather than a quadratic search per mistake.
+  if (candidates.size() > 2000 || name.size() > 64) return "";
   size_t best = std::max<size_t>(2, name.size() / 3 + 1);
   std::string out;
   for (const std::string& c : candidates) {

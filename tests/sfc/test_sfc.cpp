@@ -2,6 +2,7 @@
 // task does cycle by cycle — step evolution, qualifiers, branches, jumps.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -281,6 +282,40 @@ TEST(SfcDiagnostics, warnings_for_unreachable_and_final_steps) {
   EXPECT_TRUE(ok) << out;
   EXPECT_NE(out.find("step C is not initial and no transition leads to it"), std::string::npos) << out;
   EXPECT_NE(out.find("no transition leaves step B"), std::string::npos) << out;
+}
+
+TEST(SfcRun, an_internal_flag_carries_state_between_steps_and_into_conditions) {
+  Sfc s(chart("OUTPUT F\nINITIAL STEP A\nN Q\nS F\nEND_STEP\nSTEP B\nR F\nEND_STEP\n"
+              "TRANSITION t1 FROM A TO B WHEN F AND GO\nTRANSITION t2 FROM B TO A WHEN NOT F AND NOT GO\n"));
+  ASSERT_TRUE(s.ok());
+  EXPECT_EQ(s.result().diags.warning_count(), 0u) << s.result().diags.render("t", "");
+  s.set("GO", 1);
+  s.step();
+  EXPECT_EQ(s.value("out.F"), 1);
+  s.step();
+  EXPECT_TRUE(s.active("B"));
+  EXPECT_EQ(s.value("out.F"), 0);
+  s.set("GO", 0);
+  s.step(2);
+  EXPECT_TRUE(s.active("A"));
+}
+
+TEST(SfcDiagnostics, an_unread_signal_and_an_undriven_output_are_warnings) {
+  bool ok = false;
+  const std::string out = diags(chart("SIGNAL idle = not(GO)\nINITIAL STEP A\nEND_STEP\n"
+                                      "TRANSITION t FROM A TO A WHEN STOP\n"),
+                                &ok);
+  EXPECT_TRUE(ok) << out;
+  EXPECT_NE(out.find("idle (not) is computed but never used"), std::string::npos) << out;
+  EXPECT_NE(out.find("no action drives output Q"), std::string::npos) << out;
+}
+
+TEST(SfcFrontEnd, the_same_chart_compiles_to_the_same_image) {
+  const std::string src = read(RTPLC_SOURCE_DIR "/examples/tank.sfc");
+  lang::CompileResult a = lang::compile_source(src), b = lang::compile_source(src);
+  ASSERT_TRUE(a.ok() && b.ok());
+  ASSERT_EQ(a.image->bytes().size(), b.image->bytes().size());
+  EXPECT_TRUE(std::equal(a.image->bytes().begin(), a.image->bytes().end(), b.image->bytes().begin()));
 }
 
 }  // namespace
