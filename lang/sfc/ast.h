@@ -107,7 +107,6 @@ struct Event {
 struct Chart {
   std::string name;
   SourcePos pos;
-  bool has_header = false;
   double period = 0.1;
   bool has_stime = false;
   SourcePos stime_pos;

@@ -116,7 +116,8 @@ class Builder {
   }
 
   // Device arguments of an I/O block: (p, d, c[, "label"]) or, for a
-  // set-point, (d, c, init[, "label"]); `skip` leading args are not device ones.
+  // set-point, (d, c, init[, "label"]). An output's value is not written: the
+  // chart's actions drive it.
   void device_args(const Call& k, const BlockSpec& spec, FlatBlock& b) {
     const bool setpoint = spec.signature == Signature::kSetpoint;
     const size_t want = 3;

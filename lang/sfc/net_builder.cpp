@@ -78,6 +78,8 @@ class NetBuilder {
     }
     // Rule 3: plant events, reading steps (the sub-PN starts when its step is marked) and places.
     for (const Event& e : c_.events) {
+      // HierarchicalNet keeps transitions in one list; the sub-PN an event
+      // belongs to is decided by its module (events_of below).
       auto tr = h.add_sub_transition(0, e.name);
       if (!tr) {
         d_.error(e.pos, tr.error());

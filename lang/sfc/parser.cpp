@@ -39,7 +39,6 @@ class Parser {
       try {
         NameRef n = expect_name("the program's name after SFC");
         c.name = n.name;
-        c.has_header = true;
         if (is_word("STEPS")) {
           next();
           const Token& d = cur();
