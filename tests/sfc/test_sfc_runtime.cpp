@@ -66,6 +66,12 @@ TEST(SfcRuntime, runs_beside_an_fbd_task_and_a_swap_keeps_its_active_step_and_ti
   ASSERT_TRUE(wait_for(*rt, "seq.A", 1));
   EXPECT_EQ(channel_value(*rt, "Q"), 1);
   EXPECT_EQ(channel_value(*rt, "seq.B"), 0);
+  const std::string status = rt->status();
+  EXPECT_NE(status.find("block errors, active steps: A\n"), std::string::npos) << status;
+  const size_t ramp_line = status.find("task ramp:");
+  ASSERT_NE(ramp_line, std::string::npos) << status;
+  EXPECT_EQ(status.substr(ramp_line, status.find('\n', ramp_line) - ramp_line).find("active steps"), std::string::npos)
+      << "an FBD task has no steps";
 
   ASSERT_TRUE(rt->set_value("GO", 1).ok());
   ASSERT_TRUE(wait_for(*rt, "seq.B", 1));
