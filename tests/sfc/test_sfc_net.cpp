@@ -7,6 +7,7 @@
 #include <sstream>
 #include <string>
 
+#include "lang/petri/pnml.h"
 #include "lang/petri/report.h"
 #include "lang/sfc/net_builder.h"
 
@@ -152,6 +153,17 @@ TEST(SfcNet, the_broken_tank_deadlocks_and_the_report_gives_the_firing_sequence)
   EXPECT_NE(seq.find("t4"), std::string::npos) << seq;
   const std::string text = lang::sfc::render_hierarchy(n) + petri::render_text(net, a);
   EXPECT_NE(text.find(seq), std::string::npos) << text;
+}
+
+TEST(SfcNet, the_shipped_pnml_is_the_tank_charts_net) {
+  const SfcNet n = tank();
+  petri::PnmlReadResult r = petri::read_pnml(read(RTPLC_SOURCE_DIR "/examples/petri/tank.pnml"));
+  ASSERT_TRUE(r.net) << "regenerate: rtplc analyze examples/tank.sfc --write-pnml examples/petri/tank.pnml";
+  EXPECT_EQ(petri::place_ids(*r.net), petri::place_ids(n.flat()));
+  EXPECT_EQ(petri::transition_ids(*r.net), petri::transition_ids(n.flat()));
+  EXPECT_EQ(r.net->input_matrix(), n.flat().input_matrix()) << "read arcs included";
+  EXPECT_EQ(r.net->output_matrix(), n.flat().output_matrix());
+  EXPECT_EQ(r.net->initial_marking(), n.flat().initial_marking());
 }
 
 TEST(SfcNet, or_conditions_become_one_transition_per_alternative) {
