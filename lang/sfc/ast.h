@@ -56,7 +56,7 @@ struct Expr {
 struct Action {
   std::string qualifier;  // N S R P L D
   SourcePos pos;
-  std::string target;     // an OUTPUT
+  std::string target;  // an OUTPUT
   SourcePos target_pos;
   std::optional<double> seconds;  // L and D
   SourcePos time_pos;

@@ -43,7 +43,8 @@ class Builder {
     for (const Signal& s : c_.signals) {
       if (s.role != Signal::Role::kOutput) signal_block(s);
     }
-    for (const Step& st : c_.steps) emit("or", prev(st.name), st.pos, {flag(st.name), flag(st.name)});
+    for (const Step& st : c_.steps)
+      emit("or", prev(st.name), st.pos, {flag(st.name), flag(st.name)});
     for (size_t i = 0; i < c_.transitions.size(); ++i) transition(i);
     for (size_t s = 0; s < c_.steps.size(); ++s) step(s);
     for (size_t s = 0; s < c_.steps.size(); ++s) step_output(s);
@@ -61,8 +62,8 @@ class Builder {
 
   // Appends a block; its inputs are names, resolved once every block exists
   // (a reference to a later block is legal and reads last cycle's value).
-  FlatBlock& emit(const char* written, std::string name, SourcePos pos, std::vector<std::string> ins,
-                  std::vector<double> params = {}) {
+  FlatBlock& emit(const char* written, std::string name, SourcePos pos,
+                  std::vector<std::string> ins, std::vector<double> params = {}) {
     FlatBlock b;
     b.written = written;
     b.name = std::move(name);
@@ -78,7 +79,8 @@ class Builder {
 
   // OR/AND of any number of inputs, as a chain of 3-input gates; the last gate
   // is named `name` (one input is doubled: the block must exist under its name).
-  std::string reduce(const char* op, std::vector<std::string> ins, const std::string& name, SourcePos pos) {
+  std::string reduce(const char* op, std::vector<std::string> ins, const std::string& name,
+                     SourcePos pos) {
     uint32_t part = 0;
     while (ins.size() > 3) {
       std::string partial = name + "." + std::to_string(++part);
@@ -96,12 +98,14 @@ class Builder {
     const std::string step = step_of_flag(name);
     if (!step.empty()) return in_condition ? prev(step) : flag(step);
     auto it = ix_.signals.find(name);
-    if (it != ix_.signals.end() && c_.signals[it->second].role == Signal::Role::kOutput) return "out." + name;
+    if (it != ix_.signals.end() && c_.signals[it->second].role == Signal::Role::kOutput)
+      return "out." + name;
     return name;
   }
 
   bool device_word(const Arg& a, char letter, uint32_t* out) {
-    bool ok = a.type == Arg::Type::kName && a.text.size() >= 2 && a.text.size() <= 7 && a.text[0] == letter;
+    bool ok = a.type == Arg::Type::kName && a.text.size() >= 2 && a.text.size() <= 7 &&
+              a.text[0] == letter;
     uint32_t v = 0;
     for (size_t k = 1; ok && k < a.text.size(); ++k) {
       ok = a.text[k] >= '0' && a.text[k] <= '9';
@@ -123,7 +127,8 @@ class Builder {
     const size_t want = 3;
     const std::vector<Arg>& a = k.args;
     const char* form = setpoint ? "(d, c, init, \"label\")" : "(p, d, c, \"label\")";
-    if (a.size() < want || a.size() > want + 1 || (a.size() == want + 1 && a[want].type != Arg::Type::kString)) {
+    if (a.size() < want || a.size() > want + 1 ||
+        (a.size() == want + 1 && a[want].type != Arg::Type::kString)) {
       d_.error(k.pos, k.block + " takes " + k.block + form + " here (the label may be left out)",
                static_cast<uint32_t>(k.block.size()));
       return;
@@ -132,7 +137,8 @@ class Builder {
     if (setpoint) {
       if (device_word(a[0], 'd', &v)) b.d = static_cast<uint16_t>(std::min<uint32_t>(v, 65535));
       if (device_word(a[1], 'c', &v)) b.c = v;
-      if (a[2].type != Arg::Type::kNumber) d_.error(a[2].pos, "expected the set-point's initial value");
+      if (a[2].type != Arg::Type::kNumber)
+        d_.error(a[2].pos, "expected the set-point's initial value");
       b.init = a[2].number;
     } else {
       if (device_word(a[0], 'p', &v)) b.p = static_cast<uint16_t>(std::min<uint32_t>(v, 65535));
@@ -152,13 +158,16 @@ class Builder {
     }
     const bool is_input = spec->group == BlockGroup::kInput;
     if (s.role == Signal::Role::kInput && !is_input) {
-      d_.error(k.pos, "INPUT takes an input or set-point block (ddi, prx, erd, dsp, ...); " + k.block +
-                          " is not one (compute it with SIGNAL)", static_cast<uint32_t>(k.block.size()));
+      d_.error(k.pos,
+               "INPUT takes an input or set-point block (ddi, prx, erd, dsp, ...); " + k.block +
+                   " is not one (compute it with SIGNAL)",
+               static_cast<uint32_t>(k.block.size()));
       return;
     }
     if (s.role == Signal::Role::kSignal && spec->signature != Signature::kCompute) {
-      d_.error(k.pos, std::string("SIGNAL takes a compute block (and, or, time, cnt, ...); ") + k.block +
-                          (is_input ? " reads a channel: declare it with INPUT" : " writes a channel"),
+      d_.error(k.pos,
+               std::string("SIGNAL takes a compute block (and, or, time, cnt, ...); ") + k.block +
+                   (is_input ? " reads a channel: declare it with INPUT" : " writes a channel"),
                static_cast<uint32_t>(k.block.size()));
       return;
     }
@@ -204,9 +213,12 @@ class Builder {
   // A condition as gates; returns the name of the block holding its value.
   std::string condition(const Expr& e, const std::string& base, uint32_t& counter) {
     switch (e.op) {
-      case Expr::Op::kTrue: return "sfc.one";
-      case Expr::Op::kFalse: return "sfc.zero";
-      case Expr::Op::kName: return reference(e.name, true);
+      case Expr::Op::kTrue:
+        return "sfc.one";
+      case Expr::Op::kFalse:
+        return "sfc.zero";
+      case Expr::Op::kName:
+        return reference(e.name, true);
       case Expr::Op::kNot: {
         const std::string in = condition(e.kids[0], base, counter);
         const std::string name = base + ".c" + std::to_string(++counter);
@@ -237,7 +249,8 @@ class Builder {
     for (size_t j = 0; j < i; ++j) {
       const Transition& u = c_.transitions[j];
       const bool shares = std::any_of(t.from.begin(), t.from.end(), [&](const NameRef& a) {
-        return std::any_of(u.from.begin(), u.from.end(), [&](const NameRef& b) { return a.name == b.name; });
+        return std::any_of(u.from.begin(), u.from.end(),
+                           [&](const NameRef& b) { return a.name == b.name; });
       });
       if (shares) earlier.push_back("tr." + u.name);
     }
@@ -255,7 +268,8 @@ class Builder {
     if (!ix_.leaving[s].empty()) {
       std::vector<std::string> leave;
       for (size_t t : ix_.leaving[s]) leave.push_back("tr." + c_.transitions[t].name);
-      const std::string l = leave.size() == 1 ? leave[0] : reduce("or", leave, flag(st.name) + ".leave", st.pos);
+      const std::string l =
+          leave.size() == 1 ? leave[0] : reduce("or", leave, flag(st.name) + ".leave", st.pos);
       go = flag(st.name) + ".go";
       emit("not", go, st.pos, {l});
     }
@@ -263,7 +277,8 @@ class Builder {
     std::vector<std::string> enter = {flag(st.name) + ".stay"};
     if (st.initial) enter.push_back("sfc.first");
     for (size_t t : ix_.entering[s]) enter.push_back("tr." + c_.transitions[t].name);
-    if (enter.size() == 1) enter.push_back("sfc.zero");  // the flag stays an `or` (hot swap matches the opcode)
+    if (enter.size() == 1)
+      enter.push_back("sfc.zero");  // the flag stays an `or` (hot swap matches the opcode)
     reduce("or", enter, flag(st.name), st.pos);
   }
 
@@ -275,8 +290,11 @@ class Builder {
     b.c = static_cast<uint32_t>(s);
     b.label = c_.name + "." + st.name;
     if (b.label.size() > 31) {
-      d_.error(st.pos, "the step flag's label '" + b.label + "' is longer than 31 characters: shorten the "
-                       "program or step name", static_cast<uint32_t>(st.name.size()));
+      d_.error(st.pos,
+               "the step flag's label '" + b.label +
+                   "' is longer than 31 characters: shorten the "
+                   "program or step name",
+               static_cast<uint32_t>(st.name.size()));
     }
   }
 
@@ -289,9 +307,15 @@ class Builder {
         const std::string base = "act." + st.name + "." + a.qualifier + "." + o.name;
         const double secs = a.seconds.value_or(0);
         switch (a.qualifier[0]) {
-          case 'N': terms.push_back(flag(st.name)); break;
-          case 'S': sets.push_back(flag(st.name)); break;
-          case 'R': resets.push_back(flag(st.name)); break;
+          case 'N':
+            terms.push_back(flag(st.name));
+            break;
+          case 'S':
+            sets.push_back(flag(st.name));
+            break;
+          case 'R':
+            resets.push_back(flag(st.name));
+            break;
           case 'P':  // the step's rising edge: active now, not last cycle
             emit("not", base + ".n", a.pos, {prev(st.name)});
             emit("and", base, a.pos, {flag(st.name), base + ".n"});
@@ -307,21 +331,24 @@ class Builder {
             emit("time", base, a.pos, {flag(st.name)}, {secs});
             terms.push_back(base);
             break;
-          default: break;
+          default:
+            break;
         }
       }
     }
     if (!sets.empty() || !resets.empty()) {
       // Reset-dominant latch: latch = (set OR latch_prev) AND NOT reset.
       const std::string set = sets.empty() ? "sfc.zero" : reduce("or", sets, out + ".set", o.pos);
-      const std::string reset = resets.empty() ? "sfc.zero" : reduce("or", resets, out + ".reset", o.pos);
+      const std::string reset =
+          resets.empty() ? "sfc.zero" : reduce("or", resets, out + ".reset", o.pos);
       emit("or", out + ".keep", o.pos, {set, out + ".latch"});
       emit("not", out + ".clear", o.pos, {reset});
       emit("and", out + ".latch", o.pos, {out + ".keep", out + ".clear"});
       terms.push_back(out + ".latch");
     }
     if (terms.empty()) {
-      d_.warning(o.pos, "no action drives output " + o.name + ": it stays 0", static_cast<uint32_t>(o.name.size()));
+      d_.warning(o.pos, "no action drives output " + o.name + ": it stays 0",
+                 static_cast<uint32_t>(o.name.size()));
       terms.push_back("sfc.zero");
     }
     reduce("or", terms, out, o.pos);
@@ -332,8 +359,10 @@ class Builder {
       return;
     }
     if (spec->group != BlockGroup::kOutput || spec->input_kind[0] != Kind::kDigital) {
-      d_.error(o.call->pos, "OUTPUT takes a digital output block (ddo, pwy, twd, ewd, ...); " + o.call->block +
-                                " is not one", static_cast<uint32_t>(o.call->block.size()));
+      d_.error(o.call->pos,
+               "OUTPUT takes a digital output block (ddo, pwy, twd, ewd, ...); " + o.call->block +
+                   " is not one",
+               static_cast<uint32_t>(o.call->block.size()));
       return;
     }
     FlatBlock& b = emit(o.call->block.c_str(), "", o.pos, {out});
@@ -370,7 +399,8 @@ class Builder {
 
 }  // namespace
 
-CheckedProgram build_flat_program(const Chart& chart, const ChartIndex& index, DiagnosticList& diags) {
+CheckedProgram build_flat_program(const Chart& chart, const ChartIndex& index,
+                                  DiagnosticList& diags) {
   return Builder(chart, index, diags).run();
 }
 

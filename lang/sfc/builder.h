@@ -22,7 +22,8 @@ namespace rtplc::lang::sfc {
 inline constexpr uint16_t kStepFlagProcessor = 255;
 
 // Translates a chart that passed check_chart() without errors.
-CheckedProgram build_flat_program(const Chart& chart, const ChartIndex& index, DiagnosticList& diags);
+CheckedProgram build_flat_program(const Chart& chart, const ChartIndex& index,
+                                  DiagnosticList& diags);
 
 // The whole SFC front end: text -> tokens -> chart -> name rules -> flat
 // program. The caller runs check_flat_program() and build_image() when `diags`

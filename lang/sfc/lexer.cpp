@@ -11,31 +11,49 @@ namespace rtplc::lang::sfc {
 
 const char* tok_name(Tok t) {
   switch (t) {
-    case Tok::kEof: return "end of file";
-    case Tok::kName: return "name";
-    case Tok::kNumber: return "number";
-    case Tok::kString: return "string";
-    case Tok::kLParen: return "'('";
-    case Tok::kRParen: return "')'";
-    case Tok::kComma: return "','";
-    case Tok::kEquals: return "'='";
-    case Tok::kColon: return "':'";
-    case Tok::kStar: return "'*'";
-    case Tok::kArrow: return "'->'";
+    case Tok::kEof:
+      return "end of file";
+    case Tok::kName:
+      return "name";
+    case Tok::kNumber:
+      return "number";
+    case Tok::kString:
+      return "string";
+    case Tok::kLParen:
+      return "'('";
+    case Tok::kRParen:
+      return "')'";
+    case Tok::kComma:
+      return "','";
+    case Tok::kEquals:
+      return "'='";
+    case Tok::kColon:
+      return "':'";
+    case Tok::kStar:
+      return "'*'";
+    case Tok::kArrow:
+      return "'->'";
   }
   return "?";
 }
 
 namespace {
 
-bool is_name_start(char c) { return std::isalpha(static_cast<unsigned char>(c)) || c == '_'; }
-bool is_name_char(char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; }
-bool is_digit(char c) { return std::isdigit(static_cast<unsigned char>(c)) != 0; }
+bool is_name_start(char c) {
+  return std::isalpha(static_cast<unsigned char>(c)) || c == '_';
+}
+bool is_name_char(char c) {
+  return std::isalnum(static_cast<unsigned char>(c)) || c == '_';
+}
+bool is_digit(char c) {
+  return std::isdigit(static_cast<unsigned char>(c)) != 0;
+}
 
 class Lexer {
  public:
   Lexer(std::string_view src, DiagnosticList* d) : src_(src), diags_(d) {
-    if (src_.substr(0, 3) == "\xEF\xBB\xBF") i_ = line_start_ = 3;  // a byte-order mark is not an error
+    if (src_.substr(0, 3) == "\xEF\xBB\xBF")
+      i_ = line_start_ = 3;  // a byte-order mark is not an error
   }
 
   // Skips blanks and both comment forms; false at the end of the text.
@@ -109,8 +127,8 @@ class Lexer {
     }
     if (is_name_start(c)) {
       // Names may hold dots between parts (Fill.X): the step-active flag.
-      while (!at_end() && (is_name_char(src_[i_]) ||
-                           (src_[i_] == '.' && i_ + 1 < src_.size() && is_name_start(src_[i_ + 1])))) {
+      while (!at_end() && (is_name_char(src_[i_]) || (src_[i_] == '.' && i_ + 1 < src_.size() &&
+                                                      is_name_start(src_[i_ + 1])))) {
         ++i_;
       }
       t.kind = Tok::kName;
@@ -123,12 +141,24 @@ class Lexer {
     if (c == '"') return lex_string(t);
     ++i_;
     switch (c) {
-      case '(': t.kind = Tok::kLParen; return true;
-      case ')': t.kind = Tok::kRParen; return true;
-      case ',': t.kind = Tok::kComma; return true;
-      case '=': t.kind = Tok::kEquals; return true;
-      case ':': t.kind = Tok::kColon; return true;
-      case '*': t.kind = Tok::kStar; return true;
+      case '(':
+        t.kind = Tok::kLParen;
+        return true;
+      case ')':
+        t.kind = Tok::kRParen;
+        return true;
+      case ',':
+        t.kind = Tok::kComma;
+        return true;
+      case '=':
+        t.kind = Tok::kEquals;
+        return true;
+      case ':':
+        t.kind = Tok::kColon;
+        return true;
+      case '*':
+        t.kind = Tok::kStar;
+        return true;
       case '-':
         if (cur() == '>') {
           ++i_;
@@ -136,7 +166,8 @@ class Lexer {
           return true;
         }
         break;
-      default: break;
+      default:
+        break;
     }
     const unsigned char u = static_cast<unsigned char>(c);
     if (u >= 0x80) {
@@ -212,9 +243,7 @@ class Lexer {
   bool at_end() const { return i_ >= src_.size(); }
   char cur() const { return at_end() ? '\0' : src_[i_]; }
   char peek(size_t k) const { return i_ + k < src_.size() ? src_[i_ + k] : '\0'; }
-  SourcePos here() const {
-    return SourcePos{line_, static_cast<uint32_t>(i_ - line_start_ + 1)};
-  }
+  SourcePos here() const { return SourcePos{line_, static_cast<uint32_t>(i_ - line_start_ + 1)}; }
 
   std::string_view src_;
   DiagnosticList* diags_;

@@ -15,7 +15,13 @@ enum class Tok : uint8_t {
   kName,    // Fill, PBS, Fill.X, p0, SFC, STEP (keywords are names the parser knows)
   kNumber,  // 12  0.5  1e-3  -2, with an optional time unit: 5s 200ms T#1.5s
   kString,  // "valve1"
-  kLParen, kRParen, kComma, kEquals, kColon, kStar, kArrow,
+  kLParen,
+  kRParen,
+  kComma,
+  kEquals,
+  kColon,
+  kStar,
+  kArrow,
 };
 
 const char* tok_name(Tok t);
@@ -24,9 +30,9 @@ struct Token {
   Tok kind = Tok::kEof;
   SourcePos pos;
   uint32_t length = 0;
-  std::string_view text;    // view into the source (a string without its quotes)
-  double value = 0;         // kNumber, in seconds when it has a unit
-  bool has_unit = false;    // kNumber written as a duration
+  std::string_view text;  // view into the source (a string without its quotes)
+  double value = 0;       // kNumber, in seconds when it has a unit
+  bool has_unit = false;  // kNumber written as a duration
 };
 
 // Never fails: a character it cannot read is reported and skipped. The last

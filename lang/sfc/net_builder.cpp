@@ -30,31 +30,36 @@ class NetBuilder {
     for (const Step& st : c_.steps) step_place_.push_back(h.add_step(st.name, st.initial).value());
     for (const Module& m : c_.modules) {
       if (!m.main) continue;
-      for (const PlaceDecl& p : m.places) main_places_.push_back(h.add_main_place(p.name, p.initial ? 1 : 0).value());
+      for (const PlaceDecl& p : m.places)
+        main_places_.push_back(h.add_main_place(p.name, p.initial ? 1 : 0).value());
     }
     // Rule 2: one sub-PN per step; a plant module's places belong to the
     // first step that lists it (HierarchicalNet keeps each place in one sub).
     std::vector<std::vector<size_t>> members = sub_members();
     std::vector<size_t> subs;
-    for (size_t s = 0; s < c_.steps.size(); ++s) subs.push_back(h.add_subnet("sub." + c_.steps[s].name, step_place_[s]));
+    for (size_t s = 0; s < c_.steps.size(); ++s)
+      subs.push_back(h.add_subnet("sub." + c_.steps[s].name, step_place_[s]));
     std::vector<bool> placed(c_.modules.size(), false);
     for (size_t s = 0; s < c_.steps.size(); ++s) {
       for (size_t m : members[s]) {
         if (placed[m] || c_.modules[m].main) continue;
         placed[m] = true;
-        for (const PlaceDecl& p : c_.modules[m].places) h.add_sub_place(subs[s], p.name, p.initial ? 1 : 0).value();
+        for (const PlaceDecl& p : c_.modules[m].places)
+          h.add_sub_place(subs[s], p.name, p.initial ? 1 : 0).value();
       }
     }
     for (size_t m = 0; m < c_.modules.size(); ++m) {
       if (placed[m] || c_.modules[m].main) continue;
-      for (const PlaceDecl& p : c_.modules[m].places) h.net().add_place(p.name, p.initial ? 1 : 0).value();
+      for (const PlaceDecl& p : c_.modules[m].places)
+        h.net().add_place(p.name, p.initial ? 1 : 0).value();
     }
     petri::Net& net = h.net();
     // Rule 1 and 4: main-loop transitions reading their conditions' places.
     for (const Transition& t : c_.transitions) {
       std::optional<Dnf> dnf = to_dnf(t.condition);
       if (!dnf) {
-        d_.error(t.condition.pos, "condition of " + t.name + " has more than " + std::to_string(kMaxAlternatives) +
+        d_.error(t.condition.pos, "condition of " + t.name + " has more than " +
+                                      std::to_string(kMaxAlternatives) +
                                       " alternatives: too large for the net");
         return std::nullopt;
       }
@@ -183,17 +188,20 @@ class NetBuilder {
     return out;
   }
 
-  std::vector<petri::TransitionId> events_of(const petri::Net& net, const std::vector<size_t>& mods) const {
+  std::vector<petri::TransitionId> events_of(const petri::Net& net,
+                                             const std::vector<size_t>& mods) const {
     std::vector<petri::TransitionId> ts;
     for (const Event& e : c_.events) {
       const size_t m = module_of_place(e.from.name);
-      if (std::find(mods.begin(), mods.end(), m) != mods.end()) ts.push_back(*net.find_transition(e.name));
+      if (std::find(mods.begin(), mods.end(), m) != mods.end())
+        ts.push_back(*net.find_transition(e.name));
     }
     std::sort(ts.begin(), ts.end());
     return ts;
   }
 
-  std::vector<petri::PlaceId> places_of(const petri::Net& net, const std::vector<size_t>& mods) const {
+  std::vector<petri::PlaceId> places_of(const petri::Net& net,
+                                        const std::vector<size_t>& mods) const {
     std::vector<petri::PlaceId> ps;
     for (size_t m : mods) {
       for (const PlaceDecl& p : c_.modules[m].places) ps.push_back(*net.find_place(p.name));
@@ -201,7 +209,8 @@ class NetBuilder {
     return ps;
   }
 
-  petri::Module device_module(const petri::Net& net, const petri::IntMatrix& whole, size_t m) const {
+  petri::Module device_module(const petri::Net& net, const petri::IntMatrix& whole,
+                              size_t m) const {
     petri::Module mod;
     mod.name = c_.modules[m].name;
     const std::vector<petri::PlaceId> ps = places_of(net, {m});
@@ -215,8 +224,8 @@ class NetBuilder {
     return mod;
   }
 
-  void fill_subnet(const petri::Net& net, const petri::IntMatrix& whole, const std::vector<size_t>& mods,
-                   SubNet& sn) const {
+  void fill_subnet(const petri::Net& net, const petri::IntMatrix& whole,
+                   const std::vector<size_t>& mods, SubNet& sn) const {
     const std::vector<petri::PlaceId> ps = places_of(net, mods);
     const std::vector<petri::TransitionId> ts = events_of(net, mods);
     sn.b = petri::IntMatrix(ps.size(), ts.size());
@@ -249,7 +258,8 @@ class NetBuilder {
         const std::string p = literal_place(e.name, positive);
         return Dnf{p.empty() ? Conjunction{} : Conjunction{p}};
       }
-      case Expr::Op::kNot: return to_dnf(e.kids[0], !positive);
+      case Expr::Op::kNot:
+        return to_dnf(e.kids[0], !positive);
       case Expr::Op::kAnd:
       case Expr::Op::kOr: {
         // De Morgan: a negated AND is an OR of negations and vice versa.
@@ -297,7 +307,8 @@ petri::Net SubNet::as_net() const {
   return n ? std::move(n).value() : petri::Net("sub." + step);
 }
 
-std::optional<SfcNet> build_net(const Chart& chart, const ChartIndex& index, DiagnosticList& diags) {
+std::optional<SfcNet> build_net(const Chart& chart, const ChartIndex& index,
+                                DiagnosticList& diags) {
   return NetBuilder(chart, index, diags).run();
 }
 
@@ -313,14 +324,14 @@ std::string render_hierarchy(const SfcNet& n) {
   std::ostringstream o;
   const petri::Net& net = n.flat();
   o << "SFC " << net.name() << " as a hierarchical Petri net (rules 1-4)\n";
-  o << "  main loop: " << n.modules.front().places.size() << " places, " << n.modules.front().transitions.size()
-    << " transitions\n";
+  o << "  main loop: " << n.modules.front().places.size() << " places, "
+    << n.modules.front().transitions.size() << " transitions\n";
   for (const SubNet& s : n.subnets) {
     if (s.places.empty()) continue;
     o << "  sub-PN of step " << s.step << " (";
     for (size_t i = 0; i < s.modules.size(); ++i) o << (i ? ", " : "") << s.modules[i];
-    o << "): " << s.places.size() << " x " << s.transitions.size() << ", initial " << petri::marking_vector(s.initial)
-      << "\n";
+    o << "): " << s.places.size() << " x " << s.transitions.size() << ", initial "
+      << petri::marking_vector(s.initial) << "\n";
     std::istringstream rows(s.b.to_string(s.places, s.transitions));
     for (std::string line; std::getline(rows, line);) o << "    " << line << "\n";
   }
@@ -329,8 +340,8 @@ std::string render_hierarchy(const SfcNet& n) {
   if (!composed) {
     o << "failed: " << composed.error() << "\n";
   } else {
-    o << (*composed == net.incidence() ? "equals" : "DIFFERS FROM") << " the flat net's " << net.place_count()
-      << " x " << net.transition_count() << " incidence matrix\n";
+    o << (*composed == net.incidence() ? "equals" : "DIFFERS FROM") << " the flat net's "
+      << net.place_count() << " x " << net.transition_count() << " incidence matrix\n";
   }
   o << "\n";
   return o.str();

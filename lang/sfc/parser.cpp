@@ -16,9 +16,10 @@ constexpr std::array<std::string_view, 9> kStatementWords = {
     "stime", "INPUT", "OUTPUT", "SIGNAL", "INITIAL", "STEP", "TRANSITION", "PLANT", "END_SFC"};
 
 constexpr std::array<std::string_view, 27> kReserved = {
-    "SFC",   "STEPS", "END_SFC", "stime", "INPUT",      "OUTPUT", "SIGNAL", "MODEL",  "INITIAL",
-    "STEP",  "END_STEP", "SUBNET", "TRANSITION", "FROM", "TO",     "WHEN",   "AND",    "OR",
-    "NOT",   "TRUE",  "FALSE",   "PLANT", "END_PLANT",  "MODULE", "MAIN",   "EVENT",  "WHILE"};
+    "SFC",   "STEPS",     "END_SFC", "stime",    "INPUT",  "OUTPUT",     "SIGNAL",
+    "MODEL", "INITIAL",   "STEP",    "END_STEP", "SUBNET", "TRANSITION", "FROM",
+    "TO",    "WHEN",      "AND",     "OR",       "NOT",    "TRUE",       "FALSE",
+    "PLANT", "END_PLANT", "MODULE",  "MAIN",     "EVENT",  "WHILE"};
 
 bool is_reserved(std::string_view w) {
   return std::find(kReserved.begin(), kReserved.end(), w) != kReserved.end();
@@ -59,7 +60,8 @@ class Parser {
     while (cur().kind != Tok::kEof) {
       if (is_word("END_SFC")) {
         next();
-        if (cur().kind != Tok::kEof) error(cur(), "nothing may follow END_SFC, found " + describe(cur()));
+        if (cur().kind != Tok::kEof)
+          error(cur(), "nothing may follow END_SFC, found " + describe(cur()));
         break;
       }
       try {
@@ -103,11 +105,13 @@ class Parser {
   void signal(Chart& c) {
     Signal s;
     const std::string_view w = cur().text;
-    s.role = w == "INPUT" ? Signal::Role::kInput
+    s.role = w == "INPUT"    ? Signal::Role::kInput
              : w == "OUTPUT" ? Signal::Role::kOutput
                              : Signal::Role::kSignal;
     next();
-    NameRef n = expect_name("a name for the " + std::string(w == "INPUT" ? "input" : w == "OUTPUT" ? "output" : "signal"));
+    NameRef n = expect_name("a name for the " + std::string(w == "INPUT"    ? "input"
+                                                            : w == "OUTPUT" ? "output"
+                                                                            : "signal"));
     s.name = n.name;
     s.pos = n.pos;
     if (cur().kind == Tok::kEquals || s.role != Signal::Role::kOutput) {
@@ -212,7 +216,8 @@ class Parser {
     static constexpr std::array<std::string_view, 6> kQualifiers = {"N", "S", "R", "P", "L", "D"};
     if (q.kind != Tok::kName ||
         std::find(kQualifiers.begin(), kQualifiers.end(), q.text) == kQualifiers.end()) {
-      fail(q, "expected an action qualifier (N, S, R, P, L or D) or END_STEP, found " + describe(q));
+      fail(q,
+           "expected an action qualifier (N, S, R, P, L or D) or END_STEP, found " + describe(q));
     }
     Action a;
     a.qualifier = std::string(q.text);
@@ -328,7 +333,8 @@ class Parser {
       next();
       return e;
     }
-    fail(t, "expected a condition (a signal, Step.X, NOT, TRUE, FALSE or '('), found " + describe(t));
+    fail(t,
+         "expected a condition (a signal, Step.X, NOT, TRUE, FALSE or '('), found " + describe(t));
   }
 
   // plant  := 'PLANT' { module | event } 'END_PLANT'
@@ -416,17 +422,22 @@ class Parser {
   }
   bool is_word(std::string_view w) const { return cur().kind == Tok::kName && cur().text == w; }
   bool is_statement_word() const {
-    return cur().kind == Tok::kName &&
-           std::find(kStatementWords.begin(), kStatementWords.end(), cur().text) != kStatementWords.end();
+    return cur().kind == Tok::kName && std::find(kStatementWords.begin(), kStatementWords.end(),
+                                                 cur().text) != kStatementWords.end();
   }
 
   static std::string describe(const Token& t) {
     switch (t.kind) {
-      case Tok::kEof: return "the end of the file";
-      case Tok::kName: return "'" + std::string(t.text) + "'";
-      case Tok::kString: return "the string \"" + std::string(t.text) + "\"";
-      case Tok::kNumber: return "the number " + std::string(t.text);
-      default: return tok_name(t.kind);
+      case Tok::kEof:
+        return "the end of the file";
+      case Tok::kName:
+        return "'" + std::string(t.text) + "'";
+      case Tok::kString:
+        return "the string \"" + std::string(t.text) + "\"";
+      case Tok::kNumber:
+        return "the number " + std::string(t.text);
+      default:
+        return tok_name(t.kind);
     }
   }
 
@@ -434,7 +445,8 @@ class Parser {
     const Token& t = cur();
     if (t.kind != Tok::kName) fail(t, "expected " + what + ", found " + describe(t));
     if (is_reserved(t.text)) {
-      fail(t, "expected " + what + ", found the keyword " + describe(t) + " (keywords cannot be names)");
+      fail(t, "expected " + what + ", found the keyword " + describe(t) +
+                  " (keywords cannot be names)");
     }
     NameRef n{std::string(t.text), t.pos};
     next();

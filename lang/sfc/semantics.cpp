@@ -34,7 +34,9 @@ std::string closest_name(const std::string& name, const std::vector<std::string>
 
 namespace {
 
-uint32_t len(const std::string& s) { return static_cast<uint32_t>(s.empty() ? 1 : s.size()); }
+uint32_t len(const std::string& s) {
+  return static_cast<uint32_t>(s.empty() ? 1 : s.size());
+}
 
 class Checker {
  public:
@@ -60,15 +62,20 @@ class Checker {
     }
     auto [it, fresh] = owner_.try_emplace(name, std::make_pair(std::string(what), pos.line));
     if (!fresh) {
-      d_.error(pos, std::string(what) + " '" + name + "' is already defined as " + it->second.first +
-                        " (line " + std::to_string(it->second.second) + ")", len(name));
+      d_.error(pos,
+               std::string(what) + " '" + name + "' is already defined as " + it->second.first +
+                   " (line " + std::to_string(it->second.second) + ")",
+               len(name));
     }
   }
 
   void declare_names() {
     for (size_t i = 0; i < c_.signals.size(); ++i) {
       const Signal& s = c_.signals[i];
-      claim(s.name, s.pos, s.role == Signal::Role::kInput ? "input" : s.role == Signal::Role::kOutput ? "output" : "signal");
+      claim(s.name, s.pos,
+            s.role == Signal::Role::kInput    ? "input"
+            : s.role == Signal::Role::kOutput ? "output"
+                                              : "signal");
       ix_.signals.emplace(s.name, i);
     }
     for (size_t i = 0; i < c_.steps.size(); ++i) {
@@ -122,8 +129,9 @@ class Checker {
             if (s.role == Signal::Role::kOutput) outs.push_back(s.name);
           }
           d_.error(a.target_pos,
-                   known ? "action target '" + a.target + "' is not an OUTPUT (actions drive outputs)"
-                         : "unknown output '" + a.target + "'" + closest_name(a.target, outs),
+                   known
+                       ? "action target '" + a.target + "' is not an OUTPUT (actions drive outputs)"
+                       : "unknown output '" + a.target + "'" + closest_name(a.target, outs),
                    len(a.target));
         }
         const bool timed = a.qualifier == "L" || a.qualifier == "D";
@@ -136,14 +144,16 @@ class Checker {
           d_.error(a.time_pos, "an action time cannot be negative");
         }
         if (!seen.emplace(a.qualifier, a.target).second) {
-          d_.error(a.pos, "step " + st.name + " already has the action " + a.qualifier + " " + a.target);
+          d_.error(a.pos,
+                   "step " + st.name + " already has the action " + a.qualifier + " " + a.target);
         }
       }
       for (const NameRef& m : st.subnet) {
         if (!ix_.modules.count(m.name)) {
           std::vector<std::string> mods;
           for (const Module& mo : c_.modules) mods.push_back(mo.name);
-          d_.error(m.pos, "unknown plant module '" + m.name + "'" + closest_name(m.name, mods), len(m.name));
+          d_.error(m.pos, "unknown plant module '" + m.name + "'" + closest_name(m.name, mods),
+                   len(m.name));
         }
       }
     }
@@ -157,7 +167,8 @@ class Checker {
 
   bool check_step_ref(const NameRef& r) {
     if (ix_.steps.count(r.name)) return true;
-    d_.error(r.pos, "unknown step '" + r.name + "'" + closest_name(r.name, step_names_), len(r.name));
+    d_.error(r.pos, "unknown step '" + r.name + "'" + closest_name(r.name, step_names_),
+             len(r.name));
     return false;
   }
 
@@ -168,11 +179,13 @@ class Checker {
       const Transition& t = c_.transitions[i];
       std::set<std::string> from_seen, to_seen;
       for (const NameRef& r : t.from) {
-        if (!from_seen.insert(r.name).second) d_.error(r.pos, "step " + r.name + " is listed twice", len(r.name));
+        if (!from_seen.insert(r.name).second)
+          d_.error(r.pos, "step " + r.name + " is listed twice", len(r.name));
         if (check_step_ref(r)) ix_.leaving[ix_.steps[r.name]].push_back(i);
       }
       for (const NameRef& r : t.to) {
-        if (!to_seen.insert(r.name).second) d_.error(r.pos, "step " + r.name + " is listed twice", len(r.name));
+        if (!to_seen.insert(r.name).second)
+          d_.error(r.pos, "step " + r.name + " is listed twice", len(r.name));
         if (check_step_ref(r)) ix_.entering[ix_.steps[r.name]].push_back(i);
       }
       check_condition(t.condition);
@@ -180,7 +193,8 @@ class Checker {
     for (size_t s = 0; s < c_.steps.size(); ++s) {
       const Step& st = c_.steps[s];
       if (ix_.entering[s].empty() && !st.initial) {
-        d_.warning(st.pos, "step " + st.name + " is not initial and no transition leads to it", len(st.name));
+        d_.warning(st.pos, "step " + st.name + " is not initial and no transition leads to it",
+                   len(st.name));
       }
       if (ix_.leaving[s].empty()) {
         d_.warning(st.pos, "no transition leaves step " + st.name + ": once active it stays active",
@@ -201,8 +215,9 @@ class Checker {
     }
     auto it = ix_.signals.find(e.name);
     if (it == ix_.signals.end()) {
-      const std::string hint = ix_.steps.count(e.name) ? "; a step's active flag is written " + e.name + ".X"
-                                                       : closest_name(e.name, signal_names_);
+      const std::string hint = ix_.steps.count(e.name)
+                                   ? "; a step's active flag is written " + e.name + ".X"
+                                   : closest_name(e.name, signal_names_);
       d_.error(e.pos, "unknown signal '" + e.name + "'" + hint, len(e.name));
       return;
     }
@@ -210,15 +225,18 @@ class Checker {
     if (s.call) {
       const BlockSpec* spec = find_block(s.call->block);
       if (spec && spec->has_output && spec->out_kind == Kind::kAnalog) {
-        d_.error(e.pos, "a condition needs a digital signal, but " + e.name + " is analog (" +
-                            s.call->block + ")", len(e.name));
+        d_.error(e.pos,
+                 "a condition needs a digital signal, but " + e.name + " is analog (" +
+                     s.call->block + ")",
+                 len(e.name));
       }
     }
   }
 
   void check_place(const std::string& name, SourcePos pos) {
     if (!ix_.places.count(name)) {
-      d_.error(pos, "unknown plant place '" + name + "'" + closest_name(name, place_names_), len(name));
+      d_.error(pos, "unknown plant place '" + name + "'" + closest_name(name, place_names_),
+               len(name));
     }
   }
 
@@ -227,8 +245,10 @@ class Checker {
       uint32_t initial = 0;
       for (const PlaceDecl& p : m.places) initial += p.initial ? 1 : 0;
       if (initial != 1) {
-        d_.error(m.pos, "module " + m.name + " needs exactly one initial place (marked with '*'), found " +
-                            std::to_string(initial), len(m.name));
+        d_.error(m.pos,
+                 "module " + m.name + " needs exactly one initial place (marked with '*'), found " +
+                     std::to_string(initial),
+                 len(m.name));
       }
     }
     for (const Event& e : c_.events) {
@@ -238,14 +258,17 @@ class Checker {
       if (a != ix_.places.end() && b != ix_.places.end() && a->second.module != b->second.module) {
         d_.error(e.to.pos, "event " + e.name + " moves a token between two modules (" +
                                c_.modules[a->second.module].name + " and " +
-                               c_.modules[b->second.module].name + "); an event stays in its module");
+                               c_.modules[b->second.module].name +
+                               "); an event stays in its module");
       }
       for (const NameRef& r : e.reads) {
         if (!ix_.steps.count(r.name) && !ix_.places.count(r.name)) {
           std::vector<std::string> both = step_names_;
           both.insert(both.end(), place_names_.begin(), place_names_.end());
-          d_.error(r.pos, "WHILE names '" + r.name + "', which is neither a step nor a plant place" +
-                              closest_name(r.name, both), len(r.name));
+          d_.error(r.pos,
+                   "WHILE names '" + r.name + "', which is neither a step nor a plant place" +
+                       closest_name(r.name, both),
+                   len(r.name));
         }
       }
     }
@@ -260,6 +283,8 @@ class Checker {
 
 }  // namespace
 
-ChartIndex check_chart(const Chart& chart, DiagnosticList& diags) { return Checker(chart, diags).run(); }
+ChartIndex check_chart(const Chart& chart, DiagnosticList& diags) {
+  return Checker(chart, diags).run();
+}
 
 }  // namespace rtplc::lang::sfc

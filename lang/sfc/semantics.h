@@ -20,8 +20,8 @@ struct PlaceRef {
 };
 
 struct ChartIndex {
-  std::unordered_map<std::string, size_t> steps;        // name -> Chart::steps index
-  std::unordered_map<std::string, size_t> signals;      // name -> Chart::signals index
+  std::unordered_map<std::string, size_t> steps;    // name -> Chart::steps index
+  std::unordered_map<std::string, size_t> signals;  // name -> Chart::signals index
   std::unordered_map<std::string, size_t> transitions;
   std::unordered_map<std::string, size_t> modules;
   std::unordered_map<std::string, PlaceRef> places;

@@ -47,7 +47,8 @@ TEST(SfcFrontEnd, detects_the_language_from_the_first_word) {
 TEST(SfcFrontEnd, the_tank_example_compiles_to_an_ordinary_task_image) {
   lang::CompileResult r = lang::compile_file(RTPLC_SOURCE_DIR "/examples/tank.sfc");
   ASSERT_TRUE(r.ok()) << r.diags.render("tank.sfc", read(RTPLC_SOURCE_DIR "/examples/tank.sfc"));
-  EXPECT_EQ(r.diags.warning_count(), 0u) << r.diags.render("tank.sfc", read(RTPLC_SOURCE_DIR "/examples/tank.sfc"));
+  EXPECT_EQ(r.diags.warning_count(), 0u)
+      << r.diags.render("tank.sfc", read(RTPLC_SOURCE_DIR "/examples/tank.sfc"));
   EXPECT_DOUBLE_EQ(r.image->period_s(), 0.1);
   // Every step is a labelled output channel on p255 (the monitor shows it).
   int step_flags = 0;
@@ -106,8 +107,9 @@ TEST(SfcRun, the_tank_runs_its_cycle_against_a_hand_plant) {
 }
 
 TEST(SfcRun, a_transition_fires_on_the_cycle_after_its_step_became_active) {
-  Sfc s(chart("INITIAL STEP A\nN Q\nEND_STEP\nSTEP B\nEND_STEP\n"
-              "TRANSITION t1 FROM A TO B WHEN GO\nTRANSITION t2 FROM B TO A WHEN TRUE\n"));
+  Sfc s(
+      chart("INITIAL STEP A\nN Q\nEND_STEP\nSTEP B\nEND_STEP\n"
+            "TRANSITION t1 FROM A TO B WHEN GO\nTRANSITION t2 FROM B TO A WHEN TRUE\n"));
   ASSERT_TRUE(s.ok());
   s.set("GO", 1);
   s.step();  // first cycle: the initial step becomes active, nothing fires yet
@@ -121,9 +123,10 @@ TEST(SfcRun, a_transition_fires_on_the_cycle_after_its_step_became_active) {
 }
 
 TEST(SfcRun, set_and_reset_latch_the_output_across_steps) {
-  Sfc s(chart("INITIAL STEP A\nS Q\nEND_STEP\nSTEP B\nEND_STEP\nSTEP C\nR Q\nEND_STEP\n"
-              "TRANSITION t1 FROM A TO B WHEN GO\nTRANSITION t2 FROM B TO C WHEN STOP\n"
-              "TRANSITION t3 FROM C TO A WHEN NOT STOP\n"));
+  Sfc s(
+      chart("INITIAL STEP A\nS Q\nEND_STEP\nSTEP B\nEND_STEP\nSTEP C\nR Q\nEND_STEP\n"
+            "TRANSITION t1 FROM A TO B WHEN GO\nTRANSITION t2 FROM B TO C WHEN STOP\n"
+            "TRANSITION t3 FROM C TO A WHEN NOT STOP\n"));
   ASSERT_TRUE(s.ok());
   s.step();
   EXPECT_EQ(s.out("Q"), 1);
@@ -139,14 +142,16 @@ TEST(SfcRun, set_and_reset_latch_the_output_across_steps) {
 }
 
 TEST(SfcRun, pulse_limited_and_delayed_actions_follow_the_step_time) {
-  Sfc s(chart("OUTPUT R1 = ddo(p0, d1, c1, \"R1\")\nOUTPUT R2 = ddo(p0, d1, c2, \"R2\")\n"
-              "INITIAL STEP A\nP Q\nL R1 0.3s\nD R2 300ms\nEND_STEP\n"
-              "TRANSITION t1 FROM A TO A WHEN STOP\n"));
+  Sfc s(
+      chart("OUTPUT R1 = ddo(p0, d1, c1, \"R1\")\nOUTPUT R2 = ddo(p0, d1, c2, \"R2\")\n"
+            "INITIAL STEP A\nP Q\nL R1 0.3s\nD R2 300ms\nEND_STEP\n"
+            "TRANSITION t1 FROM A TO A WHEN STOP\n"));
   ASSERT_TRUE(s.ok()) << s.result().diags.render("t", "");
   std::string trace;
   for (int k = 0; k < 6; ++k) {
     s.step();
-    trace += std::to_string(static_cast<int>(s.out("Q"))) + std::to_string(static_cast<int>(s.out("R1"))) +
+    trace += std::to_string(static_cast<int>(s.out("Q"))) +
+             std::to_string(static_cast<int>(s.out("R1"))) +
              std::to_string(static_cast<int>(s.out("R2"))) + " ";
   }
   // P: the first cycle only. L 0.3 s at 0.1 s: three cycles. D 0.3 s: from the fourth.
@@ -154,9 +159,10 @@ TEST(SfcRun, pulse_limited_and_delayed_actions_follow_the_step_time) {
 }
 
 TEST(SfcRun, selection_divergence_takes_the_first_written_branch) {
-  Sfc s(chart("INITIAL STEP A\nEND_STEP\nSTEP B\nEND_STEP\nSTEP C\nEND_STEP\n"
-              "TRANSITION tb FROM A TO B WHEN GO\nTRANSITION tc FROM A TO C WHEN GO OR STOP\n"
-              "TRANSITION bj FROM B TO A WHEN TRUE\nTRANSITION cj FROM C TO A WHEN TRUE\n"));
+  Sfc s(
+      chart("INITIAL STEP A\nEND_STEP\nSTEP B\nEND_STEP\nSTEP C\nEND_STEP\n"
+            "TRANSITION tb FROM A TO B WHEN GO\nTRANSITION tc FROM A TO C WHEN GO OR STOP\n"
+            "TRANSITION bj FROM B TO A WHEN TRUE\nTRANSITION cj FROM C TO A WHEN TRUE\n"));
   ASSERT_TRUE(s.ok());
   s.set("GO", 1);
   s.set("STOP", 1);
@@ -171,12 +177,13 @@ TEST(SfcRun, selection_divergence_takes_the_first_written_branch) {
 }
 
 TEST(SfcRun, simultaneous_branches_split_and_join) {
-  Sfc s(chart("INITIAL STEP A\nEND_STEP\nSTEP B1\nEND_STEP\nSTEP B2\nEND_STEP\nSTEP B3\nEND_STEP\n"
-              "STEP W\nEND_STEP\n"
-              "TRANSITION split FROM A TO (B1, B2) WHEN GO\n"
-              "TRANSITION b FROM B2 TO B3 WHEN STOP\n"
-              "TRANSITION join FROM (B1, B3) TO W WHEN TRUE\n"
-              "TRANSITION back FROM W TO A WHEN NOT GO\n"));
+  Sfc s(
+      chart("INITIAL STEP A\nEND_STEP\nSTEP B1\nEND_STEP\nSTEP B2\nEND_STEP\nSTEP B3\nEND_STEP\n"
+            "STEP W\nEND_STEP\n"
+            "TRANSITION split FROM A TO (B1, B2) WHEN GO\n"
+            "TRANSITION b FROM B2 TO B3 WHEN STOP\n"
+            "TRANSITION join FROM (B1, B3) TO W WHEN TRUE\n"
+            "TRANSITION back FROM W TO A WHEN NOT GO\n"));
   ASSERT_TRUE(s.ok());
   s.set("GO", 1);
   s.step(2);
@@ -194,9 +201,10 @@ TEST(SfcRun, simultaneous_branches_split_and_join) {
 }
 
 TEST(SfcRun, signals_are_fbd_blocks_over_inputs_and_step_flags) {
-  Sfc s(chart("SIGNAL both = and(GO, STOP)\nSIGNAL waited = time(A.X, 0.2)\n"
-              "INITIAL STEP A\nEND_STEP\nSTEP B\nN Q\nEND_STEP\n"
-              "TRANSITION t1 FROM A TO B WHEN waited AND NOT both\nTRANSITION t2 FROM B TO A WHEN both\n"));
+  Sfc s(chart(
+      "SIGNAL both = and(GO, STOP)\nSIGNAL waited = time(A.X, 0.2)\n"
+      "INITIAL STEP A\nEND_STEP\nSTEP B\nN Q\nEND_STEP\n"
+      "TRANSITION t1 FROM A TO B WHEN waited AND NOT both\nTRANSITION t2 FROM B TO A WHEN both\n"));
   ASSERT_TRUE(s.ok());
   s.step(3);
   EXPECT_TRUE(s.active("A"));
@@ -209,8 +217,9 @@ TEST(SfcRun, signals_are_fbd_blocks_over_inputs_and_step_flags) {
 }
 
 TEST(SfcRun, two_initial_steps_start_together) {
-  Sfc s(chart("INITIAL STEP A\nN Q\nEND_STEP\nINITIAL STEP B\nEND_STEP\nSTEP C\nEND_STEP\n"
-              "TRANSITION j FROM (A, B) TO C WHEN GO\nTRANSITION k FROM C TO (A, B) WHEN NOT GO\n"));
+  Sfc s(
+      chart("INITIAL STEP A\nN Q\nEND_STEP\nINITIAL STEP B\nEND_STEP\nSTEP C\nEND_STEP\n"
+            "TRANSITION j FROM (A, B) TO C WHEN GO\nTRANSITION k FROM C TO (A, B) WHEN NOT GO\n"));
   ASSERT_TRUE(s.ok());
   s.step();
   EXPECT_TRUE(s.active("A"));
@@ -224,7 +233,9 @@ TEST(SfcRun, two_initial_steps_start_together) {
 
 // ---- diagnostics ----
 
-std::string diags(const std::string& src, bool* ok) { return testing::diagnostics_of(src, ok); }
+std::string diags(const std::string& src, bool* ok) {
+  return testing::diagnostics_of(src, ok);
+}
 
 TEST(SfcDiagnostics, several_errors_in_one_run_each_with_line_col_and_caret) {
   bool ok = true;
@@ -232,7 +243,8 @@ TEST(SfcDiagnostics, several_errors_in_one_run_each_with_line_col_and_caret) {
                                       "TRANSITION t1 FROM A TO Bb WHEN GOO\n"),
                                 &ok);
   EXPECT_FALSE(ok);
-  EXPECT_NE(out.find("t.fbd:7:3: error: unknown output 'Qq'; did you mean 'Q'?"), std::string::npos) << out;
+  EXPECT_NE(out.find("t.fbd:7:3: error: unknown output 'Qq'; did you mean 'Q'?"), std::string::npos)
+      << out;
   EXPECT_NE(out.find("t.fbd:8:1: error: expected an action qualifier"), std::string::npos) << out;
   EXPECT_NE(out.find("t.fbd:10:25: error: unknown step 'Bb'"), std::string::npos) << out;
   EXPECT_NE(out.find("unknown signal 'GOO'; did you mean 'GO'?"), std::string::npos) << out;
@@ -251,8 +263,10 @@ TEST(SfcDiagnostics, rules_of_steps_actions_and_conditions) {
       {"INITIAL STEP A\nEND_STEP\nSTEP A\nEND_STEP\n", "step 'A' is already defined as step"},
       {"SIGNAL lv = dai(p0, d0, c5)\nINITIAL STEP A\nEND_STEP\nTRANSITION t FROM A TO A WHEN lv\n",
        "a condition needs a digital signal, but lv is analog"},
-      {"INITIAL STEP A\nEND_STEP\nTRANSITION t FROM A TO A WHEN A\n", "a step's active flag is written A.X"},
-      {"INPUT X = and(GO, STOP)\nINITIAL STEP A\nEND_STEP\n", "INPUT takes an input or set-point block"},
+      {"INITIAL STEP A\nEND_STEP\nTRANSITION t FROM A TO A WHEN A\n",
+       "a step's active flag is written A.X"},
+      {"INPUT X = and(GO, STOP)\nINITIAL STEP A\nEND_STEP\n",
+       "INPUT takes an input or set-point block"},
       {"INITIAL STEP A\nEND_STEP\nTRANSITION t FROM A TO A WHEN GO AND\n", "expected a condition"},
       {"INITIAL STEP A\nEND_STEP\nTRANSITION t FROM A TO A\n", "expected WHEN"},
       {"INITIAL STEP A\n", "step A is not closed"},
@@ -276,17 +290,21 @@ TEST(SfcDiagnostics, a_missing_header_is_reported_for_an_sfc_file) {
 
 TEST(SfcDiagnostics, warnings_for_unreachable_and_final_steps) {
   bool ok = false;
-  const std::string out = diags(chart("INITIAL STEP A\nN Q\nEND_STEP\nSTEP B\nEND_STEP\nSTEP C\nEND_STEP\n"
-                                      "TRANSITION t FROM A TO B WHEN GO\n"),
-                                &ok);
+  const std::string out =
+      diags(chart("INITIAL STEP A\nN Q\nEND_STEP\nSTEP B\nEND_STEP\nSTEP C\nEND_STEP\n"
+                  "TRANSITION t FROM A TO B WHEN GO\n"),
+            &ok);
   EXPECT_TRUE(ok) << out;
-  EXPECT_NE(out.find("step C is not initial and no transition leads to it"), std::string::npos) << out;
+  EXPECT_NE(out.find("step C is not initial and no transition leads to it"), std::string::npos)
+      << out;
   EXPECT_NE(out.find("no transition leaves step B"), std::string::npos) << out;
 }
 
 TEST(SfcRun, an_internal_flag_carries_state_between_steps_and_into_conditions) {
-  Sfc s(chart("OUTPUT F\nINITIAL STEP A\nN Q\nS F\nEND_STEP\nSTEP B\nR F\nEND_STEP\n"
-              "TRANSITION t1 FROM A TO B WHEN F AND GO\nTRANSITION t2 FROM B TO A WHEN NOT F AND NOT GO\n"));
+  Sfc s(
+      chart("OUTPUT F\nINITIAL STEP A\nN Q\nS F\nEND_STEP\nSTEP B\nR F\nEND_STEP\n"
+            "TRANSITION t1 FROM A TO B WHEN F AND GO\nTRANSITION t2 FROM B TO A WHEN NOT F AND NOT "
+            "GO\n"));
   ASSERT_TRUE(s.ok());
   EXPECT_EQ(s.result().diags.warning_count(), 0u) << s.result().diags.render("t", "");
   s.set("GO", 1);
@@ -315,7 +333,8 @@ TEST(SfcFrontEnd, the_same_chart_compiles_to_the_same_image) {
   lang::CompileResult a = lang::compile_source(src), b = lang::compile_source(src);
   ASSERT_TRUE(a.ok() && b.ok());
   ASSERT_EQ(a.image->bytes().size(), b.image->bytes().size());
-  EXPECT_TRUE(std::equal(a.image->bytes().begin(), a.image->bytes().end(), b.image->bytes().begin()));
+  EXPECT_TRUE(
+      std::equal(a.image->bytes().begin(), a.image->bytes().end(), b.image->bytes().begin()));
 }
 
 }  // namespace

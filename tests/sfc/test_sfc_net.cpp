@@ -45,9 +45,10 @@ const lang::sfc::SubNet& sub(const SfcNet& n, const std::string& step) {
 TEST(SfcNet, the_sub_pn_of_step_s1_is_the_papers_eq_10_11_14) {
   const SfcNet n = tank();
   const auto& s1 = sub(n, "S1");
-  EXPECT_EQ(s1.places, (std::vector<std::string>{"L1", "L0", "V11", "V10", "Z12", "Z11", "Z10", "D21", "D20"}));
-  EXPECT_EQ(s1.transitions, (std::vector<std::string>{"tL0", "tL1", "tv10", "tv11", "tz10", "tz11", "tz12", "tz13",
-                                                      "tD20", "tD21"}));
+  EXPECT_EQ(s1.places, (std::vector<std::string>{"L1", "L0", "V11", "V10", "Z12", "Z11", "Z10",
+                                                 "D21", "D20"}));
+  EXPECT_EQ(s1.transitions, (std::vector<std::string>{"tL0", "tL1", "tv10", "tv11", "tz10", "tz11",
+                                                      "tz12", "tz13", "tD20", "tD21"}));
   const IntMatrix b_s1 = IntMatrix::from_rows({
       {1, -1, 0, 0, 0, 0, 0, 0, 0, 0},
       {-1, 1, 0, 0, 0, 0, 0, 0, 0, 0},
@@ -73,11 +74,11 @@ TEST(SfcNet, the_state_equation_on_s1_gives_the_papers_markings_eq_12_to_17) {
     EXPECT_TRUE(r) << (r ? "" : r.error());
     if (r) x = *r;
   };
-  step({0, 1, 1, 0, 0, 0, 0, 0, 0, 0});  // eq. 13: tL1 and tv10
+  step({0, 1, 1, 0, 0, 0, 0, 0, 0, 0});                // eq. 13: tL1 and tv10
   EXPECT_EQ(x, (Marking{0, 1, 1, 0, 0, 0, 1, 1, 0}));  // eq. 15: lamp off, valve 1 open
-  step({0, 0, 0, 0, 0, 1, 0, 0, 0, 0});  // tz11
+  step({0, 0, 0, 0, 0, 1, 0, 0, 0, 0});                // tz11
   EXPECT_EQ(x, (Marking{0, 1, 1, 0, 0, 1, 0, 1, 0}));  // eq. 16: level N
-  step({0, 0, 0, 0, 1, 0, 0, 0, 0, 1});  // tz10 and tD21
+  step({0, 0, 0, 0, 1, 0, 0, 0, 0, 1});                // tz10 and tD21
   EXPECT_EQ(x, (Marking{0, 1, 1, 0, 1, 0, 0, 0, 1}));  // eq. 17: level H, LS2 off = Su1 marked
 }
 
@@ -88,8 +89,9 @@ TEST(SfcNet, the_same_firings_in_the_whole_net_move_the_main_loop_from_s1_to_s2)
   auto p = [&](const char* id) { return *net.find_place(id); };
   // The operator presses PBS, t0 starts the charge; then the S1 firings of eq. 13-17
   // (tD21 before tz10: in the whole net the level reaches H only after LS2 let go).
-  auto m = petri::fire_sequence(net, net.initial_marking(),
-                                {t("tp10"), t("t0"), t("tL1"), t("tv10"), t("tz11"), t("tD21"), t("tz10")});
+  auto m = petri::fire_sequence(
+      net, net.initial_marking(),
+      {t("tp10"), t("t0"), t("tL1"), t("tv10"), t("tz11"), t("tD21"), t("tz10")});
   ASSERT_TRUE(m) << m.error();
   EXPECT_EQ((*m)[p("S1")], 1u);
   EXPECT_TRUE(net.enabled(*m, t("t1"))) << "D20 (Su1) marked: the main loop may leave S1";
@@ -158,7 +160,8 @@ TEST(SfcNet, the_broken_tank_deadlocks_and_the_report_gives_the_firing_sequence)
 TEST(SfcNet, the_shipped_pnml_is_the_tank_charts_net) {
   const SfcNet n = tank();
   petri::PnmlReadResult r = petri::read_pnml(read(RTPLC_SOURCE_DIR "/examples/petri/tank.pnml"));
-  ASSERT_TRUE(r.net) << "regenerate: rtplc analyze examples/tank.sfc --write-pnml examples/petri/tank.pnml";
+  ASSERT_TRUE(r.net)
+      << "regenerate: rtplc analyze examples/tank.sfc --write-pnml examples/petri/tank.pnml";
   EXPECT_EQ(petri::place_ids(*r.net), petri::place_ids(n.flat()));
   EXPECT_EQ(petri::transition_ids(*r.net), petri::transition_ids(n.flat()));
   EXPECT_EQ(r.net->input_matrix(), n.flat().input_matrix()) << "read arcs included";

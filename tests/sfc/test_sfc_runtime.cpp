@@ -13,10 +13,12 @@
 namespace rtplc {
 namespace {
 
-using testing::RuntimeFixture;
 using testing::channel_value;
+using testing::RuntimeFixture;
 
-void sleep_s(double s) { std::this_thread::sleep_for(std::chrono::duration<double>(s)); }
+void sleep_s(double s) {
+  std::this_thread::sleep_for(std::chrono::duration<double>(s));
+}
 
 // Waits up to 2 s for a channel to take a value (the tasks run on their own threads).
 bool wait_for(sched::Runtime& rt, const std::string& label, double v) {
@@ -28,18 +30,20 @@ bool wait_for(sched::Runtime& rt, const std::string& label, double v) {
 }
 
 std::string chart(bool edited) {
-  return std::string("SFC seq STEPS d0\nstime(0.002)\n"
-                     "INPUT GO = dsp(d0, c5, 0, \"GO\")\n"
-                     "OUTPUT Q = ddo(p0, d1, c0, \"Q\")\nOUTPUT R = ddo(p0, d1, c1, \"R\")\n"
-                     "INITIAL STEP A\n  N Q\nEND_STEP\n"
-                     "STEP B\n  D R 60s\nEND_STEP\n") +
+  return std::string(
+             "SFC seq STEPS d0\nstime(0.002)\n"
+             "INPUT GO = dsp(d0, c5, 0, \"GO\")\n"
+             "OUTPUT Q = ddo(p0, d1, c0, \"Q\")\nOUTPUT R = ddo(p0, d1, c1, \"R\")\n"
+             "INITIAL STEP A\n  N Q\nEND_STEP\n"
+             "STEP B\n  D R 60s\nEND_STEP\n") +
          (edited ? "STEP C\n  P Q\nEND_STEP\n"
                    "TRANSITION t1 FROM A TO B WHEN GO\nTRANSITION t2 FROM B TO C WHEN NOT GO\n"
                    "TRANSITION t3 FROM C TO A WHEN TRUE\n"
                  : "TRANSITION t1 FROM A TO B WHEN GO\nTRANSITION t2 FROM B TO A WHEN NOT GO\n");
 }
 
-const char* kFbd = "%%\nF1 = asp(d0, c0, 1, \"ONE\")\nF2 = intg(F1, 1)\ndao(F2, p0, d0, c0, \"RAMP\")\nEND\n";
+const char* kFbd =
+    "%%\nF1 = asp(d0, c0, 1, \"ONE\")\nF2 = intg(F1, 1)\ndao(F2, p0, d0, c0, \"RAMP\")\nEND\n";
 
 const sched::CycleStats& stats_of(sched::Runtime& rt) {
   return *static_cast<const sched::CycleStats*>(rt.image().task_stats(0));
@@ -70,7 +74,8 @@ TEST(SfcRuntime, runs_beside_an_fbd_task_and_a_swap_keeps_its_active_step_and_ti
   EXPECT_NE(status.find("block errors, active steps: A\n"), std::string::npos) << status;
   const size_t ramp_line = status.find("task ramp:");
   ASSERT_NE(ramp_line, std::string::npos) << status;
-  EXPECT_EQ(status.substr(ramp_line, status.find('\n', ramp_line) - ramp_line).find("active steps"), std::string::npos)
+  EXPECT_EQ(status.substr(ramp_line, status.find('\n', ramp_line) - ramp_line).find("active steps"),
+            std::string::npos)
       << "an FBD task has no steps";
 
   ASSERT_TRUE(rt->set_value("GO", 1).ok());

@@ -29,9 +29,11 @@ TEST(SfcSim, the_tank_measures_again_and_again_one_step_at_a_time) {
   auto tr = io::run_closed_loop(*r.image, **plant, opt);
   ASSERT_TRUE(tr) << tr.error();
   const size_t level = static_cast<size_t>(column(*tr, "plant.level"));
-  const size_t v1 = static_cast<size_t>(column(*tr, "valve1")), v2 = static_cast<size_t>(column(*tr, "valve2"));
+  const size_t v1 = static_cast<size_t>(column(*tr, "valve1")),
+               v2 = static_cast<size_t>(column(*tr, "valve2"));
   size_t step_col[7];
-  for (int i = 0; i < 7; ++i) step_col[i] = static_cast<size_t>(column(*tr, "tank.S" + std::to_string(i)));
+  for (int i = 0; i < 7; ++i)
+    step_col[i] = static_cast<size_t>(column(*tr, "tank.S" + std::to_string(i)));
   int cycles = 0;
   double top = 0;
   for (size_t k = 0; k < tr->rows.size(); ++k) {
@@ -49,9 +51,10 @@ TEST(SfcSim, the_tank_measures_again_and_again_one_step_at_a_time) {
 }
 
 TEST(SfcSim, the_plant_names_the_output_it_misses) {
-  lang::CompileResult r = lang::compile_source("SFC x\nOUTPUT Q = ddo(p0, d1, c0, \"valve1\")\n"
-                                               "INITIAL STEP A\nN Q\nEND_STEP\n"
-                                               "TRANSITION t FROM A TO A WHEN TRUE\n");
+  lang::CompileResult r = lang::compile_source(
+      "SFC x\nOUTPUT Q = ddo(p0, d1, c0, \"valve1\")\n"
+      "INITIAL STEP A\nN Q\nEND_STEP\n"
+      "TRANSITION t FROM A TO A WHEN TRUE\n");
   ASSERT_TRUE(r.ok());
   auto plant = io::make_plant("measuring-tank");
   ASSERT_TRUE(plant);
