@@ -1,9 +1,9 @@
 // `rtplc analyze`: the Petri-net analyser (issue item 3; spec petri-sfc.md).
 // Reads a PNML P/T net or an SFC program (built into a hierarchical net by the
-// paper's rules 1-4, lang/sfc/net_builder.h), or generates an MCC model; computes B, the reachability
-// graph, dead markings with their shortest firing sequences, bounds, dead
-// transitions and P-invariants, and prints them as text or JSON; optionally draws
-// the net (and a small reachability graph) for Graphviz and writes the net as PNML.
+// paper's rules 1-4, lang/sfc/net_builder.h), or generates an MCC model; computes B, the
+// reachability graph, dead markings with their shortest firing sequences, bounds, dead transitions
+// and P-invariants, and prints them as text or JSON; optionally draws the net (and a small
+// reachability graph) for Graphviz and writes the net as PNML.
 #include <unistd.h>
 #include <CLI/CLI.hpp>
 
@@ -19,8 +19,8 @@
 #include "lang/petri/generators.h"
 #include "lang/petri/pnml.h"
 #include "lang/petri/report.h"
-#include "lang/sfc/net_builder.h"
 #include "lang/sfc/lexer.h"
+#include "lang/sfc/net_builder.h"
 
 namespace rtplc::app {
 namespace {
@@ -100,10 +100,11 @@ petri::Net load_net(AnalyzeArgs& a) {
   }
   if (!ends_with(a.file, ".pnml") && !ends_with(a.file, ".xml") &&
       (first == std::string::npos || text[first] != '<')) {
-    std::fprintf(stderr,
-                 "rtplc analyze: %s is neither PNML nor an SFC program (which starts with 'SFC name');\n"
-                 "give a P/T net in PNML (.pnml), an SFC program (.sfc) or --generate MODEL-N.\n",
-                 a.file.c_str());
+    std::fprintf(
+        stderr,
+        "rtplc analyze: %s is neither PNML nor an SFC program (which starts with 'SFC name');\n"
+        "give a P/T net in PNML (.pnml), an SFC program (.sfc) or --generate MODEL-N.\n",
+        a.file.c_str());
     throw CLI::RuntimeError(kExitFailure);
   }
   petri::PnmlReadResult r = petri::read_pnml(text);
@@ -166,7 +167,8 @@ void run_analyze(AnalyzeArgs& a) {
                    a.dot.c_str(), kDotGraphLimit);
     }
   }
-  const std::string out = a.json ? petri::render_json(net, an) : a.preface + petri::render_text(net, an);
+  const std::string out =
+      a.json ? petri::render_json(net, an) : a.preface + petri::render_text(net, an);
   std::fputs(out.c_str(), stdout);
   if (an.reach.status == petri::ExploreStatus::kLimit) {
     std::fprintf(stderr,
@@ -189,7 +191,8 @@ void run_analyze(AnalyzeArgs& a) {
 void add_analyze_command(CLI::App& app) {
   auto args = std::make_shared<AnalyzeArgs>();
   CLI::App* cmd = app.add_subcommand(
-      "analyze", "Analyse a Petri net (PNML or an SFC program): reachability, deadlocks, bounds, invariants.");
+      "analyze",
+      "Analyse a Petri net (PNML or an SFC program): reachability, deadlocks, bounds, invariants.");
   cmd->footer(
       "Prints the places, transitions and incidence matrix B, then the reachability graph's size,\n"
       "every dead marking (deadlock) with a shortest firing sequence reaching it, the bound (most\n"
@@ -201,8 +204,7 @@ void add_analyze_command(CLI::App& app) {
       "Examples:\n  rtplc analyze examples/petri/mutex.pnml\n  rtplc analyze examples/tank.sfc\n"
       "  rtplc analyze examples/petri/deadlock.pnml --json --dot deadlock.dot\n"
       "  rtplc analyze --generate philosophers-10 --write-pnml phil10.pnml");
-  cmd->add_option("file", args->file,
-                  "P/T net in PNML (ISO/IEC 15909-2) or an SFC program (.sfc)");
+  cmd->add_option("file", args->file, "P/T net in PNML (ISO/IEC 15909-2) or an SFC program (.sfc)");
   cmd->add_option("--generate", args->generate,
                   "analyse a generated MCC model instead: philosophers-N, kanban-N");
   cmd->add_flag("--json", args->json, "print the results as JSON");

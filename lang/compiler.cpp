@@ -322,7 +322,9 @@ CompileResult compile_as(std::string_view source, const CompileOptions& options,
 
 }  // namespace
 
-bool is_sfc_source(std::string_view source) { return sfc::starts_with_sfc_keyword(source); }
+bool is_sfc_source(std::string_view source) {
+  return sfc::starts_with_sfc_keyword(source);
+}
 
 CompileResult compile_source(std::string_view source, const CompileOptions& options) {
   return compile_as(source, options, is_sfc_source(source));

@@ -31,7 +31,9 @@ void active_steps(const LoadedProgram& old, const Migration& m, std::vector<std:
     const std::string name = old.image.str(blocks[i].name);
     if (name.rfind("step.", 0) != 0 || name.find('.', 5) != std::string::npos) continue;
     is_sfc = true;
-    if (old.arena.values.size() <= old.image.code()[i].out || old.arena.values[old.image.code()[i].out] == 0) continue;
+    if (old.arena.values.size() <= old.image.code()[i].out ||
+        old.arena.values[old.image.code()[i].out] == 0)
+      continue;
     const bool carried = std::find(m.kept.begin(), m.kept.end(), name) != m.kept.end();
     (carried ? kept : lost).push_back(name.substr(5));
   }
@@ -110,7 +112,8 @@ Result<std::string> Runtime::install(Task& t, std::unique_ptr<LoadedProgram> nex
   list("removed", summary.removed);
   if (is_sfc) {
     list("active steps kept", steps_kept);
-    if (!steps_lost.empty()) list("active steps the new chart does not have (now inactive)", steps_lost);
+    if (!steps_lost.empty())
+      list("active steps the new chart does not have (now inactive)", steps_lost);
   }
   return out;
 }

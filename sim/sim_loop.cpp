@@ -64,7 +64,9 @@ Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const Sim
     for (const Binding& b : image.bindings()) {
       if (b.dir == BindingDir::kOutput && name == image.str(b.label)) found = &b;
     }
-    if (!found) return make_error("the plant reads an output labelled \"" + name + "\"; the program has none");
+    if (!found)
+      return make_error("the plant reads an output labelled \"" + name +
+                        "\"; the program has none");
     port_in_b.push_back(found);
   }
   for (const std::string& name : port_out) {
@@ -174,7 +176,8 @@ Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const Sim
     }
     tr.rows.push_back(std::move(row));
     if (ports) {
-      for (size_t j = 0; j < port_in_b.size(); ++j) port_values[j] = arena.io_out[port_in_b[j]->io_index];
+      for (size_t j = 0; j < port_in_b.size(); ++j)
+        port_values[j] = arena.io_out[port_in_b[j]->io_index];
       for (int s = 0; s < steps; ++s) plant.step_ports(port_values, tr.plant_step);
     } else {
       const double u = arena.io_out[mv->io_index];
@@ -308,13 +311,13 @@ Result<void> write_plot(const SimTrace& tr, const std::string& csv_path, const s
       for (const auto& row : tr.rows) digital = digital && (row[c] == 0 || row[c] == 1);
       const std::string col = std::to_string(c + 1);
       if (!digital) {
-        top += (top.empty() ? "" : ", ") + gp_quote(csv_path) + " using 1:" + col + " with lines lw 2 title " +
-               gp_quote(tr.columns[c]) + " noenhanced";
+        top += (top.empty() ? "" : ", ") + gp_quote(csv_path) + " using 1:" + col +
+               " with lines lw 2 title " + gp_quote(tr.columns[c]) + " noenhanced";
         continue;
       }
       const std::string base = std::to_string(lane * 1.5);
-      bottom += (bottom.empty() ? "" : ", ") + gp_quote(csv_path) + " using 1:($" + col + "*0.9+" + base +
-                ") with steps lw 1.5 notitle";
+      bottom += (bottom.empty() ? "" : ", ") + gp_quote(csv_path) + " using 1:($" + col + "*0.9+" +
+                base + ") with steps lw 1.5 notitle";
       ytics += (ytics.empty() ? "" : ", ") + gp_quote(tr.columns[c]) + " " + base;
       ++lane;
     }

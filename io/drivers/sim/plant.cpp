@@ -171,14 +171,15 @@ class MeasuringTank final : public Plant {
   void step(double u, double h) override { step_ports({u, 0, 0}, h); }
   double output() const override { return h_; }
   std::string describe() const override {
-    return "measuring tank: fill " + format_number(fill_) + "/s, drain " + format_number(drain_) + "/s, LS2 at <= " +
-           format_number(low_) + ", LS1 at >= " + format_number(high_) + ", PBS pressed " + format_number(press_) +
-           " s after the lamp";
+    return "measuring tank: fill " + format_number(fill_) + "/s, drain " + format_number(drain_) +
+           "/s, LS2 at <= " + format_number(low_) + ", LS1 at >= " + format_number(high_) +
+           ", PBS pressed " + format_number(press_) + " s after the lamp";
   }
   std::vector<std::string> port_inputs() const override { return {"valve1", "valve2", "lamp1"}; }
   std::vector<std::string> port_outputs() const override { return {"LS1", "LS2", "PBS", "level"}; }
   void step_ports(const std::vector<double>& in, double h) override {
-    const bool v1 = !in.empty() && in[0] != 0, v2 = in.size() > 1 && in[1] != 0, lamp = in.size() > 2 && in[2] != 0;
+    const bool v1 = !in.empty() && in[0] != 0, v2 = in.size() > 1 && in[1] != 0,
+               lamp = in.size() > 2 && in[2] != 0;
     h_ = std::clamp(h_ + h * ((v1 ? fill_ : 0.0) - (v2 ? drain_ : 0.0)), 0.0, 1.0);
     lamp_s_ = lamp ? lamp_s_ + h : 0.0;
     if (lamp && lamp_s_ >= press_) pbs_ = true;
@@ -186,10 +187,14 @@ class MeasuringTank final : public Plant {
   }
   double port_output(size_t k) const override {
     switch (k) {
-      case 0: return h_ >= high_ ? 1 : 0;
-      case 1: return h_ <= low_ ? 1 : 0;
-      case 2: return pbs_ ? 1 : 0;
-      default: return h_;
+      case 0:
+        return h_ >= high_ ? 1 : 0;
+      case 1:
+        return h_ <= low_ ? 1 : 0;
+      case 2:
+        return pbs_ ? 1 : 0;
+      default:
+        return h_;
     }
   }
 
@@ -256,10 +261,11 @@ const char* plant_help() {
          "  fopdt[:K=1,T=5,L=1]               first order plus dead time K e^(-L s)/(T s + 1)\n"
          "  tank[:A=1,q=0,max=100]            integrating tank: A dh/dt = u - q, 0 <= h <= max\n"
          "  measuring-tank[:fill=0.2,drain=0.25,low=0.1,high=0.9,press=2]\n"
-         "                                    the SFC example's tank (examples/tank.sfc): reads the\n"
-         "                                    outputs valve1, valve2, lamp1, drives the inputs LS1,\n"
-         "                                    LS2 and PBS (the operator presses it press s after\n"
-         "                                    the lamp comes on); the CSV gets plant.level\n";
+         "                                    the SFC example's tank (examples/tank.sfc):\n"
+         "                                    reads the outputs valve1, valve2, lamp1, drives\n"
+         "                                    the inputs LS1, LS2 and PBS (the operator presses\n"
+         "                                    it press s after the lamp comes on); the CSV gets\n"
+         "                                    plant.level\n";
 }
 
 Result<std::unique_ptr<Plant>> make_plant(std::string_view spec) {
@@ -302,11 +308,15 @@ Result<std::unique_ptr<Plant>> make_plant(std::string_view spec) {
     return std::unique_ptr<Plant>(new Tank(kv->at("A"), kv->at("q"), kv->at("max")));
   }
   if (kind == "measuring-tank") {
-    auto kv = parse_kv(rest, {{"fill", 0.2}, {"drain", 0.25}, {"low", 0.1}, {"high", 0.9}, {"press", 2.0}});
+    auto kv = parse_kv(
+        rest, {{"fill", 0.2}, {"drain", 0.25}, {"low", 0.1}, {"high", 0.9}, {"press", 2.0}});
     if (!kv) return make_error(kv.error());
-    const double fill = kv->at("fill"), drain = kv->at("drain"), low = kv->at("low"), high = kv->at("high");
-    if (!(fill > 0) || !(drain > 0) || !(low >= 0) || !(high <= 1) || !(low < high) || !(kv->at("press") >= 0)) {
-      return make_error("measuring-tank needs fill > 0, drain > 0, 0 <= low < high <= 1 and press >= 0");
+    const double fill = kv->at("fill"), drain = kv->at("drain"), low = kv->at("low"),
+                 high = kv->at("high");
+    if (!(fill > 0) || !(drain > 0) || !(low >= 0) || !(high <= 1) || !(low < high) ||
+        !(kv->at("press") >= 0)) {
+      return make_error(
+          "measuring-tank needs fill > 0, drain > 0, 0 <= low < high <= 1 and press >= 0");
     }
     return std::unique_ptr<Plant>(new MeasuringTank(fill, drain, low, high, kv->at("press")));
   }
