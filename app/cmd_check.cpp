@@ -205,13 +205,14 @@ void add_check_commands(CLI::App& app) {
   auto args = std::make_shared<CheckArgs>();
 
   CLI::App* check = app.add_subcommand(
-      "check", "Check an FBD program, or a whole runtime configuration (.yaml); nothing runs.");
+      "check", "Check an FBD or SFC program, or a whole runtime configuration (.yaml); nothing runs.");
   check->footer(
       "Errors are shown as file:line:col with the line and a caret; every error in the file is\n"
       "listed, and the exit code is 1 if there was any. A .yaml configuration is checked the way\n"
       "`rtplc run` would: the YAML, every program, one writer per output, the plant wiring.\n"
-      "Examples:\n  rtplc check examples/seed_pid.fbd --explain\n  rtplc check examples/plant.yaml");
-  check->add_option("file", args->file, "control algorithm file (.fbd) or runtime configuration (.yaml)")
+      "Examples:\n  rtplc check examples/seed_pid.fbd --explain\n  rtplc check examples/tank.sfc --explain\n"
+      "  rtplc check examples/plant.yaml");
+  check->add_option("file", args->file, "control algorithm file (.fbd), SFC program (.sfc) or runtime configuration (.yaml)")
       ->required();
   check->add_flag("--explain", args->explain,
                   "print execution order, delayed references, I/O bindings and sizes");
@@ -224,8 +225,8 @@ void add_check_commands(CLI::App& app) {
   check->callback([args] { run_check(*args); });
 
   CLI::App* compile = app.add_subcommand(
-      "compile", "Compile an FBD file to a verified task image file (.img).");
-  compile->add_option("file", args->file, "control algorithm file (.fbd)")->required();
+      "compile", "Compile an FBD or SFC file to a verified task image file (.img).");
+  compile->add_option("file", args->file, "control algorithm file (.fbd) or SFC program (.sfc)")->required();
   compile->add_option("-o,--output", args->output, "image file (default: FILE with .img)");
   compile->add_flag("--werror", args->werror, "treat warnings as errors");
   compile->add_option("--period", args->period, "override stime: task period in seconds")

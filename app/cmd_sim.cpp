@@ -1,4 +1,4 @@
-// `rtplc sim`: run one FBD program in closed loop against a simulated plant, in
+// `rtplc sim`: run one FBD or SFC program in closed loop against a simulated plant, in
 // virtual time (or paced to the wall clock), and show / save / plot the response.
 #include <CLI/CLI.hpp>
 #include <unistd.h>
@@ -163,7 +163,7 @@ void run_sim(const SimArgs& a) {
 void add_sim_command(CLI::App& app) {
   auto a = std::make_shared<SimArgs>();
   CLI::App* sim = app.add_subcommand(
-      "sim", "Run an FBD program in closed loop against a simulated plant (no hardware needed).");
+      "sim", "Run an FBD or SFC program in closed loop against a simulated plant (no hardware needed).");
   sim->footer(std::string(
       "The plant's input is the program's dao at --plant-input and its measurement goes to the\n"
       "dai at --plant-output (both p0.d0.c0 by default, as in the seed's example). A program\n"
@@ -174,8 +174,9 @@ void add_sim_command(CLI::App& app) {
       "Plants (--plant):\n") + io::plant_help() +
       "Examples:\n"
       "  rtplc sim examples/seed_pid.fbd --duration 30 --csv run.csv --plot run.png\n"
-      "  rtplc sim examples/seed_pid.fbd --plant fopdt:K=2,T=4,L=0.5 --step Setpoint=60@20");
-  sim->add_option("file", a->file, "control algorithm file (.fbd)")->required();
+      "  rtplc sim examples/seed_pid.fbd --plant fopdt:K=2,T=4,L=0.5 --step Setpoint=60@20\n"
+      "  rtplc sim examples/tank.sfc --plant measuring-tank --duration 40 --csv tank.csv");
+  sim->add_option("file", a->file, "control algorithm file (.fbd) or SFC program (.sfc)")->required();
   sim->add_option("--duration", a->duration, "simulated seconds (default 30)")
       ->check(positive_seconds() & CLI::Range(1e-3, 1e7));
   sim->add_option("--plant", a->plant, "plant model (default second-order = 1/(s^2+s+1))")

@@ -20,6 +20,9 @@
 #include "lang/lexer.h"
 #include "lang/macro_expander.h"
 #include "lang/parser.h"
+#include "lang/program_checks.h"
+#include "lang/sfc/builder.h"
+#include "lang/sfc/lexer.h"
 
 namespace rtplc::lang {
 namespace {
@@ -288,16 +291,25 @@ std::optional<std::string> read_text_file(const std::string& path, std::string* 
   return ss.str();
 }
 
-CompileResult compile_source(std::string_view source, const CompileOptions& options) {
+namespace {
+
+// Both languages end in the same checks and the same image builder.
+CompileResult compile_as(std::string_view source, const CompileOptions& options, bool sfc) {
   CompileResult r;
   // Guard the compiler's own memory against absurd input; real programs are KBs.
   if (source.size() > (64u << 20)) {
     r.diags.error(SourcePos{}, "source larger than 64 MiB");
     return r;
   }
-  std::vector<Token> toks = tokenize(source, r.diags);
-  Program prog = parse(toks, r.diags);
-  r.program = check_program(prog, r.diags);
+  if (sfc) {
+    r.program = sfc::compile_to_flat(source, r.diags);
+    if (r.diags.has_errors()) return r;
+    check_flat_program(r.program, r.diags);
+  } else {
+    std::vector<Token> toks = tokenize(source, r.diags);
+    Program prog = parse(toks, r.diags);
+    r.program = check_program(prog, r.diags);
+  }
   if (r.diags.has_errors()) return r;
   Result<TaskImage> img = build_image(r.program, options, fnv1a64(source));
   if (!img) {
@@ -306,6 +318,16 @@ CompileResult compile_source(std::string_view source, const CompileOptions& opti
   }
   r.image = std::move(img).value();
   return r;
+}
+
+}  // namespace
+
+bool is_sfc_source(std::string_view source) {
+  return sfc::starts_with_sfc_keyword(source);
+}
+
+CompileResult compile_source(std::string_view source, const CompileOptions& options) {
+  return compile_as(source, options, is_sfc_source(source));
 }
 
 CompileResult compile_file(const std::string& path, const CompileOptions& options) {
@@ -321,7 +343,10 @@ CompileResult compile_file(const std::string& path, const CompileOptions& option
     size_t slash = path.find_last_of('/');
     o.name = slash == std::string::npos ? path : path.substr(slash + 1);
   }
-  return compile_source(*text, o);
+  // A .sfc file is SFC even when its header is missing (the SFC parser then
+  // says what it expected); any other file is SFC when its first word is SFC.
+  const bool sfc_name = path.size() > 4 && path.compare(path.size() - 4, 4, ".sfc") == 0;
+  return compile_as(*text, o, sfc_name || is_sfc_source(*text));
 }
 
 }  // namespace rtplc::lang

@@ -31,9 +31,14 @@ struct CompileResult {
   bool ok() const { return image.has_value(); }
 };
 
+// FBD or SFC: a program whose first word is SFC is an SFC chart (docs/sfc.md).
 CompileResult compile_source(std::string_view source, const CompileOptions& options = {});
 
-// Reads and compiles a file; I/O errors become diagnostics.
+// True when `source` is an SFC program (its first word, after comments, is SFC).
+bool is_sfc_source(std::string_view source);
+
+// Reads and compiles a file; I/O errors become diagnostics. A .sfc file is
+// always compiled as SFC.
 CompileResult compile_file(const std::string& path, const CompileOptions& options = {});
 
 // Builds the image from an already checked program.

@@ -4,6 +4,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <thread>
@@ -11,12 +12,32 @@
 #include "common/text.h"
 #include "kernel_rt/clock.h"
 #include "lang/compiler.h"
+#include "lang/sfc/builder.h"
 #include "sched/stats_source.h"
 
 namespace rtplc::sched {
 namespace {
 
 std::string fmt_ms(int64_t ns) { return format_number(static_cast<double>(ns) / 1e6) + " ms"; }
+
+// The steps of an SFC program that were active when a swap took effect, split
+// into those the new program kept by name and those it no longer has. An SFC
+// step's flag is the block named step.<Step> (docs/sfc.md); FBD names never
+// look like that. `old` has stopped running, so its arena may be read here.
+void active_steps(const LoadedProgram& old, const Migration& m, std::vector<std::string>& kept,
+                  std::vector<std::string>& lost, bool& is_sfc) {
+  const auto blocks = old.image.blocks();
+  for (size_t i = 0; i < blocks.size(); ++i) {
+    const std::string name = old.image.str(blocks[i].name);
+    if (name.rfind("step.", 0) != 0 || name.find('.', 5) != std::string::npos) continue;
+    is_sfc = true;
+    if (old.arena.values.size() <= old.image.code()[i].out ||
+        old.arena.values[old.image.code()[i].out] == 0)
+      continue;
+    const bool carried = std::find(m.kept.begin(), m.kept.end(), name) != m.kept.end();
+    (carried ? kept : lost).push_back(name.substr(5));
+  }
+}
 
 }  // namespace
 
@@ -67,6 +88,9 @@ Result<std::string> Runtime::install(Task& t, std::unique_ptr<LoadedProgram> nex
   }
   const int64_t applied = image_.task_info(t.index()).last_swap_ns.load(std::memory_order_relaxed);
   std::unique_ptr<LoadedProgram> old = t.collect();
+  std::vector<std::string> steps_kept, steps_lost;
+  bool is_sfc = false;
+  if (old) active_steps(*old, summary, steps_kept, steps_lost, is_sfc);
   if (keep_previous && old) {
     old->arena = TaskArena();  // its state is not needed for a rollback, only its code
     previous_[t.index()] = std::move(old);
@@ -86,6 +110,11 @@ Result<std::string> Runtime::install(Task& t, std::unique_ptr<LoadedProgram> nex
   list("reset", summary.reset);
   list("new", summary.added);
   list("removed", summary.removed);
+  if (is_sfc) {
+    list("active steps kept", steps_kept);
+    if (!steps_lost.empty())
+      list("active steps the new chart does not have (now inactive)", steps_lost);
+  }
   return out;
 }
 
@@ -182,7 +211,24 @@ std::string Runtime::status() const {
          (ti.fifo ? "FIFO " + std::to_string(ti.priority) : std::string("OTHER")) + ", " +
          std::to_string(st->cycles()) + " cycles, " + std::to_string(st->overruns()) +
          " overruns, " + std::to_string(ti.swaps.load()) + " swaps, " +
-         std::to_string(ti.block_errors.load()) + " block errors\n";
+         std::to_string(ti.block_errors.load()) + " block errors";
+    // An SFC task: its step flags are output channels on the step-flag processor
+    // labelled <chart>.<step> (docs/sfc.md); list the active ones.
+    std::string steps;
+    bool is_sfc = false;
+    const TaskImage& img = t->active().image;
+    for (const Binding& b : img.bindings()) {
+      if (b.dir != BindingDir::kOutput || b.p != lang::sfc::kStepFlagProcessor) continue;
+      const std::string label = img.str(b.label);
+      const int c = image_.find_channel(label);
+      if (c < 0) continue;
+      is_sfc = true;
+      if (image_.read_channel(static_cast<uint32_t>(c)).value != 0) {
+        steps += (steps.empty() ? "" : " ") + label.substr(label.find('.') + 1);
+      }
+    }
+    if (is_sfc) s += ", active steps: " + (steps.empty() ? std::string("none") : steps);
+    s += "\n";
   }
   return s;
 }

@@ -69,15 +69,43 @@ Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const Sim
   tr.plant_step = plant_step_for(dt, &steps);
   tr.plant = plant.describe();
 
-  const auto [pv, mv] = plant_bindings(image, opt);
-  if (!mv && !pv && opt.open_loop_if_unwired) tr.open_loop = true;
-  if (tr.open_loop) tr.plant = "none (open loop)";
-  if (!mv && !tr.open_loop) {
+  // A plant with ports (the measuring tank) is wired by label: each port input
+  // reads the output channel of that name, each port output drives the input
+  // channel of that name when the program has one, else it is traced as plant.<port>.
+  const std::vector<std::string> port_in = plant.port_inputs(), port_out = plant.port_outputs();
+  const bool ports = !port_in.empty();
+  std::vector<const Binding*> port_in_b, port_out_b;
+  for (const std::string& name : port_in) {
+    const Binding* found = nullptr;
+    for (const Binding& b : image.bindings()) {
+      if (b.dir == BindingDir::kOutput && name == image.str(b.label)) found = &b;
+    }
+    if (!found)
+      return make_error("the plant reads an output labelled \"" + name +
+                        "\"; the program has none");
+    port_in_b.push_back(found);
+  }
+  for (const std::string& name : port_out) {
+    const Binding* found = nullptr;
+    for (const Binding& b : image.bindings()) {
+      if (b.dir == BindingDir::kInput && name == image.str(b.label)) found = &b;
+    }
+    port_out_b.push_back(found);
+  }
+
+  auto [pv, mv] = plant_bindings(image, opt);
+  if (ports) {
+    pv = mv = nullptr;
+  } else if (!mv && !pv && opt.open_loop_if_unwired) {
+    tr.open_loop = true;
+    tr.plant = "none (open loop)";
+  }
+  if (!ports && !mv && !tr.open_loop) {
     return make_error("no dao at " + opt.plant_input + " to drive the plant: " +
                       list_channels(image, BindingDir::kOutput, "dao") +
                       "; choose one with --plant-input");
   }
-  if (!pv && !tr.open_loop) {
+  if (!ports && !pv && !tr.open_loop) {
     return make_error("no dai at " + opt.plant_output + " to measure the plant: " +
                       list_channels(image, BindingDir::kInput, "dai") +
                       "; choose one with --plant-output");
@@ -101,6 +129,12 @@ Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const Sim
     if (b.dir == BindingDir::kSetpoint) arena.io_in[b.io_index] = b.init;
   }
   if (analog_setpoints != 1) tr.sp_column = -1;
+  for (size_t j = 0; j < port_out.size(); ++j) {
+    if (port_out_b[j]) continue;  // already traced as the program's input
+    tr.columns.push_back("plant." + port_out[j]);
+    tr.is_output.push_back(false);
+  }
+  std::vector<double> port_values(port_in.size(), 0.0);
 
   // Resolve set-point steps to input-buffer indices up front.
   struct Pending {
@@ -143,7 +177,11 @@ Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const Sim
       arena.io_in[pending[next_step].io] = pending[next_step].value;
       ++next_step;
     }
-    if (pv) {
+    if (ports) {
+      for (size_t j = 0; j < port_out_b.size(); ++j) {
+        if (port_out_b[j]) arena.io_in[port_out_b[j]->io_index] = plant.port_output(j);
+      }
+    } else if (pv) {
       const double y = plant.output();
       if (tr.diverged_at < 0 && (!std::isfinite(y) || std::fabs(y) > diverge_limit)) {
         tr.diverged_at = t;
@@ -154,14 +192,21 @@ Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const Sim
     execute_cycle(ctx);
     const double u = mv ? arena.io_out[mv->io_index] : 0.0;
     std::vector<double> row;
-    row.reserve(cols.size() + 1);
+    row.reserve(cols.size() + 1 + port_out.size());
     row.push_back(t);
     for (const Binding* b : cols) {
       row.push_back(b->dir == BindingDir::kOutput ? arena.io_out[b->io_index]
                                                   : arena.io_in[b->io_index]);
     }
+    for (size_t j = 0; j < port_out.size(); ++j) {
+      if (!port_out_b[j]) row.push_back(plant.port_output(j));
+    }
     tr.rows.push_back(std::move(row));
-    if (!tr.open_loop) {
+    if (ports) {
+      for (size_t j = 0; j < port_in_b.size(); ++j)
+        port_values[j] = arena.io_out[port_in_b[j]->io_index];
+      for (int s = 0; s < steps; ++s) plant.step_ports(port_values, tr.plant_step);
+    } else if (!tr.open_loop) {
       for (int s = 0; s < steps; ++s) plant.step(u, tr.plant_step);
     }
   }
@@ -282,8 +327,37 @@ Result<void> write_plot(const SimTrace& tr, const std::string& csv_path, const s
   script += "set grid\nset key outside right top\n";
   script += "set multiplot layout 2,1 title " + gp_quote(title) + " noenhanced\n";
   std::string top, bottom;
+  if (tr.pv_column < 0) {
+    // No single measurement (a plant with ports, e.g. the SFC tank): analog
+    // signals above, every 0/1 signal below as a timing chart, one lane each.
+    std::string ytics;
+    int lane = 0;
+    for (size_t c = 1; c < tr.columns.size(); ++c) {
+      bool digital = true;
+      for (const auto& row : tr.rows) digital = digital && (row[c] == 0 || row[c] == 1);
+      const std::string col = std::to_string(c + 1);
+      if (!digital) {
+        top += (top.empty() ? "" : ", ") + gp_quote(csv_path) + " using 1:" + col +
+               " with lines lw 2 title " + gp_quote(tr.columns[c]) + " noenhanced";
+        continue;
+      }
+      const std::string base = std::to_string(lane * 1.5);
+      bottom += (bottom.empty() ? "" : ", ") + gp_quote(csv_path) + " using 1:($" + col + "*0.9+" +
+                base + ") with steps lw 1.5 notitle";
+      ytics += (ytics.empty() ? "" : ", ") + gp_quote(tr.columns[c]) + " " + base;
+      ++lane;
+    }
+    script += "set ylabel 'analog'\n";
+    script += "plot " + (top.empty() ? std::string("0 notitle") : top) + "\n";
+    script += "set ylabel ''\nset xlabel 't (s)'\nset ytics (" + ytics + ") noenhanced\n";
+    script += "set yrange [-0.5:" + std::to_string(lane * 1.5) + "]\n";
+    script += "plot " + (bottom.empty() ? std::string("0 notitle") : bottom) + "\n";
+    script += "unset multiplot\n";
+    top.clear();
+    bottom.clear();
+  }
   // Inputs and set-points above (the measurement in bold), outputs below.
-  for (size_t c = 1; c < tr.columns.size(); ++c) {
+  for (size_t c = 1; c < tr.columns.size() && tr.pv_column >= 0; ++c) {
     const bool is_out = tr.is_output[c];
     std::string item = gp_quote(csv_path) + " using 1:" + std::to_string(c + 1) +
                        " with lines lw " + (static_cast<int>(c) == tr.pv_column ? "2.5" : "1.5") +
@@ -291,11 +365,13 @@ Result<void> write_plot(const SimTrace& tr, const std::string& csv_path, const s
     std::string& panel = is_out ? bottom : top;
     panel += panel.empty() ? item : ", " + item;
   }
-  script += "set ylabel 'inputs and set-points'\n";
-  script += "plot " + (top.empty() ? std::string("0 notitle") : top) + "\n";
-  script += "set ylabel 'outputs'\nset xlabel 't (s)'\n";
-  script += "plot " + (bottom.empty() ? std::string("0 notitle") : bottom) + "\n";
-  script += "unset multiplot\n";
+  if (tr.pv_column >= 0) {
+    script += "set ylabel 'inputs and set-points'\n";
+    script += "plot " + (top.empty() ? std::string("0 notitle") : top) + "\n";
+    script += "set ylabel 'outputs'\nset xlabel 't (s)'\n";
+    script += "plot " + (bottom.empty() ? std::string("0 notitle") : bottom) + "\n";
+    script += "unset multiplot\n";
+  }
   FILE* gp = popen("gnuplot 2>&1", "w");
   if (!gp) return make_error("cannot start gnuplot (install the gnuplot-nox package)");
   std::fputs(script.c_str(), gp);

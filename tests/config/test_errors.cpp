@@ -281,7 +281,7 @@ TEST(ConfigErrors, sim_plants) {
                        "second-order, tf, fopdt, tank"));
   EXPECT_TRUE(has_diag(r, 6, 17, "bad plant model: fopdt needs T > 0"));
   EXPECT_TRUE(has_diag(r, 7, 52,
-                       "choose one of second-order, tf, fopdt, tank; did you mean "
+                       "choose one of second-order, tf, fopdt, tank, measuring-tank; did you mean "
                        "'second-order'?"));
   EXPECT_TRUE(has_diag(
       r, 7, 35,

@@ -60,12 +60,20 @@ TEST(AnalyzeCli, limit_gives_exit_code_3) {
   EXPECT_NE(r.out.find("--limit"), std::string::npos);
 }
 
-TEST(AnalyzeCli, non_pnml_file_is_refused_with_a_pointer_to_sfc) {
+TEST(AnalyzeCli, a_file_that_is_neither_pnml_nor_sfc_is_refused_saying_what_it_takes) {
+  const std::string f = std::string(RTPLC_BINARY_DIR) + "/not_a_net.txt";
+  std::ofstream(f) << "hello\n";
+  const CliRun r = run(f);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("is neither PNML nor an SFC program"), std::string::npos) << r.out;
+}
+
+TEST(AnalyzeCli, a_broken_sfc_program_gets_positioned_errors) {
   const std::string f = std::string(RTPLC_BINARY_DIR) + "/not_a_net.sfc";
   std::ofstream(f) << "STEP s0\n";
   const CliRun r = run(f);
   EXPECT_EQ(r.code, 1);
-  EXPECT_NE(r.out.find("SFC programs will be analysed"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("not_a_net.sfc:1:1: error: an SFC program starts with 'SFC name'"), std::string::npos) << r.out;
 }
 
 TEST(AnalyzeCli, bad_pnml_shows_file_line_col) {

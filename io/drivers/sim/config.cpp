@@ -95,7 +95,13 @@ void parse_plant(YamlReader& r, const YAML::Node& node, SourcePos where,
     pc.model_pos = m->pos;
     if (auto s = r.text(*m)) {
       auto plant = io::make_plant(*s);
-      if (plant.ok()) {
+      if (plant.ok() && !(*plant)->port_inputs().empty()) {
+        // A plant with several named signals (the measuring tank) is wired by
+        // label in `rtplc sim`; this driver feeds one dao into one dai.
+        r.error(*m, "plant model '" + *s + "' has several inputs and outputs: use it with `rtplc sim`; "
+                    "a sim driver's plant is driven by one dao and measured by one dai");
+        ok = false;
+      } else if (plant.ok()) {
         pc.model = *s;
       } else {
         // make_plant's message may go on with its multi-line help; a

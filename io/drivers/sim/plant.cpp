@@ -153,6 +153,58 @@ class Tank final : public Plant {
   double h_ = 0;
 };
 
+// The measuring tank of the SFC example (docs/sfc.md, "The measuring tank"):
+// the level h (0 empty .. 1 full) rises at `fill` per second while valve 1 is
+// open and falls at `drain` while valve 2 is; LS2 is on at h <= low, LS1 at
+// h >= high. The operator is part of the plant: `press` seconds after the lamp
+// comes on they press the latching push button, and let go of it once the
+// lamp goes out.
+class MeasuringTank final : public Plant {
+ public:
+  MeasuringTank(double fill, double drain, double low, double high, double press)
+      : fill_(fill), drain_(drain), low_(low), high_(high), press_(press) {}
+  void reset() override {
+    h_ = 0;
+    lamp_s_ = 0;
+    pbs_ = false;
+  }
+  void step(double u, double h) override { step_ports({u, 0, 0}, h); }
+  double output() const override { return h_; }
+  std::string describe() const override {
+    return "measuring tank: fill " + format_number(fill_) + "/s, drain " + format_number(drain_) +
+           "/s, LS2 at <= " + format_number(low_) + ", LS1 at >= " + format_number(high_) +
+           ", PBS pressed " + format_number(press_) + " s after the lamp";
+  }
+  std::vector<std::string> port_inputs() const override { return {"valve1", "valve2", "lamp1"}; }
+  std::vector<std::string> port_outputs() const override { return {"LS1", "LS2", "PBS", "level"}; }
+  void step_ports(const std::vector<double>& in, double h) override {
+    const bool v1 = !in.empty() && in[0] != 0, v2 = in.size() > 1 && in[1] != 0,
+               lamp = in.size() > 2 && in[2] != 0;
+    h_ = std::clamp(h_ + h * ((v1 ? fill_ : 0.0) - (v2 ? drain_ : 0.0)), 0.0, 1.0);
+    lamp_s_ = lamp ? lamp_s_ + h : 0.0;
+    if (lamp && lamp_s_ >= press_) pbs_ = true;
+    if (!lamp) pbs_ = false;
+  }
+  double port_output(size_t k) const override {
+    switch (k) {
+      case 0:
+        return h_ >= high_ ? 1 : 0;
+      case 1:
+        return h_ <= low_ ? 1 : 0;
+      case 2:
+        return pbs_ ? 1 : 0;
+      default:
+        return h_;
+    }
+  }
+
+ private:
+  double fill_, drain_, low_, high_, press_;
+  double h_ = 0;
+  double lamp_s_ = 0;  // how long the lamp has been on
+  bool pbs_ = false;
+};
+
 Result<std::map<std::string, double>> parse_kv(std::string_view text,
                                                const std::map<std::string, double>& defaults) {
   std::map<std::string, double> out = defaults;
@@ -207,7 +259,13 @@ const char* plant_help() {
          "  tf:NUM/DEN                        transfer function, coefficients in descending\n"
          "                                    powers of s: tf:1/1,1,1 is 1/(s^2 + s + 1)\n"
          "  fopdt[:K=1,T=5,L=1]               first order plus dead time K e^(-L s)/(T s + 1)\n"
-         "  tank[:A=1,q=0,max=100]            integrating tank: A dh/dt = u - q, 0 <= h <= max\n";
+         "  tank[:A=1,q=0,max=100]            integrating tank: A dh/dt = u - q, 0 <= h <= max\n"
+         "  measuring-tank[:fill=0.2,drain=0.25,low=0.1,high=0.9,press=2]\n"
+         "                                    the SFC example's tank (examples/tank.sfc):\n"
+         "                                    reads the outputs valve1, valve2, lamp1, drives\n"
+         "                                    the inputs LS1, LS2 and PBS (the operator presses\n"
+         "                                    it press s after the lamp comes on); the CSV gets\n"
+         "                                    plant.level\n";
 }
 
 Result<std::unique_ptr<Plant>> make_plant(std::string_view spec) {
@@ -248,6 +306,19 @@ Result<std::unique_ptr<Plant>> make_plant(std::string_view spec) {
     if (!kv) return make_error(kv.error());
     if (!(kv->at("A") > 0) || !(kv->at("max") > 0)) return make_error("tank needs A > 0, max > 0");
     return std::unique_ptr<Plant>(new Tank(kv->at("A"), kv->at("q"), kv->at("max")));
+  }
+  if (kind == "measuring-tank") {
+    auto kv = parse_kv(
+        rest, {{"fill", 0.2}, {"drain", 0.25}, {"low", 0.1}, {"high", 0.9}, {"press", 2.0}});
+    if (!kv) return make_error(kv.error());
+    const double fill = kv->at("fill"), drain = kv->at("drain"), low = kv->at("low"),
+                 high = kv->at("high");
+    if (!(fill > 0) || !(drain > 0) || !(low >= 0) || !(high <= 1) || !(low < high) ||
+        !(kv->at("press") >= 0)) {
+      return make_error(
+          "measuring-tank needs fill > 0, drain > 0, 0 <= low < high <= 1 and press >= 0");
+    }
+    return std::unique_ptr<Plant>(new MeasuringTank(fill, drain, low, high, kv->at("press")));
   }
   return make_error("unknown plant '" + std::string(kind) + "'; choose one of:\n" + plant_help());
 }

@@ -23,6 +23,19 @@ class Plant {
   virtual double output() const = 0;
   // One line for humans, e.g. "1/(s^2 + 1 s + 1)".
   virtual std::string describe() const = 0;
+
+  // A plant with several signals (the measuring tank): `rtplc sim` wires each
+  // port input to the program's output channel of that label and each port
+  // output to its input channel of that label. The single-input single-output
+  // plants have no ports and use step() and output().
+  virtual std::vector<std::string> port_inputs() const { return {}; }
+  virtual std::vector<std::string> port_outputs() const { return {}; }
+  // Advances by `h` seconds with port input k held at in[k].
+  virtual void step_ports(const std::vector<double>& in, double h) { step(in.empty() ? 0 : in[0], h); }
+  virtual double port_output(size_t k) const {
+    (void)k;
+    return output();
+  }
 };
 
 // Builds a plant from a spec string:
@@ -30,6 +43,9 @@ class Plant {
 //   tf:NUM/DEN                         coefficients in descending powers of s, e.g. tf:1/1,1,1
 //   fopdt[:K=1,T=5,L=1]                first order plus dead time K e^(-L s) / (T s + 1)
 //   tank[:A=1,q=0,max=100]             integrating tank: A dh/dt = u - q, 0 <= h <= max
+//   measuring-tank[:fill=0.2,drain=0.25,low=0.1,high=0.9,press=2]
+//                                      the SFC example's tank (docs/sfc.md): ports
+//                                      valve1, valve2, lamp1 in; LS1, LS2, PBS, level out
 Result<std::unique_ptr<Plant>> make_plant(std::string_view spec);
 
 // The integration step for a task period `dt`: 0.01 s, or finer so that at least
