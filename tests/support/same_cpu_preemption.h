@@ -19,6 +19,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <functional>
 #include <string>
@@ -40,10 +41,11 @@ inline PreemptionResult run_preempting_reader(const std::function<void(const std
   PreemptionResult res;
   struct Shared {
     sem_t wake_reader;
-    volatile int writer_mid;      // 1 while the writer is inside its store
-    volatile int read_ok;
-    volatile int reader_saw_mid;  // writer_mid as the reader saw it after read()
-    volatile int fifo_refused;
+    // Lock-free atomics work across the fork: the child's threads share them.
+    std::atomic<int> writer_mid;      // 1 while the writer is inside its store
+    std::atomic<int> read_ok;
+    std::atomic<int> reader_saw_mid;  // writer_mid as the reader saw it after read()
+    std::atomic<int> fifo_refused;
   };
   void* mem = mmap(nullptr, sizeof(Shared), PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0);
   if (mem == MAP_FAILED) {
@@ -62,7 +64,7 @@ inline PreemptionResult run_preempting_reader(const std::function<void(const std
       while (sem_wait(&sh->wake_reader) != 0) {
       }
       sh->read_ok = read() ? 1 : 0;
-      sh->reader_saw_mid = sh->writer_mid;
+      sh->reader_saw_mid = sh->writer_mid.load();
     });
     if (!reader || reader->outcome().fell_back) {
       sh->fifo_refused = 1;
