@@ -16,6 +16,7 @@
 
 #include "io/drivers/s7/fake_plc.h"
 #include "sched/control.h"
+#include "tests/support/run_tool.h"
 #include "tests/support/runtime_fixture.h"
 
 namespace rtplc::sched {
@@ -112,23 +113,8 @@ TEST(WrongData, a_swap_taken_but_never_collected_leaks_no_program) {
   EXPECT_EQ(LoadedProgram::live_count(), before);
 }
 
-struct ToolRun {
-  int status = -1;
-  std::string out;
-};
-
-ToolRun run_tool(const std::string& args) {
-  const std::string cmd = std::string(RTPLC_BINARY_DIR) + "/rtplc " + args + " 2>&1";
-  ToolRun r;
-  FILE* p = popen(cmd.c_str(), "r");
-  if (p == nullptr) return r;
-  std::array<char, 4096> buf{};
-  size_t n = 0;
-  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.out.append(buf.data(), n);
-  const int st = pclose(p);
-  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  return r;
-}
+using rtplc::test::run_tool;
+using rtplc::test::ToolRun;
 
 TEST(WrongData, after_kill_9_every_tool_says_not_running_shows_stale_and_fails) {
   RuntimeFixture fx;
