@@ -84,6 +84,14 @@ TEST(Cli, monitor_interval_and_stats_watch_below_the_floor_are_refused) {
 
 // ---- sim --step ----------------------------------------------------------------
 
+TEST(Cli, s7_timeout_must_be_a_positive_number_of_milliseconds) {
+  for (const char* v : {"-5", "0"}) {
+    const ToolRun r = run_tool(std::string("s7 read 127.0.0.1 MB0 --timeout ") + v);
+    EXPECT_EQ(r.status, 2) << v << ": " << r.out;
+    EXPECT_TRUE(has(r, "--timeout")) << r.out;
+  }
+}
+
 TEST(Cli, sim_step_refuses_nan_values_and_times_outside_the_run) {
   ToolRun r = run_tool("sim -q " + kPid + " --step Setpoint=nan@1");
   EXPECT_EQ(r.status, 2) << r.out;

@@ -64,7 +64,9 @@ void add_target_options(CLI::App* cmd, Target& t) {
       ->check(CLI::IsMember({"pg", "op", "basic"}, CLI::ignore_case));
   cmd->add_option("--tsap", t.tsap,
                   "explicit TSAPs LOCAL:REMOTE in hex instead of rack/slot (S7-200/LOGO: 1000:2000, 0100:0200)");
-  cmd->add_option("--timeout", t.timeout_ms, "connect and reply timeout in ms")->default_val(3000);
+  cmd->add_option("--timeout", t.timeout_ms, "connect and reply timeout in ms (1..600000)")
+      ->default_val(3000)
+      ->check(CLI::Range(1, 600000));
   cmd->add_option("--pdu", t.pdu, "PDU size to ask for (the PLC may grant less)")->default_val(960)->check(
       CLI::Range(240, 4096));
 }
