@@ -101,6 +101,9 @@ struct DriverSetup {
 class Driver {
  public:
   explicit Driver(DriverSetup setup, const char* thread_tag);
+  // A kind's destructor calls request_stop() and join() first, so the bridge
+  // thread and the kind's own threads end while the kind's members still live
+  // (this base destructor does it too, but by then only the base remains).
   virtual ~Driver();
   Driver(const Driver&) = delete;
   Driver& operator=(const Driver&) = delete;

@@ -22,7 +22,11 @@ ModbusDriver::ModbusDriver(const io::DriverSetup& setup)
       settings_(settings_of(*setup.config)),
       exchange_(settings_.reads.size(), settings_.writes.size(), settings_.slaves.size()) {}
 
-ModbusDriver::~ModbusDriver() { on_joined(); }
+ModbusDriver::~ModbusDriver() {
+  request_stop();
+  join();
+  on_joined();  // also when it never started: the line threads may run after prepare()
+}
 
 Result<void> ModbusDriver::prepare() {
   const auto& s = settings_;

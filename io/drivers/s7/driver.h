@@ -46,6 +46,10 @@ namespace rtplc::s7 {
 class S7Driver final : public io::Driver {
  public:
   explicit S7Driver(const io::DriverSetup& setup);
+  ~S7Driver() override {
+    request_stop();
+    join();
+  }
   // Registers PLCs and items with the engine (no network yet). Errors name the item.
   Result<void> prepare();
 

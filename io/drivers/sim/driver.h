@@ -27,6 +27,10 @@ struct PlantWiring {
 class SimDriver final : public io::Driver {
  public:
   SimDriver(const io::DriverSetup& setup, std::vector<PlantWiring> plants);
+  ~SimDriver() override {
+    request_stop();
+    join();
+  }
 
   // Tests: the input plant p is integrating with now.
   double held_input(size_t p) const { return plants_[p].input; }
