@@ -1,0 +1,104 @@
+// Retained block state, the copy a running task hands to the non-RT side
+// (spec runtime.md, "Retained block state"). The task's arena belongs to the
+// task thread: nobody else may read it while the task runs. So every N cycles
+// the task itself copies its retained slots (block outputs and block state) into
+// one of two buffers, and the control thread reads the last completed buffer
+// when it persists the state file.
+//
+// Protocol (one writer: the task thread; one reader: the control thread):
+//   writer, into buffer w = the one NOT published last:
+//     seq[w] += 1 (odd: being written), relaxed; release fence
+//     data, cycle and time stored with relaxed atomic stores
+//     seq[w] += 1 (even: whole), release
+//     latest.store(w, release)
+//   reader:
+//     w = latest.load(acquire)            (none yet: nothing to read)
+//     s1 = seq[w].load(acquire); odd -> try again
+//     copy data with relaxed atomic loads; acquire fence
+//     s2 = seq[w].load(relaxed); s1 == s2 -> the copy is one whole snapshot
+// The release fence after the odd store orders it before the data stores; the
+// acquire fence before s2 orders the data loads before it: a reader that saw
+// any store of a newer snapshot sees s2 != s1 and retries. Two buffers make the
+// reader wait-free in the case that matters: a reader that preempts the writer
+// mid-copy (on the same CPU, or at any moment) finds `latest` pointing at the
+// other, finished buffer, which the writer will not touch until it has
+// published the one it is writing. Only a writer that finishes two snapshots
+// during one read makes the reader retry; after a few tries it gives up for
+// this round (the next persist tries again). The writer never waits, never
+// allocates and makes no system call: a bounded copy of the retained doubles.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "blocks/executor.h"
+
+namespace rtplc::sched {
+
+// One retained block of a program: where its slots are in the arena.
+struct RetainedBlock {
+  static constexpr uint32_t kNoValue = UINT32_MAX;
+  std::string name;  // BlockInfo name ("F10", "F10.M4", "step.Fill")
+  std::string kind;  // opcode name ("intg", "pid"...), so state restores only into its kind
+  uint32_t value = kNoValue;  // value slot (the block's output), or kNoValue
+  uint32_t state = 0;         // first state double
+  uint32_t n_state = 0;
+  // Doubles this block contributes to a snapshot: [value] then its state.
+  uint32_t width() const { return (value == kNoValue ? 0u : 1u) + n_state; }
+};
+
+class StateSnapshot {
+ public:
+  StateSnapshot() = default;
+  StateSnapshot(const StateSnapshot&) = delete;
+  StateSnapshot& operator=(const StateSnapshot&) = delete;
+
+  // Off the RT path: sizes the two buffers for `blocks` (the program's retained blocks).
+  void prepare(std::vector<RetainedBlock> blocks);
+  const std::vector<RetainedBlock>& blocks() const { return blocks_; }
+  uint32_t size() const { return n_; }
+
+  // Task thread: copies the retained slots of `arena` into the free buffer and
+  // publishes it. Bounded, no allocation, no lock, no system call.
+  void take(const TaskArena& arena, int64_t now_ns) noexcept;
+
+  // Control thread: the last published snapshot, whole, into `out` (resized).
+  // False when none was published yet, or the writer kept overwriting the
+  // buffer being read (try again later).
+  bool read(std::vector<double>& out, uint64_t& cycle, int64_t& taken_ns, uint32_t max_tries = 4) const;
+
+  // Published snapshots (for the control thread to see whether anything is new).
+  uint64_t taken() const { return taken_.load(std::memory_order_acquire); }
+
+  // Tests: the writer's steps one at a time, so a test can stop between them.
+  uint32_t begin_take() noexcept;
+  void store(uint32_t buffer, uint32_t i, double v) noexcept;
+  void end_take(uint32_t buffer, uint64_t cycle, int64_t now_ns) noexcept;
+
+ private:
+  static constexpr uint32_t kNone = UINT32_MAX;
+  struct Buffer {
+    std::atomic<uint64_t> seq{0};
+    std::atomic<uint64_t> cycle{0};
+    std::atomic<int64_t> taken_ns{0};
+    std::unique_ptr<double[]> data;
+  };
+  std::vector<RetainedBlock> blocks_;
+  uint32_t n_ = 0;
+  Buffer buffers_[2];
+  std::atomic<uint32_t> latest_{kNone};
+  std::atomic<uint64_t> taken_{0};
+  uint32_t next_ = 0;  // writer only: the buffer the next take() fills
+};
+
+// The retained blocks of `image` under a task's `retain` selection: every block
+// with state or an output (`all`), none, or the blocks named in `names`
+// (a name also selects what a macro call or SFC chart expanded under it:
+// "F10" selects "F10.M4"). Unknown names are listed in `unknown` when given.
+std::vector<RetainedBlock> retained_blocks(const TaskImage& image, bool all, const std::vector<std::string>& names,
+                                           std::vector<std::string>* unknown = nullptr);
+
+}  // namespace rtplc::sched
