@@ -33,6 +33,7 @@ struct RunArgs {
   bool count_faults = false;
   bool no_lock = false;
   bool quiet = false;
+  bool cold = false;
 };
 
 struct ClientArgs {
@@ -89,6 +90,7 @@ void run_runtime(const RunArgs& a) {
   opt.count_faults = a.count_faults;
   opt.lock_memory = !a.no_lock;
   opt.name_override = a.name;
+  opt.cold = a.cold;
   sched::LoadReport report;
   std::unique_ptr<sched::Runtime> rt = sched::Runtime::load(*cfg.config, opt, report);
   const std::string rendered = report.render(isatty(STDERR_FILENO));
@@ -136,6 +138,7 @@ void run_runtime(const RunArgs& a) {
   }
   control.stop();
   rt->stop();
+  if (!rt->stop_state_error().empty()) spdlog::error("{}", rt->stop_state_error());
   // What the drivers said while stopping (the last writes, links closing).
   rt->tick([&a](bool error, const std::string& line) {
     if (error) spdlog::error("{}", line);
@@ -226,8 +229,14 @@ void add_run_commands(CLI::App& app) {
       "common time grid. Without the privileges for SCHED_FIFO or on a non-RT kernel it runs\n"
       "anyway and says so once. Stops on Ctrl-C, SIGTERM, `rtplc stop` or --duration, setting\n"
       "every output to its safe value, and prints the timing table.\n"
+      "Warm start by default: blocks continue from the state they had when the runtime last\n"
+      "stopped or died (integrators, counters, timers, filters, delays, SFC steps; a task's\n"
+      "`retain` key selects which), read from NAME.state beside the retain file, written every\n"
+      "runtime.retain_every and at the stop. The start says which blocks it restored and from\n"
+      "when; a damaged file is reported and ignored. --cold starts every block from zero.\n"
       "Examples:\n"
       "  rtplc run examples/seed_pid.yaml\n"
+      "  rtplc run examples/seed_pid.yaml --cold\n"
       "  rtplc run examples/sixteen.yaml --duration 20");
   r->add_option("config", run->config, "runtime configuration (.yaml)")->required();
   r->add_option("--name", run->name, "run under this name instead of runtime.name")
@@ -237,6 +246,9 @@ void add_run_commands(CLI::App& app) {
   r->add_flag("--count-faults", run->count_faults, "count minor page faults per cycle (test mode)");
   r->add_flag("--no-lock", run->no_lock, "do not lock memory (mlockall)");
   r->add_flag("-q,--quiet", run->quiet, "log only errors");
+  r->add_flag("--cold", run->cold,
+              "cold start: every block starts from its initial state, ignoring the retained\n"
+              "block state (set-points keep their retained values)");
   r->callback([run] { run_runtime(*run); });
 
   auto cl = std::make_shared<ClientArgs>();

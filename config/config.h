@@ -34,6 +34,9 @@ inline constexpr double kMaxPeriod = 3600;
 inline constexpr uint32_t kDefaultStopWatchdog = 3;
 inline constexpr uint32_t kMaxWatchdog = 1000000;
 inline constexpr unsigned kMaxCpu = 1023;  // CPU_SETSIZE - 1
+inline constexpr double kDefaultRetainEvery = 1.0;  // seconds between state-file writes
+inline constexpr double kMinRetainEvery = 0.01;
+inline constexpr double kMaxRetainEvery = 3600;
 
 // What a late cycle does (one definition for the config and the scheduler).
 enum class OverrunPolicy : uint8_t {
@@ -66,6 +69,11 @@ struct TaskConfig {
   uint32_t watchdog = 0;  // consecutive overruns before the stop; 0 = never
   SourcePos watchdog_pos;
   std::vector<SafeOutput> safe_outputs;
+  // Retained block state (docs/runtime.md, "Retained block state"): every
+  // block (the default), none, or the blocks named in retain_blocks.
+  bool retain_all = true;
+  std::vector<std::string> retain_blocks;
+  SourcePos retain_pos;
 };
 
 struct DriverConfig {
@@ -104,6 +112,7 @@ struct RuntimeConfig {
   SourcePos band_pos;  // line 0 when the band is the default
   bool cpu_dma_latency = true;
   bool lock_memory = true;
+  double retain_every_s = kDefaultRetainEvery;  // state-file writes (runtime.retain_every)
   std::vector<TaskConfig> tasks;
   std::vector<DriverConfig> drivers;
 

@@ -93,6 +93,49 @@ void parse_runtime(YamlReader& r, const Field& section, RuntimeConfig& cfg) {
   if (const Field* x = f.get("lock_memory")) {
     if (auto v = r.boolean(*x)) cfg.lock_memory = *v;
   }
+  if (const Field* x = f.get("retain_every")) {
+    if (auto v = r.duration(*x)) cfg.retain_every_s = *v;
+  }
+}
+
+// retain: all | none | [BLOCK, ...]
+void parse_retain(YamlReader& r, const Field& field, TaskConfig& t) {
+  t.retain_pos = field.pos;
+  const YAML::Node& v = field.value;
+  auto expects = [&] {
+    r.error(field, "'retain' expects " + describe_type(*field.spec) + ", got " + YamlReader::describe_node(v));
+  };
+  if (v.IsScalar()) {
+    if (v.Scalar() == "all" || v.Scalar() == "none") {
+      t.retain_all = v.Scalar() == "all";
+      return;
+    }
+    expects();
+    return;
+  }
+  if (!v.IsSequence()) {
+    expects();
+    return;
+  }
+  t.retain_all = false;
+  std::unordered_map<std::string, SourcePos> seen;
+  for (const YAML::Node& n : v) {
+    const SourcePos np = or_else(YamlReader::pos(n), field.pos);
+    const bool word = n.IsScalar() && !n.Scalar().empty() &&
+                      n.Scalar().find_first_of(" \t\n#") == std::string::npos;
+    if (!word) {
+      r.error(np, "a retained block is named as in its program (such as F10), got " + YamlReader::describe_node(n),
+              YamlReader::width(n));
+      continue;
+    }
+    auto [first, fresh] = seen.emplace(n.Scalar(), np);
+    if (!fresh) {
+      r.error(np, "block '" + n.Scalar() + "' is listed twice", YamlReader::width(n));
+      r.note(first->second, "first listed here", static_cast<uint32_t>(n.Scalar().size()));
+      continue;
+    }
+    t.retain_blocks.push_back(n.Scalar());
+  }
 }
 
 // safe_outputs: {LABEL: number, ...}
@@ -200,6 +243,8 @@ void parse_task(YamlReader& r, const YAML::Node& node, SourcePos list_pos, Runti
       }
     }
   }
+  t.retain_pos = t.pos;
+  if (const Field* x = f.get("retain")) parse_retain(r, *x, t);
   if (const Field* x = f.get("safe_outputs")) {
     parse_safe_outputs(r, *x, t);
     if (t.watchdog == 0 && !t.safe_outputs.empty()) {

@@ -50,6 +50,10 @@ const KeySpec kRuntimeKeys[] = {
      "Hold `/dev/cpu_dma_latency` at 0 while running, keeping CPUs out of deep idle states."},
     {"lock_memory", ValueType::kBool, false, kNoMin, kNoMax, nullptr, "true",
      "`mlockall` and prefault before the tasks start, so no cycle page-faults."},
+    {"retain_every", ValueType::kDuration, false, kMinRetainEvery, kMaxRetainEvery, nullptr, "1s",
+     "How often the retained block state (see the tasks' `retain`) is written to `NAME.state` "
+     "beside the retain file; it is also written when the runtime stops. A `kill -9` loses about "
+     "this much at most."},
 };
 
 const KeySpec kTaskKeys[] = {
@@ -73,6 +77,10 @@ const KeySpec kTaskKeys[] = {
      "values; 0 never stops it."},
     {"safe_outputs", ValueType::kLabelMap, false, kNoMin, kNoMax, nullptr, "every output 0",
      "`LABEL: value` for the outputs of a stopped task; outputs not listed go to 0."},
+    {"retain", ValueType::kBlockSelection, false, kNoMin, kNoMax, nullptr, "all",
+     "Which blocks keep their state (integrators, counters, timers, filters, delays, SFC steps) "
+     "across a restart, also after `kill -9`: `all`, `none`, or a list of block names "
+     "`[F10, F12]`. `rtplc run --cold` starts every block from zero."},
 };
 
 const KeySpec kDriverKeys[] = {
@@ -185,6 +193,8 @@ const char* type_name(ValueType t) {
       return "text";
     case ValueType::kReal:
       return "number";
+    case ValueType::kBlockSelection:
+      return "block selection";
   }
   return "";
 }
@@ -232,6 +242,8 @@ std::string describe_type(const KeySpec& k) {
       return "a text";
     case ValueType::kReal:
       return "a number";
+    case ValueType::kBlockSelection:
+      return "`all`, `none` or a list of block names such as [F10, F12]";
   }
   return "a value";
 }
@@ -277,6 +289,8 @@ std::string describe_allowed(const KeySpec& k) {
       return k.choices ? k.choices : "";
     case ValueType::kReal:
       return "finite";
+    case ValueType::kBlockSelection:
+      return "`all`, `none`, names of the program's blocks (a macro call's or SFC name selects what it expands to)";
   }
   return "";
 }

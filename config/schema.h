@@ -28,6 +28,7 @@ enum class ValueType : uint8_t {
   kDriverKind,   // a kind of config/driver_kinds.h
   kText,         // a non-empty string whose syntax its kind checks (an S7 item, an IPv4 address)
   kReal,         // a finite number
+  kBlockSelection,  // `all`, `none` or a list of block names
 };
 
 struct KeySpec {

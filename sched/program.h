@@ -13,6 +13,7 @@
 #include "blocks/executor.h"
 #include "blocks/image.h"
 #include "io/process_image.h"
+#include "sched/state_snapshot.h"
 
 namespace rtplc::sched {
 
@@ -75,6 +76,9 @@ struct LoadedProgram {
   // good where it writes an output, bad elsewhere (holes, dropped outputs).
   std::vector<uint8_t> output_quality;
   Migration migration;
+  // The retained blocks' state, copied by the task every few cycles for the
+  // control thread to persist (state_snapshot.h).
+  StateSnapshot snapshot;
   std::string file;    // where the source came from
   std::string source;  // the source text (kept for rollback and for `status`)
 };

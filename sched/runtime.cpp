@@ -83,6 +83,8 @@ std::unique_ptr<Runtime> Runtime::load(const config::RuntimeConfig& cfg, const R
                             : !cfg.retain_path.empty()   ? cfg.retain_path
                                                          : default_retain_path(rt->name_));
   rt->programs_ = ProgramStore(folder_of(rt->retain_.path()) + "/" + rt->name_ + ".programs");
+  rt->state_path_ = folder_of(rt->retain_.path()) + "/" + rt->name_ + ".state";
+  rt->retain_every_ns_ = std::llround(cfg.retain_every_s * 1e9);
   rt->lock_memory_ = cfg.lock_memory && opt.lock_memory;
   rt->cpu_dma_latency_ = cfg.cpu_dma_latency;
   // build_channels keeps a reference to the config file's entry while it adds one
@@ -276,6 +278,15 @@ bool Runtime::build(const config::RuntimeConfig& cfg, LoadReport& report) {
   // 5. Tasks and their first programs.
   previous_.resize(n_tasks);
   for (uint32_t t = 0; t < n_tasks; ++t) {
+    std::vector<std::string> unknown;
+    (void)retained_blocks(images[t], cfg.tasks[t].retain_all, cfg.tasks[t].retain_blocks, &unknown);
+    if (!unknown.empty()) {
+      std::string list;
+      for (const std::string& u : unknown) list += (list.empty() ? "'" : ", '") + u + "'";
+      cdiag.error(cfg.tasks[t].retain_pos, "task " + cfg.tasks[t].name + ": 'retain' names " + list +
+                                               ", not a block of its program");
+      return false;
+    }
     auto prog = make_program(t, std::move(images[t]), sources[t], cfg.tasks[t].program, nullptr);
     if (!prog) {
       cdiag.error(cfg.tasks[t].pos, prog.error());
@@ -290,11 +301,17 @@ bool Runtime::build(const config::RuntimeConfig& cfg, LoadReport& report) {
     p.watchdog = cfg.tasks[t].watchdog;
     p.count_faults = options_.count_faults;
     p.back_to_back = options_.back_to_back;
+    // Four snapshots per state-file write: the file is at most 1.25 retain_every old.
+    const int64_t every = retain_every_ns_ / 4 / std::max<int64_t>(periods[t], 1);
+    p.snapshot_every = static_cast<uint32_t>(std::clamp<int64_t>(every, 1, UINT32_MAX));
     tasks_.push_back(std::make_unique<Task>(std::move(p), image_, t, t, setpoint_region_,
                                             std::move(prog).value()));
   }
 
-  // 6. Drivers.
+  // 6. Retained block state: a warm start continues where the last run left off.
+  restore_state(cfg, cdiag);
+
+  // 7. Drivers.
   return create_drivers(cfg, cdiag);
 }
 
@@ -331,6 +348,9 @@ Result<std::unique_ptr<LoadedProgram>> Runtime::make_program(uint32_t t, TaskIma
   auto p = std::make_unique<LoadedProgram>();
   p->image = std::move(image);
   p->arena.resize_for(p->image);
+  // A swapped-in program retains the blocks its task's `retain` selects; a
+  // listed name it no longer has is simply not there (checked at load only).
+  p->snapshot.prepare(retained_blocks(p->image, config_.tasks[t].retain_all, config_.tasks[t].retain_blocks));
   p->source = std::move(source);
   p->file = std::move(file);
   const io::RegionDesc& out_region = image_.region(t);
@@ -553,8 +573,17 @@ Result<std::vector<std::string>> Runtime::start() {
 }
 
 void Runtime::stop() {
+  const bool was_started = started_;
   for (auto& t : tasks_) t->request_stop();
   for (auto& t : tasks_) t->join();
+  if (was_started) {
+    reap();  // a swap the task took is the active program now
+    // The threads are joined: their arenas are ours now. One last snapshot of
+    // each, so the file holds the state at the stop, not up to retain_every before.
+    const int64_t now = kernel_rt::monotonic_now_ns();
+    for (auto& t : tasks_) t->last_run().snapshot.take(t->last_run().arena, now);
+    if (std::string err; !persist_state(&err)) stop_state_error_ = err;
+  }
   // Tasks have set their outputs safe: each driver's last cycle sends those.
   for (auto& d : drivers_) d->request_stop();
   for (auto& d : drivers_) d->join();
@@ -564,6 +593,21 @@ void Runtime::stop() {
 
 void Runtime::tick(const std::function<void(bool, const std::string&)>& log) {
   if (image_.valid() && image_.writable()) image_.beat();
+  if (started_) {
+    const int64_t now = kernel_rt::monotonic_now_ns();
+    if (now - last_persist_ns_ >= retain_every_ns_) {
+      last_persist_ns_ = now;
+      std::string err;
+      if (!persist_state(&err)) {
+        // Said once per distinct problem, not every second (a full disk stays full).
+        if (err != persist_error_said_) log(true, err);
+        persist_error_said_ = err;
+      } else if (!persist_error_said_.empty()) {
+        log(false, "retained block state is written again to " + state_path_);
+        persist_error_said_.clear();
+      }
+    }
+  }
   io::LinkEvent e;
   while (events_.pop(e)) {
     log(e.level == io::LinkEvent::Level::kError || e.level == io::LinkEvent::Level::kWarning,

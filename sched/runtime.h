@@ -26,6 +26,7 @@
 #include "sched/image_plan.h"
 #include "sched/program_store.h"
 #include "sched/retain.h"
+#include "sched/state_file.h"
 #include "sched/stats_render.h"
 #include "sched/task.h"
 
@@ -38,6 +39,7 @@ struct RuntimeOptions {
   std::string name_override;       // run under another name (tests run several at once)
   std::string socket_override;
   std::string retain_override;
+  bool cold = false;  // `rtplc run --cold`: no block starts from its retained state
 };
 
 // One diagnostic source: the runtime reports problems in the config file and in
@@ -92,12 +94,20 @@ class Runtime {
   const std::string& name() const { return name_; }
   const std::string& socket_path() const { return socket_path_; }
   const std::string& retain_path() const { return retain_.path(); }
+  // The retained block state (state_file.h): NAME.state beside the retain file.
+  const std::string& state_path() const { return state_path_; }
+  // Writes the state file now from the tasks' latest snapshots (tick() does it
+  // every runtime.retain_every, stop() once the tasks have stopped). False with
+  // `error` set when the file could not be written.
+  bool persist_state(std::string* error = nullptr);
+  // Why stop() could not write the state file ("" when it could).
+  const std::string& stop_state_error() const { return stop_state_error_; }
   const ProgramStore& programs() const { return programs_; }
   io::ProcessImage& image() { return image_; }
   size_t task_count() const { return tasks_.size(); }
   Task& task(size_t i) { return *tasks_[i]; }
   Task* find_task(const std::string& name);
-  // Summary lines printed when the runtime starts.
+  // Summary lines printed when the runtime starts (with what the warm start restored).
   std::vector<std::string> describe() const;
   // Per-task views for `stats` rendering.
   std::vector<TaskStatsView> stats_views() const;
@@ -116,6 +126,7 @@ class Runtime {
                                                       const LoadedProgram* running,
                                                       const std::vector<std::string>& drop_outputs = {});
   void publish_setpoints();
+  void restore_state(const config::RuntimeConfig& cfg, DiagnosticList& cdiag);
   Result<std::string> install(Task& t, std::unique_ptr<LoadedProgram> next, bool keep_previous);
 
   FileLock lock_;  // held while this runtime lives: no second one of its name
@@ -147,6 +158,16 @@ class Runtime {
   std::vector<double> setpoint_values_;  // control thread's copy of the set-point region
   ImagePlan plan_;
   bool started_ = false;
+  // Retained block state (control thread only).
+  std::string state_path_;
+  int64_t retain_every_ns_ = 1000000000;
+  int64_t last_persist_ns_ = 0;
+  std::vector<SavedTask> saved_tasks_;           // per task: what the file holds for it now
+  std::vector<uint64_t> persisted_taken_;        // per task: snapshot count last written
+  std::vector<const LoadedProgram*> persisted_program_;
+  std::vector<std::string> restore_lines_;       // said at start
+  std::string persist_error_said_;
+  std::string stop_state_error_;
 };
 
 // Default control socket and retain file for a runtime name: system paths when

@@ -244,6 +244,7 @@ std::vector<std::string> Runtime::describe() const {
                   (p.watchdog ? ", watchdog " + std::to_string(p.watchdog) : ""));
   }
   for (const auto& d : drivers_) out.push_back("driver " + d->name() + " (" + d->kind() + ")");
+  out.insert(out.end(), restore_lines_.begin(), restore_lines_.end());
   const double bound = liu_layland_bound(tasks_.size());
   out.push_back("Liu-Layland bound for " + std::to_string(tasks_.size()) + " tasks: " +
                 format_number(bound * 100) + "% utilisation");

@@ -142,6 +142,7 @@ void Task::run() noexcept {
   bool stopped = false;  // by the watchdog: outputs safe, code not run until a swap
   uint64_t faults_before = 0;
   uint64_t cycle = 0;
+  uint32_t until_snapshot = 1;  // the first cycle takes one, so a restart soon after has it
   info_->state.store(static_cast<uint8_t>(io::TaskState::kRunning), std::memory_order_relaxed);
   while (!stop_.load(std::memory_order_relaxed)) {
     if (params_.back_to_back) {
@@ -159,6 +160,7 @@ void Task::run() noexcept {
       if (next->migration.active) apply_migration(next->migration, current_->arena, next->arena);
       for (InputGroup& g : next->inputs) g.seen = 0;  // refresh every input now
       quality_refresh_ = io::kRingSlots;
+      until_snapshot = 1;  // the new program's layout: snapshot it in this cycle
       retired_.store(current_, std::memory_order_release);
       current_ = next;
       pending_.store(nullptr, std::memory_order_release);
@@ -174,6 +176,10 @@ void Task::run() noexcept {
       read_inputs(*current_);
       write_outputs(*current_, false);
       info_->block_errors.store(current_->arena.total_errors, std::memory_order_relaxed);
+      if (params_.snapshot_every > 0 && --until_snapshot == 0) {
+        until_snapshot = params_.snapshot_every;
+        current_->snapshot.take(current_->arena, wake);
+      }
     }
     const int64_t end = kernel_rt::monotonic_now_ns();
     if (params_.count_faults && cycle > 16) {

@@ -6,6 +6,8 @@
 //   copy the inputs it reads from their source regions
 //   run the program with its outputs written straight into its output region
 //   publish the outputs; record wake latency and execution time
+//   every `snapshot_every` cycles: copy the retained block state for the
+//   control thread (state_snapshot.h; a bounded copy, no system call)
 //   next release += period; a cycle that ends after the next release is an
 //   overrun: count it and the releases it skipped; N in a row stop the task
 //   (the watchdog) with its outputs at their safe values.
@@ -50,6 +52,9 @@ struct TaskParams {
   // Benchmarks only: run cycles back to back instead of sleeping to each
   // release, so the runtime's own cost per cycle can be measured with warm caches.
   bool back_to_back = false;
+  // Every this many cycles the task copies its retained block state into its
+  // program's StateSnapshot (state_snapshot.h); 0 never.
+  uint32_t snapshot_every = 0;
 };
 
 class Task {
@@ -74,6 +79,9 @@ class Task {
   // The program running now, as far as the control thread knows (it changes only
   // through publish()/collect()). Never touch its arena from the control thread.
   const LoadedProgram& active() const { return *active_; }
+  // The program the thread ran last. Only once the thread has been joined (or
+  // before it starts): the join hands its arena over to the caller.
+  LoadedProgram& last_run() { return *current_; }
   // Hands a prepared program to the task thread. Returns false if a swap is still in flight.
   bool publish(std::unique_ptr<LoadedProgram> next);
   // True once the task thread has taken the last published program.

@@ -178,6 +178,35 @@ TEST(Config, watchdog_defaults_to_three_with_stop_and_zero_with_skip) {
   EXPECT_EQ(r.config->tasks[2].overrun, OverrunPolicy::kSkip);
 }
 
+TEST(Config, retain_selects_all_none_or_named_blocks) {
+  LoadResult r = parse(
+      "runtime: {retain_every: 250ms}\n"
+      "tasks:\n"
+      "  - {program: a.fbd}\n"
+      "  - {program: b.fbd, retain: none}\n"
+      "  - {program: c.fbd, retain: [F10, step]}\n");
+  ASSERT_TRUE(r.ok()) << r.render();
+  EXPECT_EQ(r.config->retain_every_s, 0.25);
+  EXPECT_TRUE(r.config->tasks[0].retain_all);
+  EXPECT_FALSE(r.config->tasks[1].retain_all);
+  EXPECT_TRUE(r.config->tasks[1].retain_blocks.empty());
+  EXPECT_FALSE(r.config->tasks[2].retain_all);
+  EXPECT_EQ(r.config->tasks[2].retain_blocks, (std::vector<std::string>{"F10", "step"}));
+  EXPECT_EQ(r.config->tasks[2].retain_pos.line, 5u);
+}
+
+TEST(Config, a_bad_retain_is_an_error_at_its_value) {
+  LoadResult r = parse(
+      "tasks:\n"
+      "  - {program: a.fbd, retain: some}\n"
+      "  - {program: b.fbd, retain: [F1, F1]}\n"
+      "  - {program: c.fbd, retain: {F1: 2}}\n");
+  EXPECT_FALSE(r.ok());
+  EXPECT_TRUE(has_diag(r, 2, 30, "'retain' expects `all`, `none` or a list of block names"));
+  EXPECT_TRUE(has_diag(r, 3, 35, "block 'F1' is listed twice"));
+  EXPECT_TRUE(has_diag(r, 4, 30, "'retain' expects"));
+}
+
 TEST(Config, plain_number_periods_are_seconds) {
   LoadResult r =
       parse("tasks:\n  - {program: a.fbd, period: 0.5}\n  - {program: b.fbd, period: 2}\n");

@@ -1,0 +1,393 @@
+// Retained block state (docs/runtime.md, "Retained block state"): the state
+// file's format and its damage checks, the task -> control snapshot under a
+// same-CPU preemption, and warm and cold restarts of the real runtime, also
+// after kill -9.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <fstream>
+#include <thread>
+
+#include "lang/compiler.h"
+#include "sched/control.h"
+#include "sched/state_file.h"
+#include "sched/state_snapshot.h"
+#include "tests/support/runtime_fixture.h"
+#include "tests/support/same_cpu_preemption.h"
+
+namespace rtplc::sched {
+namespace {
+
+using rtplc::testing::RuntimeFixture;
+
+void sleep_s(double s) { std::this_thread::sleep_for(std::chrono::duration<double>(s)); }
+
+// An integrator of a set-point: with SP 0 it holds its value, so a restart can
+// be checked for an exact one.
+const char* kIntegrator =
+    "%%\nF1 = asp(d0, c0, 1, \"SP\")\nF2 = intg(F1, 1)\nD4 = dsp(d0, c1, 1, \"RUN\")\nD3 = time(D4, 100)\n"
+    "dao(F2, p0, d0, c0, \"OUT\")\nEND\n";
+
+double block_value_of(const TaskImage& img, const TaskArena& a, const std::string& name) {
+  for (uint32_t i = 0; i < img.blocks().size(); ++i) {
+    if (name == img.str(img.blocks()[i].name)) return a.values[img.code()[i].out];
+  }
+  ADD_FAILURE() << "no block " << name;
+  return 0;
+}
+
+TaskImage compile(const std::string& src) {
+  lang::CompileResult r = lang::compile_source(src);
+  EXPECT_TRUE(r.ok());
+  return std::move(*r.image);
+}
+
+SavedState sample_state() {
+  SavedState s;
+  s.runtime = "plant";
+  s.saved_unix_ms = 1764619801123;
+  s.tasks.push_back({"loop", 1234, {{"F2", "intg", {0.1 + 0.2, -3.5e-300}}, {"F3", "time", {1, 7}}}});
+  s.tasks.push_back({"idle", 0, {}});
+  return s;
+}
+
+TEST(StateFile, round_trips_every_double_bit_exact) {
+  const SavedState s = sample_state();
+  auto back = decode_state(encode_state(s), "x.state");
+  ASSERT_TRUE(back.ok()) << back.error();
+  EXPECT_EQ(back->runtime, "plant");
+  EXPECT_EQ(back->saved_unix_ms, 1764619801123);
+  ASSERT_EQ(back->tasks.size(), 2u);
+  EXPECT_EQ(back->tasks[0].cycle, 1234u);
+  ASSERT_EQ(back->tasks[0].blocks.size(), 2u);
+  EXPECT_EQ(back->tasks[0].blocks[0].values[0], 0.1 + 0.2);
+  EXPECT_EQ(back->tasks[0].blocks[0].values[1], -3.5e-300);
+  EXPECT_EQ(back->tasks[0].blocks[1].kind, "time");
+  EXPECT_TRUE(back->tasks[1].blocks.empty());
+}
+
+TEST(StateFile, a_changed_byte_is_a_checksum_mismatch) {
+  std::string text = encode_state(sample_state());
+  const size_t at = text.find("1234");
+  ASSERT_NE(at, std::string::npos);
+  text[at] = '9';  // still well-formed: only the checksum can tell
+  auto r = decode_state(text, "/var/x.state");
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().find("/var/x.state: checksum mismatch"), std::string::npos) << r.error();
+}
+
+TEST(StateFile, a_truncated_file_is_reported_as_torn) {
+  const std::string text = encode_state(sample_state());
+  for (const size_t keep : {text.size() - 1, text.size() - 10, text.size() / 2, size_t{20}}) {
+    auto r = decode_state(text.substr(0, keep), "x.state");
+    ASSERT_FALSE(r.ok()) << "kept " << keep;
+    EXPECT_NE(r.error().find("truncated"), std::string::npos) << r.error();
+  }
+}
+
+TEST(StateFile, another_file_or_version_is_refused) {
+  EXPECT_NE(decode_state("hello\n", "x").error().find("not an rtplc state file"), std::string::npos);
+  std::string text = encode_state(sample_state());
+  text.replace(text.find(" 1\n"), 3, " 9\n");
+  // Re-seal it so the version check itself is what refuses it.
+  const size_t last = text.rfind("crc32 ");
+  std::string body = text.substr(0, last);
+  char crc[32];
+  std::snprintf(crc, sizeof crc, "crc32 %08x\n", crc32(body));
+  auto r = decode_state(body + crc, "x");
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().find("format version 9"), std::string::npos) << r.error();
+}
+
+TEST(StateFile, restores_only_blocks_of_the_same_name_kind_and_size) {
+  TaskImage img = compile(kIntegrator);
+  auto layout = retained_blocks(img, true, {});
+  TaskArena arena(img);
+  SavedTask saved{"t", 10, {{"F2", "intg", {4.25}},          // matches
+                            {"D3", "pid", {1, 2, 3}},         // another kind now
+                            {"F99", "intg", {1}}}};          // no such block
+  RestoreOutcome o = restore_task(saved, layout, arena);
+  ASSERT_EQ(o.restored.size(), 1u);
+  EXPECT_EQ(o.restored[0], "F2");
+  ASSERT_EQ(o.refused.size(), 1u);
+  EXPECT_NE(o.refused[0].find("D3 (saved as pid"), std::string::npos) << o.refused[0];
+  EXPECT_EQ(block_value_of(img, arena, "F2"), 4.25);
+  std::fill(arena.io_in.begin(), arena.io_in.end(), 1.0);  // SP = 1: dt/Ti more each cycle
+  execute_cycle(img, arena);
+  EXPECT_GT(block_value_of(img, arena, "F2"), 4.25);
+}
+
+TEST(StateFile, a_block_list_selects_blocks_and_what_they_expand_to) {
+  TaskImage img = compile(kIntegrator);
+  std::vector<std::string> unknown;
+  auto some = retained_blocks(img, false, {"F2", "F7"}, &unknown);
+  ASSERT_EQ(some.size(), 1u);
+  EXPECT_EQ(some[0].name, "F2");
+  EXPECT_EQ(some[0].kind, "intg");
+  ASSERT_EQ(unknown.size(), 1u);
+  EXPECT_EQ(unknown[0], "F7");
+  EXPECT_TRUE(retained_blocks(img, false, {}).empty());
+}
+
+// ---- the snapshot protocol
+
+TEST(StateSnapshot, a_reader_gets_the_last_whole_snapshot_while_the_next_is_half_written) {
+  StateSnapshot s;
+  s.prepare({{"A", "intg", RetainedBlock::kNoValue, 0, 4}});
+  std::vector<double> out;
+  uint64_t cycle = 0;
+  int64_t at = 0;
+  EXPECT_FALSE(s.read(out, cycle, at)) << "nothing published yet";
+  uint32_t w = s.begin_take();
+  for (uint32_t i = 0; i < 4; ++i) s.store(w, i, 1.0);
+  s.end_take(w, 7, 70);
+  w = s.begin_take();
+  s.store(w, 0, 2.0);
+  s.store(w, 1, 2.0);  // the writer stops here
+  ASSERT_TRUE(s.read(out, cycle, at));
+  EXPECT_EQ(out, std::vector<double>(4, 1.0));
+  EXPECT_EQ(cycle, 7u);
+  s.store(w, 2, 2.0);
+  s.store(w, 3, 2.0);
+  s.end_take(w, 8, 80);
+  ASSERT_TRUE(s.read(out, cycle, at));
+  EXPECT_EQ(out, std::vector<double>(4, 2.0));
+  EXPECT_EQ(cycle, 8u);
+  EXPECT_EQ(s.taken(), 2u);
+}
+
+TEST(StateSnapshot, a_reader_preempting_the_writer_on_its_cpu_reads_at_once) {
+  constexpr uint32_t kN = 64;
+  StateSnapshot s;
+  s.prepare({{"A", "dely", RetainedBlock::kNoValue, 0, kN}});
+  uint32_t w = s.begin_take();
+  for (uint32_t i = 0; i < kN; ++i) s.store(w, i, 1.0);
+  s.end_take(w, 1, 1);
+  auto res = rtplc::testing::run_preempting_reader(
+      [&](const std::function<void()>& preempt) {
+        const uint32_t b = s.begin_take();
+        for (uint32_t i = 0; i < kN; ++i) {
+          s.store(b, i, 2.0);
+          if (i == kN / 2) preempt();  // the reader runs now, this snapshot half written
+        }
+        s.end_take(b, 2, 2);
+      },
+      [&] {
+        std::vector<double> out;
+        uint64_t cycle = 0;
+        int64_t at = 0;
+        // One try: the finished buffer must be readable at once.
+        if (!s.read(out, cycle, at, 1)) return false;
+        return cycle == 1 && out == std::vector<double>(kN, 1.0);
+      });
+  if (!res.ran) GTEST_SKIP() << res.why;
+  EXPECT_TRUE(res.reader_preempted_writer) << "the reader did not run while the writer was mid-snapshot";
+  EXPECT_TRUE(res.read_ok) << "the reader did not get the previous snapshot whole at once";
+}
+
+// ---- the runtime
+
+std::string config_for(RuntimeFixture& fx, const std::string& name, const std::string& task_extra = "") {
+  return fx.write(name + ".yaml", "runtime:\n  name: " + name + "\n  socket: " + fx.dir() + "/" + name +
+                                      ".sock\n  retain_file: " + fx.dir() + "/" + name +
+                                      ".retain\n  retain_every: 20ms\n  programs: config\n"
+                                      "tasks:\n  - {name: t, program: p.fbd, period: 5ms" + task_extra + "}\n");
+}
+
+std::unique_ptr<Runtime> load(const std::string& file, RuntimeOptions opt, std::string* log = nullptr,
+                              bool start = true) {
+  config::LoadResult cfg = config::load_config(file);
+  EXPECT_TRUE(cfg.ok()) << cfg.render();
+  if (!cfg.ok()) return nullptr;
+  LoadReport report;
+  auto rt = Runtime::load(*cfg.config, opt, report);
+  if (log) *log = report.render();
+  EXPECT_NE(rt, nullptr) << report.render();
+  if (rt) {
+    if (log) {
+      for (const std::string& l : rt->describe()) *log += l + "\n";
+    }
+    if (start) {
+      EXPECT_TRUE(rt->start().ok());
+    }
+  }
+  return rt;
+}
+
+// Waits (bounded by counts, not asserted on time) for the task to have run.
+void wait_cycles(Runtime& rt, uint64_t n) {
+  const auto* stats = static_cast<const CycleStats*>(rt.image().task_stats(0));
+  for (int i = 0; i < 400 && stats->cycles() < n; ++i) sleep_s(0.01);
+}
+
+TEST(RetainedState, a_stopped_runtime_restarts_warm_from_the_state_at_its_stop) {
+  RuntimeFixture fx;
+  fx.write("p.fbd", kIntegrator);
+  const std::string cfg = config_for(fx, fx.unique_name());
+  double at_stop = 0;
+  {
+    auto rt = load(cfg, {});
+    ASSERT_NE(rt, nullptr);
+    wait_cycles(*rt, 20);
+    rt->stop();
+    at_stop = rtplc::testing::block_value(rt->task(0).last_run(), "F2");
+    ASSERT_GT(at_stop, 0.0);
+    ASSERT_TRUE(rt->stop_state_error().empty()) << rt->stop_state_error();
+  }
+  std::string log;
+  auto rt = load(cfg, {}, &log, /*start=*/false);
+  ASSERT_NE(rt, nullptr);
+  EXPECT_NE(log.find("task t: restored 4 blocks (F1, F2, D4, D3)"), std::string::npos) << log;
+  // Not started yet: the arena is the restored one, exactly the state at the stop.
+  EXPECT_EQ(rtplc::testing::block_value(rt->task(0).last_run(), "F2"), at_stop);
+}
+
+TEST(RetainedState, cold_starts_from_zero_and_says_so) {
+  RuntimeFixture fx;
+  fx.write("p.fbd", kIntegrator);
+  const std::string cfg = config_for(fx, fx.unique_name());
+  {
+    auto rt = load(cfg, {});
+    ASSERT_NE(rt, nullptr);
+    wait_cycles(*rt, 20);
+    rt->stop();
+  }
+  std::string log;
+  RuntimeOptions opt;
+  opt.cold = true;
+  auto rt = load(cfg, opt, &log, /*start=*/false);
+  ASSERT_NE(rt, nullptr);
+  EXPECT_NE(log.find("cold start (--cold)"), std::string::npos) << log;
+  EXPECT_EQ(rtplc::testing::block_value(rt->task(0).last_run(), "F2"), 0.0);
+}
+
+TEST(RetainedState, a_damaged_file_is_reported_and_every_block_starts_cold) {
+  RuntimeFixture fx;
+  fx.write("p.fbd", kIntegrator);
+  const std::string name = fx.unique_name();
+  const std::string cfg = config_for(fx, name);
+  std::string state;
+  {
+    auto rt = load(cfg, {});
+    ASSERT_NE(rt, nullptr);
+    wait_cycles(*rt, 20);
+    rt->stop();
+    state = rt->state_path();
+  }
+  {
+    std::fstream f(state, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(30);
+    f.put('#');
+  }
+  std::string log;
+  auto rt = load(cfg, {}, &log);
+  ASSERT_NE(rt, nullptr);
+  EXPECT_NE(log.find("retained block state ignored"), std::string::npos) << log;
+  EXPECT_NE(log.find(state + ": checksum mismatch"), std::string::npos) << log;
+  EXPECT_EQ(log.find("restored"), std::string::npos) << log;
+}
+
+TEST(RetainedState, retain_none_keeps_nothing_and_an_unknown_block_name_is_an_error) {
+  RuntimeFixture fx;
+  fx.write("p.fbd", kIntegrator);
+  const std::string name = fx.unique_name();
+  {
+    auto rt = load(config_for(fx, name, ", retain: none"), {});
+    ASSERT_NE(rt, nullptr);
+    wait_cycles(*rt, 5);
+    rt->stop();
+    std::ifstream f(rt->state_path());
+    EXPECT_FALSE(f.good()) << "nothing retained: no state file";
+  }
+  config::LoadResult cfg = config::load_config(config_for(fx, name, ", retain: [F2, F42]"));
+  ASSERT_TRUE(cfg.ok()) << cfg.render();
+  LoadReport report;
+  auto rt = Runtime::load(*cfg.config, {}, report);
+  EXPECT_EQ(rt, nullptr);
+  EXPECT_NE(report.render().find("'retain' names 'F42', not a block of its program"), std::string::npos)
+      << report.render();
+}
+
+// The real binary: the integrator is frozen (SP 0) at a value the state file
+// holds, the runtime is killed with SIGKILL, and the restarted one outputs
+// exactly that value; a --cold restart outputs 0.
+TEST(RetainedState, kill_9_then_restart_continues_the_integrator_and_cold_starts_from_zero) {
+  RuntimeFixture fx;
+  fx.write("p.fbd", kIntegrator);
+  const std::string name = fx.unique_name();
+  const std::string cfg = config_for(fx, name);
+  const std::string sock = fx.dir() + "/" + name + ".sock";
+  const std::string state = fx.dir() + "/" + name + ".state";
+  const std::string bin = std::string(RTPLC_BINARY_DIR) + "/rtplc";
+  auto launch = [&](bool cold) {
+    const pid_t pid = fork();
+    if (pid == 0) {
+      if (cold) execl(bin.c_str(), bin.c_str(), "run", cfg.c_str(), "-q", "--no-lock", "--cold", nullptr);
+      execl(bin.c_str(), bin.c_str(), "run", cfg.c_str(), "-q", "--no-lock", nullptr);
+      _exit(127);
+    }
+    for (int i = 0; i < 200; ++i) {
+      if (control_request(sock, "ping", "", 500).ok()) break;
+      sleep_s(0.05);
+    }
+    return pid;
+  };
+  // The first good OUT after a start (the task's first cycles).
+  auto first_output = [&] {
+    auto img = io::ProcessImage::attach(name);
+    EXPECT_TRUE(img.ok()) << img.error();
+    if (!img.ok()) return -1.0;
+    const int c = img->find_channel("OUT");
+    EXPECT_GE(c, 0);
+    io::ChannelValue v;
+    for (int i = 0; i < 200; ++i) {
+      v = img->read_channel(static_cast<uint32_t>(c));
+      if (v.fresh && v.quality == Quality::kGood) break;
+      sleep_s(0.01);
+    }
+    return v.value;
+  };
+  auto saved_f2 = [&]() -> double {
+    auto s = load_state_file(state);
+    if (!s.ok() || !*s || (*s)->tasks.empty()) return -1;
+    for (const SavedBlock& b : (*s)->tasks[0].blocks) {
+      if (b.name == "F2") return b.values[0];
+    }
+    return -1;
+  };
+
+  pid_t pid = launch(false);
+  double out = 0;
+  for (int i = 0; i < 400 && (out = first_output()) < 0.05; ++i) sleep_s(0.01);
+  ASSERT_GE(out, 0.05) << "the integrator did not run";
+  ASSERT_TRUE(control_request(sock, "set SP 0").ok());
+  // Frozen: wait until the image and the state file agree on the held value.
+  double held = -2;
+  for (int i = 0; i < 400; ++i) {
+    held = first_output();
+    if (saved_f2() == held) break;
+    sleep_s(0.01);
+  }
+  ASSERT_EQ(saved_f2(), held);
+  ASSERT_GT(held, 0.04);
+  kill(pid, SIGKILL);
+  waitpid(pid, nullptr, 0);
+
+  pid = launch(false);
+  EXPECT_EQ(first_output(), held) << "a warm restart continues from the retained value";
+  (void)control_request(sock, "stop");
+  waitpid(pid, nullptr, 0);
+  EXPECT_EQ(saved_f2(), held) << "the stop wrote the state again, the same";
+
+  pid = launch(true);
+  EXPECT_EQ(first_output(), 0.0) << "--cold starts from zero";
+  (void)control_request(sock, "stop");
+  waitpid(pid, nullptr, 0);
+}
+
+}  // namespace
+}  // namespace rtplc::sched
