@@ -109,7 +109,9 @@ std::vector<RetainedBlock> retained_blocks(const TaskImage& image, bool all, con
     if (!wanted) continue;
     const uint32_t n_state =
         op_state_size(in.op, op_param_count(in.op) ? image.params().data() + in.param : nullptr);
-    const bool value = op_writes_value(in.op);
+    // Inputs and set-points are not the program's state: their loads read the
+    // image again in the first cycle (set-points have their own retain file).
+    const bool value = op_writes_value(in.op) && !op_is_load(in.op);
     if (n_state == 0 && !value) continue;
     RetainedBlock rb;
     rb.name = std::string(name);

@@ -95,7 +95,8 @@ class StateSnapshot {
 };
 
 // The retained blocks of `image` under a task's `retain` selection: every block
-// with state or an output (`all`), none, or the blocks named in `names`
+// with state or an output, but the input and set-point loads (`all`), none, or
+// the blocks named in `names`
 // (a name also selects what a macro call or SFC chart expanded under it:
 // "F10" selects "F10.M4"). Unknown names are listed in `unknown` when given.
 std::vector<RetainedBlock> retained_blocks(const TaskImage& image, bool all, const std::vector<std::string>& names,
