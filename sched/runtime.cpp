@@ -83,7 +83,8 @@ std::unique_ptr<Runtime> Runtime::load(const config::RuntimeConfig& cfg, const R
                             : !cfg.retain_path.empty()   ? cfg.retain_path
                                                          : default_retain_path(rt->name_));
   rt->programs_ = ProgramStore(folder_of(rt->retain_.path()) + "/" + rt->name_ + ".programs");
-  rt->state_path_ = folder_of(rt->retain_.path()) + "/" + rt->name_ + ".state";
+  rt->state_name_ = opt.state_name.empty() ? rt->name_ : opt.state_name;
+  rt->state_path_ = folder_of(rt->retain_.path()) + "/" + rt->state_name_ + ".state";
   rt->retain_every_ns_ = std::llround(cfg.retain_every_s * 1e9);
   rt->lock_memory_ = cfg.lock_memory && opt.lock_memory;
   rt->cpu_dma_latency_ = cfg.cpu_dma_latency;

@@ -40,6 +40,9 @@ struct RuntimeOptions {
   std::string socket_override;
   std::string retain_override;
   bool cold = false;  // `rtplc run --cold`: no block starts from its retained state
+  // Whose state file (NAME.state) to read: empty, this runtime's own name.
+  // `rtplc check` runs under a name of its own but reports the real one's.
+  std::string state_name;
 };
 
 // One diagnostic source: the runtime reports problems in the config file and in
@@ -160,6 +163,7 @@ class Runtime {
   bool started_ = false;
   // Retained block state (control thread only).
   std::string state_path_;
+  std::string state_name_;  // the runtime the state file belongs to
   int64_t retain_every_ns_ = 1000000000;
   int64_t last_persist_ns_ = 0;
   std::vector<SavedTask> saved_tasks_;           // per task: what the file holds for it now

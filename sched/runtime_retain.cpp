@@ -55,9 +55,9 @@ void Runtime::restore_state(const config::RuntimeConfig& cfg, DiagnosticList& cd
     return;
   }
   const SavedState& st = **loaded;
-  if (st.runtime != name_) {
+  if (st.runtime != state_name_) {
     cdiag.warning(SourcePos{}, "retained block state ignored: " + state_path_ + " belongs to runtime '" +
-                                   st.runtime + "', not '" + name_ + "'");
+                                   st.runtime + "', not '" + state_name_ + "'");
     return;
   }
   const std::string when = utc_text(st.saved_unix_ms);
@@ -116,7 +116,7 @@ bool Runtime::persist_state(std::string* error) {
   }
   if (!any_retained || !changed) return true;
   SavedState s;
-  s.runtime = name_;
+  s.runtime = state_name_;
   s.saved_unix_ms = unix_ms_now();
   s.tasks = saved_tasks_;
   if (auto r = save_state_file(state_path_, s); !r) {

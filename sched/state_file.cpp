@@ -1,13 +1,16 @@
 // The retained-state file: format, checksum and restore matching (see state_file.h).
 #include "sched/state_file.h"
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <array>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <fstream>
 #include <iterator>
 #include <sstream>
 #include <unordered_map>
@@ -15,6 +18,9 @@
 #include "common/files.h"
 
 namespace rtplc::sched {
+
+// 16 bytes per double written: this is millions of state values.
+constexpr off_t kMaxStateBytes = off_t{256} << 20;
 
 const SavedTask* SavedState::find(std::string_view task) const {
   for (const SavedTask& t : tasks) {
@@ -151,12 +157,32 @@ Result<SavedState> decode_state(std::string_view text, const std::string& file) 
 }
 
 Result<std::optional<SavedState>> load_state_file(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  if (!f) {
+  // Plain POSIX reads: whatever sits at the path (a folder, a device, a huge
+  // file) is an error that names it, never an exception.
+  const int fd = open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW);
+  if (fd < 0) {
     if (errno == ENOENT) return std::optional<SavedState>();
     return make_error("cannot read " + path + ": " + std::strerror(errno));
   }
-  const std::string text{std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
+  struct stat st{};
+  if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+    close(fd);
+    return make_error(path + ": not a regular file");
+  }
+  if (st.st_size > kMaxStateBytes) {
+    close(fd);
+    return make_error(path + ": " + std::to_string(st.st_size) + " bytes, more than a state file can be");
+  }
+  std::string text(static_cast<size_t>(st.st_size), '\0');
+  size_t got = 0;
+  while (got < text.size()) {
+    const ssize_t n = read(fd, text.data() + got, text.size() - got);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) break;
+    got += static_cast<size_t>(n);
+  }
+  close(fd);
+  text.resize(got);
   auto s = decode_state(text, path);
   if (!s) return make_error(s.error());
   return std::optional<SavedState>(std::move(s).value());

@@ -4,6 +4,7 @@
 // after kill -9.
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -16,6 +17,7 @@
 #include "sched/control.h"
 #include "sched/state_file.h"
 #include "sched/state_snapshot.h"
+#include "tests/support/run_tool.h"
 #include "tests/support/runtime_fixture.h"
 #include "tests/support/same_cpu_preemption.h"
 
@@ -313,6 +315,25 @@ TEST(RetainedState, retain_none_keeps_nothing_and_an_unknown_block_name_is_an_er
       << report.render();
 }
 
+TEST(RetainedState, a_state_file_that_cannot_be_written_is_an_error_naming_it) {
+  RuntimeFixture fx;
+  fx.write("p.fbd", kIntegrator);
+  const std::string name = fx.unique_name();
+  const std::string cfg = config_for(fx, name);
+  const std::string state = fx.dir() + "/" + name + ".state";
+  ASSERT_EQ(mkdir(state.c_str(), 0700), 0);  // a folder where the file belongs: rename fails
+  auto rt = load(cfg, {});
+  ASSERT_NE(rt, nullptr);
+  wait_cycles(*rt, 5);
+  std::string err;
+  EXPECT_FALSE(rt->persist_state(&err));
+  EXPECT_NE(err.find("cannot write the retained block state"), std::string::npos) << err;
+  EXPECT_NE(err.find(state), std::string::npos) << err;
+  rt->stop();
+  EXPECT_NE(rt->stop_state_error().find(state), std::string::npos) << rt->stop_state_error();
+  rmdir(state.c_str());
+}
+
 // SFC steps are blocks too: a chart left in its third step comes back in it.
 TEST(RetainedState, an_sfc_chart_restarts_in_the_step_it_was_in) {
   RuntimeFixture fx;
@@ -418,6 +439,11 @@ TEST(RetainedState, kill_9_then_restart_continues_the_integrator_and_cold_starts
   ASSERT_GT(held, 0.04);
   kill(pid, SIGKILL);
   waitpid(pid, nullptr, 0);
+  // `rtplc check` says what a start would restore, without writing anything.
+  const rtplc::test::ToolRun check = rtplc::test::run_tool("check " + cfg);
+  EXPECT_EQ(check.status, 0) << check.out;
+  EXPECT_NE(check.out.find("task t: restored 2 blocks (F2, D3) from the state saved"), std::string::npos)
+      << check.out;
 
   pid = launch(false);
   EXPECT_EQ(first_output(), held) << "a warm restart continues from the retained value";
