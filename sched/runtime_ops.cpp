@@ -76,6 +76,9 @@ Result<std::string> Runtime::install(Task& t, std::unique_ptr<LoadedProgram> nex
   const uint64_t swaps_before = image_.task_info(t.index()).swaps.load(std::memory_order_relaxed);
   const Migration summary = next->migration;
   const uint32_t n_blocks = next->image.header().n_instr;
+  // A rolled-back program ran before: its last snapshot is of then, not of the
+  // state it is about to take over, so no persist may read it.
+  next->snapshot.forget();
   if (!t.publish(std::move(next))) return make_error("a swap of task " + t.params().name + " is already in progress");
   // The task takes it at its next cycle boundary: wait at most a few periods.
   const int64_t deadline = requested + std::max<int64_t>(10 * t.params().period_ns, 2000000000);

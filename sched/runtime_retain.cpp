@@ -109,9 +109,12 @@ bool Runtime::persist_state(std::string* error) {
     uint64_t cycle = 0;
     int64_t at = 0;
     if (!p.snapshot.read(data, cycle, at)) continue;  // none yet, or the writer lapped us: next time
-    saved_tasks_[t] = saved_task(tasks_[t]->params().name, p.snapshot.blocks(), data, cycle);
     persisted_taken_[t] = taken;
     persisted_program_[t] = &p;
+    SavedTask next = saved_task(tasks_[t]->params().name, p.snapshot.blocks(), data, cycle);
+    // A plant at rest (every state as it was) costs no write: flash wears.
+    if (next.blocks == saved_tasks_[t].blocks) continue;
+    saved_tasks_[t] = std::move(next);
     changed = true;
   }
   if (!any_retained || !changed) return true;

@@ -41,6 +41,7 @@ struct SavedBlock {
   std::string name;
   std::string kind;
   std::vector<double> values;  // [output] then state, as RetainedBlock::width()
+  bool operator==(const SavedBlock&) const = default;
 };
 
 struct SavedTask {

@@ -70,6 +70,11 @@ class StateSnapshot {
   // buffer being read (try again later).
   bool read(std::vector<double>& out, uint64_t& cycle, int64_t& taken_ns, uint32_t max_tries = 4) const;
 
+  // Control thread, while no task runs this program: drops what was published,
+  // so read() has nothing until the next take(). The publication of the program
+  // to its task (a release store) orders this before the task's next take().
+  void forget() noexcept { latest_.store(kNone, std::memory_order_relaxed); }
+
   // Published snapshots (for the control thread to see whether anything is new).
   uint64_t taken() const { return taken_.load(std::memory_order_acquire); }
 

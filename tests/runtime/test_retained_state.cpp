@@ -334,6 +334,27 @@ TEST(RetainedState, a_state_file_that_cannot_be_written_is_an_error_naming_it) {
   rmdir(state.c_str());
 }
 
+TEST(RetainedState, a_plant_at_rest_costs_no_write) {
+  RuntimeFixture fx;
+  fx.write("p.fbd", "%%\nF1 = asp(d0, c0, 0, \"SP\")\nF2 = intg(F1, 1)\ndao(F2, p0, d0, c0, \"OUT\")\nEND\n");
+  const std::string cfg = config_for(fx, fx.unique_name());
+  auto rt = load(cfg, {});
+  ASSERT_NE(rt, nullptr);
+  const auto* stats = static_cast<const CycleStats*>(rt->image().task_stats(0));
+  wait_cycles(*rt, 3);
+  ASSERT_TRUE(rt->persist_state());
+  auto first = load_state_file(rt->state_path());
+  ASSERT_TRUE(first.ok() && *first) << (first.ok() ? "no file" : first.error());
+  const uint64_t seen = stats->cycles();
+  wait_cycles(*rt, seen + 10);  // more snapshots, all of the same state
+  ASSERT_TRUE(rt->persist_state());
+  auto second = load_state_file(rt->state_path());
+  ASSERT_TRUE(second.ok() && *second);
+  EXPECT_EQ((*second)->saved_unix_ms, (*first)->saved_unix_ms) << "rewritten though nothing changed";
+  EXPECT_EQ((*second)->tasks[0].cycle, (*first)->tasks[0].cycle);
+  rt->stop();
+}
+
 // SFC steps are blocks too: a chart left in its third step comes back in it.
 TEST(RetainedState, an_sfc_chart_restarts_in_the_step_it_was_in) {
   RuntimeFixture fx;
