@@ -1,7 +1,7 @@
-// Retained block state in the runtime (spec runtime.md, "Retained block
-// state"): the warm start that restores it before the tasks run, and the
-// control thread's writes of the state file (see state_file.h and
-// state_snapshot.h for the file and the task -> control hand-over).
+// Retained block state in the runtime (spec runtime.md, "Retain";
+// docs/runtime.md, "Retained block state"): the warm start that restores it before the tasks run,
+// and the control thread's writes of the state file (see state_file.h and state_snapshot.h for the
+// file and the task -> control hand-over).
 #include <ctime>
 
 #include "sched/runtime.h"
@@ -40,24 +40,28 @@ void Runtime::restore_state(const config::RuntimeConfig& cfg, DiagnosticList& cd
   persisted_program_.assign(n, nullptr);
   for (size_t t = 0; t < n; ++t) saved_tasks_[t].name = tasks_[t]->params().name;
   if (options_.cold) {
-    restore_lines_.push_back("cold start (--cold): every block starts from its initial state; " + state_path_ +
-                             " is replaced at the first write (set-points keep their retained values)");
+    restore_lines_.push_back(
+        "cold start (--cold): every block starts from its initial state; " + state_path_ +
+        " is replaced at the first write (set-points keep their retained values)");
     return;
   }
   auto loaded = load_state_file(state_path_);
   if (!loaded) {
-    cdiag.warning(SourcePos{}, "retained block state ignored, every block starts from its initial state: " +
-                                   loaded.error());
+    cdiag.warning(SourcePos{},
+                  "retained block state ignored, every block starts from its initial state: " +
+                      loaded.error());
     return;
   }
   if (!*loaded) {
-    restore_lines_.push_back("no retained block state yet (" + state_path_ + "): every block starts from its initial state");
+    restore_lines_.push_back("no retained block state yet (" + state_path_ +
+                             "): every block starts from its initial state");
     return;
   }
   const SavedState& st = **loaded;
   if (st.runtime != state_name_) {
-    cdiag.warning(SourcePos{}, "retained block state ignored: " + state_path_ + " belongs to runtime '" +
-                                   st.runtime + "', not '" + state_name_ + "'");
+    cdiag.warning(SourcePos{}, "retained block state ignored: " + state_path_ +
+                                   " belongs to runtime '" + st.runtime + "', not '" + state_name_ +
+                                   "'");
     return;
   }
   const std::string when = utc_text(st.saved_unix_ms);
@@ -67,24 +71,27 @@ void Runtime::restore_state(const config::RuntimeConfig& cfg, DiagnosticList& cd
     if (p.snapshot.blocks().empty()) continue;
     const SavedTask* saved = st.find(task);
     if (saved == nullptr) {
-      restore_lines_.push_back("task " + task + ": no retained state in " + state_path_ + "; starts from its initial state");
+      restore_lines_.push_back("task " + task + ": no retained state in " + state_path_ +
+                               "; starts from its initial state");
       continue;
     }
     saved_tasks_[t] = *saved;  // until its first snapshot, a write keeps what the file had
     RestoreOutcome o = restore_task(*saved, p.snapshot.blocks(), p.arena);
     if (!o.restored.empty()) {
-      restore_lines_.push_back("task " + task + ": restored " + std::to_string(o.restored.size()) + " blocks (" +
-                               names_of(o.restored) + ") from the state saved " + when + " at its cycle " +
-                               std::to_string(saved->cycle));
+      restore_lines_.push_back("task " + task + ": restored " + std::to_string(o.restored.size()) +
+                               " blocks (" + names_of(o.restored) + ") from the state saved " +
+                               when + " at its cycle " + std::to_string(saved->cycle));
     }
     if (!o.refused.empty()) {
-      cdiag.warning(cfg.tasks[t].retain_pos, "task " + task + ": retained state not restored into blocks that changed: " +
-                                                 names_of(o.refused) + "; they start from their initial state");
+      cdiag.warning(cfg.tasks[t].retain_pos,
+                    "task " + task + ": retained state not restored into blocks that changed: " +
+                        names_of(o.refused) + "; they start from their initial state");
     }
     if (!o.missing.empty()) {
-      restore_lines_.push_back("task " + task + ": " + std::to_string(o.missing.size()) +
-                               " retained blocks had no saved state and start from their initial state (" +
-                               names_of(o.missing) + ")");
+      restore_lines_.push_back(
+          "task " + task + ": " + std::to_string(o.missing.size()) +
+          " retained blocks had no saved state and start from their initial state (" +
+          names_of(o.missing) + ")");
     }
   }
 }
@@ -108,7 +115,8 @@ bool Runtime::persist_state(std::string* error) {
     if (&p == persisted_program_[t] && taken == persisted_taken_[t]) continue;
     uint64_t cycle = 0;
     int64_t at = 0;
-    if (!p.snapshot.read(data, cycle, at)) continue;  // none yet, or the writer lapped us: next time
+    if (!p.snapshot.read(data, cycle, at))
+      continue;  // none yet, or the writer lapped us: next time
     persisted_taken_[t] = taken;
     persisted_program_[t] = &p;
     SavedTask next = saved_task(tasks_[t]->params().name, p.snapshot.blocks(), data, cycle);

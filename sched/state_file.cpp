@@ -51,7 +51,8 @@ std::string encode_state(const SavedState& s) {
   text += "saved " + std::to_string(s.saved_unix_ms) + "\n";
   char buf[40];
   for (const SavedTask& t : s.tasks) {
-    text += "task " + t.name + " " + std::to_string(t.cycle) + " " + std::to_string(t.blocks.size()) + "\n";
+    text += "task " + t.name + " " + std::to_string(t.cycle) + " " +
+            std::to_string(t.blocks.size()) + "\n";
     for (const SavedBlock& b : t.blocks) {
       text += "block " + b.name + " " + b.kind + " " + std::to_string(b.values.size());
       for (const double v : b.values) {
@@ -89,9 +90,11 @@ bool parse_double(const std::string& w, double& out) {
 Result<SavedState> decode_state(std::string_view text, const std::string& file) {
   auto bad = [&](const std::string& why) { return make_error(file + ": " + why); };
   const std::string magic = std::string(kStateMagic) + " ";
-  if (text.substr(0, magic.size()) != magic) return bad("not an rtplc state file (no '" + magic + "' header)");
+  if (text.substr(0, magic.size()) != magic)
+    return bad("not an rtplc state file (no '" + magic + "' header)");
   // The checksum line is the last line; anything cut off before it is a torn file.
-  if (text.empty() || text.back() != '\n') return bad("truncated (the file does not end with its checksum line)");
+  if (text.empty() || text.back() != '\n')
+    return bad("truncated (the file does not end with its checksum line)");
   const size_t last = text.rfind('\n', text.size() - 2);
   const std::string_view tail = last == std::string_view::npos ? text : text.substr(last + 1);
   if (tail.substr(0, 6) != "crc32 ") return bad("truncated (no checksum line at its end)");
@@ -99,8 +102,8 @@ Result<SavedState> decode_state(std::string_view text, const std::string& file) 
   char want[16];
   std::snprintf(want, sizeof want, "%08x", crc32(body));
   if (tail.substr(6, tail.size() - 7) != want) {
-    return bad("checksum mismatch (crc32 " + std::string(tail.substr(6, tail.size() - 7)) + " in the file, " +
-               want + " of its contents): the file is damaged");
+    return bad("checksum mismatch (crc32 " + std::string(tail.substr(6, tail.size() - 7)) +
+               " in the file, " + want + " of its contents): the file is damaged");
   }
   SavedState s;
   std::istringstream in{std::string(body)};
@@ -111,14 +114,16 @@ Result<SavedState> decode_state(std::string_view text, const std::string& file) 
   while (std::getline(in, line)) {
     ++n;
     std::istringstream ls(line);
-    std::vector<std::string> w{std::istream_iterator<std::string>(ls), std::istream_iterator<std::string>()};
+    std::vector<std::string> w{std::istream_iterator<std::string>(ls),
+                               std::istream_iterator<std::string>()};
     auto at = [&](const std::string& why) { return bad("line " + std::to_string(n) + ": " + why); };
     if (w.empty()) return at("empty line");
     if (n == 1) {
       uint64_t v = 0;
       if (w.size() != 2 || !parse_u64(w[1], v)) return at("expected '" + magic + "VERSION'");
       if (v != kStateVersion) {
-        return at("format version " + w[1] + ", this rtplc reads version " + std::to_string(kStateVersion));
+        return at("format version " + w[1] + ", this rtplc reads version " +
+                  std::to_string(kStateVersion));
       }
     } else if (w[0] == "runtime" && w.size() == 2) {
       s.runtime = w[1];
@@ -164,14 +169,15 @@ Result<std::optional<SavedState>> load_state_file(const std::string& path) {
     if (errno == ENOENT) return std::optional<SavedState>();
     return make_error("cannot read " + path + ": " + std::strerror(errno));
   }
-  struct stat st{};
+  struct stat st {};
   if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
     close(fd);
     return make_error(path + ": not a regular file");
   }
   if (st.st_size > kMaxStateBytes) {
     close(fd);
-    return make_error(path + ": " + std::to_string(st.st_size) + " bytes, more than a state file can be");
+    return make_error(path + ": " + std::to_string(st.st_size) +
+                      " bytes, more than a state file can be");
   }
   std::string text(static_cast<size_t>(st.st_size), '\0');
   size_t got = 0;
@@ -207,7 +213,8 @@ SavedTask saved_task(const std::string& task, const std::vector<RetainedBlock>& 
   return t;
 }
 
-RestoreOutcome restore_task(const SavedTask& saved, const std::vector<RetainedBlock>& layout, TaskArena& arena) {
+RestoreOutcome restore_task(const SavedTask& saved, const std::vector<RetainedBlock>& layout,
+                            TaskArena& arena) {
   RestoreOutcome o;
   std::unordered_map<std::string_view, const SavedBlock*> by_name;
   for (const SavedBlock& b : saved.blocks) by_name.emplace(b.name, &b);
@@ -219,8 +226,9 @@ RestoreOutcome restore_task(const SavedTask& saved, const std::vector<RetainedBl
     }
     const SavedBlock& b = *it->second;
     if (b.kind != rb.kind || b.values.size() != rb.width()) {
-      o.refused.push_back(rb.name + " (saved as " + b.kind + " with " + std::to_string(b.values.size()) +
-                          " values, now " + rb.kind + " with " + std::to_string(rb.width()) + ")");
+      o.refused.push_back(rb.name + " (saved as " + b.kind + " with " +
+                          std::to_string(b.values.size()) + " values, now " + rb.kind + " with " +
+                          std::to_string(rb.width()) + ")");
       continue;
     }
     size_t k = 0;

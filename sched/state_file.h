@@ -1,8 +1,9 @@
-// The retained-state file (spec runtime.md, "Retained block state"): the block
-// state of every task, written by the control thread — at `retain_every` and
-// when the runtime stops — so a restart, also after `kill -9` or a power cut,
-// continues from it (warm start). One file per runtime, beside the set-point
-// retain file: `NAME.state`. Text, so an engineer can read it:
+// The retained-state file (spec runtime.md, "Retain"; docs/runtime.md,
+// "Retained block state"): the block state of every task, written by the
+// control thread — at `retain_every` and when the runtime stops — so a restart,
+// also after `kill -9` or a power cut, continues from it (warm start). One file
+// per runtime, beside the set-point retain file: `NAME.state`. Text, so an
+// engineer can read it:
 //
 //   rtplc-state 1
 //   runtime NAME
@@ -80,6 +81,7 @@ struct RestoreOutcome {
 
 // Copies the saved values of `saved` into `arena` for every block of `layout`
 // with the same name, kind and width. Off the RT path, before the task runs.
-RestoreOutcome restore_task(const SavedTask& saved, const std::vector<RetainedBlock>& layout, TaskArena& arena);
+RestoreOutcome restore_task(const SavedTask& saved, const std::vector<RetainedBlock>& layout,
+                            TaskArena& arena);
 
 }  // namespace rtplc::sched

@@ -6,7 +6,8 @@
 
 namespace rtplc::sched {
 
-static_assert(std::atomic_ref<double>::is_always_lock_free, "snapshots need lock-free double stores");
+static_assert(std::atomic_ref<double>::is_always_lock_free,
+              "snapshots need lock-free double stores");
 
 void StateSnapshot::prepare(std::vector<RetainedBlock> blocks) {
   blocks_ = std::move(blocks);
@@ -54,7 +55,8 @@ void StateSnapshot::take(const TaskArena& arena, int64_t now_ns) noexcept {
   end_take(w, arena.cycles, now_ns);
 }
 
-bool StateSnapshot::read(std::vector<double>& out, uint64_t& cycle, int64_t& taken_ns, uint32_t max_tries) const {
+bool StateSnapshot::read(std::vector<double>& out, uint64_t& cycle, int64_t& taken_ns,
+                         uint32_t max_tries) const {
   out.resize(n_);
   for (uint32_t attempt = 0; attempt < max_tries; ++attempt) {
     const uint32_t w = latest_.load(std::memory_order_acquire);
@@ -87,7 +89,8 @@ bool selects(const std::string& wanted, std::string_view block) {
 
 }  // namespace
 
-std::vector<RetainedBlock> retained_blocks(const TaskImage& image, bool all, const std::vector<std::string>& names,
+std::vector<RetainedBlock> retained_blocks(const TaskImage& image, bool all,
+                                           const std::vector<std::string>& names,
                                            std::vector<std::string>* unknown) {
   std::vector<RetainedBlock> out;
   std::vector<bool> used(names.size(), false);

@@ -1,9 +1,9 @@
 // Retained block state, the copy a running task hands to the non-RT side
-// (spec runtime.md, "Retained block state"). The task's arena belongs to the
-// task thread: nobody else may read it while the task runs. So every N cycles
-// the task itself copies its retained slots (block outputs and block state) into
-// one of two buffers, and the control thread reads the last completed buffer
-// when it persists the state file.
+// (spec runtime.md, "Retain"; docs/runtime.md, "Retained block state"). The
+// task's arena belongs to the task thread: nobody else may read it while the
+// task runs. So every N cycles the task itself copies its retained slots (block
+// outputs and block state) into one of two buffers, and the control thread
+// reads the last completed buffer when it persists the state file.
 //
 // Protocol (one writer: the task thread; one reader: the control thread):
 //   writer, into buffer w = the one NOT published last:
@@ -68,7 +68,8 @@ class StateSnapshot {
   // Control thread: the last published snapshot, whole, into `out` (resized).
   // False when none was published yet, or the writer kept overwriting the
   // buffer being read (try again later).
-  bool read(std::vector<double>& out, uint64_t& cycle, int64_t& taken_ns, uint32_t max_tries = 4) const;
+  bool read(std::vector<double>& out, uint64_t& cycle, int64_t& taken_ns,
+            uint32_t max_tries = 4) const;
 
   // Control thread, while no task runs this program: drops what was published,
   // so read() has nothing until the next take(). The publication of the program
@@ -101,10 +102,11 @@ class StateSnapshot {
 
 // The retained blocks of `image` under a task's `retain` selection: every block
 // with state or an output, but the input and set-point loads (`all`), none, or
-// the blocks named in `names`
-// (a name also selects what a macro call or SFC chart expanded under it:
-// "F10" selects "F10.M4"). Unknown names are listed in `unknown` when given.
-std::vector<RetainedBlock> retained_blocks(const TaskImage& image, bool all, const std::vector<std::string>& names,
+// the blocks named in `names` (a name also selects what a macro call or SFC
+// chart expanded under it: "F10" selects "F10.M4"). Unknown names are listed
+// in `unknown` when given.
+std::vector<RetainedBlock> retained_blocks(const TaskImage& image, bool all,
+                                           const std::vector<std::string>& names,
                                            std::vector<std::string>* unknown = nullptr);
 
 }  // namespace rtplc::sched

@@ -26,12 +26,15 @@ namespace {
 
 using rtplc::testing::RuntimeFixture;
 
-void sleep_s(double s) { std::this_thread::sleep_for(std::chrono::duration<double>(s)); }
+void sleep_s(double s) {
+  std::this_thread::sleep_for(std::chrono::duration<double>(s));
+}
 
 // An integrator of a set-point: with SP 0 it holds its value, so a restart can
 // be checked for an exact one.
 const char* kIntegrator =
-    "%%\nF1 = asp(d0, c0, 1, \"SP\")\nF2 = intg(F1, 1)\nD4 = dsp(d0, c1, 1, \"RUN\")\nD3 = time(D4, 100)\n"
+    "%%\nF1 = asp(d0, c0, 1, \"SP\")\nF2 = intg(F1, 1)\nD4 = dsp(d0, c1, 1, \"RUN\")\nD3 = "
+    "time(D4, 100)\n"
     "dao(F2, p0, d0, c0, \"OUT\")\nEND\n";
 
 double block_value_of(const TaskImage& img, const TaskArena& a, const std::string& name) {
@@ -52,7 +55,8 @@ SavedState sample_state() {
   SavedState s;
   s.runtime = "plant";
   s.saved_unix_ms = 1764619801123;
-  s.tasks.push_back({"loop", 1234, {{"F2", "intg", {0.1 + 0.2, -3.5e-300}}, {"F3", "time", {1, 7}}}});
+  s.tasks.push_back(
+      {"loop", 1234, {{"F2", "intg", {0.1 + 0.2, -3.5e-300}}, {"F3", "time", {1, 7}}}});
   s.tasks.push_back({"idle", 0, {}});
   return s;
 }
@@ -92,7 +96,8 @@ TEST(StateFile, a_truncated_file_is_reported_as_torn) {
 }
 
 TEST(StateFile, another_file_or_version_is_refused) {
-  EXPECT_NE(decode_state("hello\n", "x").error().find("not an rtplc state file"), std::string::npos);
+  EXPECT_NE(decode_state("hello\n", "x").error().find("not an rtplc state file"),
+            std::string::npos);
   std::string text = encode_state(sample_state());
   text.replace(text.find(" 1\n"), 3, " 9\n");
   // Re-seal it so the version check itself is what refuses it.
@@ -109,9 +114,11 @@ TEST(StateFile, restores_only_blocks_of_the_same_name_kind_and_size) {
   TaskImage img = compile(kIntegrator);
   auto layout = retained_blocks(img, true, {});
   TaskArena arena(img);
-  SavedTask saved{"t", 10, {{"F2", "intg", {4.25}},          // matches
-                            {"D3", "pid", {1, 2, 3}},         // another kind now
-                            {"F99", "intg", {1}}}};          // no such block
+  SavedTask saved{"t",
+                  10,
+                  {{"F2", "intg", {4.25}},    // matches
+                   {"D3", "pid", {1, 2, 3}},  // another kind now
+                   {"F99", "intg", {1}}}};    // no such block
   RestoreOutcome o = restore_task(saved, layout, arena);
   ASSERT_EQ(o.restored.size(), 1u);
   EXPECT_EQ(o.restored[0], "F2");
@@ -187,22 +194,24 @@ TEST(StateSnapshot, a_reader_preempting_the_writer_on_its_cpu_reads_at_once) {
         return cycle == 1 && out == std::vector<double>(kN, 1.0);
       });
   if (!res.ran) GTEST_SKIP() << res.why;
-  EXPECT_TRUE(res.reader_preempted_writer) << "the reader did not run while the writer was mid-snapshot";
+  EXPECT_TRUE(res.reader_preempted_writer)
+      << "the reader did not run while the writer was mid-snapshot";
   EXPECT_TRUE(res.read_ok) << "the reader did not get the previous snapshot whole at once";
 }
 
 // ---- the runtime
 
-std::string config_for(RuntimeFixture& fx, const std::string& name, const std::string& task_extra = "",
-                       const std::string& program = "p.fbd") {
-  return fx.write(name + ".yaml", "runtime:\n  name: " + name + "\n  socket: " + fx.dir() + "/" + name +
-                                      ".sock\n  retain_file: " + fx.dir() + "/" + name +
+std::string config_for(RuntimeFixture& fx, const std::string& name,
+                       const std::string& task_extra = "", const std::string& program = "p.fbd") {
+  return fx.write(name + ".yaml", "runtime:\n  name: " + name + "\n  socket: " + fx.dir() + "/" +
+                                      name + ".sock\n  retain_file: " + fx.dir() + "/" + name +
                                       ".retain\n  retain_every: 20ms\n  programs: config\n"
-                                      "tasks:\n  - {name: t, program: " + program + ", period: 5ms" + task_extra + "}\n");
+                                      "tasks:\n  - {name: t, program: " +
+                                      program + ", period: 5ms" + task_extra + "}\n");
 }
 
-std::unique_ptr<Runtime> load(const std::string& file, RuntimeOptions opt, std::string* log = nullptr,
-                              bool start = true) {
+std::unique_ptr<Runtime> load(const std::string& file, RuntimeOptions opt,
+                              std::string* log = nullptr, bool start = true) {
   config::LoadResult cfg = config::load_config(file);
   EXPECT_TRUE(cfg.ok()) << cfg.render();
   if (!cfg.ok()) return nullptr;
@@ -311,7 +320,8 @@ TEST(RetainedState, retain_none_keeps_nothing_and_an_unknown_block_name_is_an_er
   LoadReport report;
   auto rt = Runtime::load(*cfg.config, {}, report);
   EXPECT_EQ(rt, nullptr);
-  EXPECT_NE(report.render().find("'retain' names 'F42', not a block of its program"), std::string::npos)
+  EXPECT_NE(report.render().find("'retain' names 'F42', not a block of its program"),
+            std::string::npos)
       << report.render();
 }
 
@@ -336,7 +346,9 @@ TEST(RetainedState, a_state_file_that_cannot_be_written_is_an_error_naming_it) {
 
 TEST(RetainedState, a_plant_at_rest_costs_no_write) {
   RuntimeFixture fx;
-  fx.write("p.fbd", "%%\nF1 = asp(d0, c0, 0, \"SP\")\nF2 = intg(F1, 1)\ndao(F2, p0, d0, c0, \"OUT\")\nEND\n");
+  fx.write(
+      "p.fbd",
+      "%%\nF1 = asp(d0, c0, 0, \"SP\")\nF2 = intg(F1, 1)\ndao(F2, p0, d0, c0, \"OUT\")\nEND\n");
   const std::string cfg = config_for(fx, fx.unique_name());
   auto rt = load(cfg, {});
   ASSERT_NE(rt, nullptr);
@@ -350,7 +362,8 @@ TEST(RetainedState, a_plant_at_rest_costs_no_write) {
   ASSERT_TRUE(rt->persist_state());
   auto second = load_state_file(rt->state_path());
   ASSERT_TRUE(second.ok() && *second);
-  EXPECT_EQ((*second)->saved_unix_ms, (*first)->saved_unix_ms) << "rewritten though nothing changed";
+  EXPECT_EQ((*second)->saved_unix_ms, (*first)->saved_unix_ms)
+      << "rewritten though nothing changed";
   EXPECT_EQ((*second)->tasks[0].cycle, (*first)->tasks[0].cycle);
   rt->stop();
 }
@@ -410,7 +423,8 @@ TEST(RetainedState, kill_9_then_restart_continues_the_integrator_and_cold_starts
   auto launch = [&](bool cold) {
     const pid_t pid = fork();
     if (pid == 0) {
-      if (cold) execl(bin.c_str(), bin.c_str(), "run", cfg.c_str(), "-q", "--no-lock", "--cold", nullptr);
+      if (cold)
+        execl(bin.c_str(), bin.c_str(), "run", cfg.c_str(), "-q", "--no-lock", "--cold", nullptr);
       execl(bin.c_str(), bin.c_str(), "run", cfg.c_str(), "-q", "--no-lock", nullptr);
       _exit(127);
     }
@@ -463,7 +477,8 @@ TEST(RetainedState, kill_9_then_restart_continues_the_integrator_and_cold_starts
   // `rtplc check` says what a start would restore, without writing anything.
   const rtplc::test::ToolRun check = rtplc::test::run_tool("check " + cfg);
   EXPECT_EQ(check.status, 0) << check.out;
-  EXPECT_NE(check.out.find("task t: restored 2 blocks (F2, D3) from the state saved"), std::string::npos)
+  EXPECT_NE(check.out.find("task t: restored 2 blocks (F2, D3) from the state saved"),
+            std::string::npos)
       << check.out;
 
   pid = launch(false);
