@@ -31,6 +31,13 @@ std::string names_of(const std::vector<std::string>& v, size_t max = 8) {
   return s;
 }
 
+// "1 block", "3 blocks".
+std::string blocks_text(size_t n, const char* what = "blocks") {
+  std::string w = what;
+  if (n == 1) w.pop_back();
+  return std::to_string(n) + " " + w;
+}
+
 }  // namespace
 
 void Runtime::restore_state(const config::RuntimeConfig& cfg, DiagnosticList& cdiag) {
@@ -78,9 +85,9 @@ void Runtime::restore_state(const config::RuntimeConfig& cfg, DiagnosticList& cd
     saved_tasks_[t] = *saved;  // until its first snapshot, a write keeps what the file had
     RestoreOutcome o = restore_task(*saved, p.snapshot.blocks(), p.arena);
     if (!o.restored.empty()) {
-      restore_lines_.push_back("task " + task + ": restored " + std::to_string(o.restored.size()) +
-                               " blocks (" + names_of(o.restored) + ") from the state saved " +
-                               when + " at its cycle " + std::to_string(saved->cycle));
+      restore_lines_.push_back("task " + task + ": restored " + blocks_text(o.restored.size()) +
+                               " (" + names_of(o.restored) + ") from the state saved " + when +
+                               " at its cycle " + std::to_string(saved->cycle));
     }
     if (!o.refused.empty()) {
       cdiag.warning(cfg.tasks[t].retain_pos,
@@ -89,9 +96,13 @@ void Runtime::restore_state(const config::RuntimeConfig& cfg, DiagnosticList& cd
     }
     if (!o.missing.empty()) {
       restore_lines_.push_back(
-          "task " + task + ": " + std::to_string(o.missing.size()) +
-          " retained blocks had no saved state and start from their initial state (" +
-          names_of(o.missing) + ")");
+          "task " + task + ": " + blocks_text(o.missing.size(), "retained blocks") +
+          " had no saved state and start from their initial state (" + names_of(o.missing) + ")");
+    }
+    if (!o.dropped.empty()) {
+      restore_lines_.push_back(
+          "task " + task + ": " + blocks_text(o.dropped.size(), "saved blocks") +
+          " no longer retained by its program, dropped (" + names_of(o.dropped) + ")");
     }
   }
 }

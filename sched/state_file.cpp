@@ -236,6 +236,11 @@ RestoreOutcome restore_task(const SavedTask& saved, const std::vector<RetainedBl
     for (uint32_t s = 0; s < rb.n_state; ++s) arena.state[rb.state + s] = b.values[k++];
     o.restored.push_back(rb.name);
   }
+  std::unordered_map<std::string_view, bool> retained;
+  for (const RetainedBlock& rb : layout) retained.emplace(rb.name, true);
+  for (const SavedBlock& b : saved.blocks) {
+    if (!retained.count(b.name)) o.dropped.push_back(b.name);
+  }
   return o;
 }
 

@@ -20,7 +20,7 @@
 // malformed line) is reported with its path and why, and ignored: every block
 // then starts cold. A block restores only into a block of the same name, kind
 // and state size (the program identity, as hot swap matches state); any other
-// saved block is reported and dropped.
+// saved block is reported: refused (changed) or dropped (gone).
 #pragma once
 
 #include <cstdint>
@@ -77,6 +77,7 @@ struct RestoreOutcome {
   std::vector<std::string> restored;  // block names
   std::vector<std::string> refused;   // "F3 (saved as pid with 4 values, now lowpass with 2)"
   std::vector<std::string> missing;   // retained blocks the file had nothing for
+  std::vector<std::string> dropped;   // saved blocks the program no longer retains (or has)
 };
 
 // Copies the saved values of `saved` into `arena` for every block of `layout`

@@ -368,6 +368,39 @@ TEST(RetainedState, a_plant_at_rest_costs_no_write) {
   rt->stop();
 }
 
+// After a swap the file holds the new program's blocks; a restart into the
+// config's program restores what it shares and names what it drops.
+TEST(RetainedState, a_swapped_program_is_what_the_file_holds) {
+  RuntimeFixture fx;
+  fx.write("p.fbd", kIntegrator);
+  const std::string cfg = config_for(fx, fx.unique_name());
+  std::string swapped = kIntegrator;
+  swapped.insert(swapped.find("dao("), "F5 = filt(F2, 2)\n");
+  double f2_at_stop = 0;
+  {
+    auto rt = load(cfg, {});
+    ASSERT_NE(rt, nullptr);
+    wait_cycles(*rt, 5);
+    auto r = rt->swap("t", swapped, "with_filter.fbd");
+    ASSERT_TRUE(r.ok()) << r.error();
+    rt->stop();
+    f2_at_stop = rtplc::testing::block_value(rt->task(0).last_run(), "F2");
+    auto st = load_state_file(rt->state_path());
+    ASSERT_TRUE(st.ok() && *st);
+    std::vector<std::string> names;
+    for (const SavedBlock& b : (*st)->tasks[0].blocks) names.push_back(b.name);
+    EXPECT_EQ(names, (std::vector<std::string>{"F2", "D3", "F5"}));
+  }
+  std::string log;
+  auto rt = load(cfg, {}, &log, /*start=*/false);  // programs: config runs p.fbd again
+  ASSERT_NE(rt, nullptr);
+  EXPECT_NE(log.find("task t: restored 2 blocks (F2, D3)"), std::string::npos) << log;
+  EXPECT_NE(log.find("1 saved block no longer retained by its program, dropped (F5)"),
+            std::string::npos)
+      << log;
+  EXPECT_EQ(rtplc::testing::block_value(rt->task(0).last_run(), "F2"), f2_at_stop);
+}
+
 // SFC steps are blocks too: a chart left in its third step comes back in it.
 TEST(RetainedState, an_sfc_chart_restarts_in_the_step_it_was_in) {
   RuntimeFixture fx;
