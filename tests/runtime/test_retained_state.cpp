@@ -442,9 +442,9 @@ TEST(RetainedState, an_sfc_chart_restarts_in_the_step_it_was_in) {
   rt->stop();
 }
 
-// The real binary: the integrator is frozen (SP 0) at a value the state file
-// holds, the runtime is killed with SIGKILL, and the restarted one outputs
-// exactly that value; a --cold restart outputs 0.
+// The real binary, killed with SIGKILL: while integrating, the restart goes on
+// from the retained value; frozen (SP 0) at a value the state file holds, the
+// restarted one outputs exactly that value; a --cold restart outputs 0.
 TEST(RetainedState, kill_9_then_restart_continues_the_integrator_and_cold_starts_from_zero) {
   RuntimeFixture fx;
   fx.write("p.fbd", kIntegrator);
@@ -467,8 +467,9 @@ TEST(RetainedState, kill_9_then_restart_continues_the_integrator_and_cold_starts
     }
     return pid;
   };
-  // The first good OUT after a start (the task's first cycles).
-  auto first_output = [&] {
+  // The first good OUT after a start (the task's first cycles); `cycles`, when
+  // given, is how many cycles the task had run when OUT was read, or more.
+  auto first_output = [&](uint64_t* cycles = nullptr) {
     auto img = io::ProcessImage::attach(name);
     EXPECT_TRUE(img.ok()) << img.error();
     if (!img.ok()) return -1.0;
@@ -480,6 +481,7 @@ TEST(RetainedState, kill_9_then_restart_continues_the_integrator_and_cold_starts
       if (v.fresh && v.quality == Quality::kGood) break;
       sleep_s(0.01);
     }
+    if (cycles) *cycles = static_cast<const CycleStats*>(img->task_stats(0))->cycles();
     return v.value;
   };
   auto saved_f2 = [&]() -> double {
@@ -495,6 +497,17 @@ TEST(RetainedState, kill_9_then_restart_continues_the_integrator_and_cold_starts
   double out = 0;
   for (int i = 0; i < 400 && (out = first_output()) < 0.05; ++i) sleep_s(0.01);
   ASSERT_GE(out, 0.05) << "the integrator did not run";
+  // Killed while integrating: the restart goes on from the last value written,
+  // plus at most one step (dt/Ti = 0.005) per cycle it has run since.
+  kill(pid, SIGKILL);
+  waitpid(pid, nullptr, 0);
+  const double at_kill = saved_f2();
+  ASSERT_GT(at_kill, 0.0) << "no state was written while it ran";
+  pid = launch(false);
+  uint64_t cycles = 0;
+  out = first_output(&cycles);
+  EXPECT_GE(out, at_kill) << "a warm restart continues from the retained value, not from 0";
+  EXPECT_LE(out, at_kill + 0.005 * static_cast<double>(cycles + 1) + 1e-9);
   ASSERT_TRUE(control_request(sock, "set SP 0").ok());
   // Frozen: wait until the image and the state file agree on the held value.
   double held = -2;
