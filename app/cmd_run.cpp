@@ -247,8 +247,8 @@ void add_run_commands(CLI::App& app) {
   r->add_flag("--no-lock", run->no_lock, "do not lock memory (mlockall)");
   r->add_flag("-q,--quiet", run->quiet, "log only errors");
   r->add_flag("--cold", run->cold,
-              "cold start: every block starts from its initial state, ignoring the retained\n"
-              "block state (set-points keep their retained values)");
+              "cold start: every block from its initial state, not from the\n"
+              "retained block state (set-points keep their retained values)");
   r->callback([run] { run_runtime(*run); });
 
   auto cl = std::make_shared<ClientArgs>();
