@@ -342,6 +342,7 @@ Result<std::unique_ptr<LoadedProgram>> Runtime::make_program(uint32_t t, TaskIma
   std::map<uint32_t, size_t> group_of;  // region -> index in p->inputs
   std::vector<std::string>& out_keys = task_output_keys_[t];
   for (const Binding& b : p->image.bindings()) {
+    if (b.dir == BindingDir::kQuality) continue;  // after every value input, below
     const std::string key = binding_key(b);
     const std::string label = p->image.str(b.label);
     auto it = channel_by_key_.find(key);
@@ -423,7 +424,27 @@ Result<std::unique_ptr<LoadedProgram>> Runtime::make_program(uint32_t t, TaskIma
       ig.dst.push_back(b.io_index);
     }
   }
-  for (InputGroup& ig : p->inputs) ig.scratch.assign(ig.src.size(), 0.0);
+  // `good` blocks: the quality of a channel the program also reads as a value
+  // (the checks make its input an input block), so it is already in a group.
+  // A channel no driver feeds keeps 0: nobody vouches for it.
+  for (const Binding& b : p->image.bindings()) {
+    if (b.dir != BindingDir::kQuality) continue;
+    const std::string key = binding_key(b);
+    auto it = channel_by_key_.find(key);
+    if (it == channel_by_key_.end()) return make_error("internal: quality of " + key + " has no channel");
+    const io::ChannelDesc& d = image_.channel(it->second);
+    auto g = group_of.find(d.region);
+    if (g == group_of.end()) continue;  // unwired
+    InputGroup& ig = p->inputs[g->second];
+    const auto at = std::find(ig.src.begin(), ig.src.end(), d.index);
+    if (at == ig.src.end()) return make_error("internal: quality of " + key + " without its value");
+    ig.quality_pos.push_back(static_cast<uint32_t>(at - ig.src.begin()));
+    ig.quality_dst.push_back(b.io_index);
+  }
+  for (InputGroup& ig : p->inputs) {
+    ig.scratch.assign(ig.src.size(), 0.0);
+    if (!ig.quality_dst.empty()) ig.quality_scratch.assign(ig.src.size(), Quality::kBad);
+  }
   const uint32_t n_out = p->image.header().n_io_out;
   p->output_slots.resize(n_out);
   p->safe_values.assign(n_out, 0.0);

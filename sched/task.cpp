@@ -42,8 +42,10 @@ Result<void> Task::start(int64_t first_release_ns) {
   spec.name = "rtplc:" + params_.name.substr(0, 9);
   spec.fifo_priority = params_.priority;
   if (params_.cpu >= 0) spec.cpu = static_cast<unsigned>(params_.cpu);
-  spec.stack_bytes = 512 * 1024;
-  spec.prefault_stack = 256 * 1024;
+  // The cycle's deepest call chain (executor, input copy, stats) needs a few KiB;
+  // tests/runtime holds a 10,000-block task under half of the default stack.
+  spec.stack_bytes = kernel_rt::kDefaultStackBytes;
+  spec.prefault_stack = 64 * 1024;
   info_->state.store(static_cast<uint8_t>(io::TaskState::kStarting), std::memory_order_relaxed);
   auto t = kernel_rt::start_thread(spec, [this] { run(); });
   if (!t) return make_error("task " + params_.name + ": " + t.error());
@@ -80,9 +82,15 @@ std::unique_ptr<LoadedProgram> Task::collect() {
 bool read_group(const io::ProcessImage& image, InputGroup& g, double* io_in, uint32_t max_tries) noexcept {
   uint64_t seen = 0;
   const auto n = static_cast<uint32_t>(g.src.size());
-  if (!image.read_values(g.region, g.src.data(), n, g.scratch.data(), max_tries, &seen)) return false;
+  // Qualities are copied only for a group some `good` block reads.
+  Quality* q = g.quality_dst.empty() ? nullptr : g.quality_scratch.data();
+  if (!image.read_values(g.region, g.src.data(), n, g.scratch.data(), max_tries, &seen, q)) return false;
   g.seen = seen;
   for (uint32_t i = 0; i < n; ++i) io_in[g.dst[i]] = g.scratch[i];
+  for (size_t j = 0; j < g.quality_dst.size(); ++j) {
+    const Quality qj = g.quality_scratch[g.quality_pos[j]];
+    io_in[g.quality_dst[j]] = qj == Quality::kGood || qj == Quality::kForced ? 1.0 : 0.0;
+  }
   return true;
 }
 

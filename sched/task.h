@@ -81,6 +81,9 @@ class Task {
   // After swap_applied(): takes back the program that was replaced (to free it off the RT path).
   std::unique_ptr<LoadedProgram> collect();
   bool running() const { return thread_.joinable(); }
+  // How deep the task thread's stack went (bytes; known once it stopped) and its size.
+  size_t stack_high_water() const { return thread_.stack_high_water(); }
+  size_t stack_bytes() const { return thread_.stack_bytes(); }
   int64_t first_release_ns() const { return first_release_; }
 
  private:

@@ -118,7 +118,10 @@ Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const Sim
   int analog_setpoints = 0;
   for (const Binding& b : image.bindings()) {
     cols.push_back(&b);
-    tr.columns.push_back(image.str(b.label));
+    // A `good` block's input: every simulated channel is good.
+    const bool quality = b.dir == BindingDir::kQuality;
+    if (quality) arena.io_in[b.io_index] = 1.0;
+    tr.columns.push_back(std::string(image.str(b.label)) + (quality ? ".good" : ""));
     tr.is_output.push_back(b.dir == BindingDir::kOutput);
     if (&b == pv) tr.pv_column = static_cast<int>(tr.columns.size() - 1);
     if (&b == mv) tr.mv_column = static_cast<int>(tr.columns.size() - 1);
