@@ -20,7 +20,8 @@
 //   missed    grid slots of a live slave with no poll completing within its
 //             period: slots skipped plus polls that answered more than one
 //             period after their tick
-//   CPU       getrusage of the client process over the window, % of one core
+//   CPU       on-CPU time of the client process's threads over the window
+//             (the scheduler's schedstat clock), % of one core
 #include <arpa/inet.h>
 #include <dirent.h>
 #include <fcntl.h>
@@ -315,9 +316,9 @@ void record(Track& t, const Window& w, int64_t due, int64_t answered) {
 }
 
 // On-CPU time of every thread of a process in seconds, from the scheduler's own
-// clock (schedstat's sum_exec_runtime, in ns): exact, where getrusage's user and
-// kernel split is sampled at the timer tick (250 Hz here) and a hundred threads
-// waking together on one grid can be charged far more or less than they ran.
+// clock (schedstat's sum_exec_runtime, in ns). Exact, unlike /proc/PID/stat's
+// utime and stime, which are samples at the timer tick (250 Hz here): a process
+// that wakes briefly many times per tick can be charged a tenth of what it ran.
 double run_seconds(pid_t pid) {
   const std::string dir = fmt::format("/proc/{}/task", pid);
   double total = 0;
@@ -335,7 +336,7 @@ double run_seconds(pid_t pid) {
 
 struct Cpu {
   double run = 0;  // schedstat, all threads
-  double user = 0, sys = 0;
+  double user = 0, sys = 0;  // getrusage: the same total, split by tick samples
   long nvcsw = 0, nivcsw = 0;
 };
 
@@ -363,7 +364,7 @@ struct SideResult {
   uint64_t live = 0, polls = 0, slots = 0, missed = 0, late = 0;
   double p50 = 0, p99 = 0, max = 0;
   double wall_s = 0;
-  double cpu_pct = 0, rusage_pct = 0, user_pct = 0, sys_pct = 0, fake_cpu_pct = 0, switches_per_s = 0;
+  double cpu_pct = 0, user_pct = 0, sys_pct = 0, fake_cpu_pct = 0, switches_per_s = 0;
   std::string note;  // the side's own counters
 };
 
@@ -397,7 +398,6 @@ SideResult summarize(const Options& o, const std::string& name, std::vector<Trac
   r.user_pct = 100.0 * (c1.user - c0.user) / wall;
   r.sys_pct = 100.0 * (c1.sys - c0.sys) / wall;
   r.wall_s = wall;
-  r.rusage_pct = r.user_pct + r.sys_pct;
   r.cpu_pct = 100.0 * (c1.run - c0.run) / wall;
   r.fake_cpu_pct = 100.0 * fake_cpu / wall;
   r.switches_per_s = static_cast<double>(c1.nvcsw - c0.nvcsw + c1.nivcsw - c0.nivcsw) / wall;
@@ -611,8 +611,7 @@ void print(const Options& o, const SideResult& d, const SideResult* n) {
     return r.polls ? fmt::format("{:.1f} us", r.cpu_pct / 100.0 * r.wall_s * 1e6 / static_cast<double>(r.polls)) : "-";
   };
   row("  per completed poll", per_poll(d), n ? per_poll(*n) : "", "");
-  row("  getrusage (tick-sampled)", fmt::format("{:.1f}%", d.rusage_pct), n ? fmt::format("{:.1f}%", n->rusage_pct) : "", "");
-  row("  of which user / kernel", fmt::format("{:.1f}% / {:.1f}%", d.user_pct, d.sys_pct),
+  row("  user / kernel (sampled)", fmt::format("{:.1f}% / {:.1f}%", d.user_pct, d.sys_pct),
       n ? fmt::format("{:.1f}% / {:.1f}%", n->user_pct, n->sys_pct) : "", "");
   row("  context switches / s", fmt::format("{:.0f}", d.switches_per_s), n ? fmt::format("{:.0f}", n->switches_per_s) : "",
       "");
@@ -645,7 +644,8 @@ int int_arg(std::string_view name, const char* text, int lo, int hi) {
 
 const char* kHelp =
     "bench_modbus [--seconds S] [--slaves N] [--registers R] [--period-ms P] [--silent-pct Q]\n"
-    "             [--delay-us D] [--timeout-ms T] [--line-priority F] [--fake-priority F] [--no-naive]\n"
+    "             [--delay-us D] [--timeout-ms T] [--line-priority F] [--line-cpu C] [--fake-priority F]\n"
+    "             [--no-naive]\n"
     "\n"
     "Polls N fake Modbus TCP slaves (a child process, one epoll loop; Q %% of them accept and never\n"
     "answer) for R holding registers every P ms with the modbus driver's own lines (one I/O thread\n"
@@ -663,6 +663,7 @@ const char* kHelp =
     "  --timeout-ms T     response timeout of both sides (default: the driver's, 500)\n"
     "  --line-priority F  SCHED_FIFO of the lines and of the naive loop (default 9, the\n"
     "                     runtime's helper priority; 0: SCHED_OTHER)\n"
+    "  --line-cpu C       pin the lines and the naive loop to CPU C (default: not pinned)\n"
     "  --fake-priority F  SCHED_FIFO of the fakes' process (default 10; 0: SCHED_OTHER)\n"
     "  --no-naive         the driver only\n"
     "Targets (issue 9): zero missed live polls, p99 excess <= 2 ms, < 15 % of one core.\n";
