@@ -238,7 +238,7 @@ void Line::poll_block(Unit& u, UnitBlock& b, int64_t now) noexcept {
   // The grid is the clock's own multiples of the period, shared by every line
   // of that period: their threads wake together, once per period, instead of
   // at a hundred scattered instants, each pulling an idle CPU out of its sleep
-  // (bench/modbus: a third less CPU for 100 slaves every 10 ms).
+  // (bench/modbus: a third of the CPU for 100 slaves every 10 ms).
   b.next_due = b.next_due == 0 ? (now / period + 1) * period : b.next_due + ((now - b.next_due) / period + 1) * period;
   client_.set_unit(u.cfg->unit);
   client_.set_timeout_ns(to_ns(u.cfg->timeout_s));
@@ -308,7 +308,7 @@ void Line::publish(Unit& u) noexcept {
   if (client_.connected() && u.st.state == static_cast<uint8_t>(io::LinkState::kDown) && u.failures == 0) {
     u.st.state = static_cast<uint8_t>(io::LinkState::kConnecting);
   }
-  // The quantiles walk the whole histogram (about 700 buckets, three times):
+  // The quantiles walk the whole histogram (about 700 buckets, twice):
   // at most every kQuantilesEveryNs, not after every poll; the bridge reads
   // them only every 100 ms anyway.
   const int64_t now = kernel_rt::monotonic_now_ns();

@@ -14,6 +14,8 @@
 //   status   the line stores each unit's counters into its SnapshotSlot.
 // The line wakes at its next poll or after `wake_ns` (the driver's period),
 // whichever comes first, so a queued write waits at most about one period.
+// Polls fall on the clock's multiples of their period, so all lines of one
+// period wake together (see poll_block).
 #pragma once
 
 #include <atomic>
