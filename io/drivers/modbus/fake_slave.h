@@ -64,6 +64,11 @@ class FakeSlave {
   double value(const Address& a) const;
   uint64_t requests() const { return requests_.load(); }
   uint64_t writes() const { return writes_.load(); }
+  // The answer PDU to one request PDU (function code onwards) against the
+  // tables; `magic` says which fault, if any, the request's range covered.
+  // Public for servers that run their own socket loop (bench/modbus's lean
+  // fake serves a hundred slaves from one epoll loop with it).
+  std::vector<uint8_t> answer(const uint8_t* pdu, size_t len, uint16_t& magic);
 
  private:
   struct Client {
@@ -77,7 +82,6 @@ class FakeSlave {
   };
   void run();
   void handle(Client& c, const uint8_t* frame, size_t len, std::vector<Pending>& out, bool& drop);
-  std::vector<uint8_t> answer(const uint8_t* pdu, size_t len, uint16_t& magic);
   Result<void> listen();
 
   FakeSlaveOptions opt_;
