@@ -1,0 +1,94 @@
+// The modbus-server driver and its kind (see driver.h).
+#include "io/drivers/modbus_server/driver.h"
+
+#include <fmt/format.h>
+
+#include "blocks/registry.h"
+
+namespace rtplc::modbus_server {
+
+ServerDriver::ServerDriver(const io::DriverSetup& setup)
+    : io::Driver(setup, "mbserver"), settings_(settings_of(*setup.config)) {}
+
+ServerDriver::~ServerDriver() {
+  request_stop();
+  join();
+  if (server_) server_->stop();
+}
+
+Result<void> ServerDriver::prepare() {
+  const io::ProcessImage& img = *setup().image;
+  std::vector<bool> writable;
+  for (const ExposeItem& e : settings_.items) {
+    const int c = img.find_channel(e.label);
+    const std::string where = fmt::format("expose entry at line {}", e.pos.line);
+    if (c < 0) return make_error(fmt::format("{}: no channel is labelled \"{}\" in the tasks' programs", where, e.label));
+    const io::ChannelDesc& d = img.channel(static_cast<uint32_t>(c));
+    const bool digital = d.kind == static_cast<uint8_t>(Kind::kDigital);
+    if (modbus::is_bit_table(e.item.table) && !digital) {
+      return make_error(fmt::format("{}: \"{}\" is analog; a {} carries a digital channel (use ir or hr)", where,
+                                    e.label, modbus::table_name(e.item.table)));
+    }
+    channel_.push_back(static_cast<uint32_t>(c));
+    writable.push_back(d.dir == static_cast<uint8_t>(io::ChannelDir::kSetpoint) && modbus::is_writable(e.item.table));
+  }
+  auto read = [this](uint32_t item) {
+    const io::ChannelValue v = setup().image->read_channel(channel_[item]);
+    return ItemReading{v.value, v.fresh ? v.quality : Quality::kBad};
+  };
+  auto write = [this](uint32_t item, double value) -> Result<std::string> {
+    if (!setup().set_point) return make_error("no runtime behind this driver sets set-points");
+    return setup().set_point(settings_.items[item].label, value);
+  };
+  handler_ = std::make_unique<RequestHandler>(settings_, std::move(writable), read, write);
+  server_ = std::make_unique<TcpServer>(settings_, *handler_, [this](bool error, const std::string& text) {
+    log(error ? io::LinkEvent::Level::kWarning : io::LinkEvent::Level::kInfo, text);
+  });
+  describe_link(0, name(), fmt::format("{}:{} server", settings_.bind, settings_.port));
+  return {};
+}
+
+Result<void> ServerDriver::on_start() {
+  // The server only moves bytes and reads the image: below every task.
+  return server_->start("mbs-" + name(), setup().helper_priority, setup().cpu);
+}
+
+void ServerDriver::on_joined() noexcept { server_->stop(); }
+
+// The link row of a server (docs/modbus.md, "Statistics"): state up while it
+// listens; connects = clients accepted, reconnects = clients refused, timeouts
+// = clients closed for silence, errors = exception answers and broken streams,
+// polls completed = requests answered, polls offline = clients connected now,
+// writes acked / failed = set-points changed / write requests refused.
+void ServerDriver::cycle(int64_t now) noexcept {
+  const ServerCounters& c = server_->counters();
+  const auto r = std::memory_order_relaxed;
+  io::LinkStatus& ls = link_row(0);
+  const bool up = c.listening.load(r);
+  ls.state.store(static_cast<uint8_t>(up ? io::LinkState::kUp : io::LinkState::kDown), r);
+  ls.quality.store(static_cast<uint8_t>(up ? Quality::kGood : Quality::kBad), r);
+  ls.connects.store(c.accepted.load(r), r);
+  ls.reconnects.store(c.refused.load(r), r);
+  ls.timeouts.store(c.idle_closed.load(r), r);
+  ls.errors.store(c.exceptions.load(r) + c.bad_frames.load(r), r);
+  ls.polls_completed.store(c.requests.load(r), r);
+  ls.polls_offline.store(c.connected.load(r), r);
+  ls.writes_acked.store(c.writes_accepted.load(r), r);
+  ls.writes_failed.store(c.writes_refused.load(r), r);
+  // Its region holds nothing; the snapshot says the driver is alive.
+  end_snapshot(begin_snapshot(), now);
+}
+
+namespace {
+
+Result<std::unique_ptr<io::Driver>> create(const io::DriverSetup& setup) {
+  auto d = std::make_unique<ServerDriver>(setup);
+  if (auto r = d->prepare(); !r) return make_error(r.error());
+  return std::unique_ptr<io::Driver>(std::move(d));
+}
+
+}  // namespace
+
+const io::DriverKind kDriverKind{&kConfigKind, &create, nullptr};
+
+}  // namespace rtplc::modbus_server
