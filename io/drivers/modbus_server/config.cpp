@@ -29,13 +29,14 @@ const KeySpec kServerKeys[] = {
     {"port", ValueType::kInteger, false, 1, 65535, nullptr, "502",
      "The TCP port; 502 is Modbus's (below 1024: root or CAP_NET_BIND_SERVICE)."},
     {"units", ValueType::kList, false, 1, 256, "unit id (0..255)", "every unit id",
-     "The unit ids answered; a request to another gets exception 11."},
+     "The unit ids (0..255) answered, e.g. `[1]`; a request to another gets exception 11."},
     {"max_clients", ValueType::kInteger, false, 1, 256, nullptr, "16",
      "At most this many clients at once; one more is disconnected at once and counted."},
     {"timeout", ValueType::kDuration, false, 0.1, 86400, nullptr, "60s",
      "A client that sends nothing this long is disconnected (it may reconnect)."},
     {"allow", ValueType::kList, false, 1, 256, "IPv4 address or network (10.0.0.0/24)", "127.0.0.0/8",
-     "The client addresses served; any other is disconnected at once, counted and logged."},
+     "The client addresses and networks served, e.g. `[127.0.0.1, 10.0.0.0/24]`; any other "
+     "client is disconnected at once, counted and logged."},
     {"expose", ValueType::kList, true, 1, 4096, "modbus-expose", "",
      "The channels served, each at an item of one of the four tables."},
 };

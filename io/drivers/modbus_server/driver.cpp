@@ -53,7 +53,11 @@ Result<void> ServerDriver::on_start() {
   return server_->start("mbs-" + name(), setup().helper_priority, setup().cpu);
 }
 
-void ServerDriver::on_joined() noexcept { server_->stop(); }
+// The bridge thread has ended (joined): this thread may write the link row now.
+void ServerDriver::on_joined() noexcept {
+  server_->stop();
+  publish_counters();  // the row says down, no client connected
+}
 
 // The link row of a server (docs/modbus.md, "Statistics"): state up while it
 // listens; connects = clients accepted, reconnects = clients refused, timeouts
@@ -61,6 +65,12 @@ void ServerDriver::on_joined() noexcept { server_->stop(); }
 // polls completed = requests answered, polls offline = clients connected now,
 // writes acked / failed = set-points changed / write requests refused.
 void ServerDriver::cycle(int64_t now) noexcept {
+  publish_counters();
+  // Its region holds nothing; the snapshot says the driver is alive.
+  end_snapshot(begin_snapshot(), now);
+}
+
+void ServerDriver::publish_counters() noexcept {
   const ServerCounters& c = server_->counters();
   const auto r = std::memory_order_relaxed;
   io::LinkStatus& ls = link_row(0);
@@ -75,8 +85,6 @@ void ServerDriver::cycle(int64_t now) noexcept {
   ls.polls_offline.store(c.connected.load(r), r);
   ls.writes_acked.store(c.writes_accepted.load(r), r);
   ls.writes_failed.store(c.writes_refused.load(r), r);
-  // Its region holds nothing; the snapshot says the driver is alive.
-  end_snapshot(begin_snapshot(), now);
 }
 
 namespace {

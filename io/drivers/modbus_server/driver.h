@@ -41,6 +41,8 @@ class ServerDriver final : public io::Driver {
   Result<void> on_start() override;
   void cycle(int64_t now_ns) noexcept override;
   void on_joined() noexcept override;
+  // The server's counters -> the link row (the bridge thread; after it ended, the control thread).
+  void publish_counters() noexcept;
 
   const ServerSettings& settings_;
   std::vector<uint32_t> channel_;  // per exposed item: its index in the image's channel table
