@@ -86,7 +86,8 @@ void TcpServer::run() {
   std::vector<pollfd> fds;
   while (!stop_.load(std::memory_order_relaxed)) {
     fds.clear();
-    fds.push_back({listen_fd_.get(), POLLIN, 0});
+    const bool accepting = kernel_rt::monotonic_now_ns() >= accept_paused_until_ns_;
+    fds.push_back({listen_fd_.get(), static_cast<short>(accepting ? POLLIN : 0), 0});
     for (const Client& c : clients_) {
       fds.push_back({c.fd.get(), static_cast<short>(POLLIN | (c.out.empty() ? 0 : POLLOUT)), 0});
     }
@@ -125,7 +126,15 @@ void TcpServer::accept_clients(int64_t now) {
     socklen_t len = sizeof a;
     link::UniqueFd fd(::accept4(listen_fd_.get(), reinterpret_cast<sockaddr*>(&a), &len,
                                 SOCK_NONBLOCK | SOCK_CLOEXEC));
-    if (!fd.valid()) return;  // EAGAIN: no more waiting; anything else: try next round
+    if (!fd.valid()) {
+      if (errno == EMFILE || errno == ENFILE || errno == ENOBUFS || errno == ENOMEM) {
+        // Out of descriptors: the waiting client stays queued; try again in a
+        // second rather than spin on a listening socket that stays readable.
+        accept_paused_until_ns_ = now + 1000000000;
+        log_(true, fmt::format("cannot accept a client: {}", link::errno_text(errno)));
+      }
+      return;  // EAGAIN: nobody else waits
+    }
     const std::string peer = peer_text(a);
     const char* why = nullptr;
     if (!s_.allows(ntohl(a.sin_addr.s_addr))) why = "not in 'allow'";

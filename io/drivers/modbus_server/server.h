@@ -82,6 +82,7 @@ class TcpServer {
   std::atomic<bool> stop_{false};
   kernel_rt::RtThread thread_;
   uint64_t refusals_logged_ = 0;
+  int64_t accept_paused_until_ns_ = 0;
 };
 
 }  // namespace rtplc::modbus_server
