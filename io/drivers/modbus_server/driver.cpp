@@ -48,7 +48,13 @@ Result<void> ServerDriver::prepare() {
   for (const ExposeItem& e : settings_.items) {
     const int c = img.find_channel(e.label);
     const std::string where = fmt::format("expose entry at line {}", e.pos.line);
-    if (c < 0) return make_error(fmt::format("{}: no channel is labelled \"{}\" in the tasks' programs", where, e.label));
+    if (c < 0) {
+      std::string known;
+      for (uint32_t i = 0; i < img.channel_count() && i < 12; ++i) known += (i ? ", " : "") + std::string(img.channel(i).label);
+      if (img.channel_count() > 12) known += ", ...";
+      return make_error(fmt::format("{}: no channel is labelled \"{}\" in the tasks' programs (they have: {})", where,
+                                    e.label, known));
+    }
     const io::ChannelDesc& d = img.channel(static_cast<uint32_t>(c));
     const bool digital = d.kind == static_cast<uint8_t>(Kind::kDigital);
     if (modbus::is_bit_table(e.item.table) && !digital) {

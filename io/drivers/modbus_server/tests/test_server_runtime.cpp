@@ -160,7 +160,7 @@ TEST_F(ServerRuntime, a_set_point_written_by_mbpoll_is_taken_and_retained_like_r
   ASSERT_EQ(w.status, 0) << w.out;
   EXPECT_EQ(value("Setpoint"), 60);
   EXPECT_NE(retained().find("Setpoint"), std::string::npos) << retained();
-  EXPECT_NE(retained().find("60"), std::string::npos) << retained();
+  EXPECT_NE(retained().find("Setpoint 60\n"), std::string::npos) << retained();
   // The loop follows: 60 - 42.5.
   EXPECT_TRUE(eventually([&] { return value("ManiVal") == 17.5; })) << value("ManiVal");
   const Mbpoll back = mbpoll(port_, "-t 4:float -r 0 -c 1 127.0.0.1");
@@ -171,6 +171,23 @@ TEST_F(ServerRuntime, a_set_point_written_by_mbpoll_is_taken_and_retained_like_r
   ASSERT_EQ(mbpoll(port_, "-t 0 -r 0 127.0.0.1 1").status, 0);
   EXPECT_EQ(value("Enable"), 1);
   EXPECT_TRUE(eventually([&] { return server_row().writes_acked.load() == 3; }));
+}
+
+// `rtplc set` (the control thread's set_value) and SCADA's writes at once:
+// both go through one lock, so whichever came last is both the value in the
+// image and the value on disk.
+TEST_F(ServerRuntime, rtplc_set_and_scada_writes_at_once_leave_the_image_and_the_retain_file_agreeing) {
+  std::thread operator_thread([&] {
+    for (int i = 1; i <= 40; ++i) EXPECT_TRUE(rt_->set_value("Setpoint", i).ok());
+  });
+  for (int i = 0; i < 5; ++i) EXPECT_EQ(mbpoll(port_, "-t 4:float -r 0 127.0.0.1 77").status, 0);
+  operator_thread.join();
+  const double now = value("Setpoint");
+  EXPECT_TRUE(now == 40 || now == 77) << now;
+  const std::string kept = retained();
+  const std::string expect = now == 40 ? "Setpoint 40\n" : "Setpoint 77\n";
+  EXPECT_NE(kept.find(expect), std::string::npos) << kept << " vs " << now;
+  EXPECT_EQ(server_row().writes_acked.load(), 5u);
 }
 
 TEST_F(ServerRuntime, a_write_to_an_output_is_refused_and_the_output_stays_the_tasks) {
