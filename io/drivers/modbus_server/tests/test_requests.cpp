@@ -287,11 +287,13 @@ struct Served {
     s.port = 0;  // any free port
     EXPECT_TRUE(server.start("mbs-test", 0, -1).ok());
   }
+  // The server's thread logs into these until the server stops: declared
+  // before it, so they are destroyed after it.
+  std::mutex mu;
+  std::vector<std::string> log;
   ServerSettings s;
   RequestHandler handler;
   TcpServer server;
-  std::mutex mu;
-  std::vector<std::string> log;
 };
 
 TEST(TcpServer, answers_a_client_and_refuses_units_it_does_not_serve) {
