@@ -314,6 +314,7 @@ bool Runtime::create_drivers(const config::RuntimeConfig& cfg, DiagnosticList& c
     setup.helper_priority = dp.helper_priority;
     setup.cpu = dc.cpu ? static_cast<int>(*dc.cpu) : -1;
     setup.events = &events_;
+    setup.set_point = [this](const std::string& label, double value) { return set_value(label, value); };
     auto drv = io::find_driver_kind(dc.kind)->create(setup);
     if (!drv) {
       cdiag.error(dc.pos, "driver " + dc.name + ": " + drv.error());
@@ -328,6 +329,8 @@ Result<std::unique_ptr<LoadedProgram>> Runtime::make_program(uint32_t t, TaskIma
                                                               std::string source, std::string file,
                                                               const LoadedProgram* running,
                                                               const std::vector<std::string>& drop_outputs) {
+  // New set-points of a swap take their value under the lock set_value() holds.
+  std::lock_guard setpoints(setpoint_mu_);
   auto p = std::make_unique<LoadedProgram>();
   p->image = std::move(image);
   p->arena.resize_for(p->image);

@@ -12,6 +12,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
@@ -71,6 +72,8 @@ class Runtime {
   void stop();
 
   // ---- operator verbs (control thread) ----
+  // Also called by drivers' non-RT threads through DriverSetup::set_point (an
+  // HMI writing over Modbus): it holds setpoint_mu_, as make_program() does.
   Result<std::string> set_value(const std::string& label, double value);
   // Compiles `source` for task `task` and swaps it in at the task's next cycle
   // boundary; waits for the hand-over. A compile or verification error changes
@@ -144,7 +147,12 @@ class Runtime {
   uint32_t setpoint_region_ = 0;
   uint32_t unwired_region_ = 0;
   uint64_t events_dropped_said_ = 0;
-  std::vector<double> setpoint_values_;  // control thread's copy of the set-point region
+  // The set-point region's one writer is whoever holds setpoint_mu_: the
+  // control thread (`rtplc set`, a swap adding a set-point) or a driver's
+  // thread setting one for its peer. It guards setpoint_values_, retain_'s
+  // values and the region's snapshots (publish_setpoints()).
+  std::mutex setpoint_mu_;
+  std::vector<double> setpoint_values_;  // the set-point region's values
   ImagePlan plan_;
   bool started_ = false;
 };

@@ -45,6 +45,7 @@ void active_steps(const LoadedProgram& old, const Migration& m, std::vector<std:
 // Operator verbs
 
 Result<std::string> Runtime::set_value(const std::string& label, double value) {
+  std::lock_guard setpoints(setpoint_mu_);
   const int c = image_.find_channel(label);
   if (c < 0) return make_error("no channel is labelled \"" + label + "\"");
   const io::ChannelDesc& d = image_.channel(static_cast<uint32_t>(c));
@@ -63,7 +64,7 @@ Result<std::string> Runtime::set_value(const std::string& label, double value) {
     RetainStore next = retain_;
     next.set(label, value);
     if (auto r = next.save(); !r) return make_error("not changed: cannot retain it: " + r.error());
-    retain_ = std::move(next);
+    retain_.set(label, value);  // not a move-assignment: others read retain_.path() unlocked
   }
   setpoint_values_[d.index] = value;
   publish_setpoints();
