@@ -135,11 +135,22 @@ Result<std::string> Runtime::force(const std::string& label, double value, uint3
   rec.value = value;
   rec.uid = uid;
   rec.since_realtime_ns = realtime_now_ns();
+  // An output of a task the watchdog stopped stays at its safe value: say so.
+  std::string note;
+  const io::RegionDesc& rd = image_.region(d.region);
+  const auto task_state = rd.owner < tasks_.size() ? static_cast<io::TaskState>(image_.task_info(rd.owner).state.load(
+                                                          std::memory_order_relaxed))
+                                                    : io::TaskState::kRunning;
+  if (rd.kind == static_cast<uint8_t>(io::RegionKind::kTask) &&
+      (task_state == io::TaskState::kStoppedWatchdog || task_state == io::TaskState::kStopped)) {
+    note = "\nnote: task " + tasks_[rd.owner]->params().name +
+           " is not running: its outputs stay at their safe values, the force applies once it runs again";
+  }
   return label + " (" + rec.dir + ") FORCED to " + format_number(value) + " (was " + format_number(before.value) +
          (again ? ", already forced" : "") + "); " +
          (d.dir == static_cast<uint8_t>(io::ChannelDir::kInput) ? "every task reads this value"
                                                                  : "every driver sends this value") +
-         " until `rtplc unforce " + label + "`";
+         " until `rtplc unforce " + label + "`" + note;
 }
 
 Result<std::string> Runtime::unforce(const std::string& label) {
