@@ -131,6 +131,18 @@ TEST_F(Forcing, a_forced_output_is_what_the_driver_sends_and_the_monitor_shows) 
   EXPECT_EQ(read_label(*rt_, "ManiVal").quality, Quality::kGood);
 }
 
+TEST_F(Forcing, a_stopping_runtime_drives_safe_outputs_even_where_they_are_forced) {
+  ASSERT_TRUE(rt_->force("ManiVal", 7.25, 0).ok());
+  ASSERT_TRUE(eventually([&] { return sent_value(*rt_, "ManiVal") == 7.25; }));
+  rt_->stop();
+  // The task's last snapshot holds the safe value (0), shown not forced, and the
+  // driver's last cycle sent it.
+  const io::ChannelValue mv = read_label(*rt_, "ManiVal");
+  EXPECT_EQ(mv.value, 0.0);
+  EXPECT_FALSE(mv.forced);
+  EXPECT_EQ(sent_value(*rt_, "ManiVal"), 0.0);
+}
+
 TEST_F(Forcing, status_lists_forces_and_unforce_all_releases_every_one) {
   ASSERT_TRUE(rt_->force("ProcVal", 20, 1234).ok());
   ASSERT_TRUE(rt_->force("Lamp", 1, 1234).ok());
