@@ -273,6 +273,28 @@ TEST_F(Forcing, the_cli_exits_zero_on_success_and_non_zero_on_every_refusal) {
   server.stop();
 }
 
+TEST(ForcingRestart, forces_are_not_kept_across_a_restart) {
+  RuntimeFixture fx;
+  fx.write("loop.fbd", kLoop);
+  sched::RuntimeOptions opt;
+  opt.retain_override = fx.dir() + "/restart.retain";  // what a restart keeps: the same retain file
+  {
+    auto rt = fx.start(kConfig, opt);
+    ASSERT_NE(rt, nullptr);
+    ASSERT_TRUE(rt->force("ProcVal", 20, 0).ok());
+    ASSERT_TRUE(rt->set_value("Setpoint", 60).ok());
+    rt->stop();
+  }
+  auto rt = fx.start(kConfig, opt);
+  ASSERT_NE(rt, nullptr);
+  EXPECT_TRUE(rt->forces().empty());
+  EXPECT_NE(rt->status().find("forced: none"), std::string::npos);
+  EXPECT_TRUE(eventually([&] { return read_label(*rt, "ProcVal").quality == Quality::kGood; }));
+  EXPECT_FALSE(read_label(*rt, "ProcVal").forced);
+  EXPECT_EQ(read_label(*rt, "Setpoint").value, 60.0) << "set-points are retained; forces are not";
+  rt->stop();
+}
+
 // ---- set-point limits in the config ----
 
 std::string load_errors(RuntimeFixture& fx, const std::string& limits) {
