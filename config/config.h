@@ -49,6 +49,15 @@ struct SafeOutput {
   SourcePos pos;  // of the label, for "no output of task X has this label"
 };
 
+// The range `rtplc set` allows for one set-point (by its label); a bound left
+// out is no bound.
+struct SetpointLimits {
+  std::string label;
+  std::optional<double> min;
+  std::optional<double> max;
+  SourcePos pos;  // of the label
+};
+
 struct TaskConfig {
   std::string name;     // given, or the program file's stem
   SourcePos pos;        // the task's entry in the list
@@ -66,6 +75,7 @@ struct TaskConfig {
   uint32_t watchdog = 0;  // consecutive overruns before the stop; 0 = never
   SourcePos watchdog_pos;
   std::vector<SafeOutput> safe_outputs;
+  std::vector<SetpointLimits> setpoint_limits;  // `setpoints:`
 };
 
 struct DriverConfig {

@@ -9,6 +9,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include <bit>
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
@@ -134,6 +135,15 @@ Result<ProcessImage> ProcessImage::create(const ImageLayout& layout) {
     ring_off.push_back(off);
     off += align64(sizeof(RingHeader)) + kRingSlots * slot_stride(r.capacity);
   }
+  // The force table last, so the layout before it is what it was without it.
+  const uint64_t off_forces = align64(off);
+  off = off_forces + layout.regions.size() * sizeof(ForceRegion);
+  std::vector<uint64_t> force_off;
+  for (const auto& r : layout.regions) {
+    off = align64(off);
+    force_off.push_back(off);
+    off += uint64_t{r.capacity} * sizeof(ForceEntry);
+  }
   const uint64_t total = align64(off);
 
   ProcessImage img;
@@ -216,6 +226,12 @@ Result<ProcessImage> ProcessImage::create(const ImageLayout& layout) {
     rd.slot_stride = slot_stride(rd.capacity);
     hash = (hash ^ rd.capacity) * 1099511628211ull;
   }
+  h.off_forces = off_forces;
+  for (size_t i = 0; i < layout.regions.size(); ++i) {
+    ForceRegion& fr = img.force_region(static_cast<uint32_t>(i));
+    fr.capacity = layout.regions[i].capacity;
+    fr.entries_offset = force_off[i];
+  }
   h.layout_hash = hash;
   return img;
 }
@@ -265,6 +281,16 @@ Result<ProcessImage> ProcessImage::attach(const std::string& name) {
     if (rd.slot_stride != slot_stride(rd.capacity) ||
         rd.ring_offset + align64(sizeof(RingHeader)) + kRingSlots * rd.slot_stride > size) {
       return make_error(img.object_ + ": region table is inconsistent");
+    }
+  }
+  if (h.off_forces % 64 != 0 || h.off_forces + uint64_t{h.n_regions} * sizeof(ForceRegion) > size) {
+    return make_error(img.object_ + ": force table is inconsistent");
+  }
+  for (uint32_t r = 0; r < h.n_regions; ++r) {
+    const ForceRegion& fr = img.force_region(r);
+    if (fr.capacity != img.region(r).capacity || fr.entries_offset % 16 != 0 ||
+        fr.entries_offset + uint64_t{fr.capacity} * sizeof(ForceEntry) > size) {
+      return make_error(img.object_ + ": force table is inconsistent");
     }
   }
   for (uint32_t c = 0; c < img.channel_count(); ++c) {
@@ -385,8 +411,59 @@ void ProcessImage::put(uint32_t r, uint32_t k, uint32_t index, double value, Qua
   std::atomic_ref<int64_t>(timestamps(r, k)[index]).store(timestamp_ns, std::memory_order_release);
 }
 
+ForceRegion& ProcessImage::force_region(uint32_t r) const {
+  return reinterpret_cast<ForceRegion*>(static_cast<char*>(base_) + header().off_forces)[r];
+}
+
+ForceEntry& ProcessImage::force_entry(uint32_t r, uint32_t index) const {
+  return reinterpret_cast<ForceEntry*>(static_cast<char*>(base_) + force_region(r).entries_offset)[index];
+}
+
+void ProcessImage::force(uint32_t r, uint32_t index, double v) const noexcept {
+  ForceEntry& e = force_entry(r, index);
+  // Value first, flag second (see "Forcing" in the header): a reader that sees
+  // the flag sees this value or a later one.
+  e.value_bits.store(std::bit_cast<uint64_t>(v), std::memory_order_release);
+  if (e.forced.load(std::memory_order_relaxed) == 1) return;  // only the control thread writes it
+  e.forced.store(1, std::memory_order_release);
+  ForceRegion& fr = force_region(r);
+  fr.n_forced.store(fr.n_forced.load(std::memory_order_relaxed) + 1, std::memory_order_release);
+}
+
+bool ProcessImage::unforce(uint32_t r, uint32_t index) const noexcept {
+  ForceEntry& e = force_entry(r, index);
+  if (e.forced.load(std::memory_order_relaxed) == 0) return false;
+  e.forced.store(0, std::memory_order_release);
+  ForceRegion& fr = force_region(r);
+  fr.n_forced.store(fr.n_forced.load(std::memory_order_relaxed) - 1, std::memory_order_release);
+  return true;
+}
+
+ForcedValue ProcessImage::forced(uint32_t r, uint32_t index) const noexcept {
+  ForcedValue f;
+  const ForceEntry& e = force_entry(r, index);
+  f.forced = e.forced.load(std::memory_order_acquire) == 1;
+  if (f.forced) f.value = std::bit_cast<double>(e.value_bits.load(std::memory_order_acquire));
+  return f;
+}
+
+void ProcessImage::apply_forces(uint32_t r, uint32_t k) const noexcept {
+  const ForceRegion& fr = force_region(r);
+  // The one check a cycle pays when nothing of its region is forced.
+  if (fr.n_forced.load(std::memory_order_acquire) == 0) return;
+  const ForceEntry* e = reinterpret_cast<const ForceEntry*>(static_cast<const char*>(base_) + fr.entries_offset);
+  double* vals = values(r, k);
+  for (uint32_t i = 0; i < fr.capacity; ++i) {
+    if (e[i].forced.load(std::memory_order_acquire) != 1) continue;
+    store_value(vals + i, std::bit_cast<double>(e[i].value_bits.load(std::memory_order_acquire)));
+  }
+}
+
 void ProcessImage::end_write(uint32_t r, uint32_t k, int64_t now_ns, uint64_t cycle) const noexcept {
   SlotHeader& s = slot(r, k);
+  // Forced values replace the writer's own while the slot is still odd, so
+  // they are part of the snapshot; safe values (a stopped task) are never forced.
+  if (s.region_state.load(std::memory_order_relaxed) == 0) apply_forces(r, k);
   s.written_ns.store(now_ns, std::memory_order_relaxed);
   s.cycle.store(cycle, std::memory_order_relaxed);
   s.version.store(s.version.load(std::memory_order_relaxed) + 1, std::memory_order_release);
@@ -424,6 +501,14 @@ bool ProcessImage::read_values(uint32_t r, const uint32_t* src, uint32_t n, doub
 ChannelValue ProcessImage::read_channel(uint32_t c) const noexcept {
   const ChannelDesc& d = channel(c);
   ChannelValue cv = read_at(d.region, d.index);
+  const ForcedValue f = forced(d.region, d.index);
+  const uint64_t pub = ring(d.region).published.load(std::memory_order_acquire);
+  const bool safe = slot(d.region, static_cast<uint32_t>(pub % kRingSlots)).region_state.load(std::memory_order_relaxed) != 0;
+  if (f.forced && !safe) {
+    // The value in the region is the operator's, whatever its source's quality.
+    cv.forced = true;
+    cv.quality = Quality::kForced;
+  }
   if (d.has_delivery && d.delivery_region < region_count()) {
     // An output is only as good as its delivery: a driver that cannot send it
     // (its peer is gone) says so in its own region.

@@ -252,6 +252,9 @@ bool Runtime::build(const config::RuntimeConfig& cfg, LoadReport& report) {
   }
 
   // 4. Set-points start at their init value, or at the value retained last time.
+  for (const config::TaskConfig& tc : cfg.tasks) {
+    for (const config::SetpointLimits& lim : tc.setpoint_limits) setpoint_limits_[lim.label] = lim;
+  }
   setpoint_values_.assign(layout.regions[setpoint_region_].capacity, 0.0);
   if (auto r = retain_.load(); !r) {
     cdiag.warning(SourcePos{}, "retained values ignored: " + r.error());
@@ -262,9 +265,16 @@ bool Runtime::build(const config::RuntimeConfig& cfg, LoadReport& report) {
     double v = d.init;
     if (retain_.has(d.label)) {
       const double kept = retain_.get(d.label);
+      const auto lim = setpoint_limits_.find(d.label);
       if (d.kind == static_cast<uint8_t>(Kind::kDigital) && kept != 0 && kept != 1) {
         cdiag.warning(SourcePos{}, std::string("retained value of digital set-point ") + d.label +
                                        " is not 0 or 1; using its init value");
+      } else if (lim != setpoint_limits_.end() && ((lim->second.min && kept < *lim->second.min) ||
+                                                   (lim->second.max && kept > *lim->second.max))) {
+        cdiag.warning(lim->second.pos, std::string("retained value ") + format_number(kept) + " of set-point " +
+                                           d.label + " is outside its limits " +
+                                           limits_text(lim->second.min, lim->second.max) +
+                                           "; using its init value " + format_number(d.init));
       } else {
         v = kept;
       }

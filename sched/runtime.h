@@ -54,6 +54,15 @@ struct LoadReport {
   std::string render(bool color = false) const;
 };
 
+// One channel an operator forced (rtplc force), as `status` lists it.
+struct ForceRecord {
+  std::string label;
+  std::string dir;      // "input", "output"
+  double value = 0;
+  uint32_t uid = 0;     // who forced it (the control socket's peer)
+  int64_t since_realtime_ns = 0;
+};
+
 class Runtime {
  public:
   ~Runtime();
@@ -72,9 +81,21 @@ class Runtime {
   void stop();
 
   // ---- operator verbs (control thread) ----
-  // Also called by drivers' non-RT threads through DriverSetup::set_point (an
-  // HMI writing over Modbus): it holds setpoint_mu_, as make_program() does.
+  // Refuses a value that is not finite, not 0/1 for a digital set-point, or
+  // outside the set-point's configured limits (task key `setpoints`), the
+  // range named; every writer of set-points goes through here. Also called by
+  // drivers' non-RT threads through DriverSetup::set_point (an HMI writing over
+  // Modbus): it holds setpoint_mu_, as make_program() does.
   Result<std::string> set_value(const std::string& label, double value);
+  // Forces an input (what every task reads) or an output (what every driver
+  // sends) to `value` until unforced; `uid` is who asked (for the record).
+  // Not kept across a restart. Refuses set-points (use set_value), inputs no
+  // driver provides, non-finite values and non-0/1 values for digital channels.
+  Result<std::string> force(const std::string& label, double value, uint32_t uid);
+  Result<std::string> unforce(const std::string& label);
+  Result<std::string> unforce_all();
+  // The forced channels, by label.
+  std::vector<ForceRecord> forces() const;
   // Compiles `source` for task `task` and swaps it in at the task's next cycle
   // boundary; waits for the hand-over. A compile or verification error changes
   // nothing. A program that no longer writes an output the running one writes
@@ -153,9 +174,14 @@ class Runtime {
   // values and the region's snapshots (publish_setpoints()).
   std::mutex setpoint_mu_;
   std::vector<double> setpoint_values_;  // the set-point region's values
+  std::map<std::string, config::SetpointLimits> setpoint_limits_;  // by label
+  std::map<std::string, ForceRecord> forces_;  // by label (control thread); the image's force table says what applies
   ImagePlan plan_;
   bool started_ = false;
 };
+
+// A CLOCK_REALTIME instant as "2026-12-01T19:50:01Z" (force records, logs).
+std::string format_utc(int64_t realtime_ns);
 
 // Default control socket and retain file for a runtime name: system paths when
 // running as root, per-user paths otherwise.

@@ -5,7 +5,9 @@
 //   take a pending replacement program if one was published (swap boundary)
 //   copy the inputs it reads from their source regions
 //   run the program with its outputs written straight into its output region
-//   publish the outputs; record wake latency and execution time
+//   publish the outputs (forced ones take their forced value in the image's
+//   end_write(), see io/process_image.h "Forcing"); record wake latency and
+//   execution time
 //   next release += period; a cycle that ends after the next release is an
 //   overrun: count it and the releases it skipped; N in a row stop the task
 //   (the watchdog) with its outputs at their safe values.

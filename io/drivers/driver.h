@@ -28,6 +28,10 @@
 // quality and its delivery's, so an output never looks good while it is not
 // being delivered. An output whose task quality is bad (a swap dropped it) is
 // not sent at all: drivers read quality with the value (read_output()).
+//
+// Forcing (process_image.h, "Forcing") asks nothing of a kind: end_snapshot()
+// puts an operator's forced inputs in place of the ones the driver read, and
+// read_output() returns a forced output's value like any other.
 #pragma once
 
 #include <atomic>
