@@ -87,9 +87,16 @@ bool read_group(const io::ProcessImage& image, InputGroup& g, double* io_in, uin
   if (!image.read_values(g.region, g.src.data(), n, g.scratch.data(), max_tries, &seen, q)) return false;
   g.seen = seen;
   for (uint32_t i = 0; i < n; ++i) io_in[g.dst[i]] = g.scratch[i];
+  if (g.quality_dst.empty()) return true;
+  // A forced value is vouched for by the operator: the slot keeps its writer's
+  // quality, the force table says it is forced (one load when nothing is).
+  const bool any_forced = image.force_region(g.region).n_forced.load(std::memory_order_acquire) != 0;
   for (size_t j = 0; j < g.quality_dst.size(); ++j) {
-    const Quality qj = g.quality_scratch[g.quality_pos[j]];
-    io_in[g.quality_dst[j]] = qj == Quality::kGood || qj == Quality::kForced ? 1.0 : 0.0;
+    const uint32_t pos = g.quality_pos[j];
+    const Quality qj = g.quality_scratch[pos];
+    const bool forced =
+        any_forced && image.force_entry(g.region, g.src[pos]).forced.load(std::memory_order_acquire) != 0;
+    io_in[g.quality_dst[j]] = forced || qj == Quality::kGood || qj == Quality::kForced ? 1.0 : 0.0;
   }
   return true;
 }

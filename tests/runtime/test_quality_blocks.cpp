@@ -1,7 +1,8 @@
 // A program sees its inputs' quality through the `good` block and switches to a
 // safe branch while an input is bad: here a Modbus slave (the fake, with its
 // whole-slave faults) killed and restarted under a running runtime, and a
-// channel no driver feeds, which no one vouches for.
+// channel no driver feeds, which no one vouches for; a forced input counts as
+// good (the operator vouches for it).
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -58,6 +59,13 @@ TEST(QualityInPrograms, a_program_switches_to_its_safe_branch_while_an_input_is_
   ASSERT_TRUE(eventually([&] { return channel_value(*rt, "LevelOk") == 0; }));
   EXPECT_TRUE(eventually([&] { return channel_value(*rt, "Safe") == -5; })) << channel_value(*rt, "Safe");
   EXPECT_EQ(channel_value(*rt, "Level"), 2.5);
+
+  // An operator forcing the bad input vouches for it: the program takes it.
+  ASSERT_TRUE(rt->force("Level", 3.0, 0).ok());
+  EXPECT_TRUE(eventually([&] { return channel_value(*rt, "LevelOk") == 1 && channel_value(*rt, "Safe") == 3.0; }))
+      << channel_value(*rt, "LevelOk") << " " << channel_value(*rt, "Safe");
+  ASSERT_TRUE(rt->unforce("Level").ok());
+  EXPECT_TRUE(eventually([&] { return channel_value(*rt, "LevelOk") == 0; }));
 
   slave.put(*modbus::parse_address("hr:0:f32"), 4.0);
   ASSERT_TRUE(slave.restart().ok());
