@@ -278,7 +278,8 @@ static std::vector<std::string> drop_list(const std::string& word) {
 
 std::string ControlServer::execute(const std::vector<std::string>& w, const std::string& source) {
   const std::string& verb = w[0];
-  Result<std::string> res = make_error("unknown request '" + verb + "' (ping, status, set, swap, rollback, stop)");
+  Result<std::string> res =
+      make_error("unknown request '" + verb + "' (ping, status, set, swap, rollback, trace, trace-keep, trace-end, stop)");
   if (verb == "ping" && w.size() == 1) {
     res = std::string("pong ") + rt_.name();
   } else if (verb == "status" && w.size() == 1) {
@@ -299,13 +300,32 @@ std::string ControlServer::execute(const std::vector<std::string>& w, const std:
   } else if (verb == "rollback" && (w.size() == 2 || (w.size() == 3 && w[2].rfind("drop=", 0) == 0))) {
     res = rt_.rollback(w[1], w.size() == 3 ? drop_list(w[2]) : std::vector<std::string>{});
     if (res) log_(false, "rollback: " + res->substr(0, res->find('\n')));
+  } else if (verb == "trace" && w.size() >= 2) {
+    res = rt_.trace_start(std::vector<std::string>(w.begin() + 1, w.end()));
+    if (res) log_(false, "trace started: " + res->substr(0, res->find('\n', res->find('\n') + 1)));
+  } else if (verb == "trace-keep" && w.size() == 2) {
+    res = rt_.trace_keep(w[1]);
+  } else if (verb == "trace-end" && w.size() == 2) {
+    res = rt_.trace_end(w[1]);
+    if (res) log_(false, "trace " + w[1] + " ended by its reader");
   } else if (verb == "stop" && w.size() == 1) {
     stop_requested_.store(true, std::memory_order_release);
     res = std::string("stopping runtime ") + rt_.name();
-  } else if (verb == "set" || verb == "swap" || verb == "rollback") {
+  } else if (verb == "set" || verb == "swap" || verb == "rollback" || verb == "trace" || verb == "trace-keep" ||
+             verb == "trace-end") {
     res = make_error("wrong number of arguments for '" + verb + "'");
   }
   return res ? frame(true, *res) : frame(false, res.error());
+}
+
+std::string control_socket_of(const std::string& name, const std::string& socket_override) {
+  if (!socket_override.empty()) return socket_override;
+  if (auto img = io::ProcessImage::attach(name); img.ok()) {
+    const io::ImageHeader& h = img->header();
+    const size_t n = strnlen(h.socket_path, sizeof h.socket_path);
+    if (n > 0 && n < sizeof h.socket_path) return std::string(h.socket_path, n);
+  }
+  return default_socket_path(name);
 }
 
 Result<std::string> control_request(const std::string& socket_path, const std::string& line,
