@@ -293,25 +293,36 @@ void run_trace(const TraceArgs& a) {
       }
       append_row(rec, s, t0, n, a.cycles);
     }
-    if (done) break;
+    // Ended early: the samples drained just above were the last.
+    if (done || !ended_why.empty()) break;
     if (g_interrupted.load()) {
       ended_why = "interrupted";
-      break;
+      continue;
     }
     const int64_t now = kernel_rt::monotonic_now_ns();
     if (now >= next_renew) {
       next_renew = now + 1000000000;
       if (const io::Liveness live = img->liveness(); !live.alive) {
         ended_why = sched::not_running_text(a.name, live);
-        break;
+        continue;
       }
       if (auto k = sched::control_request(socket, "trace-keep " + sel.token, "", 2000); !k) {
         ended_why = "the runtime ended the trace: " + k.error();
-        break;
+        // A runtime that just died (its socket refuses) is told apart from one
+        // that refused the renewal: its heartbeat goes stale within 3 s.
+        for (int i = 0; i < 40; ++i) {
+          if (const io::Liveness live = img->liveness(); !live.alive) {
+            ended_why = sched::not_running_text(a.name, live);
+            break;
+          }
+          if (k.error().find("cannot reach") == std::string::npos) break;
+          std::this_thread::sleep_for(std::chrono::milliseconds(100));
+        }
+        continue;
       }
       if (started && now - fired_wall > duration_ns + duration_ns / 2 + 2000000000) {
         ended_why = "task " + sel.task + " produced no more samples (stopped?)";
-        break;
+        continue;
       }
       if (progress) {
         std::fprintf(stderr, "\r  %s: %s / %s s, %zu samples, %llu lost   ", fired ? "recording" : "waiting",

@@ -349,6 +349,22 @@ TEST_F(TraceTool, a_stalled_tool_reports_the_samples_it_lost_and_fails) {
   EXPECT_NE(out.find(std::to_string(noted) + " lost"), std::string::npos) << out;
 }
 
+TEST_F(TraceTool, says_what_it_traces_in_status_and_when_the_runtime_dies_under_it) {
+  const std::string cmd = test::rtplc_binary() + " trace Ramp --name " + name_ + " --duration 60 --csv " +
+                          file("dead.csv") + " >" + file("dead.out") + " 2>&1 & p=$!; " + "sleep 1; " +
+                          test::rtplc_binary() + " status --name " + name_ + "; kill -9 " + std::to_string(pid_) +
+                          "; wait $p; echo rc=$?";
+  const auto r = run_shell(cmd);
+  const std::string out = run_shell("cat " + file("dead.out")).out;
+  EXPECT_NE(r.out.find("task ramp: running"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("traced (Ramp)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("rc=1"), std::string::npos) << r.out << out;
+  EXPECT_NE(out.find("runtime " + name_ + " is not running"), std::string::npos) << out;
+  const auto lines = lines_of(file("dead.csv"));
+  ASSERT_GT(lines.size(), 100u) << "what was recorded is written";
+  EXPECT_EQ(lines.back().rfind("# ended early: runtime " + name_ + " is not running", 0), 0u) << lines.back();
+}
+
 TEST_F(TraceTool, draws_a_png) {
   if (run_shell("command -v gnuplot").status != 0) GTEST_SKIP() << "gnuplot is not installed";
   const auto r = run_tool("trace Ramp PV --name " + name_ + " --duration 0.3 -q --csv " + file("p.csv") +
