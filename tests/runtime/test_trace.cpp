@@ -119,6 +119,37 @@ TEST(Trace, every_cycle_of_an_integrator_is_recorded_once_with_the_values_its_pr
   rt->stop();
 }
 
+TEST(Trace, a_swap_moves_the_trace_to_the_new_program_without_losing_a_cycle) {
+  RuntimeFixture fx;
+  auto rt = start(fx);
+  ASSERT_NE(rt, nullptr);
+  auto body = rt->trace_start({"Ramp", "PV"});
+  ASSERT_TRUE(body.ok()) << body.error();
+  const Started st = parse(*body);
+  io::TraceReader r(rt->image().trace_block(st.task), st.first, 2);
+  std::vector<io::TraceSample> got;
+  drain_until(r, got, 200);
+  // The new program keeps the integrator (same block) and no longer reads PV.
+  const std::string next = "%%\nF1 = asp(d0, c0, 1, \"Rate\")\nF2 = intg(F1, 1)\ndao(F2, p0, d0, c0, \"Ramp\")\nEND\n";
+  auto sw = rt->swap("ramp", next, "next.fbd", {"PVcopy"});
+  ASSERT_TRUE(sw.ok()) << sw.error();
+  const size_t at_swap = got.size();
+  drain_until(r, got, at_swap + 300);
+  EXPECT_EQ(r.lost(), 0u);
+  size_t nan_pv = 0, gaps = 0, bad_step = 0;
+  for (size_t i = 1; i < got.size(); ++i) {
+    gaps += got[i].cycle != got[i - 1].cycle + 1;
+    bad_step += std::abs(got[i].values[0] - got[i - 1].values[0] - kDt) > 1e-9;
+    nan_pv += std::isnan(got[i].values[1]);
+  }
+  EXPECT_EQ(gaps, 0u) << "every cycle across the swap";
+  EXPECT_EQ(bad_step, 0u) << "the integrator's state was kept and traced on";
+  EXPECT_GE(nan_pv, 200u) << "a channel the new program does not read is recorded as nan";
+  EXPECT_FALSE(std::isnan(got.front().values[1]));
+  ASSERT_TRUE(rt->trace_end(st.token).ok());
+  rt->stop();
+}
+
 TEST(Trace, a_reader_that_stalls_gets_an_exact_lost_count_and_only_intact_records) {
   RuntimeFixture fx;
   auto rt = start(fx);
