@@ -247,8 +247,8 @@ void run_trace(const TraceArgs& a) {
   const auto pre_n = static_cast<size_t>(std::ceil(pre_s * 1e9 / static_cast<double>(sel.period_ns)));
   const bool progress = !a.quiet && isatty(STDERR_FILENO) && a.duration >= 2;
   if (!a.quiet) {
-    std::fprintf(stderr, "rtplc trace: task %s (period %s s), %zu channels, %s s%s\n", sel.task.c_str(),
-                 fmt(static_cast<double>(sel.period_ns) / 1e9).c_str(), n, fmt(a.duration).c_str(),
+    std::fprintf(stderr, "rtplc trace: task %s (period %s s), %zu channel%s, %s s%s\n", sel.task.c_str(),
+                 fmt(static_cast<double>(sel.period_ns) / 1e9).c_str(), n, n == 1 ? "" : "s", fmt(a.duration).c_str(),
                  trig ? (", waiting for " + a.trigger + "; Ctrl-C stops").c_str() : "; Ctrl-C stops early");
   }
 

@@ -187,7 +187,8 @@ Result<ProcessImage> ProcessImage::create(const ImageLayout& layout) {
   img.owner_ = true;
   // Also faults every page in before RT starts. The trace rings are left as
   // ftruncate made them (zero): their pages are touched when a trace starts
-  // (io/trace_ring.h, prefault), so a runtime nobody traces does not hold them.
+  // (io/trace_ring.h, prefault), so a runtime nobody traces does not hold them
+  // (unless mlockall, with lock_memory, makes every mapped page resident).
   std::memset(base, 0, off_trace);
 
   ImageHeader& h = img.header();

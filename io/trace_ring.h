@@ -9,7 +9,8 @@
 // then kTraceSlots TraceRecords. Capacity is fixed when the image is created
 // (kTraceSlots records of at most kTraceChannels values), so the task never
 // allocates; the pages are touched by the control thread when a trace starts
-// (prefault()), not at load, so a runtime nobody traces does not pay for them.
+// (prefault()), not at load, so a runtime nobody traces does not pay for them
+// (unless mlockall makes every mapped page resident anyway).
 //
 // Selection protocol (writer: the runtime's control thread; reader: the task):
 //   control  waits until applied == requested (acquire), so the task reads no

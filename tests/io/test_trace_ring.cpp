@@ -171,5 +171,41 @@ TEST(TraceRing, a_new_selection_waits_until_the_task_took_the_last_and_says_wher
   EXPECT_EQ(b->ring.head.load(), 10u) << "no selection: no record";
 }
 
+TEST(TraceRing, selections_handed_to_a_running_writer_arrive_whole_and_in_order) {
+  auto b = std::make_unique<TraceBlock>();
+  std::atomic<bool> stop{false};
+  std::atomic<uint64_t> torn{0};
+  // The "task": picks selections up at cycle boundaries and records. Selection
+  // g has n = g % 8 + 1 sources, each {g, k}: a mixed one is torn.
+  std::thread task([&] {
+    TraceWriter w(b.get());
+    double v[kTraceChannels] = {};
+    uint64_t cycle = 0;
+    while (!stop.load(std::memory_order_relaxed)) {
+      if (w.pick_up()) {
+        for (uint32_t k = 0; k < w.n(); ++k) {
+          if (w.sources()[k].index != k || w.sources()[k].region != w.sources()[0].region) torn.fetch_add(1);
+        }
+        if (w.n() != static_cast<uint32_t>(w.sources()[0].region % kTraceChannels) + 1) torn.fetch_add(1);
+      }
+      w.append(cycle++, 0, v);
+    }
+  });
+  uint64_t last_first = 0;
+  for (uint16_t g = 1; g <= 2000; ++g) {
+    TraceSource src[kTraceChannels];
+    const uint32_t n = g % kTraceChannels + 1u;
+    for (uint32_t k = 0; k < n; ++k) src[k] = {g, 0, k};
+    while (!request_trace(*b, src, n)) std::this_thread::yield();
+    uint64_t first = 0;
+    while (!trace_applied(*b, &first)) std::this_thread::yield();
+    EXPECT_GE(first, last_first);
+    last_first = first;
+  }
+  stop.store(true);
+  task.join();
+  EXPECT_EQ(torn.load(), 0u);
+}
+
 }  // namespace
 }  // namespace rtplc::io
