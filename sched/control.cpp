@@ -302,7 +302,11 @@ std::string ControlServer::execute(const std::vector<std::string>& w, const std:
     if (res) log_(false, "rollback: " + res->substr(0, res->find('\n')));
   } else if (verb == "trace" && w.size() >= 2) {
     res = rt_.trace_start(std::vector<std::string>(w.begin() + 1, w.end()));
-    if (res) log_(false, "trace started: " + res->substr(0, res->find('\n', res->find('\n') + 1)));
+    if (res) {
+      std::string labels;
+      for (size_t i = 1; i < w.size(); ++i) labels += (i > 1 ? ", " : "") + w[i];
+      log_(false, res->substr(0, res->find('\n')) + " started: " + labels);
+    }
   } else if (verb == "trace-keep" && w.size() == 2) {
     res = rt_.trace_keep(w[1]);
   } else if (verb == "trace-end" && w.size() == 2) {
