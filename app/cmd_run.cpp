@@ -1,5 +1,6 @@
 // `rtplc run` and the operator's verbs that talk to a running runtime:
-// `rtplc set`, `rtplc swap`, `rtplc status`, `rtplc stop`.
+// `rtplc set`, `rtplc swap`, `rtplc status`, `rtplc stop`, `rtplc force`,
+// `rtplc unforce`.
 #include <CLI/CLI.hpp>
 #include <signal.h>
 #include <spdlog/spdlog.h>
@@ -44,6 +45,7 @@ struct ClientArgs {
   std::string task;
   std::string file;
   bool rollback = false;
+  bool all = false;
   std::vector<std::string> drop_outputs;
 };
 
@@ -55,18 +57,7 @@ std::string drop_word(const ClientArgs& a) {
   return w;
 }
 
-// --socket, else the path the runtime of that name published in its process
-// image (its config's runtime.socket), else the name's default. attach()
-// refuses an image owned by anyone but root or us, so the path is trusted.
-std::string socket_for(const ClientArgs& a) {
-  if (!a.socket.empty()) return a.socket;
-  if (auto img = io::ProcessImage::attach(a.name); img.ok()) {
-    const io::ImageHeader& h = img->header();
-    const size_t n = strnlen(h.socket_path, sizeof h.socket_path);
-    if (n > 0 && n < sizeof h.socket_path) return std::string(h.socket_path, n);
-  }
-  return sched::default_socket_path(a.name);
-}
+std::string socket_for(const ClientArgs& a) { return sched::control_socket_of(a.name, a.socket); }
 
 [[noreturn]] void fail(const std::string& msg, int code = kExitFailure) {
   std::fprintf(stderr, "%s\n", msg.c_str());
@@ -116,7 +107,9 @@ void run_runtime(const RunArgs& a) {
   for (const std::string& n : *started) spdlog::warn("{}", n);
 
   sched::ControlServer control(*rt, [&a](bool error, const std::string& line) {
-    if (error) spdlog::error("{}", line);
+    // Forces are logged whatever -q says: who forced what, when.
+    if (error && (line.rfind("FORCE", 0) == 0 || line.rfind("UNFORCE", 0) == 0)) spdlog::warn("{}", line);
+    else if (error) spdlog::error("{}", line);
     else if (!a.quiet) spdlog::info("{}", line);
   });
   if (auto r = control.start(rt->socket_path()); !r) {
@@ -154,6 +147,22 @@ void run_runtime(const RunArgs& a) {
 void run_set(const ClientArgs& a) {
   auto r = sched::control_request(socket_for(a), "set " + a.label + " " + a.value);
   if (!r) fail("rtplc set: " + r.error());
+  std::fputs(r->c_str(), stdout);
+}
+
+void run_force(const ClientArgs& a) {
+  auto r = sched::control_request(socket_for(a), "force " + a.label + " " + a.value);
+  if (!r) fail("rtplc force: " + r.error());
+  std::fputs(r->c_str(), stdout);
+}
+
+void run_unforce(const ClientArgs& a) {
+  if (a.all == !a.label.empty()) {
+    fail(a.all ? "rtplc unforce: give a LABEL or --all, not both" : "rtplc unforce: give the LABEL to release, or --all",
+         kExitUsage);
+  }
+  auto r = sched::control_request(socket_for(a), a.all ? std::string("unforce_all") : "unforce " + a.label);
+  if (!r) fail("rtplc unforce: " + r.error());
   std::fputs(r->c_str(), stdout);
 }
 
@@ -254,11 +263,37 @@ void add_run_commands(CLI::App& app) {
   auto cl = std::make_shared<ClientArgs>();
   CLI::App* set = app.add_subcommand("set", "Change a set-point (asp/dsp) of the running runtime; retained.");
   set->footer("The value is on disk (retained across restarts and crashes) before the command returns.\n"
+              "A value outside the set-point's limits (the task's `setpoints: {LABEL: {min, max}}` in\n"
+              "the config), or not a finite number, is refused and the range named.\n"
               "Example:\n  rtplc set SV_Msp 42.5");
   set->add_option("label", cl->label, "the set-point's label")->required();
   set->add_option("value", cl->value, "new value (0 or 1 for a digital set-point)")->required();
   add_client_options(set, *cl);
   set->callback([cl] { run_set(*cl); });
+
+  CLI::App* force = app.add_subcommand("force", "Force an input or an output of the running runtime to a value.");
+  force->footer(
+      "Forcing an input: every task reads VALUE instead of what its driver reads from the plant.\n"
+      "Forcing an output: the task still computes it, but every driver sends VALUE and the\n"
+      "monitor shows it. Forced channels are marked FORCED in `monitor`, `stats` and `status`;\n"
+      "every force is logged with your uid and the time. Forces stay until `rtplc unforce` and\n"
+      "are NOT kept across a restart (a PLC must not boot forced). A stopped task's safe values\n"
+      "win over forces. Set-points are changed with `rtplc set`, not forced. A digital channel\n"
+      "takes 0 or 1.\n"
+      "Examples:\n  rtplc force ProcVal 42.5\n  rtplc force Valve1 0\n  rtplc unforce --all");
+  force->add_option("label", cl->label, "the channel's label (see `rtplc monitor`)")->required();
+  force->add_option("value", cl->value, "the forced value (0 or 1 for a digital channel)")->required();
+  add_client_options(force, *cl);
+  force->callback([cl] { run_force(*cl); });
+
+  CLI::App* unforce = app.add_subcommand("unforce", "Release a forced channel (or --all of them).");
+  unforce->footer("The channel's own value (its driver's for an input, its task's for an output) applies\n"
+                  "again from the next cycle. `rtplc status` lists what is forced.\n"
+                  "Examples:\n  rtplc unforce ProcVal\n  rtplc unforce --all");
+  unforce->add_option("label", cl->label, "the forced channel's label");
+  unforce->add_flag("--all", cl->all, "release every forced channel");
+  add_client_options(unforce, *cl);
+  unforce->callback([cl] { run_unforce(*cl); });
 
   CLI::App* swap = app.add_subcommand("swap", "Replace one task's code while the plant keeps running.");
   swap->footer(

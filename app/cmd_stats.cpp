@@ -60,6 +60,7 @@ void run_stats(const ViewArgs& a) {
     }
     std::string text = a.json ? sched::render_json(views, summary) : sched::render_table(views, summary);
     text = a.json ? sched::with_links_json(img, text) : text + sched::render_links_table(img);
+    text = a.json ? sched::with_forced_json(img, text) : text + sched::render_forced(img);
     const io::Liveness live = img.liveness();
     if (a.watch > 0 && !a.json && isatty(STDOUT_FILENO)) std::fputs("\x1b[H\x1b[2J", stdout);
     if (!live.alive && !a.json) text = "# " + not_running(img, live) + "; these are its last figures\n" + text;
@@ -99,6 +100,7 @@ void run_monitor(const ViewArgs& a) {
       std::snprintf(line, sizeof line, "runtime %s (pid %d), %u channels, %u tasks\n", h.name, h.pid,
                     img.channel_count(), h.n_tasks);
       out += line;
+      out += sched::render_forced(img);
     } else {
       // Nothing here is current any more: every value is shown stale.
       out += "NOT RUNNING: " + not_running(img, live) + "\n";
@@ -139,10 +141,17 @@ void run_monitor(const ViewArgs& a) {
       char age[32] = "-";
       if (v.timestamp_ns != 0) std::snprintf(age, sizeof age, "%.3fs", io::age_s(v.timestamp_ns));
       const bool unwired = r.kind == static_cast<uint8_t>(io::RegionKind::kUnwired);
+      // A forced value says so in capitals; a forced output its driver cannot
+      // deliver shows the delivery's quality, and FORCED beside the writer.
+      const char* quality = !live.alive ? "stale"
+                            : unwired   ? "bad"
+                            : !v.fresh  ? "-"
+                            : v.forced && v.quality == Quality::kForced ? "FORCED"
+                                                                        : quality_name(v.quality);
+      const std::string writer = std::string(unwired ? "(no driver)" : r.name) +
+                                 (v.forced && v.quality != Quality::kForced ? " (FORCED)" : "");
       std::snprintf(line, sizeof line, "  %-20s %-9s %-24s %14s  %-7s %8s  %s\n", d.label, dir, d.key,
-                    fmt_value(v.value, d.kind).c_str(),
-                    !live.alive ? "stale" : unwired ? "bad" : v.fresh ? quality_name(v.quality) : "-", age,
-                    unwired ? "(no driver)" : r.name);
+                    fmt_value(v.value, d.kind).c_str(), quality, age, writer.c_str());
       out += line;
     }
     if (tty) std::fputs("\x1b[H\x1b[2J", stdout);

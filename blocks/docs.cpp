@@ -38,6 +38,7 @@ std::string signature_text(const BlockSpec& b) {
 
 std::string inputs_text(const BlockSpec& b) {
   if (b.signature == Signature::kDeviceIn || b.signature == Signature::kSetpoint) return "device";
+  if (b.reads_quality) return std::string(b.input_names[0]) + ": an input block's result, A or D";
   std::string s;
   for (uint8_t k = 0; k < b.max_inputs; ++k) {
     if (k) s += ", ";
@@ -100,7 +101,7 @@ std::string blocks_markdown() {
              b.summary + ": " + b.contract + " | " + (b.errors[0] ? b.errors : "-") + " |\n";
     }
   }
-  out += "\n" + std::to_string(total) + " primitive blocks.\n";
+  out += "\n" + std::to_string(total) + " primitive blocks: the 58 of the seed's language and `good`.\n";
   return out;
 }
 

@@ -35,7 +35,10 @@ uint64_t fnv1a64(std::string_view s) {
 }
 
 std::string channel_key(BindingDir dir, IoGroup group, char device, uint32_t p, uint32_t d, uint32_t c) {
-  std::string k = dir == BindingDir::kInput ? "in/" : dir == BindingDir::kOutput ? "out/" : "sp/";
+  // A quality binding names the input channel it reads the quality of.
+  std::string k = dir == BindingDir::kInput || dir == BindingDir::kQuality ? "in/"
+                  : dir == BindingDir::kOutput                            ? "out/"
+                                                                          : "sp/";
   k += io_group_name(group);
   if (device != 0) k += device;
   k += '/';
@@ -283,6 +286,7 @@ Result<void> verify_image(std::span<const std::byte> bytes) {
   for (uint32_t b = 0; b < h.n_bindings; ++b) {
     const Binding& bd = binds[b];
     const bool out = bd.dir == BindingDir::kOutput;
+    if (bd.dir > BindingDir::kQuality) return make_error("binding " + std::to_string(b) + ": unknown direction");
     if (bd.io_index >= (out ? h.n_io_out : h.n_io_in) || bd.instr >= h.n_instr ||
         !str_ok(bd.label) || !std::isfinite(bd.init)) {
       return make_error("binding " + std::to_string(b) + " out of range");

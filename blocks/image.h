@@ -73,7 +73,10 @@ struct Run {
 };
 static_assert(sizeof(Run) == 36);
 
-enum class BindingDir : uint8_t { kInput, kSetpoint, kOutput };
+// kQuality: the `good` block's load of the quality of an input channel (the
+// same channel, key and label as that input's kInput binding); the runtime
+// fills its input slot with 1 (good or forced) or 0 (bad, stale, unfed).
+enum class BindingDir : uint8_t { kInput, kSetpoint, kOutput, kQuality };
 
 // One I/O channel the task reads or writes, addressed the seed's way (p, d, c).
 struct Binding {

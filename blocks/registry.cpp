@@ -1,4 +1,5 @@
-// The 58 primitive blocks (spec fbd-language.md). Every contract written here is
+// The 58 primitive blocks of the spec (fbd-language.md), and `good`, which the
+// seed lacks: a program's view of its inputs' quality. Every contract written here is
 // what the executor implements (blocks/executor.cpp) and what docs/blocks.md says.
 #include "blocks/registry.h"
 
@@ -121,6 +122,19 @@ std::vector<BlockSpec> build_registry() {
   r.push_back(device_in("erd", IoGroup::kEth, 0, D, "Ethernet (S7 PLC) read digital"));
   r.push_back(setpoint("asp", A, "analog set-point"));
   r.push_back(setpoint("dsp", D, "digital set-point"));
+  {
+    // Not in the seed: the quality of what an input block reads, so a program
+    // can switch to a safe branch when its measurement goes bad.
+    BlockSpec g = compute("good", G::kInput, D, {{"input", A}}, {}, "",
+                          "quality of an input: 1 while the channel an input block reads is good",
+                          "y = 1 while the channel read by `input` (a device input block: dai, "
+                          "prr, era, ...) is good or forced, 0 while it is bad or stale (a link "
+                          "down, a value the driver cannot vouch for, a channel no driver feeds); "
+                          "from the same input snapshot as the value",
+                          "");
+    g.reads_quality = true;
+    r.push_back(g);
+  }
   // --- Signal output (10) ---
   r.push_back(device_out("dao", IoGroup::kDio, 0, A, "direct analog output"));
   r.push_back(device_out("ddo", IoGroup::kDio, 0, D, "direct digital output"));
@@ -309,7 +323,7 @@ Op block_op(const BlockSpec& b, uint32_t n_inputs) {
       {"lim", Op::Lim},   {"dzon", Op::Dzon}, {"dely", Op::Dely}, {"intg", Op::Intg},
       {"derv", Op::Derv}, {"filt", Op::Filt}, {"ldlg", Op::Ldlg}, {"pi", Op::Pi},
       {"epi", Op::Epi},   {"pid", Op::Pid},   {"epid", Op::Epid}, {"ramp", Op::Ramp},
-      {"amux", Op::Amux},
+      {"amux", Op::Amux}, {"good", Op::LoadD},
   };
   if (n == "and") return n_inputs == 3 ? Op::And3 : Op::And2;
   if (n == "or") return n_inputs == 3 ? Op::Or3 : Op::Or2;

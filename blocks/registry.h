@@ -62,6 +62,9 @@ struct BlockSpec {
   const char* summary;  // one line
   const char* contract; // formula and edge behaviour
   const char* errors;   // what counts as an error, "" if none
+  // Reads the quality of the channel its input block reads, not a value: its
+  // input must be a device input block, of either kind (the `good` block).
+  bool reads_quality = false;
 };
 
 std::span<const BlockSpec> all_blocks();

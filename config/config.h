@@ -52,6 +52,15 @@ struct SafeOutput {
   SourcePos pos;  // of the label, for "no output of task X has this label"
 };
 
+// The range `rtplc set` allows for one set-point (by its label); a bound left
+// out is no bound.
+struct SetpointLimits {
+  std::string label;
+  std::optional<double> min;
+  std::optional<double> max;
+  SourcePos pos;  // of the label
+};
+
 struct TaskConfig {
   std::string name;     // given, or the program file's stem
   SourcePos pos;        // the task's entry in the list
@@ -74,6 +83,7 @@ struct TaskConfig {
   bool retain_all = true;
   std::vector<std::string> retain_blocks;
   SourcePos retain_pos;
+  std::vector<SetpointLimits> setpoint_limits;  // `setpoints:`
 };
 
 struct DriverConfig {

@@ -172,6 +172,71 @@ void parse_safe_outputs(YamlReader& r, const Field& field, TaskConfig& t) {
   }
 }
 
+// setpoints: {LABEL: {min: number, max: number}, ...}
+void parse_setpoint_limits(YamlReader& r, const Field& field, TaskConfig& t) {
+  const YAML::Node& map = field.value;
+  if (!map.IsDefined() || map.IsNull()) return;
+  if (!map.IsMap()) {
+    r.error(field, "'setpoints' expects " + describe_type(*field.spec) + ", got " +
+                       YamlReader::describe_node(map));
+    return;
+  }
+  std::unordered_map<std::string, SourcePos> seen;
+  for (auto it = map.begin(); it != map.end(); ++it) {
+    const YAML::Node k = it->first;
+    const SourcePos kp = or_else(YamlReader::pos(k), field.pos);
+    if (!k.IsScalar() || !is_valid_label(k.Scalar())) {
+      r.error(kp,
+              "a set-point is named by its label (1 to 31 letters, digits, '_', '-' or '.'), got " +
+                  YamlReader::describe_node(k),
+              YamlReader::width(k));
+      continue;
+    }
+    const std::string& label = k.Scalar();
+    auto [first, fresh] = seen.emplace(label, kp);
+    if (!fresh) {
+      r.error(kp, "set-point '" + label + "' is given twice", YamlReader::width(k));
+      r.note(first->second, "first given here", static_cast<uint32_t>(label.size()));
+      continue;
+    }
+    const YAML::Node& v = it->second;
+    const SourcePos vp = or_else(YamlReader::pos(v), kp);
+    if (!v.IsMap()) {
+      r.error(vp, "set-point '" + label + "' expects {min: number, max: number}, got " +
+                      YamlReader::describe_node(v),
+              YamlReader::width(v));
+      continue;
+    }
+    SetpointLimits lim{label, std::nullopt, std::nullopt, kp};
+    bool ok = true;
+    SourcePos max_pos = vp;
+    for (auto b = v.begin(); b != v.end(); ++b) {
+      const SourcePos bp = or_else(YamlReader::pos(b->first), vp);
+      const std::string bound = b->first.IsScalar() ? b->first.Scalar() : std::string();
+      if (bound != "min" && bound != "max") {
+        r.error(bp, "set-point '" + label + "' takes 'min' and 'max', got " +
+                        YamlReader::describe_node(b->first),
+                YamlReader::width(b->first));
+        ok = false;
+        continue;
+      }
+      auto x = r.real(b->second, bp, "'" + bound + "' of set-point '" + label + "'");
+      if (!x) {
+        ok = false;
+        continue;
+      }
+      (bound == "min" ? lim.min : lim.max) = *x;
+      if (bound == "max") max_pos = or_else(YamlReader::pos(b->second), bp);
+    }
+    if (ok && lim.min && lim.max && *lim.min > *lim.max) {
+      r.error(max_pos, "set-point '" + label + "': max " + v["max"].Scalar() + " is below min " +
+                           v["min"].Scalar());
+      ok = false;
+    }
+    if (ok) t.setpoint_limits.push_back(std::move(lim));
+  }
+}
+
 // - program: ...
 void parse_task(YamlReader& r, const YAML::Node& node, SourcePos list_pos, RuntimeConfig& cfg) {
   TaskConfig t;
@@ -254,6 +319,7 @@ void parse_task(YamlReader& r, const YAML::Node& node, SourcePos list_pos, Runti
                 YamlReader::width(x->key));
     }
   }
+  if (const Field* x = f.get("setpoints")) parse_setpoint_limits(r, *x, t);
   cfg.tasks.push_back(std::move(t));
 }
 

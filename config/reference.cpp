@@ -105,7 +105,12 @@ std::string config_reference_markdown() {
       "default (3), so `overrun: stop` with `watchdog: 0` is an error.\n\n"
       "Without `priority` the runtime gives priorities rate-monotonically inside "
       "`priority_band`: the shorter the period, the higher the priority. An explicit "
-      "`priority` must lie inside the band.\n\n";
+      "`priority` must lie inside the band.\n\n"
+      "`setpoints` limits the set-points (`asp`) of the task's program: "
+      "`setpoints: {FIC_101_SP: {min: 0, max: 40}}`. `rtplc set`, and every other way a "
+      "set-point is written while the runtime runs, refuses a value outside the range or "
+      "not finite, naming the range; a retained value outside it is not used (the init "
+      "value is, with a warning). A set-point without limits takes any finite number.\n\n";
 
   section(out, "##", driver_section());
   for (const DriverKind* k : driver_kinds()) {
@@ -125,9 +130,10 @@ std::string config_reference_markdown() {
       "names, priorities outside the band, an input channel with two sources (two plants or two drivers), bad plant models, "
       "and program files that do not exist. All of them are reported in one run.\n\n"
       "When the runtime has compiled the programs, against the same positions in this file: "
-      "a safe output label that no output of its task has, an output a driver sends that no program "
-      "writes, an output channel written by two tasks, and a period or CPU the box "
-      "cannot give.\n\n"
+      "a safe output label that no output of its task has, set-point limits that name no set-point "
+      "of their task (or one already limited by another task, or exclude its init value), an output "
+      "a driver sends that no program writes, an output channel written by two tasks, and a period "
+      "or CPU the box cannot give.\n\n"
       "Every message names `file:line:col`, shows the line and points at the value:\n\n"
       "```\n" +
       sample_errors() + "```\n";

@@ -81,6 +81,10 @@ const KeySpec kTaskKeys[] = {
      "Which blocks keep their state (integrators, counters, timers, filters, delays, SFC steps) "
      "across a restart, also after `kill -9`: `all`, `none`, or a list of block names "
      "`[F10, F12]`. `rtplc run --cold` starts every block from zero."},
+    {"setpoints", ValueType::kLimitMap, false, kNoMin, kNoMax, nullptr, "(no limits)",
+     "`LABEL: {min: lo, max: hi}` for the set-points (asp) of the task's program: `rtplc "
+     "set` (and every other writer of set-points) refuses values outside [lo, hi]; the "
+     "set-point's init value must lie inside. Either bound may be left out."},
 };
 
 const KeySpec kDriverKeys[] = {
@@ -169,6 +173,8 @@ const char* type_name(ValueType t) {
       return "list";
     case ValueType::kLabelMap:
       return "map LABEL: number";
+    case ValueType::kLimitMap:
+      return "map LABEL: {min, max}";
     case ValueType::kName:
       return "name";
     case ValueType::kPath:
@@ -214,6 +220,8 @@ std::string describe_type(const KeySpec& k) {
       return std::string("a list of ") + k.choices + " entries";
     case ValueType::kLabelMap:
       return "a map of LABEL: number";
+    case ValueType::kLimitMap:
+      return "a map of LABEL: {min: number, max: number}";
     case ValueType::kName:
       return "a name of letters, digits, '_' and '-'";
     case ValueType::kPath:
@@ -257,6 +265,8 @@ std::string describe_allowed(const KeySpec& k) {
       return number(k.min) + ".." + number(k.max) + " entries";
     case ValueType::kLabelMap:
       return "labels of the task's outputs; finite numbers";
+    case ValueType::kLimitMap:
+      return "labels of the task's set-points; finite numbers, min <= max, each optional";
     case ValueType::kName:
       return "1..31 of `A-Z a-z 0-9 _ -`";
     case ValueType::kPath:

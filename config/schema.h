@@ -16,6 +16,7 @@ enum class ValueType : uint8_t {
   kSection,      // a map of further keys (the runtime section)
   kList,         // a list of maps of the section named by `item`
   kLabelMap,     // a map label -> number
+  kLimitMap,     // a map label -> {min: number, max: number}
   kName,         // [A-Za-z0-9_-]{1,31}
   kPath,         // a file path, relative to the config file's folder
   kDuration,     // "10ms", "250us", "0.5s" or seconds; min/max in seconds

@@ -9,6 +9,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include <bit>
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
@@ -134,7 +135,18 @@ Result<ProcessImage> ProcessImage::create(const ImageLayout& layout) {
     ring_off.push_back(off);
     off += align64(sizeof(RingHeader)) + kRingSlots * slot_stride(r.capacity);
   }
-  const uint64_t total = align64(off);
+  // The force table, then the trace rings, last, so the layout before them is
+  // what it was without them.
+  const uint64_t off_forces = align64(off);
+  off = off_forces + layout.regions.size() * sizeof(ForceRegion);
+  std::vector<uint64_t> force_off;
+  for (const auto& r : layout.regions) {
+    off = align64(off);
+    force_off.push_back(off);
+    off += uint64_t{r.capacity} * sizeof(ForceEntry);
+  }
+  const uint64_t off_trace = align64(off);
+  const uint64_t total = align64(off_trace + uint64_t{layout.n_tasks} * sizeof(TraceBlock));
 
   ProcessImage img;
   img.object_ = shm_name(layout.name);
@@ -184,7 +196,11 @@ Result<ProcessImage> ProcessImage::create(const ImageLayout& layout) {
   img.size_ = total;
   img.writable_ = true;
   img.owner_ = true;
-  std::memset(base, 0, total);  // also faults every page in before RT starts
+  // Also faults every page in before RT starts. The trace rings are left as
+  // ftruncate made them (zero): their pages are touched when a trace starts
+  // (io/trace_ring.h, prefault), so a runtime nobody traces does not hold them
+  // (unless mlockall, with lock_memory, makes every mapped page resident).
+  std::memset(base, 0, off_trace);
 
   ImageHeader& h = img.header();
   std::memcpy(h.magic, kProcessImageMagic, sizeof h.magic);
@@ -203,6 +219,9 @@ Result<ProcessImage> ProcessImage::create(const ImageLayout& layout) {
   h.n_links = layout.n_links;
   h.off_links = off_links;
   h.started_realtime_ns = realtime_now_ns();
+  h.off_trace = off_trace;
+  h.n_trace = layout.n_tasks;
+  h.trace_block_size = sizeof(TraceBlock);
   img.beat();
   std::strncpy(h.name, layout.name.c_str(), kLabelBytes - 1);
   uint64_t hash = 1469598103934665603ull;
@@ -215,6 +234,12 @@ Result<ProcessImage> ProcessImage::create(const ImageLayout& layout) {
     rd.ring_offset = ring_off[i];
     rd.slot_stride = slot_stride(rd.capacity);
     hash = (hash ^ rd.capacity) * 1099511628211ull;
+  }
+  h.off_forces = off_forces;
+  for (size_t i = 0; i < layout.regions.size(); ++i) {
+    ForceRegion& fr = img.force_region(static_cast<uint32_t>(i));
+    fr.capacity = layout.regions[i].capacity;
+    fr.entries_offset = force_off[i];
   }
   h.layout_hash = hash;
   return img;
@@ -258,13 +283,25 @@ Result<ProcessImage> ProcessImage::attach(const std::string& name) {
                   h.off_channels + uint64_t{h.channel_capacity} * sizeof(ChannelDesc) <= size &&
                   h.off_regions + uint64_t{h.n_regions} * sizeof(RegionDesc) <= size &&
                   h.off_tasks + uint64_t{h.n_tasks} * task_block_size(h.task_stats_size) <= size &&
-                  h.off_links % 64 == 0 && h.off_links + uint64_t{h.n_links} * sizeof(LinkStatus) <= size;
+                  h.off_links % 64 == 0 && h.off_links + uint64_t{h.n_links} * sizeof(LinkStatus) <= size &&
+                  h.off_trace % 64 == 0 && h.trace_block_size == sizeof(TraceBlock) &&
+                  h.off_trace + uint64_t{h.n_trace} * sizeof(TraceBlock) <= size;
   if (!ok) return make_error(img.object_ + " is not a process image this rtplc understands");
   for (uint32_t r = 0; r < h.n_regions; ++r) {
     const RegionDesc& rd = img.region(r);
     if (rd.slot_stride != slot_stride(rd.capacity) ||
         rd.ring_offset + align64(sizeof(RingHeader)) + kRingSlots * rd.slot_stride > size) {
       return make_error(img.object_ + ": region table is inconsistent");
+    }
+  }
+  if (h.off_forces % 64 != 0 || h.off_forces + uint64_t{h.n_regions} * sizeof(ForceRegion) > size) {
+    return make_error(img.object_ + ": force table is inconsistent");
+  }
+  for (uint32_t r = 0; r < h.n_regions; ++r) {
+    const ForceRegion& fr = img.force_region(r);
+    if (fr.capacity != img.region(r).capacity || fr.entries_offset % 16 != 0 ||
+        fr.entries_offset + uint64_t{fr.capacity} * sizeof(ForceEntry) > size) {
+      return make_error(img.object_ + ": force table is inconsistent");
     }
   }
   for (uint32_t c = 0; c < img.channel_count(); ++c) {
@@ -295,6 +332,11 @@ LinkStatus& ProcessImage::link(uint32_t i) const {
 
 void* ProcessImage::task_stats(uint32_t task) const {
   return reinterpret_cast<char*>(&task_info(task)) + align64(sizeof(TaskInfo));
+}
+
+TraceBlock* ProcessImage::trace_block(uint32_t task) const {
+  if (task >= header().n_trace) return nullptr;
+  return reinterpret_cast<TraceBlock*>(static_cast<char*>(base_) + header().off_trace) + task;
 }
 
 Result<uint32_t> ProcessImage::add_channel(const ChannelDesc& d) {
@@ -385,8 +427,59 @@ void ProcessImage::put(uint32_t r, uint32_t k, uint32_t index, double value, Qua
   std::atomic_ref<int64_t>(timestamps(r, k)[index]).store(timestamp_ns, std::memory_order_release);
 }
 
+ForceRegion& ProcessImage::force_region(uint32_t r) const {
+  return reinterpret_cast<ForceRegion*>(static_cast<char*>(base_) + header().off_forces)[r];
+}
+
+ForceEntry& ProcessImage::force_entry(uint32_t r, uint32_t index) const {
+  return reinterpret_cast<ForceEntry*>(static_cast<char*>(base_) + force_region(r).entries_offset)[index];
+}
+
+void ProcessImage::force(uint32_t r, uint32_t index, double v) const noexcept {
+  ForceEntry& e = force_entry(r, index);
+  // Value first, flag second (see "Forcing" in the header): a reader that sees
+  // the flag sees this value or a later one.
+  e.value_bits.store(std::bit_cast<uint64_t>(v), std::memory_order_release);
+  if (e.forced.load(std::memory_order_relaxed) == 1) return;  // only the control thread writes it
+  e.forced.store(1, std::memory_order_release);
+  ForceRegion& fr = force_region(r);
+  fr.n_forced.store(fr.n_forced.load(std::memory_order_relaxed) + 1, std::memory_order_release);
+}
+
+bool ProcessImage::unforce(uint32_t r, uint32_t index) const noexcept {
+  ForceEntry& e = force_entry(r, index);
+  if (e.forced.load(std::memory_order_relaxed) == 0) return false;
+  e.forced.store(0, std::memory_order_release);
+  ForceRegion& fr = force_region(r);
+  fr.n_forced.store(fr.n_forced.load(std::memory_order_relaxed) - 1, std::memory_order_release);
+  return true;
+}
+
+ForcedValue ProcessImage::forced(uint32_t r, uint32_t index) const noexcept {
+  ForcedValue f;
+  const ForceEntry& e = force_entry(r, index);
+  f.forced = e.forced.load(std::memory_order_acquire) == 1;
+  if (f.forced) f.value = std::bit_cast<double>(e.value_bits.load(std::memory_order_acquire));
+  return f;
+}
+
+void ProcessImage::apply_forces(uint32_t r, uint32_t k) const noexcept {
+  const ForceRegion& fr = force_region(r);
+  // The one check a cycle pays when nothing of its region is forced.
+  if (fr.n_forced.load(std::memory_order_acquire) == 0) return;
+  const ForceEntry* e = reinterpret_cast<const ForceEntry*>(static_cast<const char*>(base_) + fr.entries_offset);
+  double* vals = values(r, k);
+  for (uint32_t i = 0; i < fr.capacity; ++i) {
+    if (e[i].forced.load(std::memory_order_acquire) != 1) continue;
+    store_value(vals + i, std::bit_cast<double>(e[i].value_bits.load(std::memory_order_acquire)));
+  }
+}
+
 void ProcessImage::end_write(uint32_t r, uint32_t k, int64_t now_ns, uint64_t cycle) const noexcept {
   SlotHeader& s = slot(r, k);
+  // Forced values replace the writer's own while the slot is still odd, so
+  // they are part of the snapshot; safe values (a stopped task) are never forced.
+  if (s.region_state.load(std::memory_order_relaxed) == 0) apply_forces(r, k);
   s.written_ns.store(now_ns, std::memory_order_relaxed);
   s.cycle.store(cycle, std::memory_order_relaxed);
   s.version.store(s.version.load(std::memory_order_relaxed) + 1, std::memory_order_release);
@@ -424,6 +517,14 @@ bool ProcessImage::read_values(uint32_t r, const uint32_t* src, uint32_t n, doub
 ChannelValue ProcessImage::read_channel(uint32_t c) const noexcept {
   const ChannelDesc& d = channel(c);
   ChannelValue cv = read_at(d.region, d.index);
+  const ForcedValue f = forced(d.region, d.index);
+  const uint64_t pub = ring(d.region).published.load(std::memory_order_acquire);
+  const bool safe = slot(d.region, static_cast<uint32_t>(pub % kRingSlots)).region_state.load(std::memory_order_relaxed) != 0;
+  if (f.forced && !safe) {
+    // The value in the region is the operator's, whatever its source's quality.
+    cv.forced = true;
+    cv.quality = Quality::kForced;
+  }
   if (d.has_delivery && d.delivery_region < region_count()) {
     // An output is only as good as its delivery: a driver that cannot send it
     // (its peer is gone) says so in its own region.

@@ -5,7 +5,7 @@
 //
 // Layout (all offsets from the start of the mapping, 64-byte aligned):
 //   ImageHeader | ChannelDesc[capacity] | RegionDesc[n_regions] | TaskStatsSlot[n_tasks]
-//   | region rings...
+//   | region rings... | TraceBlock[n_tasks] (io/trace_ring.h: what `rtplc trace` drains)
 //
 // Every value has exactly one writer. Values are grouped into *regions*, one per
 // writer: each task's outputs, each driver's inputs, the set-points (written by
@@ -45,6 +45,34 @@
 // relaxed: one word, read alone) a few times a second. A tool judges a runtime
 // dead when its pid is gone, when that pid now belongs to another process (its
 // start time differs from `owner_start_ticks`), or when the heartbeat is old.
+//
+// Forcing (spec runtime.md, "Forcing"): a force table beside the rings, one
+// ForceRegion header per region and one ForceEntry per value of the region.
+//   writer  the runtime's control thread only (rtplc force / unforce), never RT.
+//           force:   entry.value_bits = v (release); entry.forced = 1 (release);
+//                    region.n_forced += 1 (release)   [value first, then flag]
+//           change:  entry.value_bits = v (release)   [already forced]
+//           unforce: entry.forced = 0 (release); region.n_forced -= 1 (release)
+//   reader  every region's writer, inside end_write() while its slot is odd:
+//           n_forced (acquire) == 0 -> nothing to do (the cost of forcing in a
+//           cycle where nothing is forced: one load). Else for each entry:
+//           forced (acquire) == 1 -> value_bits (acquire) into the slot's value.
+//           Tools read the same way (read_channel() says `forced`).
+// Each word is one atomic access, so nothing is torn; the acquire on `forced`
+// pairs with the release that followed the value store, so a reader that sees
+// an entry forced also sees its value (that one or a later one). A reader may
+// see a force or an unforce one snapshot late; it never sees a value nobody
+// forced. Reader and writer never wait for each other: a task or driver that
+// preempts the control thread mid-store reads two words and goes on (no retry
+// loop at all, so no spinning on the same CPU). The writer is serialised (the
+// control thread runs one request at a time), so its plain read-modify-write
+// of n_forced is exact.
+// What a forced entry means: the region's writer publishes the forced value
+// in place of its own (a driver's input, a task's output), so every task that
+// reads the input, every driver that sends the output and every tool sees it.
+// The slot's quality stays the writer's; readers mark the value forced from
+// the table. A stopped task's safe values win: end_write() skips the forces of
+// a snapshot whose region_state is 1 (outputs at their safe values).
 #pragma once
 
 #include <sys/types.h>
@@ -58,11 +86,12 @@
 
 #include "common/quality.h"
 #include "common/result.h"
+#include "io/trace_ring.h"
 
 namespace rtplc::io {
 
 inline constexpr char kProcessImageMagic[8] = {'R', 'T', 'P', 'L', 'C', 'S', 'H', 'M'};
-inline constexpr uint32_t kProcessImageVersion = 3;
+inline constexpr uint32_t kProcessImageVersion = 5;  // 4: the force table; 5: per-task trace rings
 inline constexpr uint32_t kRingSlots = 4;
 inline constexpr size_t kLabelBytes = 32;
 
@@ -139,7 +168,31 @@ struct alignas(64) ImageHeader {
   // from the name's default): clients given only --name read it here. Written
   // once by the runtime before it starts any thread; "" = the default path.
   char socket_path[108];
+  // The force table (see "Forcing" above): ForceRegion[n_regions] at
+  // off_forces, each pointing at its region's ForceEntry[capacity].
+  uint64_t off_forces;
+  // Per-task trace rings (io/trace_ring.h), one TraceBlock per task; written
+  // once at creation.
+  uint64_t off_trace;
+  uint32_t n_trace;               // TraceBlocks (= n_tasks)
+  uint32_t trace_block_size;      // sizeof(TraceBlock) (sanity check for readers)
 };
+
+// Per region of the force table. One writer (the control thread).
+struct alignas(64) ForceRegion {
+  std::atomic<uint32_t> n_forced;  // entries of this region with forced == 1
+  uint32_t capacity;               // = the region's capacity
+  uint64_t entries_offset;         // ForceEntry[capacity] from the start of the mapping
+};
+
+struct ForceEntry {
+  std::atomic<uint64_t> value_bits;  // the forced value, a double's bits
+  std::atomic<uint32_t> forced;      // 1 while forced
+  uint32_t pad;
+};
+static_assert(sizeof(ForceEntry) == 16);
+static_assert(std::atomic<uint64_t>::is_always_lock_free && std::atomic<uint32_t>::is_always_lock_free,
+              "the force table is shared memory: its atomics must be lock-free");
 
 // Per-task header in the image, followed by the task's timing statistics
 // (sched/jitter.h, CycleStats). Written by the runtime and the task thread.
@@ -218,6 +271,13 @@ struct ChannelValue {
   Quality quality = Quality::kBad;
   int64_t timestamp_ns = 0;  // CLOCK_MONOTONIC
   bool fresh = false;        // false when the snapshot could not be read consistently
+  bool forced = false;       // an operator forced it (quality is then kForced unless delivery is worse)
+};
+
+// One forced channel, as the force table says.
+struct ForcedValue {
+  bool forced = false;
+  double value = 0;
 };
 
 // Why a tool cannot trust an image: the runtime that wrote it is gone.
@@ -282,6 +342,8 @@ class ProcessImage {
   uint32_t link_count() const { return header().n_links; }
   // The task's CycleStats block (task_stats_bytes, 64-byte aligned).
   void* task_stats(uint32_t task) const;
+  // The task's trace ring (io/trace_ring.h); nullptr when the image has none.
+  TraceBlock* trace_block(uint32_t task) const;
 
   // Whether the runtime that owns this image still runs (see "Liveness" above).
   Liveness liveness() const;
@@ -292,6 +354,18 @@ class ProcessImage {
   Result<uint32_t> add_channel(const ChannelDesc& d);
   // Looks a channel up by label; -1 if none.
   int find_channel(const std::string& label) const;
+
+  // ---- the force table (see "Forcing" above) ----
+  ForceRegion& force_region(uint32_t r) const;
+  ForceEntry& force_entry(uint32_t r, uint32_t index) const;
+  // Control thread only: forces value `index` of region r to v, or changes its forced value.
+  void force(uint32_t r, uint32_t index, double v) const noexcept;
+  // Control thread only: releases a force; false if it was not forced.
+  bool unforce(uint32_t r, uint32_t index) const noexcept;
+  // Any thread: whether value `index` of region r is forced, and to what.
+  ForcedValue forced(uint32_t r, uint32_t index) const noexcept;
+  // A region's writer (end_write does it): forced values into slot k.
+  void apply_forces(uint32_t r, uint32_t k) const noexcept;
 
   // ---- ring access ----
   RingHeader& ring(uint32_t r) const;

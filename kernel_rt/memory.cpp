@@ -68,7 +68,57 @@ std::string mlock_refusal(int err) {
   if (bytes > 0) block[bytes - 1] = 0;
 }
 
+constexpr unsigned char kStackPaint = 0xA5;
+// Kept unpainted below the current frame: the painting call's own frames live there.
+constexpr size_t kPaintMargin = 8u * 1024u;
+
+// The calling thread's stack as [low, high); false when unknown.
+bool stack_bounds(uintptr_t& low, uintptr_t& high) noexcept {
+  pthread_attr_t attr;
+  if (pthread_getattr_np(pthread_self(), &attr) != 0) return false;
+  void* base = nullptr;
+  size_t size = 0;
+  const int rc = pthread_attr_getstack(&attr, &base, &size);
+  pthread_attr_destroy(&attr);
+  if (rc != 0 || base == nullptr || size == 0) return false;
+  low = reinterpret_cast<uintptr_t>(base);
+  high = low + size;
+  return true;
+}
+
+// One page above the lowest address is left alone: with glibc's guard page below the
+// stack, that keeps even an off-by-one far from it.
+[[gnu::noinline]] void paint_below(uintptr_t low, uintptr_t top) noexcept {
+  const uintptr_t from = low + page_size();
+  if (top <= from + kPaintMargin) return;
+  std::memset(reinterpret_cast<void*>(from), kStackPaint, top - kPaintMargin - from);
+}
+
 }  // namespace
+
+void paint_stack_of_this_thread() noexcept {
+#ifndef RTPLC_SANITIZED_BUILD
+  uintptr_t low = 0, high = 0;
+  if (!stack_bounds(low, high)) return;
+  unsigned char marker = 0;
+  paint_below(low, reinterpret_cast<uintptr_t>(&marker));
+#endif
+}
+
+size_t stack_high_water_of_this_thread() noexcept {
+#ifdef RTPLC_SANITIZED_BUILD
+  return 0;
+#else
+  uintptr_t low = 0, high = 0;
+  if (!stack_bounds(low, high)) return 0;
+  const auto* p = reinterpret_cast<const unsigned char*>(low + page_size());
+  const auto* end = reinterpret_cast<const unsigned char*>(high);
+  // The first byte that lost the paint, from the bottom up, is the deepest one written.
+  while (p < end && *p == kStackPaint) ++p;
+  if (p == reinterpret_cast<const unsigned char*>(low + page_size())) return 0;  // never painted
+  return static_cast<size_t>(end - p);
+#endif
+}
 
 Result<void> lock_memory(const MemoryLockOptions& options) {
   // Why each knob:

@@ -16,7 +16,12 @@ namespace rtplc::kernel_rt {
 struct MemoryLockOptions {
   // Bytes to allocate, touch and release back to malloc, so later load-time allocations
   // (and any stray one on the RT path) find resident, locked pages instead of faulting.
-  size_t heap_reserve_bytes = 64u * 1024u * 1024u;
+  // The runtime locks memory after loading its programs, so the reserve is only the
+  // slack for what comes later on the non-RT side (a swap's program, a status reply);
+  // the cycle allocates nothing. Beyond it the heap still grows locked and resident
+  // (MCL_FUTURE), the faults taken by the non-RT thread that allocates. 8 MiB holds
+  // a 10,000-block program several times over.
+  size_t heap_reserve_bytes = 8u * 1024u * 1024u;
   // Bytes of the calling thread's stack to touch now.
   size_t stack_prefault_bytes = 256u * 1024u;
 };
@@ -43,6 +48,16 @@ Result<void> prefault_stack(size_t bytes);
 
 // Bytes of stack the calling thread has below the current frame (0 if unknown).
 size_t stack_room_of_this_thread() noexcept;
+
+// Stack high-water mark, so every thread's stack can be sized to what it uses (under
+// mlockall(MCL_FUTURE) a thread's whole stack is resident from its start). paint fills
+// the calling thread's unused stack below the current frame with a pattern (it makes
+// those pages resident); high_water, called later on the same thread, returns the bytes
+// from the stack's top down to the deepest byte ever written. Both do nothing, and
+// high_water returns 0 ("unknown"), in a sanitizer build, whose stack checks would
+// trip over writes below the current frame, or when the stack bounds are unknown.
+void paint_stack_of_this_thread() noexcept;
+size_t stack_high_water_of_this_thread() noexcept;
 
 // Minor page faults the calling thread has taken so far (getrusage RUSAGE_THREAD). Sampled
 // before and after a cycle in test mode, the difference must be 0 after warm-up.

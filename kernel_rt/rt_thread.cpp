@@ -77,6 +77,7 @@ struct StartBlock {
   pid_t tid = 0;
   SchedState obtained;
   std::binary_semaphore ready{0};
+  std::shared_ptr<std::atomic<size_t>> high_water = std::make_shared<std::atomic<size_t>>(0);
 };
 
 void* trampoline(void* arg) {
@@ -91,10 +92,13 @@ void* trampoline(void* arg) {
     Result<void> st = prefault_stack(block->prefault);
     if (!st) block->stack_note = st.error();
   }
+  paint_stack_of_this_thread();
   block->tid = gettid();
   block->obtained = query_tid(0);
+  const std::shared_ptr<std::atomic<size_t>> high_water = block->high_water;
   block->ready.release();
   block->body();
+  high_water->store(stack_high_water_of_this_thread(), std::memory_order_relaxed);
   return nullptr;
 }
 
@@ -114,14 +118,14 @@ size_t page_rounded(size_t bytes) {
 }
 
 // One pthread_create with the given policy; returns its error number.
+size_t stack_size_for(const ThreadSpec& spec) {
+  const size_t min = static_cast<size_t>(PTHREAD_STACK_MIN);
+  return page_rounded(std::max(spec.stack_bytes > 0 ? spec.stack_bytes : kDefaultStackBytes, min));
+}
+
 int create_with(const ThreadSpec& spec, bool fifo, pthread_t* out, void* arg) {
   Attr attr;
-  if (spec.stack_bytes > 0) {
-    const size_t min = static_cast<size_t>(PTHREAD_STACK_MIN);
-    const int rc =
-        pthread_attr_setstacksize(&attr.a, page_rounded(std::max(spec.stack_bytes, min)));
-    if (rc != 0) return rc;
-  }
+  if (const int rc = pthread_attr_setstacksize(&attr.a, stack_size_for(spec)); rc != 0) return rc;
   if (spec.cpu) {
     cpu_set_t set;
     CPU_ZERO(&set);
@@ -169,6 +173,8 @@ RtThread::RtThread(RtThread&& other) noexcept
     : handle_(other.handle_),
       tid_(other.tid_),
       joinable_(std::exchange(other.joinable_, false)),
+      stack_bytes_(other.stack_bytes_),
+      stack_high_water_(std::move(other.stack_high_water_)),
       outcome_(std::move(other.outcome_)) {}
 
 RtThread& RtThread::operator=(RtThread&& other) noexcept {
@@ -177,6 +183,8 @@ RtThread& RtThread::operator=(RtThread&& other) noexcept {
     handle_ = other.handle_;
     tid_ = other.tid_;
     joinable_ = std::exchange(other.joinable_, false);
+    stack_bytes_ = other.stack_bytes_;
+    stack_high_water_ = std::move(other.stack_high_water_);
     outcome_ = std::move(other.outcome_);
   }
   return *this;
@@ -190,6 +198,10 @@ void RtThread::join() noexcept {
   if (!joinable_) return;
   pthread_join(handle_, nullptr);
   joinable_ = false;
+}
+
+size_t RtThread::stack_high_water() const noexcept {
+  return stack_high_water_ ? stack_high_water_->load(std::memory_order_relaxed) : 0;
 }
 
 SchedState RtThread::sched_now() const noexcept {
@@ -238,6 +250,8 @@ Result<RtThread> start_thread(const ThreadSpec& spec, std::function<void()> body
     return make_error(fmt::format("thread '{}' could not start: {}", spec.name, std::strerror(rc)));
   }
   thread.joinable_ = true;
+  thread.stack_bytes_ = stack_size_for(spec);
+  thread.stack_high_water_ = block->high_water;
   block->ready.acquire();
   out.stack_note = block->stack_note;
   out.obtained = block->obtained;

@@ -13,7 +13,9 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <atomic>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 
@@ -31,11 +33,24 @@ struct SchedState {
   int priority = 0;  // the RT priority (1..99) for FIFO/RR, 0 otherwise
 };
 
+// The stack a thread gets unless its spec asks for another size. Not glibc's
+// default (8 MiB, from RLIMIT_STACK): under mlockall(MCL_FUTURE) every page of a
+// new thread's stack is made resident and locked at once, so each thread would
+// cost 8 MiB of RAM. Every thread of ours uses a few KiB to a few tens of KiB
+// (RtThread::stack_high_water() measures it; tests hold each kind below half of
+// its stack).
+// Sanitizer builds get more: their instrumented frames are several times larger.
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+inline constexpr size_t kDefaultStackBytes = 2u * 1024u * 1024u;
+#else
+inline constexpr size_t kDefaultStackBytes = 256u * 1024u;
+#endif
+
 struct ThreadSpec {
   std::string name;             // shown by ps/top/htop; the kernel keeps 15 characters
   int fifo_priority = 0;        // 1..99 asks for SCHED_FIFO; 0 means SCHED_OTHER
   std::optional<unsigned> cpu;  // pin to this CPU; unset = any CPU the process may use
-  size_t stack_bytes = 0;       // 0 = the system default
+  size_t stack_bytes = 0;       // 0 = kDefaultStackBytes
   size_t prefault_stack = 0;    // bytes of stack to touch before `body` runs
 };
 
@@ -67,12 +82,19 @@ class RtThread {
   // Queries the kernel now (the policy can change after start, e.g. by chrt). Only while
   // the thread runs; after its body returned the answer is {kUnknown, 0}.
   SchedState sched_now() const noexcept;
+  // The deepest the thread's stack ever went, in bytes, once its body has returned
+  // (0 before that, or when unknown: a sanitizer build); and the stack's size.
+  size_t stack_high_water() const noexcept;
+  size_t stack_bytes() const noexcept { return stack_bytes_; }
 
  private:
   friend Result<RtThread> start_thread(const ThreadSpec& spec, std::function<void()> body);
   pthread_t handle_{};
   pid_t tid_ = 0;
   bool joinable_ = false;
+  size_t stack_bytes_ = 0;
+  // Written by the thread as its body returns, read after join (which orders it).
+  std::shared_ptr<std::atomic<size_t>> stack_high_water_;
   SchedOutcome outcome_;
 };
 

@@ -171,7 +171,9 @@ Result<TaskImage> build_image(const CheckedProgram& prog, const CompileOptions& 
     const uint32_t i = order[s];
     const FlatBlock& b = prog.blocks[i];
     if (op_is_load(b.op)) {
-      auto [it, fresh] = in_channels.emplace(channel_id(b), ib.n_io_in);
+      // `good` reads the quality of its input block's channel: a slot of its own.
+      const std::string id = b.spec->reads_quality ? "Q" + channel_id(prog.blocks[b.in[0]]) : channel_id(b);
+      auto [it, fresh] = in_channels.emplace(id, ib.n_io_in);
       if (fresh) ++ib.n_io_in;
       io_index[i] = it->second;
     } else if (op_is_store(b.op)) {
@@ -255,6 +257,24 @@ Result<TaskImage> build_image(const CheckedProgram& prog, const CompileOptions& 
 
   for (uint32_t i = 0; i < n; ++i) {
     const FlatBlock& b = prog.blocks[i];
+    if (b.spec->reads_quality) {
+      // The channel of the input block it reads, in that block's terms.
+      const FlatBlock& src = prog.blocks[b.in[0]];
+      Binding bd{};
+      bd.dir = BindingDir::kQuality;
+      bd.group = src.spec->io;
+      bd.kind = src.spec->out_kind;  // the channel's kind; the block's result is digital
+      bd.device = src.spec->device_kind;
+      bd.p = src.p;
+      bd.d = src.d;
+      bd.c = src.c;
+      bd.io_index = io_index[i];
+      bd.instr = sched_of[i];
+      bd.label = ib.add_string(src.label);
+      bd.line = b.pos.line;
+      ib.bindings.push_back(bd);
+      continue;
+    }
     if (b.spec->io == IoGroup::kNone) continue;
     Binding bd{};
     bd.dir = b.spec->signature == Signature::kDeviceOut ? BindingDir::kOutput

@@ -104,7 +104,10 @@ std::string explain(const CompileResult& r) {
          pad("label", 18) + "line");
   }
   for (const Binding& b : img.bindings()) {
-    std::string dir = b.dir == BindingDir::kInput ? "in" : b.dir == BindingDir::kOutput ? "out" : "setpoint";
+    std::string dir = b.dir == BindingDir::kInput     ? "in"
+                      : b.dir == BindingDir::kOutput  ? "out"
+                      : b.dir == BindingDir::kQuality ? "quality"
+                                                      : "setpoint";
     std::string group = io_group_name(b.group);
     if (b.device) group += std::string(1, b.device);
     std::string addr = b.dir == BindingDir::kSetpoint

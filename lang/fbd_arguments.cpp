@@ -86,8 +86,11 @@ bool compute_args(const Call& c, const ArgumentContext& ctx, FlatBlock& b) {
   b.n_in = static_cast<uint32_t>(n_in);
   for (size_t k = 0; k < n_in; ++k) {
     if (k >= c.args.size()) break;
-    ok &= input_arg(c.args[k], ctx, sp.input_kind[k], sp.input_names[k], sp.name,
-                    static_cast<uint32_t>(k), b);
+    // `good` takes an input block of either kind; the flat checks see which block it is.
+    const Kind want = sp.reads_quality && c.args[k].kind == Arg::Kind::kRef && is_value_letter(c.args[k].ref.letter)
+                          ? letter_kind(c.args[k].ref.letter)
+                          : sp.input_kind[k];
+    ok &= input_arg(c.args[k], ctx, want, sp.input_names[k], sp.name, static_cast<uint32_t>(k), b);
   }
   const size_t n_params_given = c.args.size() - n_in;
   if (n_params_given < required) {

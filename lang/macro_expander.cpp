@@ -579,6 +579,7 @@ CheckedProgram check_program(const Program& prog, DiagnosticList& diags) {
   CheckedProgram p = fbd.expand();
   mark_delayed_inputs(p);
   check_io_channels(p, diags);
+  check_quality_inputs(p, diags);
   warn_unused_results(p, diags);
   fbd.check_leftovers(p);
   check_program_size(p, diags);

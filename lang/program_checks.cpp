@@ -109,6 +109,7 @@ class FlatBlockChecks {
         ok = false;
         continue;
       }
+      if (sp.reads_quality) continue;  // either kind; check_quality_inputs() checks the rest
       if (src.spec->out_kind != sp.input_kind[k]) {
         diags_.error(at, std::string(kind_word(sp.input_kind[k])) + " " + what + " needs " +
                              (sp.input_kind[k] == Kind::kAnalog ? "an analog" : "a digital") +
@@ -201,9 +202,23 @@ void check_flat_program(CheckedProgram& p, DiagnosticList& diags) {
   if (diags.error_count() == errors_before) {
     mark_delayed_inputs(p);
     check_io_channels(p, diags);
+    check_quality_inputs(p, diags);
     warn_unused_results(p, diags);
   }
   check_program_size(p, diags);
+}
+
+void check_quality_inputs(const CheckedProgram& p, DiagnosticList& diags) {
+  for (const FlatBlock& b : p.blocks) {
+    if (b.spec == nullptr || !b.spec->reads_quality || b.n_in != 1 || b.in[0] >= p.blocks.size()) continue;
+    const FlatBlock& src = p.blocks[b.in[0]];
+    if (src.spec == nullptr || src.spec->signature == Signature::kDeviceIn) continue;
+    const SourcePos at = b.in_pos[0].line != 0 ? b.in_pos[0] : b.pos;
+    diags.error(at, std::string(b.spec->name) + " reads the quality of an input block (dai, ddi, prr, era, ...), but " +
+                        src.name + " is " + src.written +
+                        (src.spec->signature == Signature::kSetpoint ? ", a set-point, which is always good"
+                                                                     : ", which reads no channel"));
+  }
 }
 
 void mark_delayed_inputs(CheckedProgram& p) {
@@ -277,7 +292,7 @@ void check_program_size(const CheckedProgram& p, DiagnosticList& diags) {
 std::string unknown_block_hint(std::string_view name) {
   if (std::string hint = suggest_block(name); !hint.empty())
     return "; did you mean '" + hint + "'?";
-  return " (rtplc blocks lists all 58)";
+  return " (rtplc blocks lists all " + std::to_string(all_blocks().size()) + ")";
 }
 
 std::string arity_message(const BlockSpec& sp, size_t found) {

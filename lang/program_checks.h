@@ -50,6 +50,9 @@ void mark_delayed_inputs(CheckedProgram& p);
 // channel (it is how `rtplc set` and the CSV header find it).
 void check_io_channels(const CheckedProgram& p, DiagnosticList& diags);
 
+// A `good` block's input is a device input block: the channel whose quality it reads.
+void check_quality_inputs(const CheckedProgram& p, DiagnosticList& diags);
+
 // Warns about compute blocks with call_line 0 that no block reads. Silent when
 // `diags` already has errors (an unresolved input would look like an unused one).
 void warn_unused_results(const CheckedProgram& p, DiagnosticList& diags);

@@ -6,6 +6,7 @@
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/un.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -65,6 +66,12 @@ std::string frame(bool ok, const std::string& body) {
     out += l + "\n";
   }
   return out + ".\n";
+}
+
+int64_t realtime_ns() {
+  timespec ts;
+  clock_gettime(CLOCK_REALTIME, &ts);
+  return int64_t{ts.tv_sec} * 1000000000 + ts.tv_nsec;
 }
 
 std::vector<std::string> split(const std::string& s) {
@@ -143,6 +150,7 @@ void ControlServer::run() {
     size_t sent = 0;
     int64_t deadline = 0;
     bool answered = false;
+    uint32_t uid = 0;  // the peer's, from SO_PEERCRED
   };
   std::vector<Client> clients;
   std::vector<pollfd> fds;
@@ -170,8 +178,16 @@ void ControlServer::run() {
           close(fd);
           continue;
         }
+        // Who is asking: the kernel's word for it, fixed at connect time.
+        ucred cred{};
+        socklen_t cred_len = sizeof cred;
+        if (getsockopt(fd, SOL_SOCKET, SO_PEERCRED, &cred, &cred_len) != 0) {
+          close(fd);
+          continue;
+        }
         Client c;
         c.fd = fd;
+        c.uid = cred.uid;
         c.deadline = now + int64_t{kRequestTimeoutMs} * 1000000;
         clients.push_back(std::move(c));
       }
@@ -188,7 +204,7 @@ void ControlServer::run() {
         } else {
           c.in.append(buf, static_cast<size_t>(got));
           std::string response;
-          switch (parse_request(c.in, response)) {
+          switch (parse_request(c.in, response, c.uid)) {
             case RequestState::kIncomplete: break;
             case RequestState::kComplete:
             case RequestState::kBad: answer(c, response); break;
@@ -214,7 +230,8 @@ void ControlServer::run() {
   for (Client& c : clients) close(c.fd);
 }
 
-ControlServer::RequestState ControlServer::parse_request(const std::string& in, std::string& response) {
+ControlServer::RequestState ControlServer::parse_request(const std::string& in, std::string& response,
+                                                        uint32_t uid) {
   const size_t nl = in.find('\n');
   if (nl == std::string::npos) {
     if (in.size() > kMaxLine) {
@@ -239,7 +256,7 @@ ControlServer::RequestState ControlServer::parse_request(const std::string& in, 
     if (in.size() - nl - 1 < want) return RequestState::kIncomplete;
     body = in.substr(nl + 1, want);
   }
-  response = execute(w, body);
+  response = execute(w, body, uid);
   return RequestState::kComplete;
 }
 
@@ -276,21 +293,49 @@ static std::vector<std::string> drop_list(const std::string& word) {
   return out;
 }
 
-std::string ControlServer::execute(const std::vector<std::string>& w, const std::string& source) {
+// A number as the operator typed it; "nan" and "inf" parse, so the verb can
+// refuse them with its own reason (and the range of a set-point).
+static bool parse_number(const std::string& word, double& v) {
+  char* end = nullptr;
+  v = std::strtod(word.c_str(), &end);
+  return end != word.c_str() && *end == '\0';
+}
+
+std::string ControlServer::execute(const std::vector<std::string>& w, const std::string& source, uint32_t uid) {
   const std::string& verb = w[0];
-  Result<std::string> res = make_error("unknown request '" + verb + "' (ping, status, set, swap, rollback, stop)");
+  Result<std::string> res = make_error("unknown request '" + verb +
+                                       "' (ping, status, set, swap, rollback, force, unforce, unforce_all, "
+                                       "trace, trace-keep, trace-end, stop)");
+  const std::string who = " by uid " + std::to_string(uid) + " at " + format_utc(realtime_ns());
   if (verb == "ping" && w.size() == 1) {
     res = std::string("pong ") + rt_.name();
   } else if (verb == "status" && w.size() == 1) {
     res = rt_.status();
   } else if (verb == "set" && w.size() == 3) {
-    char* end = nullptr;
-    const double v = std::strtod(w[2].c_str(), &end);
-    if (end == w[2].c_str() || *end != '\0' || !std::isfinite(v)) {
+    double v = 0;
+    if (!parse_number(w[2], v)) {
       res = make_error("'" + w[2] + "' is not a number");
     } else {
       res = rt_.set_value(w[1], v);
-      if (res) log_(false, "set " + *res);
+      if (res) log_(false, "set " + *res + who);
+    }
+  } else if (verb == "force" && w.size() == 3) {
+    double v = 0;
+    if (!parse_number(w[2], v)) {
+      res = make_error("not forced: '" + w[2] + "' is not a number");
+    } else {
+      res = rt_.force(w[1], v, uid);
+      log_(true, "FORCE " + w[1] + " = " + w[2] + who + (res ? ": " + *res : ": refused: " + res.error()));
+    }
+  } else if (verb == "unforce" && w.size() == 2) {
+    res = rt_.unforce(w[1]);
+    if (res) log_(true, "UNFORCE " + w[1] + who + ": " + *res);
+  } else if (verb == "unforce_all" && w.size() == 1) {
+    res = rt_.unforce_all();
+    if (res) {
+      std::string lines = *res;
+      for (char& ch : lines) if (ch == '\n') ch = ';';
+      log_(true, "UNFORCE --all" + who + ": " + lines);
     }
   } else if (verb == "swap" && (w.size() == 4 || (w.size() == 5 && w[4].rfind("drop=", 0) == 0))) {
     res = rt_.swap(w[1], source, w[2], w.size() == 5 ? drop_list(w[4]) : std::vector<std::string>{});
@@ -299,13 +344,36 @@ std::string ControlServer::execute(const std::vector<std::string>& w, const std:
   } else if (verb == "rollback" && (w.size() == 2 || (w.size() == 3 && w[2].rfind("drop=", 0) == 0))) {
     res = rt_.rollback(w[1], w.size() == 3 ? drop_list(w[2]) : std::vector<std::string>{});
     if (res) log_(false, "rollback: " + res->substr(0, res->find('\n')));
+  } else if (verb == "trace" && w.size() >= 2) {
+    res = rt_.trace_start(std::vector<std::string>(w.begin() + 1, w.end()));
+    if (res) {
+      std::string labels;
+      for (size_t i = 1; i < w.size(); ++i) labels += (i > 1 ? ", " : "") + w[i];
+      log_(false, res->substr(0, res->find('\n')) + " started: " + labels);
+    }
+  } else if (verb == "trace-keep" && w.size() == 2) {
+    res = rt_.trace_keep(w[1]);
+  } else if (verb == "trace-end" && w.size() == 2) {
+    res = rt_.trace_end(w[1]);
+    if (res) log_(false, "trace " + w[1] + " ended by its reader");
   } else if (verb == "stop" && w.size() == 1) {
     stop_requested_.store(true, std::memory_order_release);
     res = std::string("stopping runtime ") + rt_.name();
-  } else if (verb == "set" || verb == "swap" || verb == "rollback") {
+  } else if (verb == "set" || verb == "swap" || verb == "rollback" || verb == "force" || verb == "unforce" ||
+             verb == "unforce_all" || verb == "trace" || verb == "trace-keep" || verb == "trace-end") {
     res = make_error("wrong number of arguments for '" + verb + "'");
   }
   return res ? frame(true, *res) : frame(false, res.error());
+}
+
+std::string control_socket_of(const std::string& name, const std::string& socket_override) {
+  if (!socket_override.empty()) return socket_override;
+  if (auto img = io::ProcessImage::attach(name); img.ok()) {
+    const io::ImageHeader& h = img->header();
+    const size_t n = strnlen(h.socket_path, sizeof h.socket_path);
+    if (n > 0 && n < sizeof h.socket_path) return std::string(h.socket_path, n);
+  }
+  return default_socket_path(name);
 }
 
 Result<std::string> control_request(const std::string& socket_path, const std::string& line,

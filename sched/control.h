@@ -7,7 +7,13 @@
 //             swap TASK NAME BYTES\n<BYTES of source text>
 //   response  OK\n or ERROR\n, then the body, then a line holding only "."
 //             (a body line that starts with "." is sent with one more ".")
-// Verbs: ping, status, set LABEL VALUE, swap, rollback TASK, stop.
+// Verbs: ping, status, set LABEL VALUE, swap, rollback TASK, stop,
+//        force LABEL VALUE, unforce LABEL, unforce_all,
+//        trace LABEL... (answers "trace TOKEN", "task NAME INDEX PERIOD_NS
+//        FIRST_RECORD" and one "column LABEL DIR KIND" per label),
+//        trace-keep TOKEN (renews the lease), trace-end TOKEN.
+// The server takes each client's uid from the socket (SO_PEERCRED) when it
+// connects; forces are logged with it.
 //
 // The server's thread is the runtime's control thread: every Runtime method runs
 // on it, one request at a time, so nothing on the control side needs a lock. Its
@@ -30,7 +36,9 @@ class Runtime;
 class ControlServer {
  public:
   // `log` receives one line per event worth telling the operator (swaps, set-points,
-  // watchdog stops); called on the control thread.
+  // watchdog stops); called on the control thread. `error` also marks the lines
+  // that must be logged even by a quiet runtime: every force and unforce
+  // ("FORCE ...", "UNFORCE ...", with the peer's uid and the UTC time).
   using Log = std::function<void(bool error, const std::string& line)>;
 
   ControlServer(Runtime& rt, Log log) : rt_(rt), log_(std::move(log)) {}
@@ -48,8 +56,8 @@ class ControlServer {
   enum class RequestState { kIncomplete, kComplete, kBad };
   void run();
   // A request that has arrived whole is executed and its framed answer set.
-  RequestState parse_request(const std::string& in, std::string& response);
-  std::string execute(const std::vector<std::string>& words, const std::string& source);
+  RequestState parse_request(const std::string& in, std::string& response, uint32_t uid);
+  std::string execute(const std::vector<std::string>& words, const std::string& source, uint32_t uid);
   void watch_tasks();
 
   Runtime& rt_;
@@ -61,6 +69,11 @@ class ControlServer {
   std::atomic<bool> stop_requested_{false};
   std::vector<uint8_t> last_state_;
 };
+
+// The control socket of runtime `name`: `socket_override` when given, else the
+// path the runtime published in its process image (attach() refuses an image
+// owned by anyone but root or us, so the path is trusted), else the default.
+std::string control_socket_of(const std::string& name, const std::string& socket_override);
 
 // Client side (the rtplc commands). Sends one request and returns the body; an
 // ERROR response becomes an error carrying the body.

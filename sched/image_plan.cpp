@@ -21,6 +21,13 @@ io::ChannelDesc channel_desc(const std::string& label, const std::string& key, i
   return d;
 }
 
+std::string limits_text(const std::optional<double>& min, const std::optional<double>& max) {
+  if (min && max) return "[" + format_number(*min) + ", " + format_number(*max) + "]";
+  if (min) return ">= " + format_number(*min);
+  if (max) return "<= " + format_number(*max);
+  return "any finite number";
+}
+
 std::vector<int> rate_monotonic_priorities(const config::RuntimeConfig& cfg,
                                            std::span<const int64_t> periods) {
   const size_t n = cfg.tasks.size();
@@ -198,6 +205,34 @@ bool plan_image(const config::RuntimeConfig& cfg, const std::string& name,
       }
       if (!found) {
         cdiag.error(so.pos, "task " + cfg.tasks[t].name + " has no output labelled \"" + so.label + "\"");
+        ok = false;
+      }
+    }
+  }
+  // Set-point limits name set-points of their own task, hold its init value,
+  // and are given once per label (a set-point is one channel, however many
+  // tasks read it).
+  std::map<std::string, SourcePos> limits_at;
+  for (size_t t = 0; t < n_tasks; ++t) {
+    for (const config::SetpointLimits& lim : cfg.tasks[t].setpoint_limits) {
+      const Binding* sp = nullptr;
+      for (const Binding& b : images[t].bindings()) {
+        if (b.dir == BindingDir::kSetpoint && lim.label == images[t].str(b.label)) sp = &b;
+      }
+      if (sp == nullptr) {
+        cdiag.error(lim.pos, "task " + cfg.tasks[t].name + " has no set-point labelled \"" + lim.label + "\"");
+        ok = false;
+        continue;
+      }
+      if (auto [first, fresh] = limits_at.emplace(lim.label, lim.pos); !fresh) {
+        cdiag.error(lim.pos, "the limits of set-point \"" + lim.label + "\" are given twice");
+        cdiag.note(first->second, "first given here");
+        ok = false;
+        continue;
+      }
+      if ((lim.min && sp->init < *lim.min) || (lim.max && sp->init > *lim.max)) {
+        cdiag.error(lim.pos, "set-point \"" + lim.label + "\" starts at " + format_number(sp->init) +
+                                 " (its init value in the program), outside " + limits_text(lim.min, lim.max));
         ok = false;
       }
     }

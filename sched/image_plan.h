@@ -10,6 +10,7 @@
 
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -66,6 +67,9 @@ std::vector<int> rate_monotonic_priorities(const config::RuntimeConfig& cfg,
 bool plan_image(const config::RuntimeConfig& cfg, const std::string& name,
                 std::span<const TaskImage> images, std::span<const config::DriverClaims> claims,
                 PlanDiagnostics diags, ImagePlan& out);
+
+// The range of a set-point's limits for messages: "[0, 100]", ">= 0", "<= 100".
+std::string limits_text(const std::optional<double>& min, const std::optional<double>& max);
 
 // A channel table entry; init and retain are set by the caller for set-points.
 io::ChannelDesc channel_desc(const std::string& label, const std::string& key, io::ChannelDir dir,

@@ -28,6 +28,11 @@ struct InputGroup {
   // One consistent snapshot lands here first and is copied to the inputs only
   // when it validated, so a missed read leaves every input at its last good value.
   std::vector<double> scratch;  // src.size()
+  // `good` blocks: quality_dst[j] receives 1 or 0 for the channel src[quality_pos[j]],
+  // from the same snapshot (qualities land in quality_scratch, src.size(), first).
+  std::vector<uint32_t> quality_pos;
+  std::vector<uint32_t> quality_dst;
+  std::vector<Quality> quality_scratch;
 };
 
 // What the swap keeps from the program it replaces, matched by (block name, opcode).

@@ -255,6 +255,9 @@ bool Runtime::build(const config::RuntimeConfig& cfg, LoadReport& report) {
   }
 
   // 4. Set-points start at their init value, or at the value retained last time.
+  for (const config::TaskConfig& tc : cfg.tasks) {
+    for (const config::SetpointLimits& lim : tc.setpoint_limits) setpoint_limits_[lim.label] = lim;
+  }
   setpoint_values_.assign(layout.regions[setpoint_region_].capacity, 0.0);
   if (auto r = retain_.load(); !r) {
     cdiag.warning(SourcePos{}, "retained values ignored: " + r.error());
@@ -265,9 +268,16 @@ bool Runtime::build(const config::RuntimeConfig& cfg, LoadReport& report) {
     double v = d.init;
     if (retain_.has(d.label)) {
       const double kept = retain_.get(d.label);
+      const auto lim = setpoint_limits_.find(d.label);
       if (d.kind == static_cast<uint8_t>(Kind::kDigital) && kept != 0 && kept != 1) {
         cdiag.warning(SourcePos{}, std::string("retained value of digital set-point ") + d.label +
                                        " is not 0 or 1; using its init value");
+      } else if (lim != setpoint_limits_.end() && ((lim->second.min && kept < *lim->second.min) ||
+                                                   (lim->second.max && kept > *lim->second.max))) {
+        cdiag.warning(lim->second.pos, std::string("retained value ") + format_number(kept) + " of set-point " +
+                                           d.label + " is outside its limits " +
+                                           limits_text(lim->second.min, lim->second.max) +
+                                           "; using its init value " + format_number(d.init));
       } else {
         v = kept;
       }
@@ -332,6 +342,7 @@ bool Runtime::create_drivers(const config::RuntimeConfig& cfg, DiagnosticList& c
     setup.helper_priority = dp.helper_priority;
     setup.cpu = dc.cpu ? static_cast<int>(*dc.cpu) : -1;
     setup.events = &events_;
+    setup.set_point = [this](const std::string& label, double value) { return set_value(label, value); };
     auto drv = io::find_driver_kind(dc.kind)->create(setup);
     if (!drv) {
       cdiag.error(dc.pos, "driver " + dc.name + ": " + drv.error());
@@ -346,6 +357,8 @@ Result<std::unique_ptr<LoadedProgram>> Runtime::make_program(uint32_t t, TaskIma
                                                               std::string source, std::string file,
                                                               const LoadedProgram* running,
                                                               const std::vector<std::string>& drop_outputs) {
+  // New set-points of a swap take their value under the lock set_value() holds.
+  std::lock_guard setpoints(setpoint_mu_);
   auto p = std::make_unique<LoadedProgram>();
   p->image = std::move(image);
   p->arena.resize_for(p->image);
@@ -363,6 +376,7 @@ Result<std::unique_ptr<LoadedProgram>> Runtime::make_program(uint32_t t, TaskIma
   std::map<uint32_t, size_t> group_of;  // region -> index in p->inputs
   std::vector<std::string>& out_keys = task_output_keys_[t];
   for (const Binding& b : p->image.bindings()) {
+    if (b.dir == BindingDir::kQuality) continue;  // after every value input, below
     const std::string key = binding_key(b);
     const std::string label = p->image.str(b.label);
     auto it = channel_by_key_.find(key);
@@ -444,7 +458,27 @@ Result<std::unique_ptr<LoadedProgram>> Runtime::make_program(uint32_t t, TaskIma
       ig.dst.push_back(b.io_index);
     }
   }
-  for (InputGroup& ig : p->inputs) ig.scratch.assign(ig.src.size(), 0.0);
+  // `good` blocks: the quality of a channel the program also reads as a value
+  // (the checks make its input an input block), so it is already in a group.
+  // A channel no driver feeds keeps 0: nobody vouches for it.
+  for (const Binding& b : p->image.bindings()) {
+    if (b.dir != BindingDir::kQuality) continue;
+    const std::string key = binding_key(b);
+    auto it = channel_by_key_.find(key);
+    if (it == channel_by_key_.end()) return make_error("internal: quality of " + key + " has no channel");
+    const io::ChannelDesc& d = image_.channel(it->second);
+    auto g = group_of.find(d.region);
+    if (g == group_of.end()) continue;  // unwired
+    InputGroup& ig = p->inputs[g->second];
+    const auto at = std::find(ig.src.begin(), ig.src.end(), d.index);
+    if (at == ig.src.end()) return make_error("internal: quality of " + key + " without its value");
+    ig.quality_pos.push_back(static_cast<uint32_t>(at - ig.src.begin()));
+    ig.quality_dst.push_back(b.io_index);
+  }
+  for (InputGroup& ig : p->inputs) {
+    ig.scratch.assign(ig.src.size(), 0.0);
+    if (!ig.quality_dst.empty()) ig.quality_scratch.assign(ig.src.size(), Quality::kBad);
+  }
   const uint32_t n_out = p->image.header().n_io_out;
   p->output_slots.resize(n_out);
   p->safe_values.assign(n_out, 0.0);
@@ -609,6 +643,7 @@ void Runtime::tick(const std::function<void(bool, const std::string&)>& log) {
       }
     }
   }
+  expire_traces(log);
   io::LinkEvent e;
   while (events_.pop(e)) {
     log(e.level == io::LinkEvent::Level::kError || e.level == io::LinkEvent::Level::kWarning,

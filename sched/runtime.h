@@ -12,6 +12,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
@@ -58,6 +59,15 @@ struct LoadReport {
   std::string render(bool color = false) const;
 };
 
+// One channel an operator forced (rtplc force), as `status` lists it.
+struct ForceRecord {
+  std::string label;
+  std::string dir;      // "input", "output"
+  double value = 0;
+  uint32_t uid = 0;     // who forced it (the control socket's peer)
+  int64_t since_realtime_ns = 0;
+};
+
 class Runtime {
  public:
   ~Runtime();
@@ -76,7 +86,21 @@ class Runtime {
   void stop();
 
   // ---- operator verbs (control thread) ----
+  // Refuses a value that is not finite, not 0/1 for a digital set-point, or
+  // outside the set-point's configured limits (task key `setpoints`), the
+  // range named; every writer of set-points goes through here. Also called by
+  // drivers' non-RT threads through DriverSetup::set_point (an HMI writing over
+  // Modbus): it holds setpoint_mu_, as make_program() does.
   Result<std::string> set_value(const std::string& label, double value);
+  // Forces an input (what every task reads) or an output (what every driver
+  // sends) to `value` until unforced; `uid` is who asked (for the record).
+  // Not kept across a restart. Refuses set-points (use set_value), inputs no
+  // driver provides, non-finite values and non-0/1 values for digital channels.
+  Result<std::string> force(const std::string& label, double value, uint32_t uid);
+  Result<std::string> unforce(const std::string& label);
+  Result<std::string> unforce_all();
+  // The forced channels, by label.
+  std::vector<ForceRecord> forces() const;
   // Compiles `source` for task `task` and swaps it in at the task's next cycle
   // boundary; waits for the hand-over. A compile or verification error changes
   // nothing. A program that no longer writes an output the running one writes
@@ -88,6 +112,14 @@ class Runtime {
                            const std::vector<std::string>& drop_outputs = {});
   Result<std::string> rollback(const std::string& task, const std::vector<std::string>& drop_outputs = {});
   std::string status() const;
+  // Tracing (`rtplc trace`, trace_ops.cpp): selects up to io::kTraceChannels
+  // channels of one task for its trace ring and answers what the tool needs
+  // to drain it (see control.h, the trace verbs). The selection is held by a
+  // lease the tool renews with trace_keep; tick() ends one not renewed for
+  // kTraceLeaseNs, so a tool that died does not leave its task tracing.
+  Result<std::string> trace_start(const std::vector<std::string>& labels);
+  Result<std::string> trace_keep(const std::string& token);
+  Result<std::string> trace_end(const std::string& token);
   // Frees programs the tasks have let go of (call periodically off the RT path).
   void reap();
   // The control thread's housekeeping, a few times a second: the heartbeat in
@@ -130,6 +162,14 @@ class Runtime {
                                                       const std::vector<std::string>& drop_outputs = {});
   void publish_setpoints();
   void restore_state(const config::RuntimeConfig& cfg, DiagnosticList& cdiag);
+  struct TraceLease {
+    std::string token;   // "" = no trace on this task
+    int64_t expires_ns = 0;
+    std::string labels;  // for the log
+    bool clearing = false;  // ended; the empty selection is not yet taken by the task
+  };
+  void expire_traces(const std::function<void(bool, const std::string&)>& log);
+  bool clear_trace(uint32_t task);
   Result<std::string> install(Task& t, std::unique_ptr<LoadedProgram> next, bool keep_previous);
 
   FileLock lock_;  // held while this runtime lives: no second one of its name
@@ -158,8 +198,17 @@ class Runtime {
   uint32_t setpoint_region_ = 0;
   uint32_t unwired_region_ = 0;
   uint64_t events_dropped_said_ = 0;
-  std::vector<double> setpoint_values_;  // control thread's copy of the set-point region
+  // The set-point region's one writer is whoever holds setpoint_mu_: the
+  // control thread (`rtplc set`, a swap adding a set-point) or a driver's
+  // thread setting one for its peer. It guards setpoint_values_, retain_'s
+  // values and the region's snapshots (publish_setpoints()).
+  std::mutex setpoint_mu_;
+  std::vector<double> setpoint_values_;  // the set-point region's values
+  std::map<std::string, config::SetpointLimits> setpoint_limits_;  // by label
+  std::map<std::string, ForceRecord> forces_;  // by label (control thread); the image's force table says what applies
   ImagePlan plan_;
+  std::vector<TraceLease> traces_;  // per task
+  uint64_t trace_counter_ = 0;
   bool started_ = false;
   // Retained block state (control thread only).
   std::string state_path_;
@@ -173,6 +222,11 @@ class Runtime {
   std::string persist_error_said_;
   std::string stop_state_error_;
 };
+
+// A CLOCK_REALTIME instant as "2026-12-01T19:50:01Z" (force records, logs).
+std::string format_utc(int64_t realtime_ns);
+// A trace selection lives this long after the tool's last renewal.
+inline constexpr int64_t kTraceLeaseNs = 5000000000;
 
 // Default control socket and retain file for a runtime name: system paths when
 // running as root, per-user paths otherwise.

@@ -2,11 +2,14 @@
 // swap and rollback, status and the start-up summary. Control thread only.
 #include "sched/runtime.h"
 
+#include <time.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <ctime>
+#include <optional>
 #include <thread>
 
 #include "common/text.h"
@@ -45,6 +48,7 @@ void active_steps(const LoadedProgram& old, const Migration& m, std::vector<std:
 // Operator verbs
 
 Result<std::string> Runtime::set_value(const std::string& label, double value) {
+  std::lock_guard setpoints(setpoint_mu_);
   const int c = image_.find_channel(label);
   if (c < 0) return make_error("no channel is labelled \"" + label + "\"");
   const io::ChannelDesc& d = image_.channel(static_cast<uint32_t>(c));
@@ -53,9 +57,21 @@ Result<std::string> Runtime::set_value(const std::string& label, double value) {
                       (d.dir == static_cast<uint8_t>(io::ChannelDir::kInput) ? "an input" : "an output") +
                       "; only set-points (asp, dsp) can be set");
   }
-  if (!std::isfinite(value)) return make_error("the value must be a finite number");
   if (d.kind == static_cast<uint8_t>(Kind::kDigital) && value != 0 && value != 1) {
-    return make_error("\"" + label + "\" is a digital set-point: 0 or 1");
+    return make_error("not changed: \"" + label + "\" is a digital set-point: 0 or 1, got " + format_number(value));
+  }
+  const auto lim = setpoint_limits_.find(label);
+  const std::optional<double> lo = lim != setpoint_limits_.end() ? lim->second.min : std::nullopt;
+  const std::optional<double> hi = lim != setpoint_limits_.end() ? lim->second.max : std::nullopt;
+  const char* where = lim == setpoint_limits_.end() ? "" : " (its `setpoints` limits in the config)";
+  if (!std::isfinite(value)) {
+    const std::string range = lo && hi ? " in " + limits_text(lo, hi) : lo || hi ? " " + limits_text(lo, hi) : "";
+    return make_error("not changed: set-point \"" + label + "\" takes a finite number" + range + where + ", got " +
+                      format_number(value));
+  }
+  if ((lo && value < *lo) || (hi && value > *hi)) {
+    return make_error("not changed: " + format_number(value) + " is outside the range of set-point \"" + label +
+                      "\": " + limits_text(lo, hi) + where);
   }
   const double before = setpoint_values_[d.index];
   if (d.retain) {
@@ -63,12 +79,107 @@ Result<std::string> Runtime::set_value(const std::string& label, double value) {
     RetainStore next = retain_;
     next.set(label, value);
     if (auto r = next.save(); !r) return make_error("not changed: cannot retain it: " + r.error());
-    retain_ = std::move(next);
+    retain_.set(label, value);  // not a move-assignment: others read retain_.path() unlocked
   }
   setpoint_values_[d.index] = value;
   publish_setpoints();
   return label + " = " + format_number(value) + " (was " + format_number(before) + ")" +
          (d.retain ? ", retained in " + retain_.path() : "");
+}
+
+std::string format_utc(int64_t realtime_ns) {
+  const time_t secs = static_cast<time_t>(realtime_ns / 1000000000);
+  tm utc{};
+  gmtime_r(&secs, &utc);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &utc);
+  return buf;
+}
+
+namespace {
+int64_t realtime_now_ns() {
+  timespec ts;
+  clock_gettime(CLOCK_REALTIME, &ts);
+  return int64_t{ts.tv_sec} * 1000000000 + ts.tv_nsec;
+}
+
+const char* dir_name(uint8_t dir) {
+  return dir == static_cast<uint8_t>(io::ChannelDir::kInput)    ? "input"
+         : dir == static_cast<uint8_t>(io::ChannelDir::kOutput) ? "output"
+                                                                 : "set-point";
+}
+}  // namespace
+
+Result<std::string> Runtime::force(const std::string& label, double value, uint32_t uid) {
+  const int c = image_.find_channel(label);
+  if (c < 0) return make_error("not forced: no channel is labelled \"" + label + "\"");
+  const io::ChannelDesc& d = image_.channel(static_cast<uint32_t>(c));
+  if (d.dir == static_cast<uint8_t>(io::ChannelDir::kSetpoint)) {
+    return make_error("not forced: \"" + label + "\" is a set-point; change it with `rtplc set " + label +
+                      " VALUE` (forcing is for inputs and outputs)");
+  }
+  if (d.region == unwired_region_) {
+    return make_error("not forced: no driver provides input \"" + label +
+                      "\", so no task reads it; wire it to a driver first");
+  }
+  if (!std::isfinite(value)) return make_error("not forced: the value must be a finite number, got " + format_number(value));
+  if (d.kind == static_cast<uint8_t>(Kind::kDigital) && value != 0 && value != 1) {
+    return make_error("not forced: \"" + label + "\" is a digital " + dir_name(d.dir) + ": 0 or 1, got " +
+                      format_number(value));
+  }
+  const io::ChannelValue before = image_.read_channel(static_cast<uint32_t>(c));
+  image_.force(d.region, d.index, value);
+  ForceRecord& rec = forces_[label];
+  const bool again = !rec.label.empty();
+  rec.label = label;
+  rec.dir = dir_name(d.dir);
+  rec.value = value;
+  rec.uid = uid;
+  rec.since_realtime_ns = realtime_now_ns();
+  // An output of a task the watchdog stopped stays at its safe value: say so.
+  std::string note;
+  const io::RegionDesc& rd = image_.region(d.region);
+  const auto task_state = rd.owner < tasks_.size() ? static_cast<io::TaskState>(image_.task_info(rd.owner).state.load(
+                                                          std::memory_order_relaxed))
+                                                    : io::TaskState::kRunning;
+  if (rd.kind == static_cast<uint8_t>(io::RegionKind::kTask) &&
+      (task_state == io::TaskState::kStoppedWatchdog || task_state == io::TaskState::kStopped)) {
+    note = "\nnote: task " + tasks_[rd.owner]->params().name +
+           " is not running: its outputs stay at their safe values, the force applies once it runs again";
+  }
+  return label + " (" + rec.dir + ") FORCED to " + format_number(value) + " (was " + format_number(before.value) +
+         (again ? ", already forced" : "") + "); " +
+         (d.dir == static_cast<uint8_t>(io::ChannelDir::kInput) ? "every task reads this value"
+                                                                 : "every driver sends this value") +
+         " until `rtplc unforce " + label + "`" + note;
+}
+
+Result<std::string> Runtime::unforce(const std::string& label) {
+  const int c = image_.find_channel(label);
+  if (c < 0) return make_error("no channel is labelled \"" + label + "\"");
+  const io::ChannelDesc& d = image_.channel(static_cast<uint32_t>(c));
+  const io::ForcedValue f = image_.forced(d.region, d.index);
+  if (!image_.unforce(d.region, d.index)) return make_error("\"" + label + "\" is not forced");
+  forces_.erase(label);
+  return label + " released (was forced to " + format_number(f.value) + "); its " +
+         (d.dir == static_cast<uint8_t>(io::ChannelDir::kInput) ? "driver's" : "task's") + " value applies again";
+}
+
+Result<std::string> Runtime::unforce_all() {
+  if (forces_.empty()) return std::string("nothing is forced");
+  std::string out;
+  const std::map<std::string, ForceRecord> all = forces_;
+  for (const auto& [label, rec] : all) {
+    auto r = unforce(label);
+    out += (r ? *r : r.error()) + "\n";
+  }
+  return out;
+}
+
+std::vector<ForceRecord> Runtime::forces() const {
+  std::vector<ForceRecord> out;
+  for (const auto& [label, rec] : forces_) out.push_back(rec);
+  return out;
 }
 
 Result<std::string> Runtime::install(Task& t, std::unique_ptr<LoadedProgram> next, bool keep_previous) {
@@ -204,6 +315,16 @@ std::string Runtime::status() const {
   s += "shared memory " + image_.object_name() + ", control socket " + socket_path_ +
        ", retain file " + retain_.path() + "\n";
   for (uint32_t l = 0; l < image_.link_count(); ++l) s += "  " + link_status_line(link_snapshot(image_.link(l))) + "\n";
+  if (forces_.empty()) {
+    s += "  forced: none\n";
+  } else {
+    s += "  FORCED: " + std::to_string(forces_.size()) + " channel" + (forces_.size() == 1 ? "" : "s") +
+         " (rtplc unforce LABEL | --all)\n";
+    for (const auto& [label, rec] : forces_) {
+      s += "    FORCED " + rec.dir + " " + label + " = " + format_number(rec.value) + " since " +
+           format_utc(rec.since_realtime_ns) + " by uid " + std::to_string(rec.uid) + "\n";
+    }
+  }
   for (const auto& t : tasks_) {
     const io::TaskInfo& ti = image_.task_info(t->index());
     const auto* st = static_cast<const CycleStats*>(image_.task_stats(t->index()));
@@ -231,6 +352,9 @@ std::string Runtime::status() const {
       }
     }
     if (is_sfc) s += ", active steps: " + (steps.empty() ? std::string("none") : steps);
+    if (t->index() < traces_.size() && !traces_[t->index()].token.empty() && !traces_[t->index()].clearing) {
+      s += ", traced (" + traces_[t->index()].labels + ")";
+    }
     s += "\n";
   }
   return s;

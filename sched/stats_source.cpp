@@ -9,6 +9,7 @@
 #include <ctime>
 #include <string>
 
+#include "common/text.h"
 #include "kernel_rt/rt_kernel.h"
 #include "sched/jitter.h"
 
@@ -142,6 +143,46 @@ std::string with_links_json(const io::ProcessImage& img, const std::string& json
   std::string out = json.substr(0, close);
   while (!out.empty() && (out.back() == '\n' || out.back() == ' ')) out.pop_back();
   return out + links + "}\n";
+}
+
+std::vector<ForcedChannel> forced_channels(const io::ProcessImage& img) {
+  std::vector<ForcedChannel> out;
+  for (uint32_t c = 0; c < img.channel_count(); ++c) {
+    const io::ChannelDesc& d = img.channel(c);
+    const io::ForcedValue f = img.forced(d.region, d.index);
+    if (!f.forced) continue;
+    out.push_back({std::string(d.label, strnlen(d.label, sizeof d.label)),
+                   d.dir == static_cast<uint8_t>(io::ChannelDir::kInput) ? "input" : "output", f.value});
+  }
+  return out;
+}
+
+std::string render_forced(const io::ProcessImage& img) {
+  const std::vector<ForcedChannel> f = forced_channels(img);
+  if (f.empty()) return "";
+  std::string out = "FORCED: " + std::to_string(f.size()) + (f.size() == 1 ? " channel:" : " channels:");
+  for (size_t i = 0; i < f.size(); ++i) {
+    out += (i ? ", " : " ") + f[i].label + " (" + f[i].dir + ") = " + format_number(f[i].value);
+  }
+  return out + "  (rtplc unforce LABEL | --all)\n";
+}
+
+std::string with_forced_json(const io::ProcessImage& img, const std::string& json) {
+  const size_t close = json.find_last_of('}');
+  if (close == std::string::npos) return json;
+  const std::vector<ForcedChannel> f = forced_channels(img);
+  std::string items = ",\n  \"forced\": [";
+  char item[160];
+  for (size_t i = 0; i < f.size(); ++i) {
+    // Labels are letters, digits, '_', '-' and '.': nothing to escape.
+    std::snprintf(item, sizeof item, "%s\n    {\"label\": \"%s\", \"dir\": \"%s\", \"value\": %.17g}",
+                  i ? "," : "", f[i].label.c_str(), f[i].dir.c_str(), f[i].value);
+    items += item;
+  }
+  items += f.empty() ? "]\n" : "\n  ]\n";
+  std::string out = json.substr(0, close);
+  while (!out.empty() && (out.back() == '\n' || out.back() == ' ')) out.pop_back();
+  return out + items + "}\n";
 }
 
 }  // namespace rtplc::sched

@@ -41,4 +41,17 @@ std::string render_links_table(const io::ProcessImage& image);
 // The stats JSON object with a "links" array added.
 std::string with_links_json(const io::ProcessImage& image, const std::string& json);
 
+// The channels an operator forced, read from the image's force table.
+struct ForcedChannel {
+  std::string label;
+  std::string dir;  // "input", "output"
+  double value = 0;
+};
+std::vector<ForcedChannel> forced_channels(const io::ProcessImage& image);
+// "FORCED: 2 channels: ProcVal (input) = 12, Valve (output) = 0\n" under the
+// stats table; "" when nothing is forced.
+std::string render_forced(const io::ProcessImage& image);
+// The stats JSON object with a "forced" array added.
+std::string with_forced_json(const io::ProcessImage& image, const std::string& json);
+
 }  // namespace rtplc::sched

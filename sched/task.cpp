@@ -2,6 +2,7 @@
 #include "sched/task.h"
 
 #include <algorithm>
+#include <limits>
 
 #include "kernel_rt/clock.h"
 #include "kernel_rt/memory.h"
@@ -17,7 +18,8 @@ Task::Task(TaskParams params, io::ProcessImage& image, uint32_t index, uint32_t 
       setpoint_region_(setpoint_region),
       info_(&image.task_info(index)),
       stats_(static_cast<CycleStats*>(image.task_stats(index))),
-      owned_(std::move(first)) {
+      owned_(std::move(first)),
+      trace_(image.trace_block(index)) {
   current_ = owned_.get();
   active_ = owned_.get();
 }
@@ -42,8 +44,10 @@ Result<void> Task::start(int64_t first_release_ns) {
   spec.name = "rtplc:" + params_.name.substr(0, 9);
   spec.fifo_priority = params_.priority;
   if (params_.cpu >= 0) spec.cpu = static_cast<unsigned>(params_.cpu);
-  spec.stack_bytes = 512 * 1024;
-  spec.prefault_stack = 256 * 1024;
+  // The cycle's deepest call chain (executor, input copy, stats) needs a few KiB;
+  // tests/runtime holds a 10,000-block task under half of the default stack.
+  spec.stack_bytes = kernel_rt::kDefaultStackBytes;
+  spec.prefault_stack = 64 * 1024;
   info_->state.store(static_cast<uint8_t>(io::TaskState::kStarting), std::memory_order_relaxed);
   auto t = kernel_rt::start_thread(spec, [this] { run(); });
   if (!t) return make_error("task " + params_.name + ": " + t.error());
@@ -80,9 +84,22 @@ std::unique_ptr<LoadedProgram> Task::collect() {
 bool read_group(const io::ProcessImage& image, InputGroup& g, double* io_in, uint32_t max_tries) noexcept {
   uint64_t seen = 0;
   const auto n = static_cast<uint32_t>(g.src.size());
-  if (!image.read_values(g.region, g.src.data(), n, g.scratch.data(), max_tries, &seen)) return false;
+  // Qualities are copied only for a group some `good` block reads.
+  Quality* q = g.quality_dst.empty() ? nullptr : g.quality_scratch.data();
+  if (!image.read_values(g.region, g.src.data(), n, g.scratch.data(), max_tries, &seen, q)) return false;
   g.seen = seen;
   for (uint32_t i = 0; i < n; ++i) io_in[g.dst[i]] = g.scratch[i];
+  if (g.quality_dst.empty()) return true;
+  // A forced value is vouched for by the operator: the slot keeps its writer's
+  // quality, the force table says it is forced (one load when nothing is).
+  const bool any_forced = image.force_region(g.region).n_forced.load(std::memory_order_acquire) != 0;
+  for (size_t j = 0; j < g.quality_dst.size(); ++j) {
+    const uint32_t pos = g.quality_pos[j];
+    const Quality qj = g.quality_scratch[pos];
+    const bool forced =
+        any_forced && image.force_entry(g.region, g.src[pos]).forced.load(std::memory_order_acquire) != 0;
+    io_in[g.quality_dst[j]] = forced || qj == Quality::kGood || qj == Quality::kForced ? 1.0 : 0.0;
+  }
   return true;
 }
 
@@ -135,6 +152,38 @@ void Task::write_outputs(LoadedProgram& p, bool safe) noexcept {
   image_.end_write(region_, k, kernel_rt::monotonic_now_ns(), p.arena.cycles);
 }
 
+void Task::resolve_trace(const LoadedProgram& p) noexcept {
+  for (uint32_t i = 0; i < trace_.n(); ++i) {
+    const io::TraceSource& s = trace_.sources()[i];
+    trace_output_[i] = -1;
+    trace_input_[i] = nullptr;
+    if (s.region == region_) {
+      trace_output_[i] = static_cast<int32_t>(s.index);
+      continue;
+    }
+    // An input or set-point: the value this program copied in this cycle.
+    for (const InputGroup& g : p.inputs) {
+      if (g.region != s.region) continue;
+      for (size_t k = 0; k < g.src.size(); ++k) {
+        if (g.src[k] == s.index) trace_input_[i] = p.arena.io_in.data() + g.dst[k];
+      }
+    }
+  }
+}
+
+void Task::record_trace(uint64_t cycle, int64_t release_ns) noexcept {
+  double v[io::kTraceChannels];
+  // The snapshot this cycle just published (only this thread writes the region).
+  const uint64_t published = image_.ring(region_).published.load(std::memory_order_relaxed);
+  const double* slot = image_.values(region_, static_cast<uint32_t>(published % io::kRingSlots));
+  for (uint32_t i = 0; i < trace_.n(); ++i) {
+    if (trace_output_[i] >= 0) v[i] = io::load_value(slot + trace_output_[i]);
+    else if (trace_input_[i] != nullptr) v[i] = *trace_input_[i];
+    else v[i] = std::numeric_limits<double>::quiet_NaN();  // this program does not read it
+  }
+  trace_.append(cycle, release_ns, v);
+}
+
 void Task::run() noexcept {
   const int64_t period = params_.period_ns;
   int64_t release = first_release_;
@@ -172,6 +221,9 @@ void Task::run() noexcept {
       }
     }
 
+    // A new trace selection, or a new program, changes where traced values are.
+    if (trace_.pick_up() || swapped) resolve_trace(*current_);
+
     if (!stopped) {
       read_inputs(*current_);
       write_outputs(*current_, false);
@@ -180,6 +232,7 @@ void Task::run() noexcept {
         until_snapshot = params_.snapshot_every;
         current_->snapshot.take(current_->arena, wake);
       }
+      if (trace_.n() > 0) record_trace(cycle, release);
     }
     const int64_t end = kernel_rt::monotonic_now_ns();
     if (params_.count_faults && cycle > 16) {

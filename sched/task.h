@@ -5,12 +5,16 @@
 //   take a pending replacement program if one was published (swap boundary)
 //   copy the inputs it reads from their source regions
 //   run the program with its outputs written straight into its output region
-//   publish the outputs; record wake latency and execution time
+//   publish the outputs (forced ones take their forced value in the image's
+//   end_write(), see io/process_image.h "Forcing"); record wake latency and
+//   execution time
 //   every `snapshot_every` cycles: copy the retained block state for the
 //   control thread (state_snapshot.h; a bounded copy, no system call)
 //   next release += period; a cycle that ends after the next release is an
 //   overrun: count it and the releases it skipped; N in a row stop the task
 //   (the watchdog) with its outputs at their safe values.
+//   while a trace is selected (rtplc trace): append the traced values to the
+//   task's trace ring (io/trace_ring.h)
 // Nothing in the cycle allocates, locks, logs or throws.
 //
 // Swap protocol (control thread <-> task thread, one swap in flight at a time):
@@ -89,12 +93,19 @@ class Task {
   // After swap_applied(): takes back the program that was replaced (to free it off the RT path).
   std::unique_ptr<LoadedProgram> collect();
   bool running() const { return thread_.joinable(); }
+  // How deep the task thread's stack went (bytes; known once it stopped) and its size.
+  size_t stack_high_water() const { return thread_.stack_high_water(); }
+  size_t stack_bytes() const { return thread_.stack_bytes(); }
   int64_t first_release_ns() const { return first_release_; }
 
  private:
   void run() noexcept;
   void read_inputs(LoadedProgram& p) noexcept;
   void write_outputs(LoadedProgram& p, bool safe) noexcept;
+  // Where each traced value is found for program `p` (at a selection pick-up
+  // and at a swap, both cycle boundaries), and one record of them.
+  void resolve_trace(const LoadedProgram& p) noexcept;
+  void record_trace(uint64_t cycle, int64_t release_ns) noexcept;
 
   TaskParams params_;
   io::ProcessImage& image_;
@@ -115,6 +126,11 @@ class Task {
 
   std::atomic<bool> stop_{false};
   uint32_t quality_refresh_ = 0;  // task thread: cycles left that still write output qualities
+  // Task thread: the trace selection and, per traced value, the output index
+  // in this task's region (>= 0) or the input buffer entry it is read into.
+  io::TraceWriter trace_;
+  int32_t trace_output_[io::kTraceChannels] = {};
+  const double* trace_input_[io::kTraceChannels] = {};
   kernel_rt::RtThread thread_;
   int64_t first_release_ = 0;
   bool fell_back_ = false;

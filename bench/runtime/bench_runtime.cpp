@@ -56,7 +56,7 @@ double bare_hot(const TaskImage& image, double seconds) {
   TaskArena arena(image);
   const ExecContext ctx = make_context(image, arena);
   double per_cycle = 0;
-  kernel_rt::ThreadSpec spec{"bench-hot", 80, {}, 0, 256 * 1024};
+  kernel_rt::ThreadSpec spec{"bench-hot", 80, {}, 512 * 1024, 256 * 1024};
   auto th = kernel_rt::start_thread(spec, [&] {
     const int64_t start = kernel_rt::monotonic_now_ns();
     const int64_t end = start + static_cast<int64_t>(seconds * 1e9);
@@ -85,7 +85,7 @@ std::vector<double> bare_exec_times(const TaskImage& image, double seconds) {
   const ExecContext ctx = make_context(image, arena);
   std::vector<double> t;
   t.reserve(static_cast<size_t>(seconds * 1e9 / kPeriodNs) + 16);
-  kernel_rt::ThreadSpec spec{"bench-bare", 80, {}, 0, 256 * 1024};
+  kernel_rt::ThreadSpec spec{"bench-bare", 80, {}, 512 * 1024, 256 * 1024};
   auto th = kernel_rt::start_thread(spec, [&] {
     int64_t release = kernel_rt::monotonic_now_ns() + kPeriodNs;
     const int64_t end = release + static_cast<int64_t>(seconds * 1e9);

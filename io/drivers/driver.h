@@ -28,9 +28,14 @@
 // quality and its delivery's, so an output never looks good while it is not
 // being delivered. An output whose task quality is bad (a swap dropped it) is
 // not sent at all: drivers read quality with the value (read_output()).
+//
+// Forcing (process_image.h, "Forcing") asks nothing of a kind: end_snapshot()
+// puts an operator's forced inputs in place of the ones the driver read, and
+// read_output() returns a forced output's value like any other.
 #pragma once
 
 #include <atomic>
+#include <functional>
 #include <memory>
 #include <span>
 #include <string>
@@ -94,6 +99,13 @@ struct DriverSetup {
   int helper_priority = 0;  // for threads that only move bytes (below the task band)
   int cpu = -1;             // -1: not pinned
   LinkEventQueue* events = nullptr;
+  // Changes a set-point by its label exactly as `rtplc set` does (the
+  // runtime's checks, retained on disk before it takes effect); returns what
+  // `rtplc set` prints, or why it refused. For a driver that lets a peer set
+  // values (an HMI writing a set-point): call it from the driver's own non-RT
+  // threads, never from cycle(). Null when no runtime is behind the driver
+  // (tests that drive one alone).
+  std::function<Result<std::string>(const std::string& label, double value)> set_point;
 };
 
 // A driver with a periodic bridge thread (every kind so far). A kind

@@ -10,6 +10,7 @@
   X(sim)                         \
   X(s7)                          \
   X(modbus)                      \
+  X(modbus_server)               \
   /* one line per driver, above this one */
 
 #define RTPLC_DECLARE_DRIVER(ns) \

@@ -27,6 +27,39 @@ TEST(ConfigErrors, unknown_key_suggests_the_nearest_one) {
   EXPECT_EQ(r.diags.error_count(), 1u);
 }
 
+TEST(ConfigErrors, setpoint_limits_are_parsed_and_bad_ones_pointed_at) {
+  LoadResult ok = parse(
+      "tasks:\n"
+      "  - program: a.fbd\n"
+      "    setpoints: {SP: {min: -1.5, max: 100}, Low: {min: 0}, High: {max: 9}}\n");
+  ASSERT_TRUE(ok.ok()) << ok.render();
+  const std::vector<SetpointLimits>& l = ok.config->tasks[0].setpoint_limits;
+  ASSERT_EQ(l.size(), 3u);
+  EXPECT_EQ(l[0].label, "SP");
+  EXPECT_EQ(*l[0].min, -1.5);
+  EXPECT_EQ(*l[0].max, 100.0);
+  EXPECT_FALSE(l[1].max.has_value());
+  EXPECT_FALSE(l[2].min.has_value());
+  EXPECT_EQ(l[0].pos.line, 3u);
+  EXPECT_EQ(l[0].pos.col, 17u);
+
+  LoadResult bad = parse(
+      "tasks:\n"
+      "  - program: a.fbd\n"
+      "    setpoints:\n"
+      "      SP: {min: 10, max: 5}\n"
+      "      A: {mn: 0}\n"
+      "      B: {max: .inf}\n"
+      "      C: 7\n"
+      "      SP: {min: 0}\n");
+  EXPECT_FALSE(bad.ok());
+  EXPECT_TRUE(has_diag(bad, 4, 26, "set-point 'SP': max 5 is below min 10"));
+  EXPECT_TRUE(has_diag(bad, 5, 11, "set-point 'A' takes 'min' and 'max'"));
+  EXPECT_TRUE(has_diag(bad, 6, 16, "'max' of set-point 'B' expects a finite number"));
+  EXPECT_TRUE(has_diag(bad, 7, 10, "set-point 'C' expects {min: number, max: number}"));
+  EXPECT_TRUE(has_diag(bad, 8, 7, "set-point 'SP' is given twice"));
+}
+
 TEST(ConfigErrors, unknown_key_far_from_any_lists_the_known_ones) {
   LoadResult r = parse("runtime:\n  colour: blue\ntasks: [{program: a.fbd}]\n");
   EXPECT_TRUE(has_diag(r, 2, 3,

@@ -150,6 +150,39 @@ TEST(RtThread, moved_thread_joins_once) {
   EXPECT_EQ(runs.load(), 1);
 }
 
+// Writes `bytes` of a frame of its own, so the stack goes at least that deep.
+[[gnu::noinline]] void use_stack(size_t bytes) {
+  auto* block = static_cast<volatile unsigned char*>(__builtin_alloca(bytes));
+  for (size_t i = 0; i < bytes; i += 64) block[i] = static_cast<unsigned char>(i);
+}
+
+TEST(RtThread, a_thread_gets_the_default_stack_not_the_system_one) {
+  auto t = start_thread(ThreadSpec{}, [] {});
+  ASSERT_TRUE(t.ok()) << t.error();
+  EXPECT_EQ(t->stack_bytes(), kDefaultStackBytes);
+  ThreadSpec big;
+  big.stack_bytes = 1u << 20;
+  auto b = start_thread(big, [] {});
+  ASSERT_TRUE(b.ok()) << b.error();
+  EXPECT_EQ(b->stack_bytes(), 1u << 20);
+}
+
+TEST(RtThread, stack_high_water_says_how_deep_the_body_went) {
+  size_t shallow = 0, deep = 0;
+  for (size_t want : {size_t{0}, size_t{96} << 10}) {
+    auto t = start_thread(ThreadSpec{}, [want] {
+      if (want > 0) use_stack(want);
+    });
+    ASSERT_TRUE(t.ok()) << t.error();
+    t->join();
+    (want == 0 ? shallow : deep) = t->stack_high_water();
+  }
+  if (deep == 0) GTEST_SKIP() << "stack depth is not measured in a sanitizer build";
+  EXPECT_GE(deep, size_t{96} << 10);
+  EXPECT_LT(deep, kDefaultStackBytes);
+  EXPECT_LT(shallow, size_t{32} << 10) << "an empty body needs only the start-up frames";
+}
+
 // What a start looked like from inside an unprivileged child, as one line.
 std::string describe_start(int priority) {
   ThreadSpec spec;

@@ -24,7 +24,7 @@ struct Generated {
 Generated random_program(std::mt19937& rng, int n) {
   std::vector<const BlockSpec*> compute;
   for (const BlockSpec& b : all_blocks()) {
-    if (b.signature == Signature::kCompute) compute.push_back(&b);
+    if (b.signature == Signature::kCompute && !b.reads_quality) compute.push_back(&b);
   }
   std::vector<const BlockSpec*> chosen;
   std::vector<uint32_t> analog_ids, digital_ids;

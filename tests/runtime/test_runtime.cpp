@@ -357,4 +357,19 @@ TEST(Runtime, kill_9_loses_no_retained_value) {
 }
 
 }  // namespace
+TEST(Runtime, a_ten_thousand_block_task_uses_under_half_of_its_stack) {
+  // Every thread's stack is resident and locked for its whole size, so each is
+  // sized to what it uses: this holds the task's size to account.
+  RuntimeFixture fx;
+  fx.write("heavy.fbd", heavy_program(10000));
+  auto rt = fx.start("tasks:\n  - {name: heavy, program: heavy.fbd, period: 5ms}\n");
+  ASSERT_NE(rt, nullptr);
+  sleep_s(0.2);
+  rt->stop();
+  ASSERT_GT(stats_of(*rt, 0).cycles(), 0u);
+  const size_t used = rt->task(0).stack_high_water();
+  if (used == 0) GTEST_SKIP() << "stack depth is not measured in a sanitizer build";
+  EXPECT_LT(used, rt->task(0).stack_bytes() / 2) << used << " of " << rt->task(0).stack_bytes() << " bytes";
+}
+
 }  // namespace rtplc::sched

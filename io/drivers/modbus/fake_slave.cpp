@@ -15,19 +15,13 @@
 #include <cerrno>
 #include <cstring>
 
+#include "io/drivers/modbus/pdu.h"
 #include "kernel_rt/clock.h"
 
 namespace rtplc::modbus {
 namespace {
 
 uint16_t be16(const uint8_t* p) { return static_cast<uint16_t>(p[0] << 8 | p[1]); }
-void put16(std::vector<uint8_t>& v, uint32_t x) {
-  v.push_back(static_cast<uint8_t>(x >> 8));
-  v.push_back(static_cast<uint8_t>(x));
-}
-
-std::vector<uint8_t> exception(uint8_t fc, uint8_t code) { return {static_cast<uint8_t>(fc | 0x80), code}; }
-
 size_t table_index(Table t) { return static_cast<size_t>(t); }
 
 }  // namespace
@@ -168,16 +162,16 @@ void FakeSlave::run() {
       }
       it->in.insert(it->in.end(), buf, buf + n);
       bool drop = false;
-      while (it->in.size() >= 7 && !drop) {
-        const size_t len = be16(&it->in[4]);
-        if (len < 2 || len > 254) {  // not Modbus TCP: hang up
-          drop = true;
-          break;
-        }
-        if (it->in.size() < 6 + len) break;
-        handle(*it, it->in.data(), 6 + len, pending, drop);
-        it->in.erase(it->in.begin(), it->in.begin() + static_cast<std::ptrdiff_t>(6 + len));
+      size_t used = 0;
+      while (!drop) {
+        MbapFrame f;
+        const FrameStatus st = next_frame(it->in.data() + used, it->in.size() - used, f);
+        if (st == FrameStatus::kBad) drop = true;  // not Modbus TCP: hang up
+        if (st != FrameStatus::kComplete) break;
+        handle(*it, f, pending, drop);
+        used += f.frame_len;
       }
+      it->in.erase(it->in.begin(), it->in.begin() + static_cast<std::ptrdiff_t>(used));
       if (drop) to_close.push_back(p.fd);
     }
     for (int fd : to_close) close_client(fd);
@@ -185,13 +179,12 @@ void FakeSlave::run() {
   for (const Client& c : clients) ::close(c.fd);
 }
 
-void FakeSlave::handle(Client& c, const uint8_t* frame, size_t len, std::vector<Pending>& out, bool& drop) {
+void FakeSlave::handle(Client& c, const MbapFrame& f, std::vector<Pending>& out, bool& drop) {
   requests_.fetch_add(1);
-  const uint8_t unit = frame[6];
   if (silent_.load()) return;
-  if (!opt_.units.empty() && std::find(opt_.units.begin(), opt_.units.end(), unit) == opt_.units.end()) return;
+  if (!opt_.units.empty() && std::find(opt_.units.begin(), opt_.units.end(), f.unit) == opt_.units.end()) return;
   uint16_t magic = 0;
-  std::vector<uint8_t> pdu = answer(frame + 7, len - 7, magic);
+  std::vector<uint8_t> pdu = answer(f.pdu, f.pdu_len, magic);
   if (magic == kMagicSilent) return;
   if (magic == kMagicDrop) {
     drop = true;
@@ -203,14 +196,9 @@ void FakeSlave::handle(Client& c, const uint8_t* frame, size_t len, std::vector<
     pdu.push_back(0);
     pdu.push_back(0);
   }
+  const uint16_t tid = magic == kMagicBadId ? static_cast<uint16_t>(f.transaction + 1) : f.transaction;
   std::vector<uint8_t> reply;
-  uint16_t tid = be16(frame);
-  if (magic == kMagicBadId) tid = static_cast<uint16_t>(tid + 1);
-  put16(reply, tid);
-  put16(reply, 0);
-  put16(reply, static_cast<uint32_t>(pdu.size()) + 1);
-  reply.push_back(unit);
-  reply.insert(reply.end(), pdu.begin(), pdu.end());
+  append_frame(reply, tid, f.unit, pdu.data(), pdu.size());
   int64_t due = kernel_rt::monotonic_now_ns() + opt_.reply_delay_ns;
   if (magic == kMagicDelay) due += opt_.delay_ns;
   out.push_back({c.fd, due, std::move(reply)});
@@ -219,75 +207,49 @@ void FakeSlave::handle(Client& c, const uint8_t* frame, size_t len, std::vector<
 // The PDU of the answer to one request; `magic` says which fault, if any, the
 // request's range covered.
 std::vector<uint8_t> FakeSlave::answer(const uint8_t* pdu, size_t len, uint16_t& magic) {
-  if (len < 1) return exception(0, 1);
+  if (len < 1) return exception_reply(0, kExceptionIllegalFunction);
   const uint8_t fc = pdu[0];
-  if (len < 5) return exception(fc, 3);
+  if (len < 5) return exception_reply(fc, kExceptionIllegalValue);
+  // The faults come first, whatever else is wrong with the request.
   const uint16_t addr = be16(pdu + 1);
-  const uint16_t qty = be16(pdu + 3);
-  uint32_t span = 1;
-  if (fc == 1 || fc == 2 || fc == 3 || fc == 4 || fc == 15 || fc == 16) span = qty;
+  const uint32_t span = fc == 1 || fc == 2 || fc == 3 || fc == 4 || fc == 15 || fc == 16 ? be16(pdu + 3) : 1;
   const uint32_t end = uint32_t{addr} + span;
   for (uint32_t m = kMagicExceptionBase + 1; m <= kMagicExceptionBase + 11u; ++m) {
-    if (addr <= m && m < end) return exception(fc, static_cast<uint8_t>(m - kMagicExceptionBase));
+    if (addr <= m && m < end) return exception_reply(fc, static_cast<uint8_t>(m - kMagicExceptionBase));
   }
   for (uint16_t m : {kMagicDelay, kMagicDrop, kMagicBadLength, kMagicSilent, kMagicBadId}) {
     if (addr <= m && m < end) magic = m;
   }
-  std::vector<uint8_t> r{fc};
+  Request rq;
+  if (const uint8_t e = parse_request(pdu, len, rq); e != 0) return exception_reply(fc, e);
   std::lock_guard lock(mu_);
   switch (fc) {
     case 1:
     case 2: {
-      if (qty < 1 || qty > 2000) return exception(fc, 3);
-      if (end > 65536) return exception(fc, 2);
       const auto& t = tables_[table_index(fc == 1 ? Table::kCoil : Table::kDiscreteInput)];
-      const auto bytes = static_cast<uint8_t>((qty + 7) / 8);
-      r.push_back(bytes);
-      for (uint32_t b = 0; b < bytes; ++b) {
-        uint8_t v = 0;
-        for (uint32_t i = 0; i < 8 && b * 8 + i < qty; ++i) v = static_cast<uint8_t>(v | (t[addr + b * 8 + i] ? 1u << i : 0u));
-        r.push_back(v);
-      }
-      return r;
+      std::vector<uint8_t> bits(rq.count);
+      for (uint32_t i = 0; i < rq.count; ++i) bits[i] = t[rq.address + i] != 0;
+      return bits_reply(fc, bits.data(), rq.count);
     }
     case 3:
     case 4: {
-      if (qty < 1 || qty > 125) return exception(fc, 3);
-      if (end > 65536) return exception(fc, 2);
       const auto& t = tables_[table_index(fc == 3 ? Table::kHoldingRegister : Table::kInputRegister)];
-      r.push_back(static_cast<uint8_t>(qty * 2));
-      for (uint32_t i = 0; i < qty; ++i) put16(r, t[addr + i]);
-      return r;
+      return registers_reply(fc, t.data() + rq.address, rq.count);
     }
     case 5:
-      if (qty != 0xFF00 && qty != 0) return exception(fc, 3);
-      tables_[table_index(Table::kCoil)][addr] = qty ? 1 : 0;
-      writes_.fetch_add(1);
-      r.assign(pdu, pdu + 5);
-      return r;
     case 6:
-      tables_[table_index(Table::kHoldingRegister)][addr] = qty;
+      tables_[table_index(fc == 5 ? Table::kCoil : Table::kHoldingRegister)][rq.address] = rq.value;
       writes_.fetch_add(1);
-      r.assign(pdu, pdu + 5);
-      return r;
-    case 15:
-    case 16: {
-      if (len < 6) return exception(fc, 3);
-      const size_t bytes = pdu[5];
+      return write_reply(pdu);
+    default: {  // 15, 16
       const bool regs = fc == 16;
-      if (qty < 1 || qty > (regs ? 123 : 1968) || bytes != (regs ? qty * 2u : (qty + 7u) / 8u) || len < 6 + bytes) {
-        return exception(fc, 3);
-      }
-      if (end > 65536) return exception(fc, 2);
       auto& t = tables_[table_index(regs ? Table::kHoldingRegister : Table::kCoil)];
-      for (uint32_t i = 0; i < qty; ++i) {
-        t[addr + i] = regs ? be16(pdu + 6 + 2 * i) : static_cast<uint16_t>((pdu[6 + i / 8] >> (i % 8)) & 1);
+      for (uint16_t i = 0; i < rq.count; ++i) {
+        t[rq.address + i] = regs ? rq.register_at(i) : static_cast<uint16_t>(rq.bit_at(i));
       }
       writes_.fetch_add(1);
-      r.assign(pdu, pdu + 5);
-      return r;
+      return write_reply(pdu);
     }
-    default: return exception(fc, 1);
   }
 }
 

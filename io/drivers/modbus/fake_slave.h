@@ -10,7 +10,8 @@
 //   65504  kMagicBadId      answers with another transaction id
 // Whole-slave faults for tests: set_silent() (accepts, never answers), kill()
 // and restart() (gone, then back on the same port), a delay on every reply.
-// One thread serves every client with poll(); the tables are behind a mutex
+// One thread serves every client with poll(), framing and checking requests
+// with pdu.h as the modbus-server kind does; the tables are behind a mutex
 // (this is a test peer, not an RT path). `rtplc modbus fake-slave` serves it.
 #pragma once
 
@@ -23,6 +24,7 @@
 
 #include "common/result.h"
 #include "io/drivers/modbus/address.h"
+#include "io/drivers/modbus/pdu.h"
 
 namespace rtplc::modbus {
 
@@ -64,6 +66,11 @@ class FakeSlave {
   double value(const Address& a) const;
   uint64_t requests() const { return requests_.load(); }
   uint64_t writes() const { return writes_.load(); }
+  // The answer PDU to one request PDU (function code onwards) against the
+  // tables; `magic` says which fault, if any, the request's range covered.
+  // Public for servers that run their own socket loop (bench/modbus's lean
+  // fake serves a hundred slaves from one epoll loop with it).
+  std::vector<uint8_t> answer(const uint8_t* pdu, size_t len, uint16_t& magic);
 
  private:
   struct Client {
@@ -76,8 +83,7 @@ class FakeSlave {
     std::vector<uint8_t> bytes;
   };
   void run();
-  void handle(Client& c, const uint8_t* frame, size_t len, std::vector<Pending>& out, bool& drop);
-  std::vector<uint8_t> answer(const uint8_t* pdu, size_t len, uint16_t& magic);
+  void handle(Client& c, const MbapFrame& f, std::vector<Pending>& out, bool& drop);
   Result<void> listen();
 
   FakeSlaveOptions opt_;

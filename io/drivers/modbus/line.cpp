@@ -15,6 +15,7 @@ constexpr int64_t kConnectBackoffMinNs = 100'000'000;
 constexpr int64_t kConnectBackoffMaxNs = 5'000'000'000;
 constexpr int64_t kQuietMaxNs = 5'000'000'000;  // an RTU unit that does not answer: polled at least this often
 constexpr uint32_t kTimeoutsBeforeReconnect = 3;
+constexpr int64_t kQuantilesEveryNs = 50'000'000;
 
 int64_t to_ns(double s) { return static_cast<int64_t>(s * 1e9); }
 
@@ -228,11 +229,17 @@ void Line::mark_bad(Unit& u, const UnitBlock& b, int64_t now, uint8_t exception)
 
 void Line::poll_block(Unit& u, UnitBlock& b, int64_t now) noexcept {
   const int64_t period = b.block.period_ns;
+  // The slot this poll stands for: the latest grid point not after now.
+  const int64_t due = b.next_due == 0 ? now : b.next_due + ((now - b.next_due) / period) * period;
   if (b.next_due != 0 && now - b.next_due >= period) {
     u.st.polls_missed += static_cast<uint64_t>((now - b.next_due) / period);
   }
   // The next poll on the grid after now (a late poll does not shift the grid).
-  b.next_due = b.next_due == 0 ? now + period : b.next_due + ((now - b.next_due) / period + 1) * period;
+  // The grid is the clock's own multiples of the period, shared by every line
+  // of that period: their threads wake together, once per period, instead of
+  // at a hundred scattered instants, each pulling an idle CPU out of its sleep
+  // (bench/modbus: a third of the CPU for 100 slaves every 10 ms).
+  b.next_due = b.next_due == 0 ? (now / period + 1) * period : b.next_due + ((now - b.next_due) / period + 1) * period;
   client_.set_unit(u.cfg->unit);
   client_.set_timeout_ns(to_ns(u.cfg->timeout_s));
   uint16_t words[2000];  // MODBUS_MAX_READ_BITS
@@ -270,6 +277,7 @@ void Line::poll_block(Unit& u, UnitBlock& b, int64_t now) noexcept {
   }
   if (o.ok() || o.kind == Outcome::Kind::kException) {
     ++u.st.polls_completed;
+    if (opt_.on_poll) opt_.on_poll(u.slave, due, answered);
     if (u.failures > 0 && u.answered) {
       log(io::LinkEvent::Level::kInfo, fmt::format("slave {} ({}) answers again", u.cfg->name, u.cfg->peer()));
     }
@@ -300,8 +308,15 @@ void Line::publish(Unit& u) noexcept {
   if (client_.connected() && u.st.state == static_cast<uint8_t>(io::LinkState::kDown) && u.failures == 0) {
     u.st.state = static_cast<uint8_t>(io::LinkState::kConnecting);
   }
-  u.st.rtt_p50_us = static_cast<uint32_t>(u.rtt.quantile(0.5));
-  u.st.rtt_p99_us = static_cast<uint32_t>(u.rtt.quantile(0.99));
+  // The quantiles walk the whole histogram (about 700 buckets, twice):
+  // at most every kQuantilesEveryNs, not after every poll; the bridge reads
+  // them only every 100 ms anyway.
+  const int64_t now = kernel_rt::monotonic_now_ns();
+  if (now >= u.quantiles_due) {
+    u.quantiles_due = now + kQuantilesEveryNs;
+    u.st.rtt_p50_us = static_cast<uint32_t>(u.rtt.quantile(0.5));
+    u.st.rtt_p99_us = static_cast<uint32_t>(u.rtt.quantile(0.99));
+  }
   u.st.rtt_max_us = static_cast<uint32_t>(u.rtt.max());
   x_.status[u.slave].store(u.st);
 }

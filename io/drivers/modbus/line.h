@@ -14,10 +14,13 @@
 //   status   the line stores each unit's counters into its SnapshotSlot.
 // The line wakes at its next poll or after `wake_ns` (the driver's period),
 // whichever comes first, so a queued write waits at most about one period.
+// Polls fall on the clock's multiples of their period, so all lines of one
+// period wake together (see poll_block).
 #pragma once
 
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -79,6 +82,11 @@ struct LineOptions {
   int priority = 0;
   int cpu = -1;
   io::LinkEventQueue* events = nullptr;
+  // Measurements only (bench/modbus; the driver leaves it empty): called on the
+  // line's thread after each poll that a unit answered (data or an exception),
+  // with the poll's slot on its block's grid and when the answer came, so the
+  // latency from the scheduled tick can be measured without a second clock.
+  std::function<void(uint32_t slave, int64_t due_ns, int64_t answered_ns)> on_poll;
 };
 
 class Line {
@@ -116,6 +124,7 @@ class Line {
     uint32_t failures = 0;       // consecutive failed polls
     int64_t quiet_until = 0;     // RTU: a unit that stopped answering is skipped until then
     bool answered = false;       // ever
+    int64_t quantiles_due = 0;   // when st's RTT quantiles are computed again
   };
 
   void run() noexcept;

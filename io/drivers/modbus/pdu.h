@@ -1,0 +1,76 @@
+// Modbus TCP as a server sees it (Modbus Application Protocol v1.1b3 and
+// "Messaging on TCP/IP" v1.0b): cutting MBAP frames out of a byte stream,
+// checking a request PDU's shape (function code, quantity limits, byte count)
+// and building the replies. Shared by the fake slave (fake_slave.h) and the
+// `modbus-server` kind (io/drivers/modbus_server/), which differ only in what
+// the tables behind the requests are.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+namespace rtplc::modbus {
+
+inline constexpr uint8_t kExceptionIllegalFunction = 1;
+inline constexpr uint8_t kExceptionIllegalAddress = 2;
+inline constexpr uint8_t kExceptionIllegalValue = 3;
+inline constexpr uint8_t kExceptionDeviceFailure = 4;
+inline constexpr uint8_t kExceptionGatewayTarget = 11;
+
+// One frame at the front of a stream buffer.
+struct MbapFrame {
+  uint16_t transaction = 0;
+  uint8_t unit = 0;
+  const uint8_t* pdu = nullptr;  // function code first
+  size_t pdu_len = 0;
+  size_t frame_len = 0;  // bytes to drop from the buffer after handling it
+};
+
+enum class FrameStatus : uint8_t {
+  kIncomplete,  // wait for more bytes
+  kComplete,    // `frame` describes the first frame
+  kBad,         // not Modbus TCP (protocol id or length impossible): hang up
+};
+
+// Looks at the first bytes of `buf` (a client's unhandled input).
+FrameStatus next_frame(const uint8_t* buf, size_t len, MbapFrame& frame);
+
+// Appends the MBAP header for `pdu_len` bytes of PDU, then the PDU.
+void append_frame(std::vector<uint8_t>& out, uint16_t transaction, uint8_t unit, const uint8_t* pdu,
+                  size_t pdu_len);
+
+// A request PDU whose shape is valid (its addresses are for the caller to judge).
+struct Request {
+  uint8_t function = 0;
+  uint16_t address = 0;
+  // Reads and FC 15/16: how many bits or registers; FC 5/6: 1.
+  uint16_t count = 0;
+  // FC 5: 0 or 1; FC 6: the register; FC 15/16: the first value byte follows.
+  uint16_t value = 0;
+  const uint8_t* data = nullptr;  // FC 15/16: the packed bits or big-endian registers
+  // FC 16: register i of the request.
+  uint16_t register_at(uint16_t i) const {
+    return static_cast<uint16_t>(data[2 * i] << 8 | data[2 * i + 1]);
+  }
+  // FC 15: bit i of the request.
+  bool bit_at(uint16_t i) const { return ((data[i / 8] >> (i % 8)) & 1) != 0; }
+  // The request covers [address, address + count); false when that passes 65535.
+  bool in_address_space() const { return uint32_t{address} + count <= 65536; }
+};
+
+// Checks the PDU of FC 1, 2, 3, 4, 5, 6, 15 or 16 against the specification's
+// limits. 0 and `out` filled, or the exception code to answer: 1 for another
+// function, 3 for a quantity or byte count out of bounds, 2 for a range that
+// runs past address 65535.
+uint8_t parse_request(const uint8_t* pdu, size_t len, Request& out);
+
+// Reply PDUs.
+std::vector<uint8_t> exception_reply(uint8_t function, uint8_t code);
+// FC 1/2: `count` bits from bits[0..count); FC 3/4: `count` registers.
+std::vector<uint8_t> bits_reply(uint8_t function, const uint8_t* bits, uint16_t count);
+std::vector<uint8_t> registers_reply(uint8_t function, const uint16_t* registers, uint16_t count);
+// FC 5, 6, 15, 16: the echo of the request's first five bytes.
+std::vector<uint8_t> write_reply(const uint8_t* pdu);
+
+}  // namespace rtplc::modbus

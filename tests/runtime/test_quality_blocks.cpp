@@ -1,0 +1,78 @@
+// A program sees its inputs' quality through the `good` block and switches to a
+// safe branch while an input is bad: here a Modbus slave (the fake, with its
+// whole-slave faults) killed and restarted under a running runtime, and a
+// channel no driver feeds, which no one vouches for; a forced input counts as
+// good (the operator vouches for it).
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <thread>
+
+#include "io/drivers/modbus/fake_slave.h"
+#include "tests/support/runtime_fixture.h"
+
+namespace rtplc::sched {
+namespace {
+
+using rtplc::testing::channel_value;
+using rtplc::testing::RuntimeFixture;
+
+template <class F>
+bool eventually(F f, double seconds = 5) {
+  for (int i = 0; i < static_cast<int>(seconds * 50); ++i) {
+    if (f()) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return f();
+}
+
+// Level from the slave; while it is not good, the output takes the fallback.
+const char* kProgram =
+    "%%\nstime(0.02)\nF1 = prr(p1, d0, c0, \"Level\")\nD2 = good(F1)\n"
+    "F3 = asp(d0, c0, -5, \"Fallback\")\nF4 = amux(F3, F1, D2)\n"
+    "dao(F4, p0, d0, c9, \"Safe\")\nddo(D2, p0, d0, c8, \"LevelOk\")\n"
+    "F5 = dai(p0, d3, c0, \"Unfed\")\nD6 = good(F5)\nddo(D6, p0, d0, c7, \"UnfedOk\")\nEND\n";
+
+std::string config(uint16_t port) {
+  return "tasks:\n  - {name: t, program: p.fbd}\n"
+         "drivers:\n  - kind: modbus\n    name: mb\n    period: 10ms\n    slaves:\n"
+         "      - {name: a, address: 127.0.0.1, port: " + std::to_string(port) +
+         ", poll: 20ms, timeout: 100ms, retries: 0}\n"
+         "    read:\n      - {device: R, channel: p1.d0.c0, slave: a, address: 0, type: f32}\n";
+}
+
+TEST(QualityInPrograms, a_program_switches_to_its_safe_branch_while_an_input_is_bad) {
+  modbus::FakeSlave slave;
+  ASSERT_TRUE(slave.start().ok());
+  slave.put(*modbus::parse_address("hr:0:f32"), 2.5);
+  RuntimeFixture fx;
+  fx.write("p.fbd", kProgram);
+  auto rt = fx.start(config(slave.port()));
+  ASSERT_NE(rt, nullptr);
+  // Good: the program follows the measurement.
+  ASSERT_TRUE(eventually([&] { return channel_value(*rt, "LevelOk") == 1 && channel_value(*rt, "Safe") == 2.5; }))
+      << channel_value(*rt, "LevelOk") << " " << channel_value(*rt, "Safe");
+  // A channel no driver feeds is never good.
+  EXPECT_EQ(channel_value(*rt, "UnfedOk"), 0);
+
+  slave.kill();  // the link goes down: Level keeps its last value, with bad quality
+  ASSERT_TRUE(eventually([&] { return channel_value(*rt, "LevelOk") == 0; }));
+  EXPECT_TRUE(eventually([&] { return channel_value(*rt, "Safe") == -5; })) << channel_value(*rt, "Safe");
+  EXPECT_EQ(channel_value(*rt, "Level"), 2.5);
+
+  // An operator forcing the bad input vouches for it: the program takes it.
+  ASSERT_TRUE(rt->force("Level", 3.0, 0).ok());
+  EXPECT_TRUE(eventually([&] { return channel_value(*rt, "LevelOk") == 1 && channel_value(*rt, "Safe") == 3.0; }))
+      << channel_value(*rt, "LevelOk") << " " << channel_value(*rt, "Safe");
+  ASSERT_TRUE(rt->unforce("Level").ok());
+  EXPECT_TRUE(eventually([&] { return channel_value(*rt, "LevelOk") == 0; }));
+
+  slave.put(*modbus::parse_address("hr:0:f32"), 4.0);
+  ASSERT_TRUE(slave.restart().ok());
+  EXPECT_TRUE(eventually([&] { return channel_value(*rt, "LevelOk") == 1 && channel_value(*rt, "Safe") == 4.0; }))
+      << channel_value(*rt, "LevelOk") << " " << channel_value(*rt, "Safe");
+  rt->stop();
+}
+
+}  // namespace
+}  // namespace rtplc::sched
