@@ -16,6 +16,7 @@
 
 #include "io/drivers/modbus/fake_slave.h"
 #include "tests/support/runtime_fixture.h"
+#include "tests/support/eventually.h"
 
 namespace rtplc::sched {
 namespace {
@@ -26,14 +27,7 @@ using rtplc::testing::RuntimeFixture;
 
 void sleep_s(double s) { std::this_thread::sleep_for(std::chrono::duration<double>(s)); }
 
-template <class F>
-bool eventually(F f, double seconds = 5) {
-  for (int i = 0; i < static_cast<int>(seconds * 50); ++i) {
-    if (f()) return true;
-    sleep_s(0.02);
-  }
-  return f();
-}
+using rtplc::testing::eventually;
 
 const char* kProgram =
     "%%\nstime(0.02)\nF1 = prr(p1, d0, c0, \"Level\")\nF2 = scale(F1, 2, 1)\n"
