@@ -90,6 +90,7 @@ void run_check_config(const CheckArgs& a) {
   sched::RuntimeOptions opt;
   opt.name_override = "check-" + std::to_string(getpid());  // never clashes with a running one
   opt.lock_memory = false;
+  opt.check_only = true;
   sched::LoadReport report;
   auto rt = sched::Runtime::load(*cfg.config, opt, report);
   const std::string rendered = report.render(color);

@@ -39,6 +39,9 @@ struct RuntimeOptions {
   std::string name_override;       // run under another name (tests run several at once)
   std::string socket_override;
   std::string retain_override;
+  // `rtplc check`: load and plan everything, then go; takes no lock and keeps
+  // no copy of the programs (nothing is left behind in the runtime's folders).
+  bool check_only = false;
 };
 
 // One diagnostic source: the runtime reports problems in the config file and in
