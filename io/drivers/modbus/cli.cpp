@@ -240,7 +240,7 @@ void add_commands(CLI::App& app) {
   fake->add_option("--rtu", fo.serial.device,
                    "serve Modbus RTU on this serial device instead of TCP (a pty: the end of a socat pair)");
   fake->add_option("--baud", fo.serial.baud, "RTU bits per second")->default_val(19200);
-  fake->add_option("--parity", fparity, "RTU parity: N, E or O (a pty may accept N only)")
+  fake->add_option("--parity", fparity, "RTU parity: N, E or O (on a pty use N: pymodbus cannot set E there)")
       ->default_val("E")
       ->check(CLI::IsMember({"N", "E", "O"}));
   fake->add_option("--data-bits", fdata, "RTU data bits")->default_val(8)->check(CLI::Range(5, 8));
@@ -254,7 +254,7 @@ void add_commands(CLI::App& app) {
       "  65501  drops the connection (RTU: silence)          65502  read answer with a wrong byte count\n"
       "  65503  never answers                                65504  wrong transaction id (RTU: unit id)\n"
       "  65505  RTU: answer with a bad CRC (TCP answers normally)\n"
-      "RTU without hardware, over a pty pair (a pty accepts parity N only on some kernels):\n"
+      "RTU without hardware, over a pty pair (parity N: a pty has no UART, and pyserial cannot set E on one):\n"
       "  socat -d -d pty,raw,echo=0,link=/tmp/ptyA pty,raw,echo=0,link=/tmp/ptyB &\n"
       "  rtplc modbus fake-slave --rtu /tmp/ptyA --parity N --unit 7 &\n"
       "  rtplc modbus read --rtu /tmp/ptyB --parity N --unit 7 hr:0\n");

@@ -111,9 +111,9 @@ Result<void> FakeSlave::open_serial() {
   if (::tcsetattr(fd, TCSANOW, &t) != 0) {
     const int e = errno;
     ::close(fd);
-    // A pty (socat's) refuses parity bits with EINVAL on some kernels.
+    // Some serial devices (and ptys, for some callers) refuse parity bits with EINVAL.
     return make_error(fmt::format("cannot set {} to {} baud {}{}{}: {}{}", l.device, l.baud, int{l.data_bits}, l.parity,
-                                  int{l.stop_bits}, std::strerror(e), l.parity != 'N' ? " (a pty may accept parity N only)" : ""));
+                                  int{l.stop_bits}, std::strerror(e), l.parity != 'N' ? " (try parity N)" : ""));
   }
   ::tcflush(fd, TCIOFLUSH);
   listen_fd_.store(fd);

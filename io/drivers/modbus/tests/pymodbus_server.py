@@ -4,7 +4,8 @@ ours, for the modbus driver's tests: holding register 0 starts at 17.
 Usage: pymodbus_server.py PORT        Modbus TCP on 127.0.0.1:PORT only
        pymodbus_server.py --rtu DEV   Modbus RTU on the serial device (or pty) DEV,
                                       19200 baud 8N1, answering every unit id.
-Parity N because a pty refuses parity bits (tcsetattr EINVAL) on some kernels."""
+Parity N: pyserial cannot set even parity on a pty here (tcsetattr EINVAL),
+and a pty has no UART to use parity anyway."""
 import sys
 
 from pymodbus.datastore import (ModbusSequentialDataBlock, ModbusServerContext,

@@ -4,8 +4,8 @@
 // again when it is back, with its outputs sent again; a slave that never
 // answers beside a healthy one costs the healthy one no poll; an exception
 // marks only its item's block bad. Also against python3-pymodbus when installed.
-// RTU over a socat pty pair (parity N: a pty refuses parity bits on some
-// kernels): two units on one line where one is dead, and pymodbus's RTU server.
+// RTU over a socat pty pair (parity N: pyserial, under pymodbus, cannot set
+// even parity on a pty here): two units on one line where one is dead, and pymodbus's RTU server.
 #include <gtest/gtest.h>
 
 #include <sys/wait.h>

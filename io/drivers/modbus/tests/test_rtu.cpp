@@ -2,9 +2,9 @@
 // against our fake slave on a socat pty pair (values, each exception by name,
 // the RTU faults: bad CRC as its own outcome, wrong unit id, silence, a unit
 // the line does not have), and the command line against the fake slave and
-// against python3-pymodbus's RTU server. Parity N throughout: a pty refuses
-// parity bits (tcsetattr EINVAL) on some kernels, through pyserial and termios
-// alike, and parity is the UART's business, not the protocol's.
+// against python3-pymodbus's RTU server. Parity N throughout: pyserial (under
+// pymodbus) cannot set even parity on a pty here (tcsetattr EINVAL), and a pty
+// has no UART to use parity anyway; it is the UART's business, not the protocol's.
 #include <gtest/gtest.h>
 
 #include <chrono>
