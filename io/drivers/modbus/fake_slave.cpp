@@ -142,6 +142,11 @@ void FakeSlave::kill() {
 
 Result<void> FakeSlave::restart() { return rtu() ? open_serial() : listen(); }
 
+void FakeSlave::set_units(std::vector<uint8_t> units) {
+  std::lock_guard lock(mu_);
+  opt_.units = std::move(units);
+}
+
 uint16_t FakeSlave::get(Table t, uint16_t address) const {
   std::lock_guard lock(mu_);
   return tables_[table_index(t)][address];
@@ -287,7 +292,10 @@ Response FakeSlave::respond(const FrameOps& ops, const uint8_t* frame, size_t le
   if (!ops.open(frame, len, req)) return r;
   requests_.fetch_add(1);
   if (silent_.load()) return r;
-  if (!opt_.units.empty() && std::find(opt_.units.begin(), opt_.units.end(), req.unit) == opt_.units.end()) return r;
+  {
+    std::lock_guard lock(mu_);
+    if (!opt_.units.empty() && std::find(opt_.units.begin(), opt_.units.end(), req.unit) == opt_.units.end()) return r;
+  }
   uint16_t magic = 0;
   std::vector<uint8_t> pdu = answer(req.pdu, req.pdu_len, magic);
   if (!ops.connections && req.unit == 0) return r;  // a broadcast: done, never answered

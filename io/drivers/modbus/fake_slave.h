@@ -11,7 +11,8 @@
 //   65505  kMagicBadCrc     RTU: answers with a wrong CRC (TCP answers normally)
 // Whole-slave faults for tests: set_silent() (accepts, never answers), kill()
 // and restart() (gone, then back on the same port or device), a delay on every
-// reply. Units not in `units` never answer (a dead unit on an RTU line).
+// reply. Units not in `units` never answer (a dead unit on an RTU line);
+// set_units() changes which do while it runs (a unit that comes back).
 // The request handling (respond(), serve()) is the same for both transports;
 // only the framing differs, through the FrameOps tables of slave_frames.h.
 // RTU specifics: a request with a bad CRC is ignored as a real slave would;
@@ -87,6 +88,7 @@ class FakeSlave {
   void kill();
   Result<void> restart();
   void set_silent(bool silent) { silent_.store(silent); }
+  void set_units(std::vector<uint8_t> units);
 
   uint16_t get(Table t, uint16_t address) const;
   void set(Table t, uint16_t address, uint16_t value);

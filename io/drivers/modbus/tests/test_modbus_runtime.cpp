@@ -187,8 +187,9 @@ TEST(ModbusPymodbus, our_master_reads_and_writes_a_pymodbus_server) {
 // poll of the dead unit costs the line its 30 ms timeout, well under the live
 // unit's 200 ms period, so the live unit keeps its grid: no poll missed, no
 // timeout (its own 150 ms leaves a loaded machine room). The dead one is polled less and less often (its skipped polls are
-// counted offline) and its channel is bad.
-TEST(ModbusRtuRuntime, a_dead_unit_costs_the_live_one_on_its_line_no_poll_and_is_polled_less_often) {
+// counted offline) and its channel is bad, until it comes back, when it is
+// counted reconnected and its output is sent again.
+TEST(ModbusRtuRuntime, a_dead_unit_costs_the_live_one_on_its_line_no_poll_and_is_polled_less_often_until_it_answers) {
   modbus::testing::PtyPair pty;
   if (!pty.available()) GTEST_SKIP() << pty.why();
   modbus::FakeSlaveOptions o;
@@ -200,7 +201,7 @@ TEST(ModbusRtuRuntime, a_dead_unit_costs_the_live_one_on_its_line_no_poll_and_is
   RuntimeFixture fx;
   fx.write("p.fbd",
            "%%\nstime(0.02)\nF1 = prr(p1, d0, c0, \"Level\")\nF2 = scale(F1, 2, 1)\n"
-           "F3 = prr(p2, d0, c0, \"Dead\")\npwr(F2, p1, d0, c1, \"Out\")\nEND\n");
+           "F3 = prr(p2, d0, c0, \"Dead\")\npwr(F2, p1, d0, c1, \"Out\")\npwr(F2, p2, d0, c1, \"DeadOut\")\nEND\n");
   const std::string line = "device: " + pty.b() + ", parity: N, poll: 200ms, retries: 0";
   auto rt = fx.start("tasks:\n  - {name: t, program: p.fbd}\n"
                      "drivers:\n  - kind: modbus\n    name: mb\n    slaves:\n"
@@ -208,9 +209,10 @@ TEST(ModbusRtuRuntime, a_dead_unit_costs_the_live_one_on_its_line_no_poll_and_is
                      "      - {name: dead, unit: 2, timeout: 30ms, " + line + "}\n"
                      "    read:\n"
                      "      - {device: R, channel: p1.d0.c0, slave: live, address: 0, type: f32}\n"
-                     "      - {device: R, channel: p2.d0.c0, slave: dead, address: 0}\n"
+                     "      - {device: R, channel: p2.d0.c0, slave: dead, address: 5}\n"
                      "    write:\n"
-                     "      - {device: R, channel: p1.d0.c1, slave: live, address: 10, type: f32}\n");
+                     "      - {device: R, channel: p1.d0.c1, slave: live, address: 10, type: f32}\n"
+                     "      - {device: R, channel: p2.d0.c1, slave: dead, address: 20}\n");
   ASSERT_NE(rt, nullptr);
   auto ch = [&](const char* l) { return rt->image().read_channel(static_cast<uint32_t>(rt->image().find_channel(l))); };
   const io::LinkStatus& live = rt->image().link(0);
@@ -230,6 +232,26 @@ TEST(ModbusRtuRuntime, a_dead_unit_costs_the_live_one_on_its_line_no_poll_and_is
   EXPECT_GT(dead.polls_offline.load(), attempts) << dead.polls_offline.load() << " offline";
   EXPECT_LT(attempts * 3, live.polls_completed.load()) << attempts << " tries, " << live.polls_completed.load() << " live polls";
   EXPECT_EQ(dead.state.load(), static_cast<uint8_t>(io::LinkState::kDown));
+  EXPECT_EQ(slave.get(modbus::Table::kHoldingRegister, 20), 0);  // its output never arrived
+  // It comes up: answered at its next try, good, and its output sent now.
+  slave.set(modbus::Table::kHoldingRegister, 5, 7);  // the units share the fake's tables
+  slave.set_units({1, 2});
+  EXPECT_TRUE(eventually([&] { return ch("Dead").quality == Quality::kGood; }, 30));
+  EXPECT_EQ(ch("Dead").value, 7);
+  EXPECT_TRUE(eventually([&] { return slave.get(modbus::Table::kHoldingRegister, 20) == 6; }));
+  EXPECT_EQ(dead.reconnects.load(), 0u);
+  // It goes and comes back with its reset values: counted reconnected, and its
+  // output (delivered before, unchanged since) is sent again.
+  slave.set_units({1});
+  EXPECT_TRUE(eventually([&] { return ch("Dead").quality == Quality::kBad; }));
+  EXPECT_EQ(ch("Dead").value, 7);  // the last value stays
+  slave.set(modbus::Table::kHoldingRegister, 20, 0);
+  slave.set_units({1, 2});
+  EXPECT_TRUE(eventually([&] { return slave.get(modbus::Table::kHoldingRegister, 20) == 6; }, 30));
+  EXPECT_EQ(ch("Dead").quality, Quality::kGood);
+  EXPECT_EQ(dead.reconnects.load(), 1u);
+  EXPECT_EQ(live.polls_missed.load(), 0u);
+  EXPECT_EQ(live.timeouts.load(), 0u);
   rt->stop();
 }
 
