@@ -1,7 +1,7 @@
 // A Modbus slave, TCP or RTU, with deterministic fault injection (issue 9,
-// item 3), in the style of libmodbus's unit-test server: ordinary requests read and write
-// four 65536-entry tables; a request whose address range covers a magic
-// address misbehaves in one defined way, every time:
+// item 3), in the style of libmodbus's unit-test server: ordinary requests
+// read and write four 65536-entry tables; a request whose address range covers
+// a magic address misbehaves in one defined way, every time:
 //   65281..65291  (0xFF01..0xFF0B)  answers with exception (address - 0xFF00)
 //   65500  kMagicDelay      answers after `delay_ns`
 //   65501  kMagicDrop       closes the connection instead of answering
