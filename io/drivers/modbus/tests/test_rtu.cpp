@@ -49,6 +49,39 @@ TEST(SlaveFrames, rtu_requests_are_cut_by_function_code) {
   EXPECT_EQ(r.pdu_len, 10u);
 }
 
+TEST(SlaveFrames, tcp_frames_are_the_mbap_functions_the_server_uses) {
+  const uint8_t pdu[] = {3, 0, 4, 0, 2};
+  std::vector<uint8_t> framed;
+  append_frame(framed, 0x1234, 9, pdu, sizeof pdu);
+  EXPECT_EQ(kTcpFrames.frame_length(framed.data(), framed.size() - 1), 0);
+  ASSERT_EQ(kTcpFrames.frame_length(framed.data(), framed.size()), static_cast<ptrdiff_t>(framed.size()));
+  Frame by_ops, by_mbap;
+  ASSERT_TRUE(kTcpFrames.open(framed.data(), framed.size(), by_ops));
+  ASSERT_EQ(next_frame(framed.data(), framed.size(), by_mbap), FrameStatus::kComplete);
+  EXPECT_EQ(by_ops.transaction, 0x1234);
+  EXPECT_EQ(by_ops.unit, by_mbap.unit);
+  EXPECT_EQ(by_ops.pdu, by_mbap.pdu);
+  EXPECT_EQ(by_ops.pdu_len, sizeof pdu);
+  std::vector<uint8_t> sealed;
+  kTcpFrames.seal(by_ops, pdu, sizeof pdu, FrameFault::kNone, sealed);
+  EXPECT_EQ(sealed, framed);
+  kTcpFrames.seal(by_ops, pdu, sizeof pdu, FrameFault::kWrongId, sealed);
+  EXPECT_EQ(sealed[1], 0x35);  // transaction + 1
+}
+
+TEST(SlaveFrames, rtu_requests_are_checked_by_parse_request_as_on_tcp) {
+  FakeSlaveOptions o;
+  o.serial.device = "unused";
+  FakeSlave slave(o);
+  // FC 5 with a value that is neither 0xFF00 nor 0: exception 3, nothing written.
+  const auto f = rtu_frame({7, 5, 0, 9, 0x12, 0x34});
+  const Response r = slave.respond(kRtuFrames, f.data(), f.size());
+  ASSERT_EQ(r.action, Response::Action::kReply);
+  EXPECT_EQ(r.bytes, rtu_frame({7, 0x85, kExceptionIllegalValue}));
+  EXPECT_EQ(slave.get(Table::kCoil, 9), 0);
+  EXPECT_EQ(slave.writes(), 0u);
+}
+
 TEST(SlaveFrames, the_fake_ignores_a_request_with_a_bad_crc_and_answers_the_next) {
   FakeSlaveOptions o;
   o.serial.device = "unused";
