@@ -56,18 +56,7 @@ std::string drop_word(const ClientArgs& a) {
   return w;
 }
 
-// --socket, else the path the runtime of that name published in its process
-// image (its config's runtime.socket), else the name's default. attach()
-// refuses an image owned by anyone but root or us, so the path is trusted.
-std::string socket_for(const ClientArgs& a) {
-  if (!a.socket.empty()) return a.socket;
-  if (auto img = io::ProcessImage::attach(a.name); img.ok()) {
-    const io::ImageHeader& h = img->header();
-    const size_t n = strnlen(h.socket_path, sizeof h.socket_path);
-    if (n > 0 && n < sizeof h.socket_path) return std::string(h.socket_path, n);
-  }
-  return sched::default_socket_path(a.name);
-}
+std::string socket_for(const ClientArgs& a) { return sched::control_socket_of(a.name, a.socket); }
 
 [[noreturn]] void fail(const std::string& msg, int code = kExitFailure) {
   std::fprintf(stderr, "%s\n", msg.c_str());

@@ -18,6 +18,7 @@ void add_check_commands(CLI::App& app);  // check, compile
 void add_sim_command(CLI::App& app);
 void add_run_commands(CLI::App& app);    // run, set, force, unforce, swap, status, stop
 void add_stats_commands(CLI::App& app);  // stats, monitor
+void add_trace_command(CLI::App& app);
 void add_doctor_command(CLI::App& app);
 void add_fieldbus_command(CLI::App& app);  // fieldbus plan
 void add_analyze_command(CLI::App& app);   // analyze (Petri nets)

@@ -54,6 +54,7 @@ int main(int argc, char** argv) {
   rtplc::app::add_sim_command(app);
   rtplc::app::add_run_commands(app);
   rtplc::app::add_stats_commands(app);
+  rtplc::app::add_trace_command(app);
   rtplc::app::add_doctor_command(app);
   rtplc::app::add_analyze_command(app);
   rtplc::app::add_driver_commands(app);

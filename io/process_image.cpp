@@ -135,7 +135,8 @@ Result<ProcessImage> ProcessImage::create(const ImageLayout& layout) {
     ring_off.push_back(off);
     off += align64(sizeof(RingHeader)) + kRingSlots * slot_stride(r.capacity);
   }
-  // The force table last, so the layout before it is what it was without it.
+  // The force table, then the trace rings, last, so the layout before them is
+  // what it was without them.
   const uint64_t off_forces = align64(off);
   off = off_forces + layout.regions.size() * sizeof(ForceRegion);
   std::vector<uint64_t> force_off;
@@ -144,7 +145,8 @@ Result<ProcessImage> ProcessImage::create(const ImageLayout& layout) {
     force_off.push_back(off);
     off += uint64_t{r.capacity} * sizeof(ForceEntry);
   }
-  const uint64_t total = align64(off);
+  const uint64_t off_trace = align64(off);
+  const uint64_t total = align64(off_trace + uint64_t{layout.n_tasks} * sizeof(TraceBlock));
 
   ProcessImage img;
   img.object_ = shm_name(layout.name);
@@ -194,7 +196,11 @@ Result<ProcessImage> ProcessImage::create(const ImageLayout& layout) {
   img.size_ = total;
   img.writable_ = true;
   img.owner_ = true;
-  std::memset(base, 0, total);  // also faults every page in before RT starts
+  // Also faults every page in before RT starts. The trace rings are left as
+  // ftruncate made them (zero): their pages are touched when a trace starts
+  // (io/trace_ring.h, prefault), so a runtime nobody traces does not hold them
+  // (unless mlockall, with lock_memory, makes every mapped page resident).
+  std::memset(base, 0, off_trace);
 
   ImageHeader& h = img.header();
   std::memcpy(h.magic, kProcessImageMagic, sizeof h.magic);
@@ -213,6 +219,9 @@ Result<ProcessImage> ProcessImage::create(const ImageLayout& layout) {
   h.n_links = layout.n_links;
   h.off_links = off_links;
   h.started_realtime_ns = realtime_now_ns();
+  h.off_trace = off_trace;
+  h.n_trace = layout.n_tasks;
+  h.trace_block_size = sizeof(TraceBlock);
   img.beat();
   std::strncpy(h.name, layout.name.c_str(), kLabelBytes - 1);
   uint64_t hash = 1469598103934665603ull;
@@ -274,7 +283,9 @@ Result<ProcessImage> ProcessImage::attach(const std::string& name) {
                   h.off_channels + uint64_t{h.channel_capacity} * sizeof(ChannelDesc) <= size &&
                   h.off_regions + uint64_t{h.n_regions} * sizeof(RegionDesc) <= size &&
                   h.off_tasks + uint64_t{h.n_tasks} * task_block_size(h.task_stats_size) <= size &&
-                  h.off_links % 64 == 0 && h.off_links + uint64_t{h.n_links} * sizeof(LinkStatus) <= size;
+                  h.off_links % 64 == 0 && h.off_links + uint64_t{h.n_links} * sizeof(LinkStatus) <= size &&
+                  h.off_trace % 64 == 0 && h.trace_block_size == sizeof(TraceBlock) &&
+                  h.off_trace + uint64_t{h.n_trace} * sizeof(TraceBlock) <= size;
   if (!ok) return make_error(img.object_ + " is not a process image this rtplc understands");
   for (uint32_t r = 0; r < h.n_regions; ++r) {
     const RegionDesc& rd = img.region(r);
@@ -321,6 +332,11 @@ LinkStatus& ProcessImage::link(uint32_t i) const {
 
 void* ProcessImage::task_stats(uint32_t task) const {
   return reinterpret_cast<char*>(&task_info(task)) + align64(sizeof(TaskInfo));
+}
+
+TraceBlock* ProcessImage::trace_block(uint32_t task) const {
+  if (task >= header().n_trace) return nullptr;
+  return reinterpret_cast<TraceBlock*>(static_cast<char*>(base_) + header().off_trace) + task;
 }
 
 Result<uint32_t> ProcessImage::add_channel(const ChannelDesc& d) {

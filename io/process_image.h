@@ -5,7 +5,7 @@
 //
 // Layout (all offsets from the start of the mapping, 64-byte aligned):
 //   ImageHeader | ChannelDesc[capacity] | RegionDesc[n_regions] | TaskStatsSlot[n_tasks]
-//   | region rings...
+//   | region rings... | TraceBlock[n_tasks] (io/trace_ring.h: what `rtplc trace` drains)
 //
 // Every value has exactly one writer. Values are grouped into *regions*, one per
 // writer: each task's outputs, each driver's inputs, the set-points (written by
@@ -86,11 +86,12 @@
 
 #include "common/quality.h"
 #include "common/result.h"
+#include "io/trace_ring.h"
 
 namespace rtplc::io {
 
 inline constexpr char kProcessImageMagic[8] = {'R', 'T', 'P', 'L', 'C', 'S', 'H', 'M'};
-inline constexpr uint32_t kProcessImageVersion = 4;  // 4: the force table
+inline constexpr uint32_t kProcessImageVersion = 5;  // 4: the force table; 5: per-task trace rings
 inline constexpr uint32_t kRingSlots = 4;
 inline constexpr size_t kLabelBytes = 32;
 
@@ -170,6 +171,11 @@ struct alignas(64) ImageHeader {
   // The force table (see "Forcing" above): ForceRegion[n_regions] at
   // off_forces, each pointing at its region's ForceEntry[capacity].
   uint64_t off_forces;
+  // Per-task trace rings (io/trace_ring.h), one TraceBlock per task; written
+  // once at creation.
+  uint64_t off_trace;
+  uint32_t n_trace;               // TraceBlocks (= n_tasks)
+  uint32_t trace_block_size;      // sizeof(TraceBlock) (sanity check for readers)
 };
 
 // Per region of the force table. One writer (the control thread).
@@ -336,6 +342,8 @@ class ProcessImage {
   uint32_t link_count() const { return header().n_links; }
   // The task's CycleStats block (task_stats_bytes, 64-byte aligned).
   void* task_stats(uint32_t task) const;
+  // The task's trace ring (io/trace_ring.h); nullptr when the image has none.
+  TraceBlock* trace_block(uint32_t task) const;
 
   // Whether the runtime that owns this image still runs (see "Liveness" above).
   Liveness liveness() const;

@@ -304,7 +304,8 @@ static bool parse_number(const std::string& word, double& v) {
 std::string ControlServer::execute(const std::vector<std::string>& w, const std::string& source, uint32_t uid) {
   const std::string& verb = w[0];
   Result<std::string> res = make_error("unknown request '" + verb +
-                                       "' (ping, status, set, swap, rollback, stop, force, unforce, unforce_all)");
+                                       "' (ping, status, set, swap, rollback, force, unforce, unforce_all, "
+                                       "trace, trace-keep, trace-end, stop)");
   const std::string who = " by uid " + std::to_string(uid) + " at " + format_utc(realtime_ns());
   if (verb == "ping" && w.size() == 1) {
     res = std::string("pong ") + rt_.name();
@@ -343,14 +344,36 @@ std::string ControlServer::execute(const std::vector<std::string>& w, const std:
   } else if (verb == "rollback" && (w.size() == 2 || (w.size() == 3 && w[2].rfind("drop=", 0) == 0))) {
     res = rt_.rollback(w[1], w.size() == 3 ? drop_list(w[2]) : std::vector<std::string>{});
     if (res) log_(false, "rollback: " + res->substr(0, res->find('\n')));
+  } else if (verb == "trace" && w.size() >= 2) {
+    res = rt_.trace_start(std::vector<std::string>(w.begin() + 1, w.end()));
+    if (res) {
+      std::string labels;
+      for (size_t i = 1; i < w.size(); ++i) labels += (i > 1 ? ", " : "") + w[i];
+      log_(false, res->substr(0, res->find('\n')) + " started: " + labels);
+    }
+  } else if (verb == "trace-keep" && w.size() == 2) {
+    res = rt_.trace_keep(w[1]);
+  } else if (verb == "trace-end" && w.size() == 2) {
+    res = rt_.trace_end(w[1]);
+    if (res) log_(false, "trace " + w[1] + " ended by its reader");
   } else if (verb == "stop" && w.size() == 1) {
     stop_requested_.store(true, std::memory_order_release);
     res = std::string("stopping runtime ") + rt_.name();
   } else if (verb == "set" || verb == "swap" || verb == "rollback" || verb == "force" || verb == "unforce" ||
-             verb == "unforce_all") {
+             verb == "unforce_all" || verb == "trace" || verb == "trace-keep" || verb == "trace-end") {
     res = make_error("wrong number of arguments for '" + verb + "'");
   }
   return res ? frame(true, *res) : frame(false, res.error());
+}
+
+std::string control_socket_of(const std::string& name, const std::string& socket_override) {
+  if (!socket_override.empty()) return socket_override;
+  if (auto img = io::ProcessImage::attach(name); img.ok()) {
+    const io::ImageHeader& h = img->header();
+    const size_t n = strnlen(h.socket_path, sizeof h.socket_path);
+    if (n > 0 && n < sizeof h.socket_path) return std::string(h.socket_path, n);
+  }
+  return default_socket_path(name);
 }
 
 Result<std::string> control_request(const std::string& socket_path, const std::string& line,

@@ -8,7 +8,10 @@
 //   response  OK\n or ERROR\n, then the body, then a line holding only "."
 //             (a body line that starts with "." is sent with one more ".")
 // Verbs: ping, status, set LABEL VALUE, swap, rollback TASK, stop,
-//        force LABEL VALUE, unforce LABEL, unforce_all.
+//        force LABEL VALUE, unforce LABEL, unforce_all,
+//        trace LABEL... (answers "trace TOKEN", "task NAME INDEX PERIOD_NS
+//        FIRST_RECORD" and one "column LABEL DIR KIND" per label),
+//        trace-keep TOKEN (renews the lease), trace-end TOKEN.
 // The server takes each client's uid from the socket (SO_PEERCRED) when it
 // connects; forces are logged with it.
 //
@@ -66,6 +69,11 @@ class ControlServer {
   std::atomic<bool> stop_requested_{false};
   std::vector<uint8_t> last_state_;
 };
+
+// The control socket of runtime `name`: `socket_override` when given, else the
+// path the runtime published in its process image (attach() refuses an image
+// owned by anyone but root or us, so the path is trusted), else the default.
+std::string control_socket_of(const std::string& name, const std::string& socket_override);
 
 // Client side (the rtplc commands). Sends one request and returns the body; an
 // ERROR response becomes an error carrying the body.

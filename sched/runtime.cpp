@@ -598,6 +598,7 @@ void Runtime::stop() {
 
 void Runtime::tick(const std::function<void(bool, const std::string&)>& log) {
   if (image_.valid() && image_.writable()) image_.beat();
+  expire_traces(log);
   io::LinkEvent e;
   while (events_.pop(e)) {
     log(e.level == io::LinkEvent::Level::kError || e.level == io::LinkEvent::Level::kWarning,

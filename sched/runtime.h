@@ -107,6 +107,14 @@ class Runtime {
                            const std::vector<std::string>& drop_outputs = {});
   Result<std::string> rollback(const std::string& task, const std::vector<std::string>& drop_outputs = {});
   std::string status() const;
+  // Tracing (`rtplc trace`, trace_ops.cpp): selects up to io::kTraceChannels
+  // channels of one task for its trace ring and answers what the tool needs
+  // to drain it (see control.h, the trace verbs). The selection is held by a
+  // lease the tool renews with trace_keep; tick() ends one not renewed for
+  // kTraceLeaseNs, so a tool that died does not leave its task tracing.
+  Result<std::string> trace_start(const std::vector<std::string>& labels);
+  Result<std::string> trace_keep(const std::string& token);
+  Result<std::string> trace_end(const std::string& token);
   // Frees programs the tasks have let go of (call periodically off the RT path).
   void reap();
   // The control thread's housekeeping, a few times a second: the heartbeat in
@@ -140,6 +148,14 @@ class Runtime {
                                                       const LoadedProgram* running,
                                                       const std::vector<std::string>& drop_outputs = {});
   void publish_setpoints();
+  struct TraceLease {
+    std::string token;   // "" = no trace on this task
+    int64_t expires_ns = 0;
+    std::string labels;  // for the log
+    bool clearing = false;  // ended; the empty selection is not yet taken by the task
+  };
+  void expire_traces(const std::function<void(bool, const std::string&)>& log);
+  bool clear_trace(uint32_t task);
   Result<std::string> install(Task& t, std::unique_ptr<LoadedProgram> next, bool keep_previous);
 
   FileLock lock_;  // held while this runtime lives: no second one of its name
@@ -177,11 +193,15 @@ class Runtime {
   std::map<std::string, config::SetpointLimits> setpoint_limits_;  // by label
   std::map<std::string, ForceRecord> forces_;  // by label (control thread); the image's force table says what applies
   ImagePlan plan_;
+  std::vector<TraceLease> traces_;  // per task
+  uint64_t trace_counter_ = 0;
   bool started_ = false;
 };
 
 // A CLOCK_REALTIME instant as "2026-12-01T19:50:01Z" (force records, logs).
 std::string format_utc(int64_t realtime_ns);
+// A trace selection lives this long after the tool's last renewal.
+inline constexpr int64_t kTraceLeaseNs = 5000000000;
 
 // Default control socket and retain file for a runtime name: system paths when
 // running as root, per-user paths otherwise.

@@ -349,6 +349,9 @@ std::string Runtime::status() const {
       }
     }
     if (is_sfc) s += ", active steps: " + (steps.empty() ? std::string("none") : steps);
+    if (t->index() < traces_.size() && !traces_[t->index()].token.empty() && !traces_[t->index()].clearing) {
+      s += ", traced (" + traces_[t->index()].labels + ")";
+    }
     s += "\n";
   }
   return s;

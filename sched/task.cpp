@@ -2,6 +2,7 @@
 #include "sched/task.h"
 
 #include <algorithm>
+#include <limits>
 
 #include "kernel_rt/clock.h"
 #include "kernel_rt/memory.h"
@@ -17,7 +18,8 @@ Task::Task(TaskParams params, io::ProcessImage& image, uint32_t index, uint32_t 
       setpoint_region_(setpoint_region),
       info_(&image.task_info(index)),
       stats_(static_cast<CycleStats*>(image.task_stats(index))),
-      owned_(std::move(first)) {
+      owned_(std::move(first)),
+      trace_(image.trace_block(index)) {
   current_ = owned_.get();
   active_ = owned_.get();
 }
@@ -150,6 +152,38 @@ void Task::write_outputs(LoadedProgram& p, bool safe) noexcept {
   image_.end_write(region_, k, kernel_rt::monotonic_now_ns(), p.arena.cycles);
 }
 
+void Task::resolve_trace(const LoadedProgram& p) noexcept {
+  for (uint32_t i = 0; i < trace_.n(); ++i) {
+    const io::TraceSource& s = trace_.sources()[i];
+    trace_output_[i] = -1;
+    trace_input_[i] = nullptr;
+    if (s.region == region_) {
+      trace_output_[i] = static_cast<int32_t>(s.index);
+      continue;
+    }
+    // An input or set-point: the value this program copied in this cycle.
+    for (const InputGroup& g : p.inputs) {
+      if (g.region != s.region) continue;
+      for (size_t k = 0; k < g.src.size(); ++k) {
+        if (g.src[k] == s.index) trace_input_[i] = p.arena.io_in.data() + g.dst[k];
+      }
+    }
+  }
+}
+
+void Task::record_trace(uint64_t cycle, int64_t release_ns) noexcept {
+  double v[io::kTraceChannels];
+  // The snapshot this cycle just published (only this thread writes the region).
+  const uint64_t published = image_.ring(region_).published.load(std::memory_order_relaxed);
+  const double* slot = image_.values(region_, static_cast<uint32_t>(published % io::kRingSlots));
+  for (uint32_t i = 0; i < trace_.n(); ++i) {
+    if (trace_output_[i] >= 0) v[i] = io::load_value(slot + trace_output_[i]);
+    else if (trace_input_[i] != nullptr) v[i] = *trace_input_[i];
+    else v[i] = std::numeric_limits<double>::quiet_NaN();  // this program does not read it
+  }
+  trace_.append(cycle, release_ns, v);
+}
+
 void Task::run() noexcept {
   const int64_t period = params_.period_ns;
   int64_t release = first_release_;
@@ -185,10 +219,14 @@ void Task::run() noexcept {
       }
     }
 
+    // A new trace selection, or a new program, changes where traced values are.
+    if (trace_.pick_up() || swapped) resolve_trace(*current_);
+
     if (!stopped) {
       read_inputs(*current_);
       write_outputs(*current_, false);
       info_->block_errors.store(current_->arena.total_errors, std::memory_order_relaxed);
+      if (trace_.n() > 0) record_trace(cycle, release);
     }
     const int64_t end = kernel_rt::monotonic_now_ns();
     if (params_.count_faults && cycle > 16) {

@@ -11,6 +11,8 @@
 //   next release += period; a cycle that ends after the next release is an
 //   overrun: count it and the releases it skipped; N in a row stop the task
 //   (the watchdog) with its outputs at their safe values.
+//   while a trace is selected (rtplc trace): append the traced values to the
+//   task's trace ring (io/trace_ring.h)
 // Nothing in the cycle allocates, locks, logs or throws.
 //
 // Swap protocol (control thread <-> task thread, one swap in flight at a time):
@@ -92,6 +94,10 @@ class Task {
   void run() noexcept;
   void read_inputs(LoadedProgram& p) noexcept;
   void write_outputs(LoadedProgram& p, bool safe) noexcept;
+  // Where each traced value is found for program `p` (at a selection pick-up
+  // and at a swap, both cycle boundaries), and one record of them.
+  void resolve_trace(const LoadedProgram& p) noexcept;
+  void record_trace(uint64_t cycle, int64_t release_ns) noexcept;
 
   TaskParams params_;
   io::ProcessImage& image_;
@@ -112,6 +118,11 @@ class Task {
 
   std::atomic<bool> stop_{false};
   uint32_t quality_refresh_ = 0;  // task thread: cycles left that still write output qualities
+  // Task thread: the trace selection and, per traced value, the output index
+  // in this task's region (>= 0) or the input buffer entry it is read into.
+  io::TraceWriter trace_;
+  int32_t trace_output_[io::kTraceChannels] = {};
+  const double* trace_input_[io::kTraceChannels] = {};
   kernel_rt::RtThread thread_;
   int64_t first_release_ = 0;
   bool fell_back_ = false;

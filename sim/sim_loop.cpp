@@ -296,22 +296,27 @@ std::string format_metrics(const SimTrace& tr, const StepMetrics& m) {
   return out;
 }
 
+void write_csv_header(std::FILE* f, const std::vector<std::string>& columns) {
+  for (size_t i = 0; i < columns.size(); ++i) std::fprintf(f, "%s%s", i ? "," : "", columns[i].c_str());
+  std::fputc('\n', f);
+}
+
+void write_csv_row(std::FILE* f, const double* row, size_t n) {
+  for (size_t i = 0; i < n; ++i) {
+    // t to the microsecond over a day-long run, without trailing zeros;
+    // values with full precision.
+    if (i == 0) std::fprintf(f, "%.11g", row[i]);
+    else std::fprintf(f, ",%.10g", row[i]);
+  }
+  std::fputc('\n', f);
+}
+
 Result<void> write_csv(const SimTrace& tr, const std::string& path) {
   std::string tmp = path + ".tmp";
   FILE* f = std::fopen(tmp.c_str(), "w");
   if (!f) return make_error("cannot write " + tmp + ": " + std::strerror(errno));
-  for (size_t i = 0; i < tr.columns.size(); ++i) {
-    std::fprintf(f, "%s%s", i ? "," : "", tr.columns[i].c_str());
-  }
-  std::fputc('\n', f);
-  for (const auto& row : tr.rows) {
-    for (size_t i = 0; i < row.size(); ++i) {
-      // t with as many decimals as it needs; values with full precision.
-      if (i == 0) std::fprintf(f, "%.6g", row[i]);
-      else std::fprintf(f, ",%.10g", row[i]);
-    }
-    std::fputc('\n', f);
-  }
+  write_csv_header(f, tr.columns);
+  for (const auto& row : tr.rows) write_csv_row(f, row.data(), row.size());
   const bool ok = std::fflush(f) == 0 && !std::ferror(f);
   std::fclose(f);
   if (!ok) return make_error("error writing " + tmp);
