@@ -245,7 +245,7 @@ Bytes exchange(int fd, uint16_t tid, uint8_t unit, const Bytes& pdu) {
   if (::send(fd, frame.data(), frame.size(), MSG_NOSIGNAL) != static_cast<ssize_t>(frame.size())) return {};
   Bytes in;
   for (;;) {
-    modbus::MbapFrame f;
+    modbus::Frame f;
     if (modbus::next_frame(in.data(), in.size(), f) == modbus::FrameStatus::kComplete) {
       EXPECT_EQ(f.transaction, tid);
       return Bytes(f.pdu, f.pdu + f.pdu_len);
