@@ -119,6 +119,7 @@ void add_commands(CLI::App& app) {
   CLI::App* can = app.add_subcommand("can", "Commissioning of the CAN link to the drives (`kind: can`)");
   can->require_subcommand(1);
   static DumpArgs args;
+  args = DumpArgs{};  // one set per app built (tests build several)
   DumpArgs* a = &args;
   CLI::App* d = can->add_subcommand(
       "dump", "Print the frames on a CAN interface, decoded by a config's can driver mapping");
