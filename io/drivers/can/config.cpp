@@ -14,6 +14,7 @@
 #include "io/drivers/can/config.h"
 
 #include "blocks/image.h"
+#include "config/map_entries.h"
 #include "config/yaml_reader.h"
 
 namespace rtplc::can {
@@ -133,19 +134,7 @@ void parse_signal(YamlReader& r, const YAML::Node& node, SourcePos where, std::v
     if (auto v = r.choice(*o)) s.order = *v == "big" ? ByteOrder::kBig : ByteOrder::kLittle;
     else ok = false;
   }
-  for (const char* key : {"scale", "offset"}) {
-    if (const Field* k = f.get(key)) {
-      if (auto v = r.real(k->value, k->pos, std::string("'") + key + "'")) {
-        (std::string(key) == "scale" ? s.scale : s.offset) = *v;
-      } else {
-        ok = false;
-      }
-    }
-  }
-  if (s.scale == 0) {
-    r.error(f.get("scale") ? f.get("scale")->pos : m.pos, "'scale' must not be 0");
-    ok = false;
-  }
+  ok = parse_scaling(r, f, m.pos, s.scale, s.offset) && ok;
   if (ok) out.push_back(std::move(m));
 }
 

@@ -109,6 +109,9 @@ TEST(CanConfig, refuses_signals_outside_the_frame_or_overlapping) {
   EXPECT_NE(first_error(r).find("11:13: error: bytes 1..1 overlap the signal of p0.d0.c0 (line 10)"),
             std::string::npos)
       << r.render();
+  r = parse("    interface: vcan0\n    receive:\n      - id: 0x10\n"
+            "        signals: [{channel: p0.d0.c0, byte: 0, scale: 0}]\n");
+  EXPECT_NE(first_error(r).find("9:55: error: 'scale' must not be 0"), std::string::npos) << r.render();
   r = parse("    interface: vcan0\n    transmit:\n      - id: 0x10\n        length: 2\n"
             "        signals: [{channel: p0.d0.c0, byte: 1, length: 2}]\n");
   EXPECT_NE(first_error(r).find("9:17: error: the signals need 3 data bytes, the frame's length is 2"),
