@@ -91,6 +91,7 @@ void run_check_config(const CheckArgs& a) {
   opt.name_override = "check-" + std::to_string(getpid());  // never clashes with a running one
   opt.lock_memory = false;
   opt.state_name = cfg.config->name;  // what a run of this config would restore (read only)
+  opt.check_only = true;
   sched::LoadReport report;
   auto rt = sched::Runtime::load(*cfg.config, opt, report);
   const std::string rendered = report.render(color);

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <vector>
 
+#include "common/registry.h"
 #include "common/capacities.h"
 #include "config/config.h"
 #include "config/driver_kinds.h"
@@ -135,29 +136,15 @@ const SectionSpec& driver_section() {
 }
 
 namespace {
-// Constructed on first use, so registration from other files' static
-// initialisers is safe whatever their order.
-std::vector<const DriverKind*>& kind_table() {
-  static std::vector<const DriverKind*> kinds;
-  return kinds;
-}
+const char* kind_name(const DriverKind& k) { return k.kind; }
+using KindTable = Registry<DriverKind>;
 }  // namespace
 
-void register_driver_kind(const DriverKind* kind) {
-  for (const DriverKind* k : kind_table()) {
-    if (std::string_view(k->kind) == kind->kind) return;
-  }
-  kind_table().push_back(kind);
-}
+void register_driver_kind(const DriverKind* kind) { KindTable::add(kind, kind_name); }
 
-std::span<const DriverKind* const> driver_kinds() { return kind_table(); }
+std::span<const DriverKind* const> driver_kinds() { return KindTable::all(); }
 
-const DriverKind* find_driver_kind(std::string_view kind) {
-  for (const DriverKind* d : driver_kinds()) {
-    if (kind == d->kind) return d;
-  }
-  return nullptr;
-}
+const DriverKind* find_driver_kind(std::string_view kind) { return KindTable::find(kind, kind_name); }
 
 std::string known_driver_kinds() {
   std::string s;

@@ -55,4 +55,10 @@ struct Design {
   std::string link_text;  // "CAN 11-bit id at 500 kbit/s", for the report
 };
 
+// The worked example of docs/fieldbus.md in its generic form (what
+// examples/fieldbus.yaml says, a test holds them equal): 10 nodes, sigma 20 us,
+// L_p 100 us, two RT queues of 150 us packets, L1 at T = 5 ms, L2 with a 25 ms
+// delay bound. The planner's tests and benchmark start from it.
+Design worked_example();
+
 }  // namespace rtplc::fieldbus

@@ -73,7 +73,7 @@ constexpr unsigned char kStackPaint = 0xA5;
 constexpr size_t kPaintMargin = 8u * 1024u;
 
 // The calling thread's stack as [low, high); false when unknown.
-bool stack_bounds(uintptr_t& low, uintptr_t& high) noexcept {
+[[maybe_unused]] bool stack_bounds(uintptr_t& low, uintptr_t& high) noexcept {
   pthread_attr_t attr;
   if (pthread_getattr_np(pthread_self(), &attr) != 0) return false;
   void* base = nullptr;
@@ -88,7 +88,7 @@ bool stack_bounds(uintptr_t& low, uintptr_t& high) noexcept {
 
 // One page above the lowest address is left alone: with glibc's guard page below the
 // stack, that keeps even an off-by-one far from it.
-[[gnu::noinline]] void paint_below(uintptr_t low, uintptr_t top) noexcept {
+[[gnu::noinline, maybe_unused]] void paint_below(uintptr_t low, uintptr_t top) noexcept {
   const uintptr_t from = low + page_size();
   if (top <= from + kPaintMargin) return;
   std::memset(reinterpret_cast<void*>(from), kStackPaint, top - kPaintMargin - from);

@@ -257,40 +257,27 @@ Result<TaskImage> build_image(const CheckedProgram& prog, const CompileOptions& 
 
   for (uint32_t i = 0; i < n; ++i) {
     const FlatBlock& b = prog.blocks[i];
-    if (b.spec->reads_quality) {
-      // The channel of the input block it reads, in that block's terms.
-      const FlatBlock& src = prog.blocks[b.in[0]];
-      Binding bd{};
-      bd.dir = BindingDir::kQuality;
-      bd.group = src.spec->io;
-      bd.kind = src.spec->out_kind;  // the channel's kind; the block's result is digital
-      bd.device = src.spec->device_kind;
-      bd.p = src.p;
-      bd.d = src.d;
-      bd.c = src.c;
-      bd.io_index = io_index[i];
-      bd.instr = sched_of[i];
-      bd.label = ib.add_string(src.label);
-      bd.line = b.pos.line;
-      ib.bindings.push_back(bd);
-      continue;
-    }
-    if (b.spec->io == IoGroup::kNone) continue;
+    // A `good` block binds the channel of the input block it reads, in that
+    // block's terms (its kind is the channel's; the block's result is digital).
+    const bool quality = b.spec->reads_quality;
+    const FlatBlock& ch = quality ? prog.blocks[b.in[0]] : b;
+    if (!quality && b.spec->io == IoGroup::kNone) continue;
     Binding bd{};
-    bd.dir = b.spec->signature == Signature::kDeviceOut ? BindingDir::kOutput
-             : b.spec->signature == Signature::kSetpoint ? BindingDir::kSetpoint
-                                                         : BindingDir::kInput;
-    bd.group = b.spec->io;
-    bd.kind = b.spec->out_kind;
-    bd.device = b.spec->device_kind;
-    bd.p = b.p;
-    bd.d = b.d;
-    bd.c = b.c;
+    bd.dir = quality                                     ? BindingDir::kQuality
+             : b.spec->signature == Signature::kDeviceOut ? BindingDir::kOutput
+             : b.spec->signature == Signature::kSetpoint  ? BindingDir::kSetpoint
+                                                          : BindingDir::kInput;
+    bd.group = ch.spec->io;
+    bd.kind = ch.spec->out_kind;
+    bd.device = ch.spec->device_kind;
+    bd.p = ch.p;
+    bd.d = ch.d;
+    bd.c = ch.c;
     bd.io_index = io_index[i];
     bd.instr = sched_of[i];
-    bd.label = ib.add_string(b.label);
+    bd.label = ib.add_string(ch.label);
     bd.line = b.pos.line;
-    bd.init = b.init;
+    bd.init = quality ? 0 : b.init;
     ib.bindings.push_back(bd);
   }
   return ib.finish();

@@ -106,7 +106,7 @@ std::unique_ptr<Runtime> Runtime::load(const config::RuntimeConfig& cfg, const R
     report.ok = false;
     return nullptr;
   }
-  auto lock = FileLock::acquire(folder + "/" + rt->name_ + ".lock");
+  auto lock = opt.check_only ? Result<FileLock>(FileLock{}) : FileLock::acquire(folder + "/" + rt->name_ + ".lock");
   if (!lock) {
     report.files[0].diags.error(cfg.name_pos, "runtime '" + rt->name_ + "' is " + lock.error() +
                                                   "; stop it or choose another runtime name");
@@ -192,7 +192,7 @@ bool Runtime::build(const config::RuntimeConfig& cfg, LoadReport& report) {
     origins_[t] = "config " + tc.program;
     // The store always says what runs: the config's file is now the current version.
     const auto cur = programs_.current(tc.name);
-    if (!cur || cur->hash != ProgramStore::hash_of(sources.back())) {
+    if (!options_.check_only && (!cur || cur->hash != ProgramStore::hash_of(sources.back()))) {
       if (auto p = programs_.push(tc.name, sources.back(), origins_[t]); !p) {
         cdiag.warning(SourcePos{}, "task " + tc.name + ": cannot keep its program for restarts: " + p.error());
       }

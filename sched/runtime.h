@@ -44,6 +44,9 @@ struct RuntimeOptions {
   // Whose state file (NAME.state) to read: empty, this runtime's own name.
   // `rtplc check` runs under a name of its own but reports the real one's.
   std::string state_name;
+  // `rtplc check`: load and plan everything, then go; takes no lock and keeps
+  // no copy of the programs (nothing is left behind in the runtime's folders).
+  bool check_only = false;
 };
 
 // One diagnostic source: the runtime reports problems in the config file and in

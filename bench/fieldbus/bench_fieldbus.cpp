@@ -47,17 +47,6 @@ Design thousand_loops() {
   return d;
 }
 
-Design worked_example() {
-  Design d;
-  d.nodes = 10;
-  d.server_overhead = 20 * us;
-  d.periodic_packet = 100 * us;
-  d.rt_queues = 2;
-  d.rt_packet = 150 * us;
-  d.loops.push_back({"L1", 5 * ms, std::nullopt, -1, -1, {}});
-  d.loops.push_back({"L2", std::nullopt, 25 * ms, -1, -1, {}});
-  return d;
-}
 
 // Best wall time of `runs` calls of f.
 template <typename F>

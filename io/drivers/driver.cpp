@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <vector>
 
+#include "common/registry.h"
 #include "common/text.h"
 #include "kernel_rt/clock.h"
 #include "kernel_rt/periodic.h"
@@ -87,27 +88,17 @@ void Driver::log(LinkEvent::Level level, std::string_view text) const noexcept {
 }
 
 namespace {
-std::vector<const DriverKind*>& kind_table() {
-  static std::vector<const DriverKind*> kinds;
-  return kinds;
-}
+const char* kind_name(const DriverKind& k) { return k.config->kind; }
+using KindTable = Registry<DriverKind>;
 }  // namespace
 
 void register_driver_kind(const DriverKind* kind) {
-  for (const DriverKind* k : kind_table()) {
-    if (k == kind) return;
-  }
-  kind_table().push_back(kind);
+  KindTable::add(kind, kind_name);
   config::register_driver_kind(kind->config);
 }
 
-std::span<const DriverKind* const> driver_kinds() { return kind_table(); }
+std::span<const DriverKind* const> driver_kinds() { return KindTable::all(); }
 
-const DriverKind* find_driver_kind(std::string_view kind) {
-  for (const DriverKind* k : kind_table()) {
-    if (kind == k->config->kind) return k;
-  }
-  return nullptr;
-}
+const DriverKind* find_driver_kind(std::string_view kind) { return KindTable::find(kind, kind_name); }
 
 }  // namespace rtplc::io

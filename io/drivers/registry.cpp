@@ -11,6 +11,7 @@
   X(s7)                          \
   X(modbus)                      \
   X(modbus_server)               \
+  X(can)                         \
   /* one line per driver, above this one */
 
 #define RTPLC_DECLARE_DRIVER(ns) \

@@ -150,5 +150,25 @@ TEST(FieldbusPlanFile, a_missing_file_is_an_error_not_a_crash) {
   EXPECT_NE(pf.render().find("plan file not found"), std::string::npos);
 }
 
+TEST(FieldbusPlanFile, the_example_file_is_the_worked_example_the_tests_start_from) {
+  PlanFile pf = load_plan_file(std::string(RTPLC_SOURCE_DIR) + "/examples/fieldbus.yaml");
+  ASSERT_TRUE(pf.design.has_value()) << pf.render();
+  const Design& f = *pf.design;
+  const Design w = worked_example();
+  EXPECT_EQ(f.nodes, w.nodes);
+  EXPECT_EQ(f.server_overhead, w.server_overhead);
+  EXPECT_EQ(f.periodic_packet, w.periodic_packet);
+  EXPECT_EQ(f.rt_queues, w.rt_queues);
+  EXPECT_EQ(f.rt_packet, w.rt_packet);
+  EXPECT_EQ(f.frame, w.frame);
+  EXPECT_EQ(f.nonrt_packet, w.nonrt_packet);
+  ASSERT_EQ(f.loops.size(), w.loops.size());
+  for (size_t i = 0; i < f.loops.size(); ++i) {
+    EXPECT_EQ(f.loops[i].name, w.loops[i].name);
+    EXPECT_EQ(f.loops[i].period, w.loops[i].period);
+    EXPECT_EQ(f.loops[i].max_delay, w.loops[i].max_delay);
+  }
+}
+
 }  // namespace
 }  // namespace rtplc::fieldbus

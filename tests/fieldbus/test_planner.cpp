@@ -12,18 +12,6 @@ namespace {
 constexpr Nanos us = 1'000;
 constexpr Nanos ms = 1'000'000;
 
-// The generic form of the issue (examples/fieldbus.yaml).
-Design worked_example() {
-  Design d;
-  d.nodes = 10;
-  d.server_overhead = 20 * us;
-  d.periodic_packet = 100 * us;
-  d.rt_queues = 2;
-  d.rt_packet = 150 * us;
-  d.loops.push_back({"L1", 5 * ms, std::nullopt, -1, -1, {}});
-  d.loops.push_back({"L2", std::nullopt, 25 * ms, -1, -1, {}});
-  return d;
-}
 
 const Failure* find(const Plan& p, Condition c) {
   for (const Failure& f : p.failures) {

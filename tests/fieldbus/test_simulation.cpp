@@ -15,17 +15,6 @@ namespace {
 constexpr Nanos us = 1'000;
 constexpr Nanos ms = 1'000'000;
 
-Design worked_example() {
-  Design d;
-  d.nodes = 10;
-  d.server_overhead = 20 * us;
-  d.periodic_packet = 100 * us;
-  d.rt_queues = 2;
-  d.rt_packet = 150 * us;
-  d.loops.push_back({"L1", 5 * ms, std::nullopt, -1, -1, {}});
-  d.loops.push_back({"L2", std::nullopt, 25 * ms, -1, -1, {}});
-  return d;
-}
 
 SimResult run(const Design& d, const Plan& p, Nanos duration, uint64_t seed) {
   SimOptions o;

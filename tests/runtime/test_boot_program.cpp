@@ -18,7 +18,6 @@ namespace {
 
 using rtplc::testing::RuntimeFixture;
 
-void sleep_s(double s) { std::this_thread::sleep_for(std::chrono::duration<double>(s)); }
 
 std::string program(double gain) {
   return "%%\nF1 = asp(d0, c0, 1, \"SP\")\nF2 = mult(F1, F1, " + std::to_string(gain) +
@@ -106,19 +105,7 @@ TEST(BootProgram, kill_9_right_after_a_swap_keeps_the_swap) {
   const std::string name = fx.unique_name();
   const std::string cfg = config_for(fx, name);
   const std::string sock = fx.dir() + "/" + name + ".sock";
-  const std::string bin = std::string(RTPLC_BINARY_DIR) + "/rtplc";
-  auto launch = [&] {
-    const pid_t pid = fork();
-    if (pid == 0) {
-      execl(bin.c_str(), bin.c_str(), "run", cfg.c_str(), "-q", "--no-lock", nullptr);
-      _exit(127);
-    }
-    for (int i = 0; i < 200; ++i) {
-      if (control_request(sock, "ping", "", 500).ok()) break;
-      sleep_s(0.05);
-    }
-    return pid;
-  };
+  auto launch = [&] { return rtplc::testing::launch_rtplc_run(cfg, sock); };
   pid_t pid = launch();
   const std::string src = program(5);
   auto r = control_request(sock, "swap t five.fbd " + std::to_string(src.size()), src, 10000);

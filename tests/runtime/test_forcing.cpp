@@ -18,6 +18,7 @@
 #include "sched/control.h"
 #include "tests/support/run_tool.h"
 #include "tests/support/runtime_fixture.h"
+#include "tests/support/eventually.h"
 
 namespace rtplc::sched {
 namespace {
@@ -53,14 +54,7 @@ double sent_value(Runtime& rt, const std::string& label) {
   return v;
 }
 
-// Polls `pred` every 10 ms, at most `tries` times (the tasks run at 10 ms).
-bool eventually(const std::function<bool()>& pred, int tries = 300) {
-  for (int i = 0; i < tries; ++i) {
-    if (pred()) return true;
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  return pred();
-}
+using rtplc::testing::eventually;
 
 class Forcing : public ::testing::Test {
  protected:

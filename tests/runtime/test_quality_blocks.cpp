@@ -10,6 +10,7 @@
 
 #include "io/drivers/modbus/fake_slave.h"
 #include "tests/support/runtime_fixture.h"
+#include "tests/support/eventually.h"
 
 namespace rtplc::sched {
 namespace {
@@ -17,14 +18,7 @@ namespace {
 using rtplc::testing::channel_value;
 using rtplc::testing::RuntimeFixture;
 
-template <class F>
-bool eventually(F f, double seconds = 5) {
-  for (int i = 0; i < static_cast<int>(seconds * 50); ++i) {
-    if (f()) return true;
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  return f();
-}
+using rtplc::testing::eventually;
 
 // Level from the slave; while it is not good, the output takes the fallback.
 const char* kProgram =

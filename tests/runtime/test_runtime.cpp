@@ -324,19 +324,7 @@ TEST(Runtime, kill_9_loses_no_retained_value) {
   const std::string cfg = fx.write("k.yaml", "runtime:\n  name: " + name + "\n  socket: " + sock +
                                                  "\n  retain_file: " + fx.dir() + "/k.retain\n"
                                                  "tasks:\n  - {name: loop, program: a.fbd, period: 5ms}\n");
-  const std::string bin = std::string(RTPLC_BINARY_DIR) + "/rtplc";
-  auto launch = [&] {
-    const pid_t pid = fork();
-    if (pid == 0) {
-      execl(bin.c_str(), bin.c_str(), "run", cfg.c_str(), "-q", "--no-lock", nullptr);
-      _exit(127);
-    }
-    for (int i = 0; i < 200; ++i) {
-      if (control_request(sock, "ping", "", 500).ok()) break;
-      sleep_s(0.05);
-    }
-    return pid;
-  };
+  auto launch = [&] { return rtplc::testing::launch_rtplc_run(cfg, sock); };
   pid_t pid = launch();
   for (int i = 0; i < 20; ++i) {
     auto r = control_request(sock, "set E " + std::to_string(0.5 + i));

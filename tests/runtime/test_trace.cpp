@@ -6,6 +6,7 @@
 // a stalled tool reporting what it lost, clear errors.
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -15,6 +16,7 @@
 #include <sstream>
 #include <thread>
 
+#include "io/process_image.h"
 #include "io/trace_ring.h"
 #include "tests/support/run_tool.h"
 #include "tests/support/runtime_fixture.h"
@@ -256,6 +258,9 @@ class TraceTool : public ::testing::Test {
     run_tool("stop --name " + name_ + " >/dev/null");
     for (int i = 0; i < 200 && pid_ > 0 && kill(pid_, 0) == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(50));
     if (pid_ > 0 && kill(pid_, 0) == 0) kill(pid_, SIGKILL);
+    // A runtime killed with -9 (one test does) leaves its image, as it would in
+    // the field; the next start replaces it, but a test leaves nothing behind.
+    shm_unlink(io::ProcessImage::shm_name(name_).c_str());
   }
   std::string file(const std::string& n) const { return fx_.dir() + "/" + n; }
   static std::vector<std::string> lines_of(const std::string& path) {

@@ -7,10 +7,13 @@
 
 #include <filesystem>
 #include <fstream>
+#include <chrono>
+#include <thread>
 
 #include "kernel_rt/clock.h"
 #include "kernel_rt/rt_thread.h"
 #include "lang/compiler.h"
+#include "sched/control.h"
 
 #include <algorithm>
 
@@ -99,6 +102,26 @@ bool can_use_fifo() {
   auto t = kernel_rt::start_thread(kernel_rt::ThreadSpec{"fifo-probe", 10, {}, 0, 0}, [] {});
   if (t) ok = !t->outcome().fell_back;
   return ok;
+}
+
+pid_t launch_rtplc_run(const std::string& config, const std::string& socket,
+                       const std::vector<std::string>& extra) {
+  const std::string bin = std::string(RTPLC_BINARY_DIR) + "/rtplc";
+  std::vector<std::string> args = {bin, "run", config, "-q", "--no-lock"};
+  args.insert(args.end(), extra.begin(), extra.end());
+  const pid_t pid = fork();
+  if (pid == 0) {
+    std::vector<char*> argv;
+    for (std::string& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    execv(bin.c_str(), argv.data());
+    _exit(127);
+  }
+  for (int i = 0; i < 200; ++i) {
+    if (sched::control_request(socket, "ping", "", 500).ok()) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  return pid;
 }
 
 }  // namespace rtplc::testing

@@ -2,6 +2,8 @@
 // loaded-and-started Runtime under a unique name, and a few readings of it.
 #pragma once
 
+#include <sys/types.h>
+
 #include <memory>
 #include <string>
 #include <vector>
@@ -45,5 +47,11 @@ double channel_value(sched::Runtime& rt, const std::string& label);
 // True when this process may run SCHED_FIFO threads (root or CAP_SYS_NICE);
 // timing assertions depend on it.
 bool can_use_fifo();
+
+// The real binary: starts `rtplc run CONFIG -q --no-lock [extra...]` in a child
+// and returns its pid once its control socket `socket` answers a ping (or after
+// 10 s, so a test that expects it up fails on its next request).
+pid_t launch_rtplc_run(const std::string& config, const std::string& socket,
+                       const std::vector<std::string>& extra = {});
 
 }  // namespace rtplc::testing

@@ -156,7 +156,7 @@ void run_scan(const Target& t, int from, int to, const std::string& probe_text) 
       c = connect_or_fail(t);  // a slave that hangs up on an unknown unit
       continue;
     }
-    if (o.kind == Outcome::Kind::kTimeout || o.kind == Outcome::Kind::kProtocol) {
+    if (o.kind == Outcome::Kind::kTimeout || o.kind == Outcome::Kind::kProtocol || o.kind == Outcome::Kind::kBadCrc) {
       c.flush();
       continue;
     }
@@ -183,9 +183,13 @@ void run_fake_slave(FakeSlaveOptions opt, const std::vector<std::string>& sets) 
     slave.put(*a, value);
   }
   if (auto r = slave.start(); !r) fail(kExitFailure, r.error());
-  std::printf("fake Modbus slave on %s:%u (magic addresses: 65281..65291 exception 1..11, %u delay, %u drop, "
-              "%u bad length, %u silent, %u wrong transaction id); Ctrl-C stops\n",
-              opt.bind.c_str(), slave.port(), kMagicDelay, kMagicDrop, kMagicBadLength, kMagicSilent, kMagicBadId);
+  const std::string where = slave.rtu() ? fmt::format("RTU slave on {} ({} baud {}{}{})", opt.serial.device, opt.serial.baud,
+                                                      int{opt.serial.data_bits}, opt.serial.parity, int{opt.serial.stop_bits})
+                                        : fmt::format("TCP slave on {}:{}", opt.bind, slave.port());
+  std::printf("fake Modbus %s (magic addresses: 65281..65291 exception 1..11, %u delay, %u drop, "
+              "%u bad length, %u silent, %u wrong %s id, %u bad CRC%s); Ctrl-C stops\n",
+              where.c_str(), kMagicDelay, kMagicDrop, kMagicBadLength, kMagicSilent, kMagicBadId,
+              slave.rtu() ? "unit" : "transaction", kMagicBadCrc, slave.rtu() ? "" : " (RTU only)");
   std::fflush(stdout);
   signal(SIGINT, [](int) { g_stop.store(true); });
   signal(SIGTERM, [](int) { g_stop.store(true); });
@@ -222,18 +226,52 @@ void add_commands(CLI::App& app) {
     run_scan(st, from, to, probe);
   });
 
-  auto* fake = mb->add_subcommand("fake-slave", "serve a fault-injecting Modbus TCP slave (for trying without hardware)");
+  auto* fake = mb->add_subcommand("fake-slave",
+                                  "serve a fault-injecting Modbus slave over TCP, or RTU on a serial device or pty "
+                                  "(for trying without hardware)");
   static FakeSlaveOptions fo;
   static std::vector<std::string> sets;
   static std::vector<int> units;
   static int delay_ms = 2000;
+  static std::string fparity = "E";
+  static int fdata = 8, fstop = 1;
   fake->add_option("--port", fo.port, "TCP port")->default_val(1502);
   fake->add_option("--bind", fo.bind, "IPv4 address to listen on")->default_val("127.0.0.1");
-  fake->add_option("--unit", units, "units that answer (repeatable; default every unit)");
+  fake->add_option("--rtu", fo.serial.device,
+                   "serve Modbus RTU on this serial device instead of TCP (a pty: the end of a socat pair)");
+  fake->add_option("--baud", fo.serial.baud, "RTU bits per second")->default_val(19200);
+  fake->add_option("--parity", fparity, "RTU parity: N, E or O (on a pty use N: pymodbus cannot set E there)")
+      ->default_val("E")
+      ->check(CLI::IsMember({"N", "E", "O"}));
+  fake->add_option("--data-bits", fdata, "RTU data bits")->default_val(8)->check(CLI::Range(5, 8));
+  fake->add_option("--stop-bits", fstop, "RTU stop bits")->default_val(1)->check(CLI::Range(1, 2));
+  fake->add_option("--unit", units, "units that answer (repeatable; default every unit)")->check(CLI::Range(0, 247));
   fake->add_option("--set", sets, "initial value ADDRESS=VALUE (repeatable): --set hr:4:f32=21.5");
   fake->add_option("--delay", delay_ms, "ms the magic delay address waits")->default_val(2000);
-  fake->callback([] {
+  fake->footer(
+      "Magic addresses (a request whose range covers one misbehaves, every time):\n"
+      "  65281..65291  exception 1..11 (address - 65280)   65500  answers after --delay ms\n"
+      "  65501  drops the connection (RTU: silence)          65502  read answer with a wrong byte count\n"
+      "  65503  never answers                                65504  wrong transaction id (RTU: unit id)\n"
+      "  65505  RTU: answer with a bad CRC (TCP answers normally)\n"
+      "RTU without hardware, over a pty pair (parity N: a pty has no UART, and pyserial cannot set E on one):\n"
+      "  socat -d -d pty,raw,echo=0,link=/tmp/ptyA pty,raw,echo=0,link=/tmp/ptyB &\n"
+      "  rtplc modbus fake-slave --rtu /tmp/ptyA --parity N --unit 7 &\n"
+      "  rtplc modbus read --rtu /tmp/ptyB --parity N --unit 7 hr:0\n");
+  fake->callback([fake] {
+    if (fo.serial.device.empty()) {
+      for (const char* o : {"--baud", "--parity", "--data-bits", "--stop-bits"}) {
+        if (fake->count(o) > 0) fail(kExitUsage, fmt::format("{} applies to RTU only (give --rtu DEVICE)", o));
+      }
+    } else {
+      for (const char* o : {"--port", "--bind"}) {
+        if (fake->count(o) > 0) fail(kExitUsage, fmt::format("{} applies to TCP only, not with --rtu", o));
+      }
+    }
     for (int u : units) fo.units.push_back(static_cast<uint8_t>(u));
+    fo.serial.parity = fparity[0];
+    fo.serial.data_bits = static_cast<uint8_t>(fdata);
+    fo.serial.stop_bits = static_cast<uint8_t>(fstop);
     fo.delay_ns = int64_t{delay_ms} * 1000000;
     run_fake_slave(fo, sets);
   });

@@ -14,6 +14,7 @@ std::string outcome_text(const Outcome& o) {
     case Outcome::Kind::kOk: return "ok";
     case Outcome::Kind::kTimeout: return "timeout (no answer)";
     case Outcome::Kind::kException: return exception_text(o.code);
+    case Outcome::Kind::kBadCrc: return "bad CRC (the answer was corrupted on the line)";
     case Outcome::Kind::kProtocol:
     case Outcome::Kind::kLink: return modbus_strerror(o.code);
   }
@@ -73,6 +74,12 @@ Outcome Client::connect() {
   return {};
 }
 
+void Client::attach(int fd) {
+  close();
+  modbus_set_socket(ctx_, fd);
+  connected_ = true;
+}
+
 void Client::close() {
   if (connected_) modbus_close(ctx_);
   connected_ = false;
@@ -87,7 +94,8 @@ Outcome Client::fail() {
   const int e = errno;
   if (e > MODBUS_ENOBASE && e <= EMBXGTAR) return Outcome{Outcome::Kind::kException, e - MODBUS_ENOBASE};
   if (e == ETIMEDOUT) return Outcome{Outcome::Kind::kTimeout, e};
-  if (e == EMBBADCRC || e == EMBBADDATA || e == EMBBADEXC || e == EMBUNKEXC || e == EMBMDATA || e == EMBBADSLAVE) {
+  if (e == EMBBADCRC) return Outcome{Outcome::Kind::kBadCrc, e};
+  if (e == EMBBADDATA || e == EMBBADEXC || e == EMBUNKEXC || e == EMBMDATA || e == EMBBADSLAVE) {
     return Outcome{Outcome::Kind::kProtocol, e};
   }
   // Reset, broken pipe, closed by the peer (libmodbus reports ECONNRESET), bad fd.

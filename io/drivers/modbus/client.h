@@ -19,7 +19,8 @@ struct Outcome {
     kOk,
     kTimeout,    // no (complete) answer in time
     kException,  // the slave answered with an exception `code`
-    kProtocol,   // an answer that makes no sense (bad CRC, length, transaction id)
+    kProtocol,   // an answer that makes no sense (length, transaction or unit id, function)
+    kBadCrc,     // RTU: an answer whose CRC is wrong (noise on the line, bad wiring or termination)
     kLink,       // the connection is gone (reset, refused, closed)
   };
   Kind kind = Kind::kOk;
@@ -51,6 +52,9 @@ class Client {
   void set_timeout_ns(int64_t ns);
   void set_unit(uint8_t unit);
   Outcome connect();
+  // Takes an already open descriptor (a socketpair: the fuzzer) as connected,
+  // instead of connect(); close() closes it.
+  void attach(int fd);
   void close();
   bool connected() const { return connected_; }
   // Drops whatever is still in the receive buffer (a late reply after a timeout).

@@ -12,6 +12,7 @@
 #include "io/drivers/modbus/config.h"
 
 #include "blocks/image.h"
+#include "config/map_entries.h"
 #include "config/yaml_reader.h"
 
 namespace rtplc::modbus {
@@ -256,19 +257,7 @@ void parse_map(YamlReader& r, const YAML::Node& node, SourcePos where, bool writ
     r.error(*f.get("address"), "a two-register value needs address + 1 <= 65535");
     ok = false;
   }
-  for (const char* key : {"scale", "offset"}) {
-    if (const Field* k = f.get(key); k && reg) {
-      if (auto v = r.real(k->value, k->pos, std::string("'") + key + "'")) {
-        (std::string(key) == "scale" ? m.scale : m.offset) = *v;
-      } else {
-        ok = false;
-      }
-    }
-  }
-  if (m.scale == 0) {
-    r.error(f.get("scale") ? f.get("scale")->pos : m.pos, "'scale' must not be 0");
-    ok = false;
-  }
+  if (reg) ok &= parse_scaling(r, f, m.pos, m.scale, m.offset);  // bits: refused above
   if (const Field* p = f.get("poll")) {
     if (write) {
       r.error(*p, "'poll' applies to read maps only");
@@ -279,16 +268,7 @@ void parse_map(YamlReader& r, const YAML::Node& node, SourcePos where, bool writ
       ok = false;
     }
   }
-  if (const Field* k = f.get("mode")) {
-    if (!write) {
-      r.error(*k, "'mode' applies to write maps only");
-      ok = false;
-    } else if (auto v = r.choice(*k)) {
-      m.mode = *v == "every_cycle" ? WriteMode::kEveryCycle : WriteMode::kOnChange;
-    } else {
-      ok = false;
-    }
-  }
+  ok &= parse_write_mode(r, f, write, m.mode);
   if (ok) out.push_back(std::move(m));
 }
 
@@ -299,16 +279,9 @@ void parse_modbus(YamlReader& r, const Fields& f, DriverConfig& out) {
       for (const YAML::Node& n : *items) parse_slave(r, n, slaves->pos, s);
     }
   }
-  for (const char* key : {"read", "write"}) {
-    const Field* list = f.get(key);
-    if (!list) continue;
-    auto items = r.list(*list);
-    if (!items) continue;
-    const bool write = std::string(key) == "write";
-    for (const YAML::Node& n : *items) {
-      parse_map(r, n, list->pos, write, write ? s.writes : s.reads);
-    }
-  }
+  for_each_map_entry(r, f, [&](const YAML::Node& n, SourcePos at, bool write) {
+    parse_map(r, n, at, write, write ? s.writes : s.reads);
+  });
   std::map<std::string, const SlaveConfig*> names;
   std::map<std::string, const SlaveConfig*> lines;  // RTU device -> first slave on it
   for (const SlaveConfig& sc : s.slaves) {

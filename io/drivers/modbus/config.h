@@ -16,6 +16,7 @@
 
 #include "common/diagnostic.h"
 #include "config/driver_kinds.h"
+#include "config/map_entries.h"
 #include "config/values.h"
 #include "io/drivers/modbus/address.h"
 
@@ -47,10 +48,7 @@ struct SlaveConfig {
   std::string peer() const;  // "10.0.0.5:502 unit 1", "/dev/ttyUSB0 unit 7"
 };
 
-enum class WriteMode : uint8_t {
-  kOnChange,    // sent when the task's value changes (and again after a failure or reconnect)
-  kEveryCycle,  // sent every driver cycle
-};
+using config::WriteMode;  // config/map_entries.h
 
 struct ChannelMap {
   char device = 'R';    // X, Y, M or R

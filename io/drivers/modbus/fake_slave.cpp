@@ -1,4 +1,4 @@
-// The fault-injecting Modbus TCP slave (see fake_slave.h).
+// The fault-injecting Modbus TCP/RTU slave (see fake_slave.h).
 #include "io/drivers/modbus/fake_slave.h"
 
 #include <arpa/inet.h>
@@ -7,15 +7,18 @@
 #include <netinet/tcp.h>
 #include <poll.h>
 #include <sys/socket.h>
+#include <termios.h>
 #include <unistd.h>
 
 #include <fmt/format.h>
 
 #include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <cstring>
+#include <thread>
+#include <utility>
 
-#include "io/drivers/modbus/pdu.h"
 #include "kernel_rt/clock.h"
 
 namespace rtplc::modbus {
@@ -23,6 +26,25 @@ namespace {
 
 uint16_t be16(const uint8_t* p) { return static_cast<uint16_t>(p[0] << 8 | p[1]); }
 size_t table_index(Table t) { return static_cast<size_t>(t); }
+
+// RTU: a partial frame followed by this much quiet is discarded. The standard's
+// 3.5 character times are ~2 ms at 19200 baud; a shared test machine needs
+// more slack, and a master waits far longer for its answer anyway.
+constexpr int64_t kRtuGapNs = 50'000'000;
+
+bool speed_of(uint32_t baud, speed_t& out) {
+  static constexpr std::pair<uint32_t, speed_t> kSpeeds[] = {
+      {1200, B1200},   {2400, B2400},   {4800, B4800},     {9600, B9600},     {19200, B19200},
+      {38400, B38400}, {57600, B57600}, {115200, B115200}, {230400, B230400},
+  };
+  for (const auto& [b, s] : kSpeeds) {
+    if (b == baud) {
+      out = s;
+      return true;
+    }
+  }
+  return false;
+}
 
 }  // namespace
 
@@ -56,8 +78,43 @@ Result<void> FakeSlave::listen() {
   return {};
 }
 
+Result<void> FakeSlave::open_serial() {
+  const SerialLine& l = opt_.serial;
+  speed_t speed{};
+  if (!speed_of(l.baud, speed)) return make_error(fmt::format("{} baud is not a serial speed this slave knows", l.baud));
+  const int fd = ::open(l.device.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) return make_error(fmt::format("cannot open {}: {}", l.device, std::strerror(errno)));
+  termios t{};
+  if (::tcgetattr(fd, &t) != 0) {
+    const int e = errno;
+    ::close(fd);
+    return make_error(fmt::format("{} is not a serial device: {}", l.device, std::strerror(e)));
+  }
+  ::cfmakeraw(&t);
+  ::cfsetispeed(&t, speed);
+  ::cfsetospeed(&t, speed);
+  t.c_cflag &= ~static_cast<tcflag_t>(CSIZE | PARENB | PARODD | CSTOPB);
+  t.c_cflag |= CLOCAL | CREAD;
+  t.c_cflag |= l.data_bits == 5 ? CS5 : l.data_bits == 6 ? CS6 : l.data_bits == 7 ? CS7 : CS8;
+  if (l.parity != 'N') t.c_cflag |= PARENB;
+  if (l.parity == 'O') t.c_cflag |= PARODD;
+  if (l.stop_bits == 2) t.c_cflag |= CSTOPB;
+  t.c_cc[VMIN] = 0;
+  t.c_cc[VTIME] = 0;
+  if (::tcsetattr(fd, TCSANOW, &t) != 0) {
+    const int e = errno;
+    ::close(fd);
+    // Some serial devices (and ptys, for some callers) refuse parity bits with EINVAL.
+    return make_error(fmt::format("cannot set {} to {} baud {}{}{}: {}{}", l.device, l.baud, int{l.data_bits}, l.parity,
+                                  int{l.stop_bits}, std::strerror(e), l.parity != 'N' ? " (try parity N)" : ""));
+  }
+  ::tcflush(fd, TCIOFLUSH);
+  listen_fd_.store(fd);
+  return {};
+}
+
 Result<void> FakeSlave::start() {
-  if (auto r = listen(); !r) return r;
+  if (auto r = rtu() ? open_serial() : listen(); !r) return r;
   stop_.store(false);
   thread_ = std::thread([this] { run(); });
   return {};
@@ -76,7 +133,12 @@ void FakeSlave::kill() {
   while (kill_.load() && thread_.joinable()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
 }
 
-Result<void> FakeSlave::restart() { return listen(); }
+Result<void> FakeSlave::restart() { return rtu() ? open_serial() : listen(); }
+
+void FakeSlave::set_units(std::vector<uint8_t> units) {
+  std::lock_guard lock(mu_);
+  opt_.units = std::move(units);
+}
 
 uint16_t FakeSlave::get(Table t, uint16_t address) const {
   std::lock_guard lock(mu_);
@@ -101,11 +163,13 @@ double FakeSlave::value(const Address& a) const {
 }
 
 void FakeSlave::run() {
-  std::vector<Client> clients;
+  const FrameOps& ops = frames();
+  std::vector<Client> clients;  // TCP: the accepted connections; RTU: the line
   std::vector<Pending> pending;
+  std::vector<Response> responses;
   std::vector<pollfd> fds;
   auto close_client = [&](int fd) {
-    ::close(fd);
+    if (ops.connections) ::close(fd);  // the serial line is closed with listen_fd_
     clients.erase(std::remove_if(clients.begin(), clients.end(), [&](const Client& c) { return c.fd == fd; }),
                   clients.end());
     pending.erase(std::remove_if(pending.begin(), pending.end(), [&](const Pending& p) { return p.fd == fd; }),
@@ -113,28 +177,35 @@ void FakeSlave::run() {
   };
   while (!stop_.load()) {
     if (kill_.load()) {
-      for (const Client& c : clients) ::close(c.fd);
+      if (ops.connections) {
+        for (const Client& c : clients) ::close(c.fd);
+      }
       clients.clear();
       pending.clear();
       const int fd = listen_fd_.exchange(-1);
       if (fd >= 0) ::close(fd);
       kill_.store(false);
     }
+    const int lfd = listen_fd_.load();
+    if (!ops.connections && clients.empty() && lfd >= 0) clients.push_back({lfd, {}, 0});
     int64_t now = kernel_rt::monotonic_now_ns();
     int timeout_ms = 20;
     for (const Pending& p : pending) {
       timeout_ms = std::min<int>(timeout_ms, static_cast<int>(std::max<int64_t>(0, (p.due_ns - now) / 1000000)));
     }
     fds.clear();
-    const int lfd = listen_fd_.load();
-    if (lfd >= 0) fds.push_back({lfd, POLLIN, 0});
+    if (lfd >= 0 && ops.connections) fds.push_back({lfd, POLLIN, 0});
     for (const Client& c : clients) fds.push_back({c.fd, POLLIN, 0});
     ::poll(fds.data(), fds.size(), timeout_ms);
     now = kernel_rt::monotonic_now_ns();
     // Replies whose time has come.
     for (size_t i = 0; i < pending.size();) {
       if (pending[i].due_ns <= now) {
-        (void)!::send(pending[i].fd, pending[i].bytes.data(), pending[i].bytes.size(), MSG_NOSIGNAL);
+        if (ops.connections) {
+          (void)!::send(pending[i].fd, pending[i].bytes.data(), pending[i].bytes.size(), MSG_NOSIGNAL);
+        } else {
+          (void)!::write(pending[i].fd, pending[i].bytes.data(), pending[i].bytes.size());
+        }
         pending.erase(pending.begin() + static_cast<std::ptrdiff_t>(i));
       } else {
         ++i;
@@ -142,53 +213,89 @@ void FakeSlave::run() {
     }
     std::vector<int> to_close;
     for (const pollfd& p : fds) {
-      if (!(p.revents & (POLLIN | POLLHUP | POLLERR))) continue;
-      if (p.fd == lfd) {
+      if (ops.connections && p.fd == lfd) {
+        if (!(p.revents & POLLIN)) continue;
         const int c = ::accept4(lfd, nullptr, nullptr, SOCK_CLOEXEC | SOCK_NONBLOCK);
         if (c >= 0) {
           const int one = 1;
           ::setsockopt(c, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
-          clients.push_back({c, {}});
+          clients.push_back({c, {}, 0});
         }
         continue;
       }
       auto it = std::find_if(clients.begin(), clients.end(), [&](const Client& c) { return c.fd == p.fd; });
       if (it == clients.end()) continue;
+      if (!ops.connections && !it->in.empty() && now - it->last_rx_ns > kRtuGapNs) it->in.clear();
+      if (!(p.revents & (POLLIN | POLLHUP | POLLERR))) continue;
       uint8_t buf[4096];
-      const ssize_t n = ::recv(p.fd, buf, sizeof buf, 0);
+      const ssize_t n = ::read(p.fd, buf, sizeof buf);
       if (n <= 0) {
-        to_close.push_back(p.fd);
+        if (ops.connections) {
+          to_close.push_back(p.fd);
+        } else {
+          // Nobody holds the other end of the pty yet (or any more): wait for one.
+          std::this_thread::sleep_for(std::chrono::milliseconds(20));
+        }
         continue;
       }
       it->in.insert(it->in.end(), buf, buf + n);
-      bool drop = false;
-      size_t used = 0;
-      while (!drop) {
-        MbapFrame f;
-        const FrameStatus st = next_frame(it->in.data() + used, it->in.size() - used, f);
-        if (st == FrameStatus::kBad) drop = true;  // not Modbus TCP: hang up
-        if (st != FrameStatus::kComplete) break;
-        handle(*it, f, pending, drop);
-        used += f.frame_len;
+      it->last_rx_ns = now;
+      responses.clear();
+      const bool keep = serve(ops, it->in, responses);
+      for (Response& r : responses) {
+        if (r.action == Response::Action::kReply) pending.push_back({p.fd, now + r.delay_ns, std::move(r.bytes)});
       }
-      it->in.erase(it->in.begin(), it->in.begin() + static_cast<std::ptrdiff_t>(used));
-      if (drop) to_close.push_back(p.fd);
+      if (!keep) to_close.push_back(p.fd);
     }
     for (int fd : to_close) close_client(fd);
   }
-  for (const Client& c : clients) ::close(c.fd);
+  if (ops.connections) {
+    for (const Client& c : clients) ::close(c.fd);
+  }
 }
 
-void FakeSlave::handle(Client& c, const MbapFrame& f, std::vector<Pending>& out, bool& drop) {
+bool FakeSlave::serve(const FrameOps& ops, std::vector<uint8_t>& in, std::vector<Response>& out) {
+  for (;;) {
+    const ptrdiff_t n = ops.frame_length(in.data(), in.size());
+    if (n == 0) return true;
+    if (n == kNotAFrame) {
+      in.clear();
+      return !ops.connections;
+    }
+    const auto len = static_cast<size_t>(n);
+    Frame req;
+    if (!ops.open(in.data(), len, req)) {
+      // RTU: a bad CRC; what follows cannot be trusted to start a frame either.
+      in.clear();
+      return true;
+    }
+    Response r = respond(ops, in.data(), len);
+    in.erase(in.begin(), in.begin() + n);
+    if (r.action == Response::Action::kDrop) {
+      if (ops.connections) return false;
+      r.action = Response::Action::kSilent;
+    }
+    out.push_back(std::move(r));
+  }
+}
+
+Response FakeSlave::respond(const FrameOps& ops, const uint8_t* frame, size_t len) {
+  Response r;
+  Frame req;
+  if (!ops.open(frame, len, req)) return r;
   requests_.fetch_add(1);
-  if (silent_.load()) return;
-  if (!opt_.units.empty() && std::find(opt_.units.begin(), opt_.units.end(), f.unit) == opt_.units.end()) return;
+  if (silent_.load()) return r;
+  {
+    std::lock_guard lock(mu_);
+    if (!opt_.units.empty() && std::find(opt_.units.begin(), opt_.units.end(), req.unit) == opt_.units.end()) return r;
+  }
   uint16_t magic = 0;
-  std::vector<uint8_t> pdu = answer(f.pdu, f.pdu_len, magic);
-  if (magic == kMagicSilent) return;
+  std::vector<uint8_t> pdu = answer(req.pdu, req.pdu_len, magic);
+  if (!ops.connections && req.unit == 0) return r;  // a broadcast: done, never answered
+  if (magic == kMagicSilent) return r;
   if (magic == kMagicDrop) {
-    drop = true;
-    return;
+    r.action = Response::Action::kDrop;
+    return r;
   }
   if (magic == kMagicBadLength && pdu.size() >= 2 && !(pdu[0] & 0x80) && pdu[0] <= 4) {
     // A byte count that does not match the request: two bytes too many.
@@ -196,12 +303,13 @@ void FakeSlave::handle(Client& c, const MbapFrame& f, std::vector<Pending>& out,
     pdu.push_back(0);
     pdu.push_back(0);
   }
-  const uint16_t tid = magic == kMagicBadId ? static_cast<uint16_t>(f.transaction + 1) : f.transaction;
-  std::vector<uint8_t> reply;
-  append_frame(reply, tid, f.unit, pdu.data(), pdu.size());
-  int64_t due = kernel_rt::monotonic_now_ns() + opt_.reply_delay_ns;
-  if (magic == kMagicDelay) due += opt_.delay_ns;
-  out.push_back({c.fd, due, std::move(reply)});
+  const FrameFault fault = magic == kMagicBadId    ? FrameFault::kWrongId
+                           : magic == kMagicBadCrc ? FrameFault::kBadCrc
+                                                   : FrameFault::kNone;
+  ops.seal(req, pdu.data(), pdu.size(), fault, r.bytes);
+  r.action = Response::Action::kReply;
+  r.delay_ns = opt_.reply_delay_ns + (magic == kMagicDelay ? opt_.delay_ns : 0);
+  return r;
 }
 
 // The PDU of the answer to one request; `magic` says which fault, if any, the
@@ -217,7 +325,7 @@ std::vector<uint8_t> FakeSlave::answer(const uint8_t* pdu, size_t len, uint16_t&
   for (uint32_t m = kMagicExceptionBase + 1; m <= kMagicExceptionBase + 11u; ++m) {
     if (addr <= m && m < end) return exception_reply(fc, static_cast<uint8_t>(m - kMagicExceptionBase));
   }
-  for (uint16_t m : {kMagicDelay, kMagicDrop, kMagicBadLength, kMagicSilent, kMagicBadId}) {
+  for (uint16_t m : {kMagicDelay, kMagicDrop, kMagicBadLength, kMagicSilent, kMagicBadId, kMagicBadCrc}) {
     if (addr <= m && m < end) magic = m;
   }
   Request rq;

@@ -204,7 +204,7 @@ void Line::record(Unit& u, const Outcome& o, int64_t started_ns) noexcept {
     ++u.st.timeouts;
     return;
   }
-  if (o.kind == Outcome::Kind::kLink || o.kind == Outcome::Kind::kProtocol) {
+  if (o.kind == Outcome::Kind::kLink || o.kind == Outcome::Kind::kProtocol || o.kind == Outcome::Kind::kBadCrc) {
     ++u.st.errors;
     return;
   }
@@ -248,7 +248,7 @@ void Line::poll_block(Unit& u, UnitBlock& b, int64_t now) noexcept {
     const int64_t t0 = kernel_rt::monotonic_now_ns();
     o = client_.read(b.block.table, b.block.start, b.block.count, words);
     record(u, o, t0);
-    if (o.kind != Outcome::Kind::kTimeout && o.kind != Outcome::Kind::kProtocol) break;
+    if (o.kind != Outcome::Kind::kTimeout && o.kind != Outcome::Kind::kProtocol && o.kind != Outcome::Kind::kBadCrc) break;
     client_.flush();
   }
   const int64_t answered = kernel_rt::monotonic_now_ns();
@@ -280,6 +280,13 @@ void Line::poll_block(Unit& u, UnitBlock& b, int64_t now) noexcept {
     if (opt_.on_poll) opt_.on_poll(u.slave, due, answered);
     if (u.failures > 0 && u.answered) {
       log(io::LinkEvent::Level::kInfo, fmt::format("slave {} ({}) answers again", u.cfg->name, u.cfg->peer()));
+      if (u.cfg->rtu()) {
+        // An RTU unit has no connection of its own: its coming back counts as
+        // its reconnect, so the driver sends its outputs again (it may have
+        // restarted with its reset values).
+        ++u.st.connects;
+        ++u.st.reconnects;
+      }
     }
     if (o.ok()) b.refusal_logged = false;
     u.failures = 0;
@@ -297,8 +304,13 @@ void Line::poll_block(Unit& u, UnitBlock& b, int64_t now) noexcept {
   if (o.kind == Outcome::Kind::kLink) {
     drop_connection(answered, "connection lost");
   } else if (u.cfg->rtu()) {
+    // Quiet for one to two poll periods after the first failure, doubling with
+    // each further one up to kQuietMaxNs: every failed poll costs the line a
+    // timeout, so from the second poll on a dead unit is polled less often
+    // than its period asks, and the live units around it keep their grid.
     random_ = random_ * 6364136223846793005ull + 1442695040888963407ull;
-    u.quiet_until = answered + link::backoff_delay_ns(u.failures, to_ns(u.cfg->poll_s), kQuietMaxNs, random_ >> 11);
+    u.quiet_until =
+        answered + link::backoff_delay_ns(u.failures + 1, to_ns(u.cfg->poll_s), kQuietMaxNs, random_ >> 11);
   } else if (u.failures >= kTimeoutsBeforeReconnect) {
     drop_connection(answered, "no answer to several polls");
   }

@@ -1,9 +1,19 @@
-// Modbus TCP as a server sees it (Modbus Application Protocol v1.1b3 and
-// "Messaging on TCP/IP" v1.0b): cutting MBAP frames out of a byte stream,
-// checking a request PDU's shape (function code, quantity limits, byte count)
-// and building the replies. Shared by the fake slave (fake_slave.h) and the
-// `modbus-server` kind (io/drivers/modbus_server/), which differ only in what
-// the tables behind the requests are.
+// Modbus as a slave or server sees it (Modbus Application Protocol v1.1b3,
+// "Messaging on TCP/IP" v1.0b, "Serial Line" v1.02): finding request frames in
+// the bytes received and framing the answers, for TCP (MBAP header) and RTU
+// (unit + PDU + CRC-16); checking a request PDU's shape (function code,
+// quantity limits, byte count); building the reply PDUs. Pure functions over
+// bytes, no I/O, so the fuzzer drives them directly. Shared by the fake slave
+// (fake_slave.h, TCP and RTU) and the `modbus-server` kind
+// (io/drivers/modbus_server/, TCP), which differ only in the tables behind the
+// requests.
+//   TCP  MBAP header (transaction id, protocol 0, length, unit) + PDU:
+//        next_frame() / append_frame().
+//   RTU  unit + PDU + CRC-16 (poly 0xA001, init 0xFFFF, low byte first).
+// FrameOps is the framing as one small table of operations per transport, in
+// the manner of libmodbus's backends, so request handling written over it
+// (FakeSlave::serve) serves both; kTcpFrames is made of next_frame and
+// append_frame, so there is one MBAP implementation.
 #pragma once
 
 #include <cstddef>
@@ -18,9 +28,9 @@ inline constexpr uint8_t kExceptionIllegalValue = 3;
 inline constexpr uint8_t kExceptionDeviceFailure = 4;
 inline constexpr uint8_t kExceptionGatewayTarget = 11;
 
-// One frame at the front of a stream buffer.
-struct MbapFrame {
-  uint16_t transaction = 0;
+// One request or answer frame at the front of a buffer; `pdu` points into it.
+struct Frame {
+  uint16_t transaction = 0;  // TCP only
   uint8_t unit = 0;
   const uint8_t* pdu = nullptr;  // function code first
   size_t pdu_len = 0;
@@ -33,12 +43,43 @@ enum class FrameStatus : uint8_t {
   kBad,         // not Modbus TCP (protocol id or length impossible): hang up
 };
 
-// Looks at the first bytes of `buf` (a client's unhandled input).
-FrameStatus next_frame(const uint8_t* buf, size_t len, MbapFrame& frame);
+// TCP: looks at the first bytes of `buf` (a client's unhandled input).
+FrameStatus next_frame(const uint8_t* buf, size_t len, Frame& frame);
 
-// Appends the MBAP header for `pdu_len` bytes of PDU, then the PDU.
+// TCP: appends the MBAP header for `pdu_len` bytes of PDU, then the PDU.
 void append_frame(std::vector<uint8_t>& out, uint16_t transaction, uint8_t unit, const uint8_t* pdu,
                   size_t pdu_len);
+
+// How the answer's framing is to be spoilt (a fault the fake slave injects).
+enum class FrameFault : uint8_t {
+  kNone,
+  kWrongId,  // TCP: another transaction id; RTU: another unit id
+  kBadCrc,   // RTU: the CRC of the answer is wrong; TCP has no CRC and answers normally
+};
+
+inline constexpr ptrdiff_t kNotAFrame = -1;
+
+struct FrameOps {
+  const char* name;  // "TCP", "RTU"
+  // TCP: each master has its own connection, which the slave may close.
+  // RTU: one shared line that cannot be hung up; its unit 0 is broadcast.
+  bool connections;
+  // The length of the request at the front of `in`: > 0 a whole frame of that
+  // many bytes, 0 not all of it yet, kNotAFrame garbage (TCP hangs up, RTU
+  // discards what it holds and waits for the next frame).
+  ptrdiff_t (*frame_length)(const uint8_t* in, size_t len);
+  // The request inside a whole frame of `len` bytes; false when the frame
+  // fails its integrity check (RTU: its CRC), which a slave answers with silence.
+  bool (*open)(const uint8_t* frame, size_t len, Frame& out);
+  // `out` = the framed answer to `req` carrying `pdu`.
+  void (*seal)(const Frame& req, const uint8_t* pdu, size_t pdu_len, FrameFault fault, std::vector<uint8_t>& out);
+};
+
+extern const FrameOps kTcpFrames;
+extern const FrameOps kRtuFrames;
+
+// Modbus RTU's CRC-16 over `len` bytes (sent low byte first).
+uint16_t crc16(const uint8_t* p, size_t len);
 
 // A request PDU whose shape is valid (its addresses are for the caller to judge).
 struct Request {

@@ -14,6 +14,7 @@
 #include <map>
 #include <string>
 
+#include "config/map_entries.h"
 #include "config/yaml_reader.h"
 
 namespace rtplc::modbus_server {
@@ -155,19 +156,7 @@ void parse_item(YamlReader& r, const YAML::Node& node, SourcePos where, ServerSe
     r.error(*f.get("address"), "a two-register value needs address + 1 <= 65535");
     ok = false;
   }
-  for (const char* key : {"scale", "offset"}) {
-    if (const Field* k = f.get(key)) {
-      if (auto v = r.real(k->value, k->pos, std::string("'") + key + "'")) {
-        (std::string(key) == "scale" ? e.scale : e.offset) = *v;
-      } else {
-        ok = false;
-      }
-    }
-  }
-  if (e.scale == 0) {
-    r.error(f.get("scale") ? f.get("scale")->pos : e.pos, "'scale' must not be 0");
-    ok = false;
-  }
+  ok &= parse_scaling(r, f, e.pos, e.scale, e.offset);
   if (ok) out.items.push_back(std::move(e));
 }
 

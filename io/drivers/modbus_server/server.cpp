@@ -176,7 +176,7 @@ bool TcpServer::serve(Client& c, int64_t now) {
   }
   size_t used = 0;
   for (;;) {
-    modbus::MbapFrame f;
+    modbus::Frame f;
     const modbus::FrameStatus st = modbus::next_frame(c.in.data() + used, c.in.size() - used, f);
     if (st == modbus::FrameStatus::kBad) {
       add(counters_.bad_frames);

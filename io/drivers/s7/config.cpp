@@ -12,6 +12,7 @@
 #include "io/drivers/s7/config.h"
 
 #include "blocks/image.h"
+#include "config/map_entries.h"
 #include "config/yaml_reader.h"
 #include "io/drivers/s7/address.h"
 
@@ -197,29 +198,8 @@ void parse_map(YamlReader& r, const YAML::Node& node, SourcePos where, bool writ
   } else {
     ok = false;
   }
-  for (const char* key : {"scale", "offset"}) {
-    if (const Field* k = f.get(key)) {
-      if (auto v = r.real(k->value, k->pos, std::string("'") + key + "'")) {
-        (std::string(key) == "scale" ? m.scale : m.offset) = *v;
-      } else {
-        ok = false;
-      }
-    }
-  }
-  if (m.scale == 0) {
-    r.error(f.get("scale") ? f.get("scale")->pos : m.pos, "'scale' must not be 0");
-    ok = false;
-  }
-  if (const Field* k = f.get("mode")) {
-    if (!write) {
-      r.error(*k, "'mode' applies to write maps only");
-      ok = false;
-    } else if (auto v = r.choice(*k)) {
-      m.mode = *v == "every_cycle" ? S7WriteMode::kEveryCycle : S7WriteMode::kOnChange;
-    } else {
-      ok = false;
-    }
-  }
+  ok &= parse_scaling(r, f, m.pos, m.scale, m.offset);
+  ok &= parse_write_mode(r, f, write, m.mode);
   if (ok) out.push_back(std::move(m));
 }
 
@@ -230,14 +210,9 @@ void parse_s7(YamlReader& r, const Fields& f, DriverConfig& out) {
       for (const YAML::Node& n : *items) parse_plc(r, n, plcs->pos, s);
     }
   }
-  for (const char* key : {"read", "write"}) {
-    const Field* list = f.get(key);
-    if (!list) continue;
-    auto items = r.list(*list);
-    if (!items) continue;
-    const bool write = std::string(key) == "write";
-    for (const YAML::Node& n : *items) parse_map(r, n, list->pos, write, write ? s.writes : s.reads);
-  }
+  for_each_map_entry(r, f, [&](const YAML::Node& n, SourcePos at, bool write) {
+    parse_map(r, n, at, write, write ? s.writes : s.reads);
+  });
   // Names unique; every map names a PLC; a channel is mapped once per direction.
   std::map<std::string, SourcePos> names;
   for (const S7PlcConfig& p : s.plcs) {

@@ -12,6 +12,7 @@
 
 #include "common/diagnostic.h"
 #include "config/driver_kinds.h"
+#include "config/map_entries.h"
 #include "config/values.h"
 
 namespace rtplc::s7 {
@@ -35,11 +36,6 @@ struct S7PlcConfig {
   SourcePos pos, name_pos, address_pos;
 };
 
-enum class S7WriteMode : uint8_t {
-  kOnChange,    // sent when the task's value changes (and again after a failure)
-  kEveryCycle,  // sent every driver cycle
-};
-
 struct S7ChannelMap {
   std::string channel;   // "pN.dN.cN" of the era/erd/ewa/ewd block
   ChannelAddress addr;
@@ -47,7 +43,7 @@ struct S7ChannelMap {
   std::string item;      // S7 address as `rtplc s7 read` takes it: DB1.DBD8:REAL, M0.1, ...
   double scale = 1.0;    // engineering value = raw * scale + offset (inverse on writes)
   double offset = 0.0;
-  S7WriteMode mode = S7WriteMode::kOnChange;
+  config::WriteMode mode = config::WriteMode::kOnChange;
   SourcePos pos, channel_pos, plc_pos, item_pos;
 };
 

@@ -191,7 +191,7 @@ void S7Driver::cycle_write(uint32_t j, uint32_t k, int64_t now) noexcept {
   const bool sendable = got && (q == Quality::kGood || q == Quality::kForced);
   if (sendable) {
     const bool changed = !w.sent || value != w.last;
-    const bool due = w.mode == S7WriteMode::kEveryCycle || changed || w.resend;
+    const bool due = w.mode == config::WriteMode::kEveryCycle || changed || w.resend;
     // One write per item in flight: the newest value goes out after it.
     if (due && w.ticket.id == 0) send(w, value);
   }

@@ -63,7 +63,7 @@ class S7Driver final : public io::Driver {
   };
   struct Write {
     ItemId item;
-    S7WriteMode mode;
+    config::WriteMode mode;
     uint32_t plc;  // index into plcs_
     DataType type = DataType::kByte;
     double scale = 1;

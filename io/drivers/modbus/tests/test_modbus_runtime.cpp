@@ -4,6 +4,8 @@
 // again when it is back, with its outputs sent again; a slave that never
 // answers beside a healthy one costs the healthy one no poll; an exception
 // marks only its item's block bad. Also against python3-pymodbus when installed.
+// RTU over a socat pty pair (parity N: pyserial, under pymodbus, cannot set
+// even parity on a pty here): two units on one line where one is dead, and pymodbus's RTU server.
 #include <gtest/gtest.h>
 
 #include <sys/wait.h>
@@ -15,7 +17,9 @@
 #include <thread>
 
 #include "io/drivers/modbus/fake_slave.h"
+#include "io/drivers/modbus/tests/pty_pair.h"
 #include "tests/support/runtime_fixture.h"
+#include "tests/support/eventually.h"
 
 namespace rtplc::sched {
 namespace {
@@ -26,14 +30,7 @@ using rtplc::testing::RuntimeFixture;
 
 void sleep_s(double s) { std::this_thread::sleep_for(std::chrono::duration<double>(s)); }
 
-template <class F>
-bool eventually(F f, double seconds = 5) {
-  for (int i = 0; i < static_cast<int>(seconds * 50); ++i) {
-    if (f()) return true;
-    sleep_s(0.02);
-  }
-  return f();
-}
+using rtplc::testing::eventually;
 
 const char* kProgram =
     "%%\nstime(0.02)\nF1 = prr(p1, d0, c0, \"Level\")\nF2 = scale(F1, 2, 1)\n"
@@ -178,6 +175,105 @@ TEST(ModbusPymodbus, our_master_reads_and_writes_a_pymodbus_server) {
   rt->stop();
   kill(pid, SIGTERM);
   waitpid(pid, nullptr, 0);
+}
+
+// Two units on one RTU line; the fake has only unit 1, so unit 2 is dead. Each
+// poll of the dead unit costs the line its 30 ms timeout, well under the live
+// unit's 200 ms period, so the live unit keeps its grid: no poll missed, no
+// timeout (its own 150 ms leaves a loaded machine room). The dead one is polled less and less often (its skipped polls are
+// counted offline) and its channel is bad, until it comes back, when it is
+// counted reconnected and its output is sent again.
+TEST(ModbusRtuRuntime, a_dead_unit_costs_the_live_one_on_its_line_no_poll_and_is_polled_less_often_until_it_answers) {
+  modbus::testing::PtyPair pty;
+  if (!pty.available()) GTEST_SKIP() << pty.why();
+  modbus::FakeSlaveOptions o;
+  o.serial = {pty.a(), 19200, 'N', 8, 1};
+  o.units = {1};
+  FakeSlave slave(o);
+  ASSERT_TRUE(slave.start().ok());
+  slave.put(*parse_address("hr:0:f32"), 2.5);
+  RuntimeFixture fx;
+  fx.write("p.fbd",
+           "%%\nstime(0.02)\nF1 = prr(p1, d0, c0, \"Level\")\nF2 = scale(F1, 2, 1)\n"
+           "F3 = prr(p2, d0, c0, \"Dead\")\npwr(F2, p1, d0, c1, \"Out\")\npwr(F2, p2, d0, c1, \"DeadOut\")\nEND\n");
+  const std::string line = "device: " + pty.b() + ", parity: N, poll: 200ms, retries: 0";
+  auto rt = fx.start("tasks:\n  - {name: t, program: p.fbd}\n"
+                     "drivers:\n  - kind: modbus\n    name: mb\n    slaves:\n"
+                     "      - {name: live, unit: 1, timeout: 150ms, " + line + "}\n"
+                     "      - {name: dead, unit: 2, timeout: 30ms, " + line + "}\n"
+                     "    read:\n"
+                     "      - {device: R, channel: p1.d0.c0, slave: live, address: 0, type: f32}\n"
+                     "      - {device: R, channel: p2.d0.c0, slave: dead, address: 5}\n"
+                     "    write:\n"
+                     "      - {device: R, channel: p1.d0.c1, slave: live, address: 10, type: f32}\n"
+                     "      - {device: R, channel: p2.d0.c1, slave: dead, address: 20}\n");
+  ASSERT_NE(rt, nullptr);
+  auto ch = [&](const char* l) { return rt->image().read_channel(static_cast<uint32_t>(rt->image().find_channel(l))); };
+  const io::LinkStatus& live = rt->image().link(0);
+  const io::LinkStatus& dead = rt->image().link(1);
+  ASSERT_TRUE(eventually([&] { return ch("Level").quality == Quality::kGood; }));
+  EXPECT_TRUE(eventually([&] { return slave.value(*parse_address("hr:10:f32")) == 6.0; }));  // 2.5 * 2 + 1
+  ASSERT_TRUE(eventually([&] { return live.polls_completed.load() >= 20; }, 30));
+  EXPECT_EQ(ch("Level").quality, Quality::kGood);
+  EXPECT_EQ(live.polls_missed.load(), 0u);
+  EXPECT_EQ(live.timeouts.load(), 0u);
+  EXPECT_EQ(ch("Dead").quality, Quality::kBad);
+  EXPECT_EQ(dead.polls_completed.load(), 0u);
+  const uint64_t attempts = dead.timeouts.load();
+  EXPECT_GE(attempts, 2u);
+  // Polled less often than asked: most of its due polls were skipped, and it
+  // was tried far less often than the live unit was polled.
+  EXPECT_GT(dead.polls_offline.load(), attempts) << dead.polls_offline.load() << " offline";
+  EXPECT_LT(attempts * 3, live.polls_completed.load()) << attempts << " tries, " << live.polls_completed.load() << " live polls";
+  EXPECT_EQ(dead.state.load(), static_cast<uint8_t>(io::LinkState::kDown));
+  EXPECT_EQ(slave.get(modbus::Table::kHoldingRegister, 20), 0);  // its output never arrived
+  // It comes up: answered at its next try, good, and its output sent now.
+  slave.set(modbus::Table::kHoldingRegister, 5, 7);  // the units share the fake's tables
+  slave.set_units({1, 2});
+  EXPECT_TRUE(eventually([&] { return ch("Dead").quality == Quality::kGood; }, 30));
+  EXPECT_EQ(ch("Dead").value, 7);
+  EXPECT_TRUE(eventually([&] { return slave.get(modbus::Table::kHoldingRegister, 20) == 6; }));
+  EXPECT_EQ(dead.reconnects.load(), 0u);
+  // It goes and comes back with its reset values: counted reconnected, and its
+  // output (delivered before, unchanged since) is sent again.
+  slave.set_units({1});
+  EXPECT_TRUE(eventually([&] { return ch("Dead").quality == Quality::kBad; }));
+  EXPECT_EQ(ch("Dead").value, 7);  // the last value stays
+  slave.set(modbus::Table::kHoldingRegister, 20, 0);
+  slave.set_units({1, 2});
+  EXPECT_TRUE(eventually([&] { return slave.get(modbus::Table::kHoldingRegister, 20) == 6; }, 30));
+  EXPECT_EQ(ch("Dead").quality, Quality::kGood);
+  EXPECT_EQ(dead.reconnects.load(), 1u);
+  EXPECT_EQ(live.polls_missed.load(), 0u);
+  EXPECT_EQ(live.timeouts.load(), 0u);
+  rt->stop();
+}
+
+TEST(ModbusRtuRuntime, our_driver_reads_and_writes_a_pymodbus_rtu_server_over_a_pty) {
+  if (!modbus::testing::have_pymodbus()) {
+    GTEST_SKIP() << "python3-pymodbus is not installed (scripts/setup-deps installs it)";
+  }
+  modbus::testing::PtyPair pty;
+  if (!pty.available()) GTEST_SKIP() << pty.why();
+  modbus::testing::Child server("/usr/bin/python3", RTPLC_SOURCE_DIR "/io/drivers/modbus/tests/pymodbus_server.py",
+                                "--rtu", pty.a().c_str());
+  RuntimeFixture fx;
+  fx.write("p.fbd",
+           "%%\nstime(0.02)\nF1 = prr(p1, d0, c0, \"Level\")\nF2 = scale(F1, 2, 1)\n"
+           "pwr(F2, p1, d0, c1, \"Out\")\nEND\n");
+  const std::string cfg =
+      "tasks:\n  - {name: t, program: p.fbd}\n"
+      "drivers:\n  - kind: modbus\n    name: mb\n    slaves:\n"
+      "      - {name: py, device: " + pty.b() + ", parity: N, unit: 3, poll: 50ms, timeout: 200ms}\n"
+      "    read: [{device: R, channel: p1.d0.c0, slave: py, address: 0}]\n"
+      "    write: [{device: R, channel: p1.d0.c1, slave: py, address: 1}]\n";
+  auto rt = fx.start(cfg);
+  ASSERT_NE(rt, nullptr);
+  auto ch = [&](const char* l) { return rt->image().read_channel(static_cast<uint32_t>(rt->image().find_channel(l))); };
+  // The server starts with hr0 = 17; our write of 35 to hr1 is acknowledged by it.
+  EXPECT_TRUE(eventually([&] { return ch("Level").quality == Quality::kGood && ch("Level").value == 17; }, 20));
+  EXPECT_TRUE(eventually([&] { return rt->image().link(0).writes_acked.load() > 0; }, 20));
+  rt->stop();
 }
 
 }  // namespace

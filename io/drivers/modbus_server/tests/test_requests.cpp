@@ -22,6 +22,7 @@
 #include "io/drivers/modbus/pdu.h"
 #include "io/drivers/modbus_server/requests.h"
 #include "io/drivers/modbus_server/server.h"
+#include "tests/support/eventually.h"
 
 namespace rtplc::modbus_server {
 namespace {
@@ -244,7 +245,7 @@ Bytes exchange(int fd, uint16_t tid, uint8_t unit, const Bytes& pdu) {
   if (::send(fd, frame.data(), frame.size(), MSG_NOSIGNAL) != static_cast<ssize_t>(frame.size())) return {};
   Bytes in;
   for (;;) {
-    modbus::MbapFrame f;
+    modbus::Frame f;
     if (modbus::next_frame(in.data(), in.size(), f) == modbus::FrameStatus::kComplete) {
       EXPECT_EQ(f.transaction, tid);
       return Bytes(f.pdu, f.pdu + f.pdu_len);
@@ -266,14 +267,7 @@ bool closed_by_server(int fd) {
   return ::recv(fd, &b, 1, 0) == 0;
 }
 
-template <class F>
-bool eventually(F f) {
-  for (int i = 0; i < 500; ++i) {
-    if (f()) return true;
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  return f();
-}
+using rtplc::testing::eventually;
 
 struct Served {
   explicit Served(const std::string& extra)

@@ -22,6 +22,7 @@
 
 #include "io/drivers/modbus/fake_slave.h"
 #include "tests/support/runtime_fixture.h"
+#include "tests/support/eventually.h"
 
 namespace rtplc::sched {
 namespace {
@@ -30,14 +31,7 @@ using modbus::FakeSlave;
 using modbus::parse_address;
 using rtplc::testing::RuntimeFixture;
 
-template <class F>
-bool eventually(F f, double seconds = 10) {
-  for (int i = 0; i < static_cast<int>(seconds * 50); ++i) {
-    if (f()) return true;
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  return f();
-}
+using rtplc::testing::eventually;
 
 bool have_mbpoll() { return std::system("command -v mbpoll >/dev/null 2>&1") == 0; }
 

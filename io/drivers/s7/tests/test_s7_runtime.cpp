@@ -19,6 +19,7 @@
 #include "io/drivers/s7/address.h"
 #include "io/drivers/s7/fake_plc.h"
 #include "tests/support/runtime_fixture.h"
+#include "tests/support/eventually.h"
 
 namespace rtplc::sched {
 namespace {
@@ -43,14 +44,7 @@ void write_real(s7::FakePlc& plc, uint32_t offset, float v) {
   plc.write_memory(0, s7::Area::kDB, 10, offset, b);
 }
 
-template <class F>
-bool eventually(F f, double seconds = 5) {
-  for (int i = 0; i < static_cast<int>(seconds * 50); ++i) {
-    if (f()) return true;
-    sleep_s(0.02);
-  }
-  return f();
-}
+using rtplc::testing::eventually;
 
 // The runtime of every test here: plc1 on the fake PLC; F1 read from
 // DB10.DBD0:REAL, F2 = 2 * F1 + 1 written to DB10.DBD4:REAL, an operator bit to

@@ -1,0 +1,358 @@
+// The can driver's I/O thread, bridge thread and kind (see driver.h).
+#include "io/drivers/can/driver.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+
+#include "io/drivers/can/cli.h"
+#include "kernel_rt/clock.h"
+#include "kernel_rt/periodic.h"
+
+namespace rtplc::can {
+namespace {
+
+constexpr int64_t kStatusPeriodNs = 100000000;
+constexpr int64_t kMs = 1000000;
+
+int64_t seconds_to_ns(double s) {
+  return static_cast<int64_t>(std::llround(s * 1e9));
+}
+
+// A log line formatted without allocating (the bridge logs from its cycle).
+struct Line {
+  char text[160];
+  template <typename... Args>
+  explicit Line(fmt::format_string<Args...> f, Args&&... args) {
+    const auto r = fmt::format_to_n(text, sizeof text - 1, f, std::forward<Args>(args)...);
+    *r.out = '\0';
+  }
+};
+
+}  // namespace
+
+CanDriver::CanDriver(const io::DriverSetup& setup, const TransportOps& transport)
+    : io::Driver(setup, "can"),
+      settings_(settings_of(*setup.config)),
+      transport_(transport),
+      rx_(std::make_unique<link::SnapshotSlot<RxSample>[]>(settings_.receive.size())),
+      tx_done_(std::make_unique<link::SnapshotSlot<TxOutcome>[]>(settings_.transmit.size())),
+      queue_(std::max<size_t>(16, 2 * settings_.transmit.size())) {
+  uint32_t in = 0;
+  for (const FrameMap& fm : settings_.receive) {
+    filters_.push_back({fm.id, fm.extended, kMaxExtendedId});
+    RxTrack t;
+    t.first = in;
+    in += static_cast<uint32_t>(fm.signals.size());
+    rx_track_.push_back(t);
+  }
+  uint32_t out = 0;
+  for (const FrameMap& fm : settings_.transmit) {
+    TxTrack t;
+    t.first = out;
+    out += static_cast<uint32_t>(fm.signals.size());
+    tx_track_.push_back(t);
+  }
+  // The I/O thread sends what the bridge queued between receives: waiting at
+  // most half a driver period keeps a queued frame from waiting longer.
+  io_wait_ns_ = std::clamp<int64_t>(setup.period_ns / 2, 1 * kMs, 20 * kMs);
+  describe_link(0, settings_.interface, fmt::format("{} ({})", settings_.interface, transport.name));
+}
+
+CanDriver::~CanDriver() {
+  request_stop();
+  join();
+  on_joined();
+}
+
+BusCounters CanDriver::counters() const {
+  BusCounters c;
+  (void)bus_.try_load(c);
+  return c;
+}
+
+Result<void> CanDriver::on_start() {
+  return start_io();
+}
+
+Result<void> CanDriver::start_io() {
+  auto p = Port::open(transport_, settings_.interface, filters_, settings_.error_frames);
+  if (!p) return make_error(fmt::format("can driver '{}': {}", name(), p.error()));
+  port_ = std::move(*p);
+  BusCounters c;
+  c.up = 1;
+  bus_.store(c);
+  io::LinkStatus& ls = link_row(0);
+  ls.connects.store(1, std::memory_order_relaxed);
+  auto t = kernel_rt::start_driver_thread(name(), "can-io", setup().helper_priority, setup().cpu,
+                                          [this] { io_loop(); });
+  if (!t) return make_error(t.error());
+  io_thread_ = std::move(*t);
+  io_started_ = true;
+  return {};
+}
+
+void CanDriver::on_joined() noexcept {
+  if (io_started_) {
+    io_stop_.store(true, std::memory_order_relaxed);
+    io_thread_.join();
+    io_started_ = false;
+  }
+  port_.close();
+}
+
+// ---- I/O thread -------------------------------------------------------------
+
+void CanDriver::io_loop() noexcept {
+  BusCounters c = bus_.writer_value();
+  std::vector<bool> short_logged(settings_.receive.size(), false);
+  bool send_failing = false;
+  bool recv_failing = false;
+  while (!io_stop_.load(std::memory_order_relaxed)) {
+    bool changed = false;
+    TxJob job;
+    while (queue_.pop(job)) {
+      const int err = port_.send(job.f);
+      if (err == 0) {
+        ++c.frames_tx;
+        if (send_failing) log(io::LinkEvent::Level::kInfo, "CAN sends work again");
+        send_failing = false;
+        if (c.bus_offs == c.restarts) c.up = 1;
+      } else {
+        ++c.tx_failed;
+        if (err == ENETDOWN) c.up = 0;
+        if (!send_failing) {
+          log(io::LinkEvent::Level::kError,
+              Line("sending {} failed: {}", frame_text(job.f), std::strerror(err)).text);
+        }
+        send_failing = true;
+      }
+      tx_done_[job.frame].store(TxOutcome{job.seq, err});
+      changed = true;
+    }
+    Frame f;
+    int err = 0;
+    switch (port_.recv(f, io_wait_ns_, &err)) {
+      case RecvResult::kTimeout:
+        break;
+      case RecvResult::kError:
+        ++c.rx_errors;
+        if (!recv_failing) {
+          log(io::LinkEvent::Level::kError, Line("receiving failed: {}", std::strerror(err)).text);
+        }
+        recv_failing = true;
+        changed = true;
+        kernel_rt::sleep_until_ns(kernel_rt::monotonic_now_ns() + io_wait_ns_);  // no busy loop on a dead socket
+        break;
+      case RecvResult::kFrame:
+        recv_failing = false;
+        changed = true;
+        if (f.error) {
+          ++c.error_frames;
+          const ErrorReport e = decode_error(f);
+          if (e.bus_off) {
+            ++c.bus_offs;
+            c.up = 0;
+          }
+          if (e.restarted) {
+            ++c.restarts;
+            c.up = 1;
+          }
+          if (e.error_passive) c.passive = 1;
+          if (e.back_to_active) c.passive = 0;
+          const auto level = e.bus_off ? io::LinkEvent::Level::kError
+                             : e.restarted || e.back_to_active ? io::LinkEvent::Level::kInfo
+                                                               : io::LinkEvent::Level::kWarning;
+          log(level, Line("CAN controller: {}", error_text(e)).text);
+          break;
+        }
+        for (size_t i = 0; i < settings_.receive.size(); ++i) {
+          const FrameMap& fm = settings_.receive[i];
+          if (fm.id != f.id || fm.extended != f.extended) continue;
+          if (f.len < fm.length) {
+            ++c.bad_frames;
+            if (!short_logged[i]) {
+              short_logged[i] = true;
+              log(io::LinkEvent::Level::kError,
+                  Line("frame {} has {} data bytes, its signals need {}; ignored", id_text(f.id, f.extended), f.len,
+                       fm.length)
+                      .text);
+            }
+            break;
+          }
+          ++c.frames_rx;
+          RxSample s = rx_[i].writer_value();
+          std::memcpy(s.data, f.data, sizeof s.data);
+          s.len = f.len;
+          ++s.count;
+          s.at_ns = kernel_rt::monotonic_now_ns();
+          rx_[i].store(s);
+          break;
+        }
+        break;
+    }
+    if (changed) bus_.store(c);
+  }
+}
+
+// ---- bridge thread ----------------------------------------------------------
+
+void CanDriver::cycle(int64_t now) noexcept {
+  (void)bus_.try_load(seen_);  // a miss keeps the last counters
+  const bool up = seen_.up != 0;
+  if (up != was_up_) {
+    log(up ? io::LinkEvent::Level::kInfo : io::LinkEvent::Level::kError,
+        up ? "CAN bus up again" : "CAN bus off or down: outputs are not delivered");
+    was_up_ = up;
+  }
+  const uint32_t k = begin_snapshot();
+  receive(k, now);
+  transmit(k, now);
+  end_snapshot(k, now);
+  if (now >= next_status_) {
+    publish_status();
+    next_status_ = now + kStatusPeriodNs;
+  }
+}
+
+void CanDriver::receive(uint32_t k, int64_t now) noexcept {
+  for (uint32_t i = 0; i < rx_track_.size(); ++i) {
+    RxTrack& t = rx_track_[i];
+    const FrameMap& fm = settings_.receive[i];
+    (void)rx_[i].try_load(t.last);  // a miss keeps the last sample
+    const bool fresh = t.last.count > 0 && now - t.last.at_ns <= seconds_to_ns(fm.timeout_s);
+    if (fresh && t.stale && t.seen) {
+      log(io::LinkEvent::Level::kInfo, Line("frame {} is received again", id_text(fm.id, fm.extended)).text);
+    }
+    if (!fresh && !t.stale) {
+      rx_timeouts_.fetch_add(1, std::memory_order_relaxed);
+      log(io::LinkEvent::Level::kWarning,
+          Line("frame {} not received for {} ms: its channels are bad", id_text(fm.id, fm.extended),
+               std::llround(fm.timeout_s * 1e3))
+              .text);
+    }
+    t.seen = t.seen || fresh;
+    t.stale = !fresh;
+    for (uint32_t s = 0; s < fm.signals.size(); ++s) {
+      const double v = t.last.count > 0 ? unpack(fm.signals[s].layout, t.last.data) : 0.0;
+      const Quality q = fresh && std::isfinite(v) ? Quality::kGood : Quality::kBad;
+      put_input(k, t.first + s, v, q, t.last.at_ns);
+    }
+  }
+}
+
+void CanDriver::transmit(uint32_t k, int64_t now) noexcept {
+  const bool up = seen_.up != 0;
+  for (uint32_t i = 0; i < tx_track_.size(); ++i) {
+    TxTrack& t = tx_track_[i];
+    const FrameMap& fm = settings_.transmit[i];
+    if (t.in_flight != 0) {
+      TxOutcome o;
+      if (tx_done_[i].try_load(o) && o.seq == t.in_flight) {
+        t.in_flight = 0;
+        t.last_err = o.err;
+      }
+    }
+    uint8_t data[8];
+    std::memcpy(data, t.data, sizeof data);
+    bool sendable = true;
+    bool refused = false;
+    for (uint32_t s = 0; s < fm.signals.size(); ++s) {
+      double v = 0;
+      Quality q = Quality::kBad;
+      if (!read_output(t.first + s, v, q) || (q != Quality::kGood && q != Quality::kForced)) {
+        sendable = false;
+        continue;
+      }
+      if (!pack(fm.signals[s].layout, v, data)) {
+        sendable = false;
+        refused = true;
+        if (!t.refusal_logged) {
+          rejected_.fetch_add(1, std::memory_order_relaxed);
+          log(io::LinkEvent::Level::kError,
+              Line("{} = {} does not fit its signal in frame {}; the frame is not sent", fm.signals[s].channel, v,
+                   id_text(fm.id, fm.extended))
+                  .text);
+        }
+      }
+    }
+    t.refusal_logged = refused;
+    const bool delivered = sendable && up && t.sent && t.last_err == 0;
+    for (uint32_t s = 0; s < fm.signals.size(); ++s) {
+      put_delivery(k, t.first + s, t.sent ? unpack(fm.signals[s].layout, t.data) : 0.0,
+                   delivered ? Quality::kGood : Quality::kBad, now);
+    }
+    if (!sendable) {
+      t.force = false;  // nothing we can vouch for to send, not even at stop
+      continue;
+    }
+    const bool changed = std::memcmp(data, t.data, sizeof data) != 0;
+    const bool due = !t.sent || now >= t.next_due || t.force || (fm.on_change && changed);
+    if (!due) continue;
+    TxJob job;
+    job.frame = i;
+    job.seq = t.next_seq;
+    job.f.id = fm.id;
+    job.f.extended = fm.extended;
+    job.f.len = fm.length;
+    std::memcpy(job.f.data, data, sizeof data);
+    if (!queue_.push(job)) continue;  // the I/O thread is behind: next cycle
+    ++t.next_seq;
+    t.in_flight = job.seq;
+    std::memcpy(t.data, data, sizeof data);
+    t.sent = true;
+    t.force = false;
+    // Each frame keeps its own grid; after a stall it restarts from now.
+    const int64_t period = seconds_to_ns(fm.period_s);
+    t.next_due = t.next_due + period > now ? t.next_due + period : now + period;
+  }
+}
+
+void CanDriver::publish_status() noexcept {
+  const BusCounters& c = seen_;
+  io::LinkStatus& ls = link_row(0);
+  const auto r = std::memory_order_relaxed;
+  uint64_t pending = 0;
+  for (const TxTrack& t : tx_track_) pending += t.in_flight != 0;
+  ls.state.store(static_cast<uint8_t>(c.up ? io::LinkState::kUp : io::LinkState::kDown), r);
+  ls.quality.store(static_cast<uint8_t>(c.up ? Quality::kGood : Quality::kBad), r);
+  ls.reconnects.store(c.restarts, r);
+  ls.timeouts.store(rx_timeouts_.load(r), r);
+  ls.errors.store(c.error_frames + c.bad_frames + c.rx_errors, r);
+  ls.polls_completed.store(c.frames_rx, r);
+  ls.polls_missed.store(c.bus_offs, r);
+  ls.writes_acked.store(c.frames_tx, r);
+  ls.writes_failed.store(c.tx_failed, r);
+  ls.writes_pending.store(pending, r);
+  ls.writes_rejected.store(rejected_.load(r), r);
+}
+
+void CanDriver::on_stop() noexcept {
+  // The tasks have set their outputs to their safe values: send every frame
+  // once more with them, and give the I/O thread a moment to put them out.
+  for (TxTrack& t : tx_track_) t.force = true;
+  const int64_t give_up = kernel_rt::monotonic_now_ns() + 500 * kMs;
+  for (;;) {
+    cycle(kernel_rt::monotonic_now_ns());
+    bool pending = false;
+    for (const TxTrack& t : tx_track_) pending |= t.force || t.in_flight != 0;
+    if (!pending || kernel_rt::monotonic_now_ns() > give_up) break;
+    kernel_rt::sleep_until_ns(kernel_rt::monotonic_now_ns() + 2 * kMs);
+  }
+  publish_status();
+}
+
+namespace {
+
+Result<std::unique_ptr<io::Driver>> create(const io::DriverSetup& setup) {
+  return std::unique_ptr<io::Driver>(std::make_unique<CanDriver>(setup, socketcan_transport()));
+}
+
+}  // namespace
+
+const io::DriverKind kDriverKind{&kConfigKind, &create, &add_commands};
+
+}  // namespace rtplc::can

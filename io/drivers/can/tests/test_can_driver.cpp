@@ -1,0 +1,317 @@
+// The can driver's bridge and I/O thread over the in-process fake bus: frames
+// in -> channel values, a frame that stops -> bad with its last value, outputs
+// -> frames with their ids, periods and bytes, nothing sent that the task
+// cannot vouch for, bus-off and restart counted, the safe values sent at stop.
+// Bridge cycles run at times the test chooses (cycle_now); the I/O thread is
+// real, so a test waits for it by counts (never by durations).
+#include <gtest/gtest.h>
+#include <linux/can/error.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <memory>
+#include <thread>
+
+#include "config/config.h"
+#include "io/drivers/can/config.h"
+#include "io/drivers/can/driver.h"
+#include "io/drivers/can/fake_bus.h"
+#include "kernel_rt/clock.h"
+
+namespace rtplc::can {
+namespace {
+
+constexpr int64_t kMs = 1000000;
+
+const char* kConfig =
+    "tasks:\n  - {name: t, program: p.fbd}\n"
+    "drivers:\n  - kind: can\n    name: epc\n    period: 5ms\n    interface: vcan0\n"
+    "    receive:\n"
+    "      - id: 0x181\n        timeout: 100ms\n        signals:\n"
+    "          - {channel: p0.d1.c0, byte: 0, length: 2, type: signed, scale: 0.1}\n"
+    "          - {channel: p0.d1.c1, byte: 2}\n"
+    "    transmit:\n"
+    "      - id: 0x201\n        period: 20ms\n        on_change: false\n        signals:\n"
+    "          - {channel: p0.d1.c0, byte: 0, length: 2, type: signed, scale: 0.1}\n"
+    "          - {channel: p0.d1.c1, byte: 2}\n"
+    "      - id: 0x18FF0001\n        period: 50ms\n        length: 4\n        signals:\n"
+    "          - {channel: p0.d2.c0, byte: 0, length: 4, type: float, order: big}\n";
+
+// A process image with one task region (the 3 outputs) and the driver's region
+// (2 inputs, then 3 delivery entries), as the runtime would lay it out.
+struct Rig {
+  config::LoadResult cfg;
+  io::ProcessImage image;
+  FakeBus bus;
+  io::LinkEventQueue events;
+  std::unique_ptr<CanDriver> driver;
+
+  explicit Rig(const char* yaml = kConfig) {
+    cfg = config::parse_config(yaml, "c.yaml", "", config::LoadOptions{false});
+    EXPECT_TRUE(cfg.ok()) << cfg.render();
+    io::ImageLayout l;
+    l.name = "test-candrv-" + std::to_string(getpid());
+    l.channel_capacity = 8;
+    l.regions.push_back({"task:t", io::RegionKind::kTask, 0, 3});
+    l.regions.push_back({"driver:epc", io::RegionKind::kDriver, 0, 5});
+    l.n_tasks = 1;
+    l.task_stats_bytes = 64;
+    l.n_links = 1;
+    auto img = io::ProcessImage::create(l);
+    EXPECT_TRUE(img.ok()) << img.error();
+    image = std::move(img).value();
+    io::DriverSetup setup;
+    setup.config = &cfg.config->drivers[0];
+    setup.image = &image;
+    setup.region = 1;
+    setup.n_provides = 2;
+    setup.consumes = {{0, 0}, {0, 1}, {0, 2}};
+    setup.period_ns = 5 * kMs;
+    setup.events = &events;
+    driver = std::make_unique<CanDriver>(setup, bus.transport());
+  }
+
+  void outputs(double a, double b, double c, Quality q = Quality::kGood) {
+    const uint32_t k = image.begin_write(0);
+    image.put(0, k, 0, a, q, 1);
+    image.put(0, k, 1, b, q, 1);
+    image.put(0, k, 2, c, q, 1);
+    image.end_write(0, k, 1, 0);
+  }
+  std::pair<double, Quality> entry(uint32_t idx) {
+    double v = 0;
+    Quality q = Quality::kGood;
+    EXPECT_TRUE(image.read_values(1, &idx, 1, &v, 8, nullptr, &q));
+    return {v, q};
+  }
+  // Waits (by count; the bound only keeps a broken build from hanging) until
+  // the fake bus saw `n` frames from the driver.
+  bool wait_sent(size_t n) {
+    for (int i = 0; i < 20000 && bus.sent_count() < n; ++i) std::this_thread::sleep_for(std::chrono::microseconds(500));
+    return bus.sent_count() >= n;
+  }
+  bool wait_received(uint64_t n) {
+    for (int i = 0; i < 20000 && driver->counters().frames_rx < n; ++i) {
+      std::this_thread::sleep_for(std::chrono::microseconds(500));
+    }
+    return driver->counters().frames_rx >= n;
+  }
+  bool logged(const std::string& part) {
+    io::LinkEvent e;
+    bool found = false;
+    while (events.pop(e)) found = found || std::string(e.text).find(part) != std::string::npos;
+    return found;
+  }
+};
+
+Frame frame(uint32_t id, std::initializer_list<uint8_t> bytes) {
+  Frame f;
+  f.id = id;
+  f.len = static_cast<uint8_t>(bytes.size());
+  uint8_t i = 0;
+  for (uint8_t b : bytes) f.data[i++] = b;
+  return f;
+}
+
+TEST(CanDriver, filters_the_socket_to_the_receive_ids) {
+  Rig r;
+  ASSERT_TRUE(r.driver->start_io().ok());
+  const auto f = r.bus.last_filters();
+  ASSERT_EQ(f.size(), 1u);
+  EXPECT_EQ(f[0].id, 0x181u);
+  EXPECT_FALSE(f[0].extended);
+}
+
+TEST(CanDriver, fails_clearly_when_the_interface_is_missing) {
+  std::string yaml = kConfig;
+  yaml.replace(yaml.find("vcan0"), 5, "missing");
+  Rig r(yaml.c_str());
+  auto s = r.driver->start_io();
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().find("can driver 'epc': CAN interface 'missing' does not exist"), std::string::npos) << s.error();
+}
+
+TEST(CanDriver, publishes_received_signals_and_marks_them_bad_after_the_timeout) {
+  Rig r;
+  ASSERT_TRUE(r.driver->start_io().ok());
+  const int64_t t0 = kernel_rt::monotonic_now_ns();
+  r.driver->cycle_now(t0);
+  EXPECT_EQ(r.entry(0).second, Quality::kBad);  // nothing received yet: never good
+  r.bus.inject(frame(0x181, {0x9C, 0xFF, 7}));  // -100 * 0.1, 7
+  r.bus.inject(frame(0x182, {1, 2, 3}));        // not mapped: the filter drops it
+  ASSERT_TRUE(r.wait_received(1));
+  const int64_t t1 = kernel_rt::monotonic_now_ns();
+  r.driver->cycle_now(t1);
+  EXPECT_DOUBLE_EQ(r.entry(0).first, -10.0);
+  EXPECT_EQ(r.entry(0).second, Quality::kGood);
+  EXPECT_EQ(r.entry(1).first, 7.0);
+  EXPECT_EQ(r.entry(1).second, Quality::kGood);
+  // The drive goes quiet: after the frame's timeout its channels are bad, with their last values.
+  r.driver->cycle_now(t1 + 101 * kMs);
+  EXPECT_DOUBLE_EQ(r.entry(0).first, -10.0);
+  EXPECT_EQ(r.entry(0).second, Quality::kBad);
+  EXPECT_EQ(r.entry(1).second, Quality::kBad);
+  EXPECT_EQ(r.driver->rx_timeouts(), 1u);
+  EXPECT_TRUE(r.logged("frame 181 not received for 100 ms"));
+  EXPECT_EQ(r.driver->counters().frames_rx, 1u);
+}
+
+TEST(CanDriver, refuses_a_frame_shorter_than_its_signals) {
+  Rig r;
+  ASSERT_TRUE(r.driver->start_io().ok());
+  r.bus.inject(frame(0x181, {1, 2}));  // byte 2 missing
+  r.bus.inject(frame(0x181, {1, 0, 3}));
+  ASSERT_TRUE(r.wait_received(1));
+  EXPECT_EQ(r.driver->counters().bad_frames, 1u);
+  r.driver->cycle_now(kernel_rt::monotonic_now_ns());
+  EXPECT_EQ(r.entry(1).first, 3.0);
+  EXPECT_TRUE(r.logged("frame 181 has 2 data bytes, its signals need 3"));
+}
+
+TEST(CanDriver, sends_each_frame_at_its_own_period_with_its_bytes) {
+  Rig r;
+  ASSERT_TRUE(r.driver->start_io().ok());
+  r.outputs(-1.5, 200, 2.5);
+  const int64_t t0 = kernel_rt::monotonic_now_ns();
+  for (int i = 0; i <= 20; ++i) r.driver->cycle_now(t0 + i * 5 * kMs);  // 0..100 ms
+  // 0x201 every 20 ms: 0, 20, 40, 60, 80, 100; 0x18FF0001 every 50 ms: 0, 50, 100.
+  ASSERT_TRUE(r.wait_sent(9));
+  std::this_thread::sleep_for(std::chrono::milliseconds(20));  // nothing more arrives
+  const auto sent = r.bus.sent();
+  ASSERT_EQ(sent.size(), 9u);
+  int a = 0, b = 0;
+  for (const Frame& f : sent) {
+    if (f.id == 0x201) {
+      ++a;
+      EXPECT_FALSE(f.extended);
+      ASSERT_EQ(f.len, 8);
+      EXPECT_EQ(f.data[0], 0xF1);  // -15 little-endian
+      EXPECT_EQ(f.data[1], 0xFF);
+      EXPECT_EQ(f.data[2], 200);
+    } else {
+      ++b;
+      EXPECT_EQ(f.id, 0x18FF0001u);
+      EXPECT_TRUE(f.extended);
+      ASSERT_EQ(f.len, 4);
+      EXPECT_EQ(f.data[0], 0x40);  // 2.5f big-endian: 40 20 00 00
+      EXPECT_EQ(f.data[1], 0x20);
+      EXPECT_EQ(f.data[2], 0x00);
+    }
+  }
+  EXPECT_EQ(a, 6);
+  EXPECT_EQ(b, 3);
+  r.driver->cycle_now(t0 + 101 * kMs);
+  EXPECT_EQ(r.entry(2).second, Quality::kGood);  // delivered
+  EXPECT_DOUBLE_EQ(r.entry(2).first, -1.5);
+}
+
+TEST(CanDriver, sends_a_changed_value_at_once_when_on_change) {
+  Rig r;
+  ASSERT_TRUE(r.driver->start_io().ok());
+  r.outputs(0, 0, 1);
+  const int64_t t0 = kernel_rt::monotonic_now_ns();
+  r.driver->cycle_now(t0);  // both frames once
+  ASSERT_TRUE(r.wait_sent(2));
+  r.outputs(0, 0, 2);       // 0x18FF0001 has on_change (the default)
+  r.driver->cycle_now(t0 + 5 * kMs);
+  r.outputs(0, 1, 2);       // 0x201 has not: waits for its period
+  r.driver->cycle_now(t0 + 10 * kMs);
+  ASSERT_TRUE(r.wait_sent(3));
+  std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  const auto sent = r.bus.sent();
+  ASSERT_EQ(sent.size(), 3u);
+  EXPECT_EQ(sent[2].id, 0x18FF0001u);
+  EXPECT_EQ(sent[2].data[0], 0x40);  // 2.0f
+}
+
+TEST(CanDriver, never_sends_a_frame_with_an_output_it_cannot_vouch_for) {
+  Rig r;
+  ASSERT_TRUE(r.driver->start_io().ok());
+  r.outputs(1, 2, 3, Quality::kBad);
+  const int64_t t0 = kernel_rt::monotonic_now_ns();
+  for (int i = 0; i < 10; ++i) r.driver->cycle_now(t0 + i * 20 * kMs);
+  r.outputs(1, 300, 3);  // 300 does not fit the unsigned byte of 0x201
+  for (int i = 10; i < 20; ++i) r.driver->cycle_now(t0 + i * 20 * kMs);
+  ASSERT_TRUE(r.wait_sent(1));
+  std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  for (const Frame& f : r.bus.sent()) EXPECT_NE(f.id, 0x201u);
+  EXPECT_EQ(r.entry(2).second, Quality::kBad);  // 0x201's outputs: not delivered
+  EXPECT_EQ(r.entry(4).second, Quality::kGood);
+  EXPECT_EQ(r.driver->rejected(), 1u);
+  EXPECT_TRUE(r.logged("p0.d1.c1 = 300 does not fit its signal in frame 201"));
+}
+
+TEST(CanDriver, counts_bus_off_and_restart_and_reports_the_bus_down_meanwhile) {
+  Rig r;
+  ASSERT_TRUE(r.driver->start_io().ok());
+  r.outputs(0, 0, 0);
+  const int64_t t0 = kernel_rt::monotonic_now_ns();
+  r.driver->cycle_now(t0);
+  ASSERT_TRUE(r.wait_sent(2));
+  r.bus.inject_error(CAN_ERR_BUSOFF);
+  for (int i = 0; i < 20000 && r.driver->counters().bus_offs == 0; ++i) std::this_thread::sleep_for(std::chrono::microseconds(500));
+  r.driver->cycle_now(t0 + 5 * kMs);
+  EXPECT_EQ(r.entry(2).second, Quality::kBad);
+  EXPECT_TRUE(r.logged("CAN controller: bus-off"));
+  r.bus.inject_error(CAN_ERR_RESTARTED);
+  for (int i = 0; i < 20000 && r.driver->counters().restarts == 0; ++i) std::this_thread::sleep_for(std::chrono::microseconds(500));
+  r.driver->cycle_now(t0 + 200 * kMs);
+  const BusCounters c = r.driver->counters();
+  EXPECT_EQ(c.bus_offs, 1u);
+  EXPECT_EQ(c.restarts, 1u);
+  EXPECT_EQ(c.error_frames, 2u);
+  EXPECT_EQ(c.up, 1);
+  const io::LinkStatus& ls = r.image.link(0);
+  EXPECT_EQ(ls.polls_missed.load(), 1u);  // bus-offs
+  EXPECT_EQ(ls.reconnects.load(), 1u);    // restarts
+  EXPECT_EQ(ls.errors.load(), 2u);
+  EXPECT_EQ(ls.state.load(), static_cast<uint8_t>(io::LinkState::kUp));
+}
+
+TEST(CanDriver, marks_outputs_undelivered_while_sends_fail) {
+  Rig r;
+  ASSERT_TRUE(r.driver->start_io().ok());
+  r.bus.refuse_sends(true);
+  r.outputs(0, 0, 0);
+  const int64_t t0 = kernel_rt::monotonic_now_ns();
+  r.driver->cycle_now(t0);
+  for (int i = 0; i < 20000 && r.driver->counters().tx_failed < 2; ++i) std::this_thread::sleep_for(std::chrono::microseconds(500));
+  r.driver->cycle_now(t0 + 5 * kMs);
+  EXPECT_EQ(r.entry(2).second, Quality::kBad);
+  EXPECT_EQ(r.entry(4).second, Quality::kBad);
+  EXPECT_TRUE(r.logged("failed: Network is down"));
+  r.bus.refuse_sends(false);
+  r.outputs(0, 0, 1);
+  r.driver->cycle_now(t0 + 60 * kMs);
+  ASSERT_TRUE(r.wait_sent(2));
+  for (int i = 0; i < 20000 && r.driver->counters().frames_tx < 2; ++i) std::this_thread::sleep_for(std::chrono::microseconds(500));
+  r.driver->cycle_now(t0 + 65 * kMs);
+  EXPECT_EQ(r.entry(2).second, Quality::kGood);
+  EXPECT_EQ(r.entry(4).second, Quality::kGood);
+}
+
+TEST(CanDriver, sends_the_safe_values_once_more_at_stop) {
+  std::string yaml = kConfig;
+  yaml.replace(yaml.find("period: 20ms"), 12, "period: 3600");
+  yaml.replace(yaml.find("period: 50ms\n        length: 4"), 12, "period: 3600");
+  yaml.replace(yaml.find("length: 4\n"), 10, "length: 4\n        on_change: false\n");
+  Rig r(yaml.c_str());
+  r.outputs(5, 6, 7);
+  ASSERT_TRUE(r.driver->start(kernel_rt::monotonic_now_ns()).ok());
+  ASSERT_TRUE(r.wait_sent(2));  // each frame once at start, then not for an hour
+  r.outputs(0, 0, 0);           // what the stopped task leaves: its safe values
+  r.driver->request_stop();
+  r.driver->join();
+  const auto sent = r.bus.sent();
+  ASSERT_EQ(sent.size(), 4u);
+  EXPECT_EQ(sent[0].data[2], 6);
+  EXPECT_EQ(sent[2].id, 0x201u);
+  EXPECT_EQ(sent[2].data[0], 0);
+  EXPECT_EQ(sent[2].data[2], 0);
+  EXPECT_EQ(sent[3].id, 0x18FF0001u);
+  EXPECT_EQ(sent[3].data[0], 0);
+  EXPECT_EQ(r.bus.ports_open(), 0);
+}
+
+}  // namespace
+}  // namespace rtplc::can

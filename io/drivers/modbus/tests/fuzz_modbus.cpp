@@ -1,0 +1,166 @@
+// libFuzzer target (issue 9, fuzzing): every place where bytes from the wire
+// meet our Modbus code, on arbitrary input.
+//   master side  a reply, TCP or RTU, to one of our client's requests: libmodbus
+//                parses it, our Client classifies the outcome, and a good
+//                answer's words go through every item decoding and format.
+//   slave side   a stream of requests, TCP or RTU, through pdu.h's framing
+//                tables (TCP's are next_frame/append_frame, which the
+//                modbus-server kind uses too) and the fake slave's request
+//                handling (pdu.h's parse_request, also the server's): answers
+//                must be framed consistently, and what parse_request accepts
+//                must be in bounds.
+// Input byte 0 chooses: bits 0-1 the mode (0 TCP reply, 1 RTU reply, 2 TCP
+// requests, 3 RTU requests); bit 2 patches the reply's transaction id (TCP) or
+// appends its CRC (RTU), bit 3 patches the TCP length or the RTU unit, so the
+// fuzzer gets past libmodbus's checks it cannot see into (it is not
+// instrumented). Reply modes: byte 1 the request (bits 0-1 table, bit 2 a
+// write instead), byte 2 the count, bytes 3-4 the start; the rest is the reply.
+// Seeds: io/drivers/modbus/tests/corpus/.
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <vector>
+
+#include "io/drivers/modbus/client.h"
+#include "io/drivers/modbus/fake_slave.h"
+#include "io/drivers/modbus/pdu.h"
+
+using namespace rtplc::modbus;
+
+namespace {
+
+constexpr uint8_t kUnit = 1;
+
+const std::vector<Address>& word_items() {
+  static const std::vector<Address> items = [] {
+    std::vector<Address> v;
+    for (const char* t : {"hr:0", "hr:0:i16", "hr:0:u32", "hr:0:i32", "hr:0:f32", "hr:0:f32:swapped", "hr:0:i32:swapped"}) {
+      v.push_back(*parse_address(t));
+    }
+    return v;
+  }();
+  return items;
+}
+
+void master_side(bool rtu, uint8_t flags, const uint8_t* data, size_t size) {
+  if (size < 4) return;
+  const auto table = static_cast<Table>(data[0] & 3);
+  const bool write = (data[0] & 4) != 0;
+  const uint16_t count = static_cast<uint16_t>(1 + data[1] % (is_bit_table(table) ? 255 : 125));
+  const uint16_t start = static_cast<uint16_t>(data[2] << 8 | data[3]);
+  std::vector<uint8_t> reply(data + 4, data + size);
+  if (rtu) {
+    if ((flags & 8) && !reply.empty()) reply[0] = kUnit;
+    if (flags & 4) {
+      const uint16_t crc = crc16(reply.data(), reply.size());
+      reply.push_back(static_cast<uint8_t>(crc));
+      reply.push_back(static_cast<uint8_t>(crc >> 8));
+    }
+  } else {
+    if ((flags & 4) && reply.size() >= 2) {  // a fresh libmodbus TCP context's first transaction is 1
+      reply[0] = 0;
+      reply[1] = 1;
+    }
+    if ((flags & 8) && reply.size() >= 6) {
+      const size_t len = reply.size() - 6;
+      reply[4] = static_cast<uint8_t>(len >> 8);
+      reply[5] = static_cast<uint8_t>(len);
+    }
+  }
+  int sv[2];
+  if (::socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, sv) != 0) return;
+  // The reply waits in the socket, then end of stream: no input ever waits for a timeout.
+  if (!reply.empty() && ::write(sv[1], reply.data(), reply.size()) != static_cast<ssize_t>(reply.size())) {
+    ::close(sv[0]);
+    ::close(sv[1]);
+    return;
+  }
+  ::shutdown(sv[1], SHUT_WR);
+  auto c = rtu ? Client::rtu({"/dev/null", 19200, 'N', 8, 1}) : Client::tcp("127.0.0.1", 502);
+  if (!c) __builtin_trap();
+  c->set_timeout_ns(1000000);
+  c->set_unit(kUnit);
+  c->attach(sv[0]);
+  uint16_t words[2000] = {};
+  Outcome o;
+  if (write) {
+    Address a = table == Table::kCoil ? *parse_address("coil:0") : *parse_address(count % 2 ? "hr:0" : "hr:0:u32");
+    a.address = start;
+    o = c->write(a, words);
+  } else {
+    o = c->read(table, start, count, words);
+    if (o.ok() && !is_bit_table(table)) {
+      for (Address a : word_items()) {
+        if (width(a) > count) continue;
+        (void)format_value(a, decode(a, words + count - width(a)));
+      }
+    }
+    if (o.ok() && is_bit_table(table)) {
+      for (uint16_t i = 0; i < count; ++i) {
+        if (words[i] > 1) __builtin_trap();  // bits come out as 0/1
+      }
+    }
+  }
+  if (o.kind == Outcome::Kind::kException && (o.code < 1 || o.code > 255)) __builtin_trap();
+  (void)outcome_text(o);
+  c->close();  // closes sv[0]
+  ::close(sv[1]);
+}
+
+uint16_t be16(const uint8_t* p) { return static_cast<uint16_t>(p[0] << 8 | p[1]); }
+
+void slave_side(bool rtu, const uint8_t* data, size_t size) {
+  static FakeSlave tcp_slave;
+  static FakeSlave rtu_slave([] {
+    FakeSlaveOptions o;
+    o.serial.device = "unused";  // never started: only its request handling runs
+    return o;
+  }());
+  FakeSlave& slave = rtu ? rtu_slave : tcp_slave;
+  const FrameOps& ops = rtu ? kRtuFrames : kTcpFrames;
+  std::vector<uint8_t> in(data, data + size);
+  std::vector<Response> out;
+  (void)slave.serve(ops, in, out);
+  for (const Response& r : out) {
+    if (r.action != Response::Action::kReply) continue;
+    const std::vector<uint8_t>& b = r.bytes;
+    if (rtu) {
+      if (b.size() < 4) __builtin_trap();
+      const uint16_t crc = static_cast<uint16_t>(b[b.size() - 2] | b[b.size() - 1] << 8);
+      const uint16_t want = crc16(b.data(), b.size() - 2);
+      if (crc != want && crc != static_cast<uint16_t>(want ^ 0xFFFF)) __builtin_trap();
+    } else {
+      if (b.size() < 8 || be16(b.data() + 4) != b.size() - 6) __builtin_trap();
+    }
+  }
+  // One frame as a whole, whatever framing says about it.
+  (void)slave.respond(ops, data, size);
+  // The input as one bare PDU: a request parse_request accepts is within the
+  // specification's limits, and the reply to it is as long as it says.
+  Request rq;
+  if (parse_request(data, size, rq) == 0) {
+    const bool bits = rq.function == 1 || rq.function == 2 || rq.function == 5 || rq.function == 15;
+    const uint16_t most = rq.function <= 2 ? 2000 : rq.function <= 4 ? 125 : rq.function == 15 ? 1968 : rq.function == 16 ? 123 : 1;
+    if (rq.count < 1 || rq.count > most || !rq.in_address_space()) __builtin_trap();
+    if (rq.function <= 4) {
+      static uint16_t zeros[125] = {};
+      static uint8_t no_bits[2000] = {};
+      const std::vector<uint8_t> reply =
+          bits ? bits_reply(rq.function, no_bits, rq.count) : registers_reply(rq.function, zeros, rq.count);
+      if (reply.size() != 2u + reply[1]) __builtin_trap();
+    }
+  }
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  if (size < 1) return 0;
+  const uint8_t mode = data[0] & 3;
+  if (mode < 2) master_side(mode == 1, data[0], data + 1, size - 1);
+  else slave_side(mode == 3, data + 1, size - 1);
+  return 0;
+}
