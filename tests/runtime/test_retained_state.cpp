@@ -452,20 +452,9 @@ TEST(RetainedState, kill_9_then_restart_continues_the_integrator_and_cold_starts
   const std::string cfg = config_for(fx, name);
   const std::string sock = fx.dir() + "/" + name + ".sock";
   const std::string state = fx.dir() + "/" + name + ".state";
-  const std::string bin = std::string(RTPLC_BINARY_DIR) + "/rtplc";
   auto launch = [&](bool cold) {
-    const pid_t pid = fork();
-    if (pid == 0) {
-      if (cold)
-        execl(bin.c_str(), bin.c_str(), "run", cfg.c_str(), "-q", "--no-lock", "--cold", nullptr);
-      execl(bin.c_str(), bin.c_str(), "run", cfg.c_str(), "-q", "--no-lock", nullptr);
-      _exit(127);
-    }
-    for (int i = 0; i < 200; ++i) {
-      if (control_request(sock, "ping", "", 500).ok()) break;
-      sleep_s(0.05);
-    }
-    return pid;
+    return rtplc::testing::launch_rtplc_run(cfg, sock, cold ? std::vector<std::string>{"--cold"}
+                                                            : std::vector<std::string>{});
   };
   // The first good OUT after a start (the task's first cycles); `cycles`, when
   // given, is how many cycles the task had run when OUT was read, or more.
