@@ -17,6 +17,9 @@
 #include <string>
 #include <vector>
 
+#include <algorithm>
+
+#include "kernel_rt/rt_thread.h"
 #include "lang/petri/generators.h"
 #include "lang/petri/invariants.h"
 #include "lang/petri/reachability.h"
@@ -40,6 +43,7 @@ struct Figures {
   double seconds = 0;
   double store_bytes = 0;  // the search's own estimate of its store
   long peak_kb = 0;        // the child's peak resident set
+  unsigned threads = 1;    // threads the search used
 };
 
 // Runs `work` in a child; its Figures come back through a pipe.
@@ -78,24 +82,39 @@ void print(const char* who, const Case& c, const Figures& f) {
       static_cast<double>(f.peak_kb) / 1024);
 }
 
-int run_case(const Case& c, bool reference) {
-  std::printf("%s-%u (MCC: %llu markings, %llu edges)\n", c.name, c.n,
-              static_cast<unsigned long long>(c.markings),
-              static_cast<unsigned long long>(c.edges));
-  const Figures ours = in_child([&] {
+Figures run_packed(const Case& c, unsigned threads) {
+  return in_child([&] {
     const Net net = c.make(c.n);
     ExploreOptions opt;
     opt.place_bounds = structural_bounds(net, p_invariants(net));
+    opt.threads = threads;
     const ReachabilityResult r = explore(net, opt);
-    return Figures{r.markings, r.edges, r.seconds, static_cast<double>(r.store_bytes), 0};
+    return Figures{r.markings, r.edges, r.seconds, static_cast<double>(r.store_bytes), 0, r.threads};
   });
-  print("packed", c, ours);
+}
+
+int run_case(const Case& c, bool reference, unsigned threads) {
+  std::printf("%s-%u (MCC: %llu markings, %llu edges)\n", c.name, c.n,
+              static_cast<unsigned long long>(c.markings),
+              static_cast<unsigned long long>(c.edges));
+  const Figures ours = run_packed(c, 1);
+  print("packed 1t", c, ours);
   int failures = ours.markings == c.markings && ours.edges == c.edges ? 0 : 1;
+  if (threads > 1) {
+    const Figures par = run_packed(c, threads);
+    char who[32];
+    std::snprintf(who, sizeof who, "packed %ut", par.threads);
+    print(who, c, par);
+    failures += par.markings == c.markings && par.edges == c.edges ? 0 : 1;
+    std::printf("  threads    %u threads %.2fx the speed of 1 thread%s\n", par.threads,
+                par.seconds > 0 ? ours.seconds / par.seconds : 0.0,
+                par.threads < threads ? " (fewer threads than asked: space too small or threads refused)" : "");
+  }
   if (!reference) return failures;
   const Figures ref = in_child([&] {
     const Net net = c.make(c.n);
     const ReferenceResult r = reference_bfs(net);
-    return Figures{r.markings, r.edges, r.seconds, static_cast<double>(r.approx_bytes), 0};
+    return Figures{r.markings, r.edges, r.seconds, static_cast<double>(r.approx_bytes), 0, 1};
   });
   print("reference", c, ref);
   failures += ref.markings == c.markings && ref.edges == c.edges ? 0 : 1;
@@ -112,14 +131,20 @@ int run_case(const Case& c, bool reference) {
 int main(int argc, char** argv) {
   std::string only;
   bool reference = true;
+  unsigned threads = std::max(1u, rtplc::kernel_rt::allowed_cpu_count());
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--case" && i + 1 < argc) {
       only = argv[++i];
     } else if (a == "--no-reference") {
       reference = false;
+    } else if (a == "--threads" && i + 1 < argc && std::atoi(argv[i + 1]) > 0) {
+      threads = static_cast<unsigned>(std::atoi(argv[++i]));
     } else {
-      std::fprintf(stderr, "usage: bench_petri [--case philosophers|kanban] [--no-reference]\n");
+      std::fprintf(stderr,
+                   "usage: bench_petri [--case philosophers|kanban] [--no-reference] [--threads N]\n"
+                   "  runs each case with 1 thread, with N threads (default: the CPUs allowed)\n"
+                   "  and with the reference BFS, each in its own process\n");
       return 2;
     }
   }
@@ -130,7 +155,7 @@ int main(int argc, char** argv) {
   int failures = 0;
   for (const Case& c : cases) {
     if (!only.empty() && only != c.name) continue;
-    failures += run_case(c, reference);
+    failures += run_case(c, reference, threads);
   }
   return failures == 0 ? 0 : 1;
 }
