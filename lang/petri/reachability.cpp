@@ -376,7 +376,8 @@ ReachabilityResult Explorer::run() {
   // is always from the level before its own, so every path_to() is still a
   // shortest firing sequence; which of several parents of the same level a
   // marking gets, and the order of numbers within a level, depend on the race.
-  // The table is grown at a barrier too, before inserts could pass its 3/4 load.
+  // The table is grown between barriers too, before inserts could pass its 3/4
+  // load: one thread makes the doubled array, all of them move the old slots.
   if (go_parallel && !stop) {
     struct Fresh {
       uint64_t key;
@@ -398,6 +399,8 @@ ReachabilityResult Explorer::run() {
     std::atomic<size_t> next{level_begin};
     std::atomic<size_t> inserted{0};  // since the last barrier, added after each chunk
     std::atomic<bool> need_grow{false};
+    std::atomic<size_t> rehash_next{0};  // next old slot to move while growing
+    bool growing = false;                // written only in the completion step
     size_t hi = level_end;  // written only in the completion step (the barrier orders it)
     bool done = false;
     bool want_dead = r.dead_examples.size() < opt_.keep_dead;
@@ -406,8 +409,15 @@ ReachabilityResult Explorer::run() {
     auto step = [&]() noexcept {
       try {
         table.add_shared_inserts(inserted.exchange(0, std::memory_order_relaxed));
+        if (growing) {  // every thread has moved its share of the old slots
+          table.end_shared_grow();
+          growing = false;
+          return;
+        }
         if (need_grow.load(std::memory_order_relaxed)) {
-          table.grow_to_fit(reserve);
+          table.begin_shared_grow();
+          rehash_next.store(0, std::memory_order_relaxed);
+          growing = true;
           need_grow.store(false, std::memory_order_relaxed);
           return;
         }
@@ -506,6 +516,16 @@ ReachabilityResult Explorer::run() {
           inserted.fetch_add(fresh, std::memory_order_relaxed);
         }
         sync.arrive_and_wait();
+        while (growing) {
+          constexpr size_t kMove = 4096;
+          const size_t old_cap = table.old_capacity();
+          for (;;) {
+            const size_t c = rehash_next.fetch_add(kMove, std::memory_order_relaxed);
+            if (c >= old_cap) break;
+            table.rehash_shared(c, std::min(c + kMove, old_cap));
+          }
+          sync.arrive_and_wait();
+        }
         if (done) return;
       }
     };

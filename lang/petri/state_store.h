@@ -200,6 +200,34 @@ class MarkingTable {
   }
   void add_shared_inserts(size_t n) { size_ += n; }
 
+  // Growing a shared table with every thread's help, between two barriers:
+  // begin_shared_grow() (one thread, none inserting) makes the doubled array,
+  // then the threads move disjoint ranges of old slots with rehash_shared()
+  // (CAS on empty slots of the new array, as insert_shared; the keys are all
+  // different, so a failed CAS just means "taken, probe on"), and
+  // end_shared_grow() (one thread, after the barrier) frees the old array. Each
+  // thread also takes its share of the kernel's zeroing of the new pages. A table
+  // grown this way keeps no ids any more.
+  void begin_shared_grow();
+  size_t old_capacity() const { return old_capacity_; }
+  void rehash_shared(size_t from, size_t to) {
+    const size_t mask = capacity_ - 1;
+    for (size_t i = from; i < to; ++i) {
+      const uint64_t k = old_slots_[i];
+      if (k == 0) continue;
+      size_t slot = static_cast<size_t>(hash(&k, 1)) & mask;
+      for (;;) {
+        std::atomic_ref<uint64_t> s(slots_[slot]);
+        uint64_t expected = 0;
+        if (s.load(std::memory_order_relaxed) == 0 &&
+            s.compare_exchange_strong(expected, k, std::memory_order_relaxed))
+          break;
+        slot = (slot + 1) & mask;
+      }
+    }
+  }
+  void end_shared_grow();
+
   uint32_t id_at(size_t slot) const { return ids_[slot]; }
   size_t size() const { return size_; }
   size_t capacity() const { return capacity_; }
@@ -224,6 +252,11 @@ class MarkingTable {
   void* base_ = nullptr;
   size_t mapped_ = 0;
   std::vector<uint32_t> ids_;
+  // The array being moved from during a shared growth (see begin_shared_grow()).
+  uint64_t* old_slots_ = nullptr;
+  void* old_base_ = nullptr;
+  size_t old_mapped_ = 0;
+  size_t old_capacity_ = 0;
 };
 
 }  // namespace rtplc::petri
