@@ -1,10 +1,14 @@
 // bench_petri: reachability speed and memory (issue item 4, "Speed and memory").
 //
-// Each case runs twice, each run in its own child process so that its peak
-// resident memory is its own (wait4's ru_maxrss): once with the packed store
-// (explore(), bit-packed markings in an open-addressing table) and once with the
-// reference in the same binary (reference_bfs(): std::unordered_set of
-// std::vector<int>, std::deque queue). Both must find the MCC's figures.
+// Each case runs three times, each run in its own child process so that its peak
+// resident memory and CPU time are its own (wait4's rusage): the packed store
+// (explore(), bit-packed markings in an open-addressing table) with 1 thread,
+// the same with N threads (--threads, default every allowed CPU; Philosophers-10
+// is below the size where the parallel search takes over, so it stays on 1), and
+// the reference in the same binary (reference_bfs(): std::unordered_set of
+// std::vector<int>, std::deque queue). All must find the MCC's figures. "cpu" is
+// the child's user + system time: cpu / time < threads means the other CPUs were
+// busy with other work during the run.
 //   philosophers  Philosophers-10: 59,049 markings, 459,270 edges
 //   kanban        Kanban-5: 2,546,432 markings, 24,460,016 edges
 #include <sys/resource.h>
@@ -44,6 +48,7 @@ struct Figures {
   double store_bytes = 0;  // the search's own estimate of its store
   long peak_kb = 0;        // the child's peak resident set
   unsigned threads = 1;    // threads the search used
+  double cpu_seconds = 0;  // the child's user + system time
 };
 
 // Runs `work` in a child; its Figures come back through a pipe.
@@ -67,6 +72,8 @@ Figures in_child(F work) {
   rusage ru{};
   wait4(pid, &status, 0, &ru);
   f.peak_kb = ru.ru_maxrss;
+  f.cpu_seconds = static_cast<double>(ru.ru_utime.tv_sec + ru.ru_stime.tv_sec) +
+                  static_cast<double>(ru.ru_utime.tv_usec + ru.ru_stime.tv_usec) / 1e6;
   return f;
 }
 
@@ -75,11 +82,11 @@ void print(const char* who, const Case& c, const Figures& f) {
   const bool ok = f.markings == c.markings && f.edges == c.edges;
   std::printf(
       "  %-10s %9llu markings %10llu edges %s  %7.3f s  %6.2f M markings/s  %6.1f bytes/marking  "
-      "peak %6.1f MB\n",
+      "peak %6.1f MB  cpu %5.2f s\n",
       who, static_cast<unsigned long long>(f.markings), static_cast<unsigned long long>(f.edges),
       ok ? "(exact)" : "(WRONG)", f.seconds, per_s / 1e6,
       f.markings ? f.store_bytes / static_cast<double>(f.markings) : 0.0,
-      static_cast<double>(f.peak_kb) / 1024);
+      static_cast<double>(f.peak_kb) / 1024, f.cpu_seconds);
 }
 
 Figures run_packed(const Case& c, unsigned threads) {
@@ -103,12 +110,12 @@ int run_case(const Case& c, bool reference, unsigned threads) {
   if (threads > 1) {
     const Figures par = run_packed(c, threads);
     char who[32];
-    std::snprintf(who, sizeof who, "packed %ut", par.threads);
+    std::snprintf(who, sizeof who, par.threads == threads ? "packed %ut" : "packed %ut*", par.threads);
     print(who, c, par);
     failures += par.markings == c.markings && par.edges == c.edges ? 0 : 1;
     std::printf("  threads    %u threads %.2fx the speed of 1 thread%s\n", par.threads,
                 par.seconds > 0 ? ours.seconds / par.seconds : 0.0,
-                par.threads < threads ? " (fewer threads than asked: space too small or threads refused)" : "");
+                par.threads < threads ? " (* fewer threads than asked: the space is too small for the parallel search, or a thread was refused)" : "");
   }
   if (!reference) return failures;
   const Figures ref = in_child([&] {
@@ -152,6 +159,14 @@ int main(int argc, char** argv) {
       {"philosophers", philosophers, 10, 59049, 459270},
       {"kanban", kanban, 5, 2546432, 24460016},
   };
+  // The machine's load as the run starts (other processes compete for the CPUs).
+  if (FILE* la = std::fopen("/proc/loadavg", "r")) {
+    char line[128] = {};
+    if (std::fgets(line, sizeof line, la)) std::printf("load average at start: %s", line);
+    std::fclose(la);
+  }
+  std::printf("CPUs allowed: %u; multi-threaded runs use %u threads\n",
+              rtplc::kernel_rt::allowed_cpu_count(), threads);
   int failures = 0;
   for (const Case& c : cases) {
     if (!only.empty() && only != c.name) continue;

@@ -221,9 +221,10 @@ ReachabilityResult Explorer::run() {
         const uint64_t sb = sub1[t];
         const uint64_t d = c - sb;
         const uint64_t borrow = (~c & sb) | (~(c ^ sb) & d);
-        if ((borrow & top1) != 0) continue;
+        // Written either way and kept only when enabled: no branch to mispredict.
         out[n] = d + add1[t];
-        out_t[n++] = t;
+        out_t[n] = t;
+        n += (borrow & top1) == 0 ? 1 : 0;
       }
     } else {
       for (const uint32_t t : live) {
