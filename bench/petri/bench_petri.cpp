@@ -96,7 +96,8 @@ Figures run_packed(const Case& c, unsigned threads) {
     opt.place_bounds = structural_bounds(net, p_invariants(net));
     opt.threads = threads;
     const ReachabilityResult r = explore(net, opt);
-    return Figures{r.markings, r.edges, r.seconds, static_cast<double>(r.store_bytes), 0, r.threads};
+    return Figures{r.markings, r.edges,  r.seconds, static_cast<double>(r.store_bytes),
+                   0,          r.threads};
   });
 }
 
@@ -110,12 +111,15 @@ int run_case(const Case& c, bool reference, unsigned threads) {
   if (threads > 1) {
     const Figures par = run_packed(c, threads);
     char who[32];
-    std::snprintf(who, sizeof who, par.threads == threads ? "packed %ut" : "packed %ut*", par.threads);
+    std::snprintf(who, sizeof who, par.threads == threads ? "packed %ut" : "packed %ut*",
+                  par.threads);
     print(who, c, par);
     failures += par.markings == c.markings && par.edges == c.edges ? 0 : 1;
     std::printf("  threads    %u threads %.2fx the speed of 1 thread%s\n", par.threads,
                 par.seconds > 0 ? ours.seconds / par.seconds : 0.0,
-                par.threads < threads ? " (* fewer threads than asked: the space is too small for the parallel search, or a thread was refused)" : "");
+                par.threads < threads ? " (* fewer threads than asked: the space is too small for "
+                                        "the parallel search, or a thread was refused)"
+                                      : "");
   }
   if (!reference) return failures;
   const Figures ref = in_child([&] {
@@ -148,10 +152,11 @@ int main(int argc, char** argv) {
     } else if (a == "--threads" && i + 1 < argc && std::atoi(argv[i + 1]) > 0) {
       threads = static_cast<unsigned>(std::atoi(argv[++i]));
     } else {
-      std::fprintf(stderr,
-                   "usage: bench_petri [--case philosophers|kanban] [--no-reference] [--threads N]\n"
-                   "  runs each case with 1 thread, with N threads (default: the CPUs allowed)\n"
-                   "  and with the reference BFS, each in its own process\n");
+      std::fprintf(
+          stderr,
+          "usage: bench_petri [--case philosophers|kanban] [--no-reference] [--threads N]\n"
+          "  runs each case with 1 thread, with N threads (default: the CPUs allowed)\n"
+          "  and with the reference BFS, each in its own process\n");
       return 2;
     }
   }

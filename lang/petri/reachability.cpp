@@ -391,22 +391,79 @@ ReachabilityResult Explorer::run() {
       uint64_t dead_count = 0;
       uint64_t edges = 0;
       std::vector<uint8_t> fired;
+      std::vector<uint64_t> sk, sh;  // a batch's successors and their hashes
+      std::vector<uint32_t> st;      // and their transitions
     };
     std::vector<Worker> workers(threads);
-    for (Worker& w : workers) w.fired.assign(nt, 0);
+    for (Worker& w : workers) {
+      w.fired.assign(nt, 0);
+      w.sk.resize(kBatch * nt);
+      w.sh.resize(kBatch * nt);
+      w.st.resize(kBatch * nt);
+    }
     const size_t chunk = std::clamp<size_t>(65536 / std::max<size_t>(nt, 1), 1, 256);
     // Keys a thread may insert between two looks at the load: one chunk's successors.
     const size_t reserve = 2 * size_t{threads} * chunk * std::max<size_t>(nt, 1);
     std::atomic<size_t> next{level_begin};
     std::atomic<size_t> inserted{0};  // since the last barrier, added after each chunk
     std::atomic<bool> need_grow{false};
-    std::atomic<size_t> rehash_next{0};  // next old slot to move while growing
-    bool growing = false;                // written only in the completion step
+    const size_t narrow = opt_.narrow_level;  // levels of fewer markings: one thread
+    std::atomic<size_t> rehash_next{0};       // next old slot to move while growing
+    bool growing = false;                     // written only in the completion step
     size_t hi = level_end;  // written only in the completion step (the barrier orders it)
     bool done = false;
     bool want_dead = r.dead_examples.size() < opt_.keep_dead;
     std::exception_ptr failure;
     table.grow_to_fit(reserve);
+    // Explores chunks of [next, hi) until none is left or the table needs room.
+    auto process = [&](Worker& w) {
+      std::vector<uint64_t>& sk = w.sk;
+      std::vector<uint32_t>& st = w.st;
+      std::vector<uint64_t>& sh = w.sh;
+      std::array<size_t, kBatch + 1> at{};
+      bool no_stop = false;
+      while (!need_grow.load(std::memory_order_relaxed)) {
+        if (table.needs_room(inserted.load(std::memory_order_relaxed) + reserve)) {
+          need_grow.store(true, std::memory_order_relaxed);
+          break;
+        }
+        const size_t c = next.fetch_add(chunk, std::memory_order_relaxed);
+        if (c >= hi) break;
+        const size_t c_end = std::min(c + chunk, hi);
+        size_t fresh = 0;
+        for (size_t b = c; b < c_end; b += kBatch) {
+          const size_t e = std::min(b + kBatch, c_end);
+          size_t ns = 0;
+          for (size_t id = b; id < e; ++id) {
+            at[id - b] = ns;
+            const size_t n = successors(keys_.at(id), &sk[ns], &st[ns], &no_stop);
+            for (size_t k = ns; k < ns + n; ++k) {
+              sh[k] = MarkingTable::hash(&sk[k], 1);
+              table.prefetch(sh[k]);
+            }
+            ns += n;
+          }
+          at[e - b] = ns;
+          for (size_t id = b; id < e; ++id) {
+            const size_t from = at[id - b], to = at[id - b + 1];
+            w.edges += to - from;
+            if (from == to) {
+              ++w.dead_count;
+              if (want_dead && w.dead.size() < opt_.keep_dead)
+                w.dead.push_back(static_cast<uint32_t>(id));
+            }
+            for (size_t k = from; k < to; ++k) {
+              w.fired[st[k]] = 1;
+              if (table.insert_shared(sk[k], sh[k])) {
+                w.fresh.push_back(Fresh{sk[k], static_cast<uint32_t>(id), st[k]});
+                ++fresh;
+              }
+            }
+          }
+        }
+        inserted.fetch_add(fresh, std::memory_order_relaxed);
+      }
+    };
     auto step = [&]() noexcept {
       try {
         table.add_shared_inserts(inserted.exchange(0, std::memory_order_relaxed));
@@ -422,46 +479,59 @@ ReachabilityResult Explorer::run() {
           need_grow.store(false, std::memory_order_relaxed);
           return;
         }
-        // The level is done: number its new markings, worker by worker.
-        std::vector<uint32_t> dead;
-        size_t fresh_bytes = 0;
-        for (Worker& w : workers) {
-          fresh_bytes += w.fresh.capacity() * sizeof(Fresh);
-          for (const Fresh& f : w.fresh) {
-            if (parent_.size() >= opt_.max_markings) {
-              r.status = ExploreStatus::kLimit;
-              break;
+        // The level is done: number its new markings, worker by worker. A narrow
+        // next level is explored right here by this thread (the others wait at the
+        // barrier): for a few markings two barriers would cost more than they save.
+        for (;;) {
+          std::vector<uint32_t> dead;
+          size_t fresh_bytes = 0;
+          for (Worker& w : workers) {
+            fresh_bytes += w.fresh.capacity() * sizeof(Fresh);
+            for (const Fresh& f : w.fresh) {
+              if (parent_.size() >= opt_.max_markings) {
+                r.status = ExploreStatus::kLimit;
+                break;
+              }
+              keys_.push_back(&f.key);
+              parent_.push_back(f.parent);
+              via_.push_back(f.via);
             }
-            keys_.push_back(&f.key);
-            parent_.push_back(f.parent);
-            via_.push_back(f.via);
+            w.fresh.clear();
+            r.dead_markings += w.dead_count;
+            w.dead_count = 0;
+            dead.insert(dead.end(), w.dead.begin(), w.dead.end());
+            w.dead.clear();
+            edges += w.edges;
+            w.edges = 0;
           }
-          w.fresh.clear();
-          r.dead_markings += w.dead_count;
-          w.dead_count = 0;
-          dead.insert(dead.end(), w.dead.begin(), w.dead.end());
-          w.dead.clear();
-          edges += w.edges;
-          w.edges = 0;
+          std::sort(dead.begin(), dead.end());
+          for (uint32_t id : dead) {
+            if (r.dead_examples.size() >= opt_.keep_dead) break;
+            r.dead_examples.push_back(DeadMarking{unpack(id), path_to(id)});
+          }
+          want_dead = r.dead_examples.size() < opt_.keep_dead;
+          if (parent_.size() >= opt_.max_markings) r.status = ExploreStatus::kLimit;
+          peak_bytes = std::max(peak_bytes, store_bytes() + fresh_bytes);
+          if (opt_.progress) {
+            const double s =
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time)
+                    .count();
+            opt_.progress(ExploreProgress{parent_.size(), hi, edges, s});
+          }
+          const size_t lo = hi;
+          hi = parent_.size();
+          next.store(lo, std::memory_order_relaxed);
+          done = lo == hi || r.status != ExploreStatus::kComplete;
+          if (done || hi - lo >= narrow) break;
+          for (;;) {
+            process(workers[0]);
+            if (!need_grow.load(std::memory_order_relaxed)) break;
+            table.add_shared_inserts(inserted.exchange(0, std::memory_order_relaxed));
+            table.grow_to_fit(reserve);
+            need_grow.store(false, std::memory_order_relaxed);
+          }
+          table.add_shared_inserts(inserted.exchange(0, std::memory_order_relaxed));
         }
-        std::sort(dead.begin(), dead.end());
-        for (uint32_t id : dead) {
-          if (r.dead_examples.size() >= opt_.keep_dead) break;
-          r.dead_examples.push_back(DeadMarking{unpack(id), path_to(id)});
-        }
-        want_dead = r.dead_examples.size() < opt_.keep_dead;
-        if (parent_.size() >= opt_.max_markings) r.status = ExploreStatus::kLimit;
-        peak_bytes = std::max(peak_bytes, store_bytes() + fresh_bytes);
-        if (opt_.progress) {
-          const double s =
-              std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time)
-                  .count();
-          opt_.progress(ExploreProgress{parent_.size(), hi, edges, s});
-        }
-        const size_t lo = hi;
-        hi = parent_.size();
-        next.store(lo, std::memory_order_relaxed);
-        done = lo == hi || r.status != ExploreStatus::kComplete;
       } catch (...) {
         failure = std::current_exception();
         done = true;
@@ -469,53 +539,8 @@ ReachabilityResult Explorer::run() {
     };
     std::barrier sync(static_cast<std::ptrdiff_t>(threads), step);
     auto work = [&](Worker& w) {
-      std::vector<uint64_t> sk(kBatch * nt);
-      std::vector<uint32_t> st(kBatch * nt);
-      std::vector<uint64_t> sh(kBatch * nt);
-      std::array<size_t, kBatch + 1> at{};
-      bool no_stop = false;
       for (;;) {
-        while (!need_grow.load(std::memory_order_relaxed)) {
-          if (table.needs_room(inserted.load(std::memory_order_relaxed) + reserve)) {
-            need_grow.store(true, std::memory_order_relaxed);
-            break;
-          }
-          const size_t c = next.fetch_add(chunk, std::memory_order_relaxed);
-          if (c >= hi) break;
-          const size_t c_end = std::min(c + chunk, hi);
-          size_t fresh = 0;
-          for (size_t b = c; b < c_end; b += kBatch) {
-            const size_t e = std::min(b + kBatch, c_end);
-            size_t ns = 0;
-            for (size_t id = b; id < e; ++id) {
-              at[id - b] = ns;
-              const size_t n = successors(keys_.at(id), &sk[ns], &st[ns], &no_stop);
-              for (size_t k = ns; k < ns + n; ++k) {
-                sh[k] = MarkingTable::hash(&sk[k], 1);
-                table.prefetch(sh[k]);
-              }
-              ns += n;
-            }
-            at[e - b] = ns;
-            for (size_t id = b; id < e; ++id) {
-              const size_t from = at[id - b], to = at[id - b + 1];
-              w.edges += to - from;
-              if (from == to) {
-                ++w.dead_count;
-                if (want_dead && w.dead.size() < opt_.keep_dead)
-                  w.dead.push_back(static_cast<uint32_t>(id));
-              }
-              for (size_t k = from; k < to; ++k) {
-                w.fired[st[k]] = 1;
-                if (table.insert_shared(sk[k], sh[k])) {
-                  w.fresh.push_back(Fresh{sk[k], static_cast<uint32_t>(id), st[k]});
-                  ++fresh;
-                }
-              }
-            }
-          }
-          inserted.fetch_add(fresh, std::memory_order_relaxed);
-        }
+        process(w);
         sync.arrive_and_wait();
         while (growing) {
           constexpr size_t kMove = 4096;

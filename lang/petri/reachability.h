@@ -49,6 +49,9 @@ struct ExploreOptions {
   // which of several shortest sequences may differ from run to run).
   unsigned threads = 0;
   uint64_t parallel_from = 100'000;
+  // Once parallel, a level of fewer markings than this is explored by one thread
+  // while the others wait (two barriers would cost more than the level's work).
+  size_t narrow_level = 2048;
 };
 
 enum class ExploreStatus : uint8_t {

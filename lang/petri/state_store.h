@@ -191,7 +191,9 @@ class MarkingTable {
       slot = (slot + 1) & mask;
     }
   }
-  bool insert_shared(uint64_t key, uint64_t h) { return insert_shared(key, h, [] {}); }
+  bool insert_shared(uint64_t key, uint64_t h) {
+    return insert_shared(key, h, [] {});
+  }
   // True when `extra` more keys would pass the 3/4 load limit.
   bool needs_room(size_t extra) const { return (size_ + extra) * 4 > capacity_ * 3; }
   // Grows until `extra` more keys fit (no thread may be inserting).

@@ -21,21 +21,24 @@
 namespace rtplc::petri {
 namespace {
 
-ReachabilityResult run(const Net& net, unsigned threads, uint64_t max_markings = 50'000'000) {
+ReachabilityResult run(const Net& net, unsigned threads, uint64_t max_markings = 50'000'000,
+                       size_t narrow_level = 0) {
   ExploreOptions opt;
   opt.place_bounds = structural_bounds(net, p_invariants(net));
   opt.threads = threads;
   opt.parallel_from = 0;  // from the first level on, so small nets take the parallel path too
   opt.keep_dead = 1000;
+  opt.narrow_level = narrow_level;  // 0: every level by all threads
   opt.max_markings = max_markings;
   return explore(net, opt);
 }
 
 // Every figure of the search, and each dead example reached by a sequence of
 // the sequential search's (shortest) length that really leads to it.
-void expect_same(const Net& net, unsigned threads) {
+// `narrow_level` as in ExploreOptions (0: every level explored by all threads).
+void expect_same(const Net& net, unsigned threads, size_t narrow_level = 0) {
   const ReachabilityResult seq = run(net, 1);
-  const ReachabilityResult par = run(net, threads);
+  const ReachabilityResult par = run(net, threads, 50'000'000, narrow_level);
   EXPECT_EQ(seq.threads, 1u);
   EXPECT_EQ(par.threads, threads) << net.name() << ": the parallel search did not run";
   EXPECT_EQ(par.status, seq.status) << net.name();
@@ -48,7 +51,8 @@ void expect_same(const Net& net, unsigned threads) {
   std::map<Marking, size_t> shortest;
   for (const DeadMarking& d : seq.dead_examples) shortest[d.marking] = d.path.size();
   for (const DeadMarking& d : par.dead_examples) {
-    ASSERT_EQ(shortest.count(d.marking), 1u) << net.name() << ": a dead marking the sequential search has not";
+    ASSERT_EQ(shortest.count(d.marking), 1u)
+        << net.name() << ": a dead marking the sequential search has not";
     EXPECT_EQ(d.path.size(), shortest[d.marking]) << net.name() << ": not a shortest sequence";
     const Result<Marking> end = fire_sequence(net, net.initial_marking(), d.path);
     ASSERT_TRUE(end.ok()) << net.name() << ": " << end.error();
@@ -56,13 +60,21 @@ void expect_same(const Net& net, unsigned threads) {
   }
 }
 
-TEST(ParallelReachability, kanban_3_has_the_sequential_figures) { expect_same(kanban(3), 2); }
+TEST(ParallelReachability, kanban_3_has_the_sequential_figures) {
+  expect_same(kanban(3), 2);
+}
 
 TEST(ParallelReachability, philosophers_8_and_its_deadlocks_have_the_sequential_figures) {
   const Net net = philosophers(8);
   expect_same(net, 2);
   EXPECT_EQ(run(net, 2).markings, 6561u);  // 3^8
   EXPECT_EQ(run(net, 2).dead_markings, 2u);
+}
+
+TEST(ParallelReachability, narrow_levels_by_one_thread_give_the_same_figures) {
+  expect_same(kanban(3), 2, 2048);  // its levels narrower than 2,048 markings by one thread
+  expect_same(philosophers(8), 2, 2048);
+  expect_same(kanban(3), 2, 100'000);  // all of them
 }
 
 TEST(ParallelReachability, deadlock_net_has_the_sequential_figures) {
@@ -85,7 +97,8 @@ TEST(ParallelReachability, wide_or_unbounded_nets_stay_sequential) {
   // 30 places of 5 tokens need two words.
   Net n;
   std::vector<PlaceId> ps;
-  for (int i = 0; i < 30; ++i) ps.push_back(n.add_place("p" + std::to_string(i), i == 0 ? 5 : 0).value());
+  for (int i = 0; i < 30; ++i)
+    ps.push_back(n.add_place("p" + std::to_string(i), i == 0 ? 5 : 0).value());
   for (int i = 0; i < 30; ++i) {
     const TransitionId t = n.add_transition("t" + std::to_string(i)).value();
     n.add_input(ps[static_cast<size_t>(i)], t);
