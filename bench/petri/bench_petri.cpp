@@ -7,8 +7,9 @@
 // is below the size where the parallel search takes over, so it stays on 1), and
 // the reference in the same binary (reference_bfs(): std::unordered_set of
 // std::vector<int>, std::deque queue). All must find the MCC's figures. "cpu" is
-// the child's user + system time: cpu / time < threads means the other CPUs were
-// busy with other work during the run.
+// the child's user + system time (with building the net and its invariants), and
+// "CPUs" that over the search's time: below the thread count, other processes had
+// the CPUs for part of the run.
 //   philosophers  Philosophers-10: 59,049 markings, 459,270 edges
 //   kanban        Kanban-5: 2,546,432 markings, 24,460,016 edges
 #include <sys/resource.h>
@@ -82,11 +83,12 @@ void print(const char* who, const Case& c, const Figures& f) {
   const bool ok = f.markings == c.markings && f.edges == c.edges;
   std::printf(
       "  %-10s %9llu markings %10llu edges %s  %7.3f s  %6.2f M markings/s  %6.1f bytes/marking  "
-      "peak %6.1f MB  cpu %5.2f s\n",
+      "peak %6.1f MB  cpu %5.2f s (%4.2f CPUs)\n",
       who, static_cast<unsigned long long>(f.markings), static_cast<unsigned long long>(f.edges),
       ok ? "(exact)" : "(WRONG)", f.seconds, per_s / 1e6,
       f.markings ? f.store_bytes / static_cast<double>(f.markings) : 0.0,
-      static_cast<double>(f.peak_kb) / 1024, f.cpu_seconds);
+      static_cast<double>(f.peak_kb) / 1024, f.cpu_seconds,
+      f.seconds > 0 ? f.cpu_seconds / f.seconds : 0.0);
 }
 
 Figures run_packed(const Case& c, unsigned threads) {
