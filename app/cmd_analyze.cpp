@@ -220,7 +220,7 @@ void add_analyze_command(CLI::App& app) {
   cmd->add_option("--threads", args->threads,
                   "threads of the reachability search (default: every CPU this process may use; "
                   "1 = sequential). More than one is used for bounded nets whose markings fit 64 "
-                  "bits, from 100,000 markings on; the figures are the same either way")
+                  "bits, from 100,000 markings on; the counts are the same either way")
       ->check(CLI::Range(1u, 256u));
   cmd->add_flag("-q,--quiet", args->quiet, "no progress lines on stderr");
   cmd->callback([args] { run_analyze(*args); });
