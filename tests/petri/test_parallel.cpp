@@ -7,8 +7,12 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <cstdio>
 #include <map>
 #include <new>
+#include <random>
+#include <string>
+#include <vector>
 
 #include "lang/petri/generators.h"
 #include "lang/petri/invariants.h"
@@ -138,6 +142,58 @@ TEST(ParallelReachability, weighted_arcs_agree_with_the_reference) {
     EXPECT_TRUE(r.fired[t1] && r.fired[t2] && r.fired[t3] && r.fired[t5]);
     EXPECT_FALSE(r.fired[t4]);
   }
+}
+
+TEST(ParallelReachability, random_conservative_nets_agree_with_the_reference) {
+  // Nets whose transitions move w tokens from one or two places to others (so the
+  // token sum is an invariant and every place has a bound), weights 1-3: the
+  // borrow test and the parallel search against the straightforward BFS.
+  std::mt19937 rng(12345);
+  auto pick = [&rng](uint32_t lo, uint32_t hi) {
+    return std::uniform_int_distribution<uint32_t>(lo, hi)(rng);
+  };
+  uint64_t total = 0;
+  int parallel_runs = 0;
+  for (int round = 0; round < 40; ++round) {
+    Net n("random" + std::to_string(round));
+    const uint32_t np = pick(3, 9);
+    std::vector<PlaceId> ps;
+    for (uint32_t i = 0; i < np; ++i)
+      ps.push_back(n.add_place("p" + std::to_string(i), i == 0 ? pick(1, 7) : pick(0, 2)).value());
+    const uint32_t nt = pick(2, 10);
+    for (uint32_t t = 0; t < nt; ++t) {
+      const TransitionId tr = n.add_transition("t" + std::to_string(t)).value();
+      const uint32_t a = pick(0, np - 1), b = pick(0, np - 1), w = pick(1, 3);
+      uint32_t moved = w;
+      n.add_input(ps[a], tr, w);
+      if (b != a && pick(0, 1) == 1) {
+        const uint32_t w2 = pick(1, 2);
+        n.add_input(ps[b], tr, w2);
+        moved += w2;
+      }
+      const uint32_t c = pick(0, np - 1), d = pick(0, np - 1);
+      if (c != d && moved > 1) {
+        const uint32_t part = pick(1, moved - 1);
+        n.add_output(tr, ps[c], part);
+        n.add_output(tr, ps[d], moved - part);
+      } else {
+        n.add_output(tr, ps[c], moved);
+      }
+    }
+    const ReferenceResult ref = reference_bfs(n);
+    for (unsigned threads : {1u, 2u}) {
+      const ReachabilityResult r = run(n, threads);
+      EXPECT_EQ(r.markings, ref.markings) << n.name() << " threads " << threads;
+      EXPECT_EQ(r.edges, ref.edges) << n.name() << " threads " << threads;
+      EXPECT_EQ(r.dead_markings, ref.dead_markings) << n.name() << " threads " << threads;
+      if (threads > 1 && r.threads > 1) ++parallel_runs;  // not when M0 alone is dead
+      total += r.markings;
+    }
+  }
+  EXPECT_GT(total, 400u) << "the random nets are too small to test anything";
+  EXPECT_GE(parallel_runs, 30) << "the parallel search ran too rarely to test anything";
+  std::printf("40 random nets, %llu markings in all, %d explored in parallel\n",
+              static_cast<unsigned long long>(total / 2), parallel_runs);
 }
 
 constexpr uint64_t kKey = MarkingLayout::kOccupied | 0x1234;
