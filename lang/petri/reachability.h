@@ -40,6 +40,18 @@ struct ExploreOptions {
   std::function<void(const ExploreProgress&)> progress;
   // Structural bound of each place (P-invariants), empty or nullopt where unknown.
   std::vector<std::optional<uint64_t>> place_bounds;
+  // Threads of the search: 0 = one per CPU this process may use, 1 = sequential.
+  // The parallel search takes over at the first BFS level that starts with at
+  // least `parallel_from` markings stored, when the net is structurally bounded,
+  // its markings fit one 64-bit word and no graph is being kept. Its figures are
+  // the sequential ones (markings, edges, dead markings, bounds, dead transitions;
+  // each dead example still with a shortest sequence, though which examples and
+  // which of several shortest sequences may differ from run to run).
+  unsigned threads = 0;
+  uint64_t parallel_from = 100'000;
+  // Once parallel, a level of fewer markings than this is explored by one thread
+  // while the others wait (two barriers would cost more than the level's work).
+  size_t narrow_level = 2048;
 };
 
 enum class ExploreStatus : uint8_t {
@@ -89,6 +101,7 @@ struct ReachabilityResult {
   size_t store_bytes = 0;  // peak bytes of the marking store (table + queue + parents)
   size_t key_words = 1;    // 64-bit words per packed marking
   size_t key_bits = 0;     // bits of a marking's fields
+  unsigned threads = 1;    // threads that explored (more than 1: the parallel search ran)
 
   bool exact() const { return status == ExploreStatus::kComplete; }
   bool safe() const { return max_tokens_in_place <= 1; }

@@ -120,6 +120,7 @@ Analysis analyze(const Net& net, const AnalysisOptions& options) {
   ExploreOptions eo;
   eo.max_markings = options.max_markings;
   eo.graph_limit = options.graph_limit;
+  eo.threads = options.threads;
   eo.progress = options.progress;
   eo.place_bounds = a.structural_bounds;
   a.reach = explore(net, eo);
@@ -181,7 +182,8 @@ std::string render_text(const Net& net, const Analysis& a) {
   o += "  time:       " + fixed(r.seconds, 3) + " s" + ", " + fixed(rate(r) / 1e6, 2) +
        " million markings/s, " + fixed(r.bytes_per_marking(), 1) + " bytes/marking (" +
        std::to_string(r.key_bits) + " bits of tokens in " + std::to_string(r.key_words) + " word" +
-       (r.key_words == 1 ? "" : "s") + ")\n";
+       (r.key_words == 1 ? "" : "s") + ")" +
+       (r.threads > 1 ? ", " + std::to_string(r.threads) + " threads" : std::string()) + "\n";
   const std::optional<bool> bounded = a.bounded();
   o += "  bounded:    " + std::string(!bounded ? "unknown" : *bounded ? "yes" : "NO") + "\n";
   if (r.status != ExploreStatus::kUnbounded) {
@@ -308,6 +310,7 @@ std::string render_json(const Net& net, const Analysis& a) {
     field("overflow_place", json_string(r.overflow_place));
   field("seconds", fixed(r.seconds, 6));
   field("markings_per_second", fixed(rate(r), 0));
+  field("threads", std::to_string(r.threads));
   o += "  \"bytes_per_marking\": " + fixed(r.bytes_per_marking(), 2) + "\n}\n";
   return o;
 }

@@ -24,6 +24,7 @@ struct AnalysisOptions {
   uint64_t max_markings = 50'000'000;
   size_t graph_limit = 0;  // keep the reachability graph up to this many markings (for DOT)
   std::function<void(const ExploreProgress&)> progress;
+  unsigned threads = 0;  // 0 = one per allowed CPU, 1 = sequential (ExploreOptions::threads)
 };
 
 struct Analysis {

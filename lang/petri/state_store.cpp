@@ -61,6 +61,7 @@ MarkingTable::MarkingTable(size_t words, bool with_ids, size_t initial_capacity)
 
 MarkingTable::~MarkingTable() {
   if (base_) munmap(base_, mapped_);
+  if (old_base_) munmap(old_base_, old_mapped_);
 }
 
 uint64_t* MarkingTable::allocate(size_t n_words, void** base, size_t* mapped) {
@@ -101,6 +102,25 @@ void MarkingTable::grow() {
   slots_ = fresh;
   ids_ = std::move(new_ids);
   capacity_ = new_capacity;
+}
+
+void MarkingTable::begin_shared_grow() {
+  old_slots_ = slots_;
+  old_base_ = base_;
+  old_mapped_ = mapped_;
+  old_capacity_ = capacity_;
+  capacity_ *= 2;
+  slots_ = allocate(capacity_ * words_, &base_, &mapped_);
+  with_ids_ = false;
+  ids_ = {};
+}
+
+void MarkingTable::end_shared_grow() {
+  if (old_base_) munmap(old_base_, old_mapped_);
+  old_slots_ = nullptr;
+  old_base_ = nullptr;
+  old_mapped_ = 0;
+  old_capacity_ = 0;
 }
 
 size_t MarkingTable::bytes() const {

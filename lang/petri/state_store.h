@@ -11,8 +11,29 @@
 // stored inline in one array, power-of-two sized and kept at most 3/4 full. One
 // lookup costs one cache miss when the key is one word. An optional parallel array
 // maps each slot to the marking's number (only when the caller needs graph edges).
+//
+// Shared insertion (insert_shared, the parallel BFS of reachability.cpp): several
+// threads insert one-word keys at once, lock-free. The protocol, in full:
+//  - Who writes a slot: whichever thread wins compare_exchange(0 -> key) on it.
+//    A slot goes from 0 to a key exactly once and never changes again while
+//    threads share the table (growing happens only when every thread waits at a
+//    barrier). So each slot has at most one non-zero write in its history.
+//  - Who reads: every inserting thread, probing from the key's home slot. A load
+//    that sees 0 may be stale; it only leads to a CAS, and a CAS reads the latest
+//    value, so it fails on a taken slot and the thread compares what is there.
+//  - Why one insert per key: a thread passes slot j only after seeing its single
+//    non-zero write (a different key); it claims slot s only by a CAS from 0.
+//    Two threads inserting K probe the same sequence of slots; the first slot
+//    either claims is the first one empty for both, where only one CAS succeeds
+//    and the other thread's CAS returns K. No thread ever waits for another:
+//    there is no half-written state (the key is one word), so a thread that
+//    preempts an inserter on the same CPU finishes its own insert at once.
+//  - Memory order: relaxed. The slot carries no pointer to other data (the
+//    marking's parent and transition stay in the inserting thread's own list,
+//    handed over at the level barrier, which orders everything for the next level).
 #pragma once
 
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -148,6 +169,67 @@ class MarkingTable {
   }
   Found insert(const uint64_t* key, uint32_t id) { return insert(key, hash(key), id); }
 
+  // Shared insertion of a one-word key by several threads at once (the protocol is
+  // described at the top of this file). No ids are recorded and the table never
+  // grows here: the caller keeps the load in check with needs_room()/grow_to_fit()
+  // while no thread inserts, and adds what was inserted with add_shared_inserts().
+  // `before_claim` runs between seeing an empty slot and claiming it (tests use it
+  // to let another inserter in at the worst moment; the explorer passes a no-op).
+  template <typename BeforeClaim>
+  bool insert_shared(uint64_t key, uint64_t h, BeforeClaim&& before_claim) {
+    const size_t mask = capacity_ - 1;
+    size_t slot = static_cast<size_t>(h) & mask;
+    for (;;) {
+      std::atomic_ref<uint64_t> s(slots_[slot]);
+      uint64_t v = s.load(std::memory_order_relaxed);
+      if (v == key) return false;
+      if (v == 0) {
+        before_claim();
+        if (s.compare_exchange_strong(v, key, std::memory_order_relaxed)) return true;
+        if (v == key) return false;  // another thread inserted the same key first
+      }
+      slot = (slot + 1) & mask;
+    }
+  }
+  bool insert_shared(uint64_t key, uint64_t h) {
+    return insert_shared(key, h, [] {});
+  }
+  // True when `extra` more keys would pass the 3/4 load limit.
+  bool needs_room(size_t extra) const { return (size_ + extra) * 4 > capacity_ * 3; }
+  // Grows until `extra` more keys fit (no thread may be inserting).
+  void grow_to_fit(size_t extra) {
+    while (needs_room(extra)) grow();
+  }
+  void add_shared_inserts(size_t n) { size_ += n; }
+
+  // Growing a shared table with every thread's help, between two barriers:
+  // begin_shared_grow() (one thread, none inserting) makes the doubled array,
+  // then the threads move disjoint ranges of old slots with rehash_shared()
+  // (CAS on empty slots of the new array, as insert_shared; the keys are all
+  // different, so a failed CAS just means "taken, probe on"), and
+  // end_shared_grow() (one thread, after the barrier) frees the old array. Each
+  // thread also takes its share of the kernel's zeroing of the new pages. A table
+  // grown this way keeps no ids any more.
+  void begin_shared_grow();
+  size_t old_capacity() const { return old_capacity_; }
+  void rehash_shared(size_t from, size_t to) {
+    const size_t mask = capacity_ - 1;
+    for (size_t i = from; i < to; ++i) {
+      const uint64_t k = old_slots_[i];
+      if (k == 0) continue;
+      size_t slot = static_cast<size_t>(hash(&k, 1)) & mask;
+      for (;;) {
+        std::atomic_ref<uint64_t> s(slots_[slot]);
+        uint64_t expected = 0;
+        if (s.load(std::memory_order_relaxed) == 0 &&
+            s.compare_exchange_strong(expected, k, std::memory_order_relaxed))
+          break;
+        slot = (slot + 1) & mask;
+      }
+    }
+  }
+  void end_shared_grow();
+
   uint32_t id_at(size_t slot) const { return ids_[slot]; }
   size_t size() const { return size_; }
   size_t capacity() const { return capacity_; }
@@ -172,6 +254,11 @@ class MarkingTable {
   void* base_ = nullptr;
   size_t mapped_ = 0;
   std::vector<uint32_t> ids_;
+  // The array being moved from during a shared growth (see begin_shared_grow()).
+  uint64_t* old_slots_ = nullptr;
+  void* old_base_ = nullptr;
+  size_t old_mapped_ = 0;
+  size_t old_capacity_ = 0;
 };
 
 }  // namespace rtplc::petri

@@ -37,6 +37,27 @@ TEST(AnalyzeCli, reports_the_deadlock_of_the_example) {
   EXPECT_NE(r.out.find("after 2 firings: takeR1_A takeR2_B"), std::string::npos) << r.out;
 }
 
+TEST(AnalyzeCli, threads_give_the_same_figures) {
+  // Kanban-4 (454,475 markings) passes the 100,000 where the parallel search takes over.
+  const CliRun one = run("--generate kanban-4 --json -q --threads 1");
+  const CliRun two = run("--generate kanban-4 --json -q --threads 2");
+  ASSERT_EQ(one.code, 0) << one.out;
+  ASSERT_EQ(two.code, 0) << two.out;
+  EXPECT_NE(one.out.find("\"threads\": 1,"), std::string::npos) << one.out;
+  EXPECT_NE(two.out.find("\"threads\": 2,"), std::string::npos) << two.out;
+  for (const char* f : {"\"markings\": 454475,", "\"edges\": 3979850,", "\"dead_markings\": 0,",
+                        "\"max_tokens_in_place\": 4,", "\"dead_transitions\": [],"}) {
+    EXPECT_NE(one.out.find(f), std::string::npos) << f << "\n" << one.out;
+    EXPECT_NE(two.out.find(f), std::string::npos) << f << "\n" << two.out;
+  }
+}
+
+TEST(AnalyzeCli, threads_zero_is_refused) {
+  const CliRun r = run("--generate kanban-1 --threads 0");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("--threads"), std::string::npos) << r.out;
+}
+
 TEST(AnalyzeCli, json_has_the_required_fields) {
   const CliRun r = run(kExamples + "mutex.pnml --json");
   EXPECT_EQ(r.code, 0) << r.out;
@@ -73,7 +94,9 @@ TEST(AnalyzeCli, a_broken_sfc_program_gets_positioned_errors) {
   std::ofstream(f) << "STEP s0\n";
   const CliRun r = run(f);
   EXPECT_EQ(r.code, 1);
-  EXPECT_NE(r.out.find("not_a_net.sfc:1:1: error: an SFC program starts with 'SFC name'"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("not_a_net.sfc:1:1: error: an SFC program starts with 'SFC name'"),
+            std::string::npos)
+      << r.out;
 }
 
 TEST(AnalyzeCli, bad_pnml_shows_file_line_col) {
