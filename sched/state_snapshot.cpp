@@ -25,19 +25,19 @@ void StateSnapshot::prepare(std::vector<RetainedBlock> blocks) {
 uint32_t StateSnapshot::begin_take() noexcept {
   const uint32_t w = next_;
   Buffer& b = buffers_[w];
-  b.seq.store(b.seq.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
-  std::atomic_thread_fence(std::memory_order_release);
+  // Odd: being written. The RMW's acquire half keeps the data stores below it.
+  b.seq.fetch_add(1, std::memory_order_acq_rel);
   return w;
 }
 
 void StateSnapshot::store(uint32_t buffer, uint32_t i, double v) noexcept {
-  std::atomic_ref<double>(buffers_[buffer].data[i]).store(v, std::memory_order_relaxed);
+  std::atomic_ref<double>(buffers_[buffer].data[i]).store(v, std::memory_order_release);
 }
 
 void StateSnapshot::end_take(uint32_t buffer, uint64_t cycle, int64_t now_ns) noexcept {
   Buffer& b = buffers_[buffer];
-  b.cycle.store(cycle, std::memory_order_relaxed);
-  b.taken_ns.store(now_ns, std::memory_order_relaxed);
+  b.cycle.store(cycle, std::memory_order_release);
+  b.taken_ns.store(now_ns, std::memory_order_release);
   b.seq.store(b.seq.load(std::memory_order_relaxed) + 1, std::memory_order_release);
   latest_.store(buffer, std::memory_order_release);
   taken_.fetch_add(1, std::memory_order_release);
@@ -65,11 +65,10 @@ bool StateSnapshot::read(std::vector<double>& out, uint64_t& cycle, int64_t& tak
     const uint64_t s1 = b.seq.load(std::memory_order_acquire);
     if (s1 & 1u) continue;  // the writer lapped us and is refilling this buffer
     for (uint32_t i = 0; i < n_; ++i) {
-      out[i] = std::atomic_ref<double>(b.data[i]).load(std::memory_order_relaxed);
+      out[i] = std::atomic_ref<double>(b.data[i]).load(std::memory_order_acquire);
     }
-    const uint64_t c = b.cycle.load(std::memory_order_relaxed);
-    const int64_t t = b.taken_ns.load(std::memory_order_relaxed);
-    std::atomic_thread_fence(std::memory_order_acquire);
+    const uint64_t c = b.cycle.load(std::memory_order_acquire);
+    const int64_t t = b.taken_ns.load(std::memory_order_acquire);
     if (b.seq.load(std::memory_order_relaxed) == s1) {
       cycle = c;
       taken_ns = t;

@@ -5,20 +5,23 @@
 // outputs and block state) into one of two buffers, and the control thread
 // reads the last completed buffer when it persists the state file.
 //
-// Protocol (one writer: the task thread; one reader: the control thread):
+// Protocol (one writer: the task thread; one reader: the control thread),
+// fence-free like the process image's (io/process_image.h), so ThreadSanitizer
+// checks it as it runs:
 //   writer, into buffer w = the one NOT published last:
-//     seq[w] += 1 (odd: being written), relaxed; release fence
-//     data, cycle and time stored with relaxed atomic stores
+//     seq[w].fetch_add(1, acq_rel) (odd: being written)
+//     data, cycle and time stored with release stores
 //     seq[w] += 1 (even: whole), release
 //     latest.store(w, release)
 //   reader:
 //     w = latest.load(acquire)            (none yet: nothing to read)
 //     s1 = seq[w].load(acquire); odd -> try again
-//     copy data with relaxed atomic loads; acquire fence
+//     copy data, cycle and time with acquire loads
 //     s2 = seq[w].load(relaxed); s1 == s2 -> the copy is one whole snapshot
-// The release fence after the odd store orders it before the data stores; the
-// acquire fence before s2 orders the data loads before it: a reader that saw
-// any store of a newer snapshot sees s2 != s1 and retries. Two buffers make the
+// The odd RMW's acquire half keeps every data store of that snapshot after it;
+// a data store is a release, so a reader whose acquire load sees it also sees
+// the odd seq (and everything before it) in its later load of s2: a reader that
+// saw any store of a newer snapshot sees s2 != s1 and retries. Two buffers make the
 // reader wait-free in the case that matters: a reader that preempts the writer
 // mid-copy (on the same CPU, or at any moment) finds `latest` pointing at the
 // other, finished buffer, which the writer will not touch until it has
