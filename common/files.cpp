@@ -45,17 +45,38 @@ bool write_all(int fd, const std::string& s) {
 }  // namespace
 
 Result<void> write_file_atomically(const std::string& path, const std::string& text, mode_t mode) {
+  return write_file_atomically(path, mode, [&](const FileSink& sink) { return sink(text); });
+}
+
+Result<void> write_file_atomically(const std::string& path, mode_t mode,
+                                   const std::function<bool(const FileSink&)>& body) {
   const std::string dir = folder_of(path);
   if (auto r = make_folders(dir, 0750, 0750); !r) return r;
   const std::string tmp = path + ".tmp";
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, mode);
   if (fd < 0) return make_error("cannot write " + tmp + ": " + std::strerror(errno));
-  const bool ok = write_all(fd, text) && fsync(fd) == 0;
+  constexpr size_t kChunk = 64 * 1024;
+  std::string pending;
+  pending.reserve(kChunk);
+  bool written = true;
+  const FileSink sink = [&](std::string_view piece) {
+    if (!written) return false;
+    if (pending.size() + piece.size() > kChunk) {
+      written = write_all(fd, pending);
+      pending.clear();
+      if (!written) return false;
+      if (piece.size() > kChunk) return written = write_all(fd, std::string(piece));
+    }
+    pending.append(piece);
+    return true;
+  };
+  const bool produced = body(sink);
+  const bool ok = produced && written && write_all(fd, pending) && fsync(fd) == 0;
   const int e = errno;
   close(fd);
   if (!ok) {
     unlink(tmp.c_str());
-    return make_error("cannot write " + tmp + ": " + std::strerror(e));
+    return make_error("cannot write " + tmp + (produced ? ": " + std::string(std::strerror(e)) : std::string()));
   }
   if (rename(tmp.c_str(), path.c_str()) != 0) {
     const int re = errno;

@@ -1,6 +1,8 @@
 // Folder helpers for the files the runtime owns (retain file, control socket).
 #pragma once
 
+#include <functional>
+#include <string_view>
 #include <string>
 #include <sys/types.h>
 
@@ -21,6 +23,12 @@ Result<void> make_folders(const std::string& dir, mode_t mode, mode_t parent_mod
 // temporary file, fsync it, rename it over `path`, fsync the folder. Creates the
 // folder (0750) if needed.
 Result<void> write_file_atomically(const std::string& path, const std::string& text, mode_t mode);
+// The same, for a file written in pieces (one too big to build as one string
+// first): `body` gets a sink and calls it with each piece, in order; it returns
+// false to give up (nothing is replaced). Pieces are gathered into 64 KiB writes.
+using FileSink = std::function<bool(std::string_view)>;
+Result<void> write_file_atomically(const std::string& path, mode_t mode,
+                                   const std::function<bool(const FileSink&)>& body);
 
 // Makes sure `dir` is a folder only its owner can enter: created with mode 0700
 // (parents 0755) when missing; when it exists it must be a real folder (not a

@@ -218,7 +218,13 @@ class Runtime {
   std::string state_name_;  // the runtime the state file belongs to
   int64_t retain_every_ns_ = 1000000000;
   int64_t last_persist_ns_ = 0;
-  std::vector<SavedTask> saved_tasks_;           // per task: what the file holds for it now
+  // Per task, what the file holds for it now: what it had at the start
+  // (saved_tasks_, until the task's first snapshot), then the layout and the
+  // last snapshot persisted (one flat vector, not a copy per block).
+  std::vector<SavedTask> saved_tasks_;
+  std::vector<std::shared_ptr<const std::vector<RetainedBlock>>> persisted_layout_;
+  std::vector<std::vector<double>> persisted_data_;
+  std::vector<uint64_t> persisted_cycle_;
   std::vector<uint64_t> persisted_taken_;        // per task: snapshot count last written
   std::vector<const LoadedProgram*> persisted_program_;
   std::vector<std::string> restore_lines_;       // said at start

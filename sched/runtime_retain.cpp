@@ -45,6 +45,9 @@ void Runtime::restore_state(const config::RuntimeConfig& cfg, DiagnosticList& cd
   saved_tasks_.assign(n, SavedTask{});
   persisted_taken_.assign(n, 0);
   persisted_program_.assign(n, nullptr);
+  persisted_layout_.assign(n, nullptr);
+  persisted_data_.assign(n, {});
+  persisted_cycle_.assign(n, 0);
   for (size_t t = 0; t < n; ++t) saved_tasks_[t].name = tasks_[t]->params().name;
   if (options_.cold) {
     restore_lines_.push_back(
@@ -117,8 +120,10 @@ bool Runtime::persist_state(std::string* error) {
     // task's last snapshot before the swap.
     const LoadedProgram& p = tasks_[t]->active();
     if (p.snapshot.blocks().empty()) {
-      if (!saved_tasks_[t].blocks.empty()) changed = true;
+      if (!saved_tasks_[t].blocks.empty() || persisted_layout_[t]) changed = true;
       saved_tasks_[t].blocks.clear();
+      persisted_layout_[t].reset();
+      persisted_data_[t].clear();
       continue;
     }
     any_retained = true;
@@ -130,18 +135,30 @@ bool Runtime::persist_state(std::string* error) {
       continue;  // none yet, or the writer lapped us: next time
     persisted_taken_[t] = taken;
     persisted_program_[t] = &p;
-    SavedTask next = saved_task(tasks_[t]->params().name, p.snapshot.blocks(), data, cycle);
     // A plant at rest (every state as it was) costs no write: flash wears.
-    if (next.blocks == saved_tasks_[t].blocks) continue;
-    saved_tasks_[t] = std::move(next);
-    changed = true;
+    auto layout = p.snapshot.layout();
+    const bool same = persisted_layout_[t]
+                          ? persisted_layout_[t] == layout && persisted_data_[t] == data
+                          : saved_task(tasks_[t]->params().name, *layout, data, cycle).blocks == saved_tasks_[t].blocks;
+    persisted_layout_[t] = std::move(layout);
+    persisted_data_[t].swap(data);
+    persisted_cycle_[t] = cycle;
+    // From now on the snapshot is what the file holds for this task.
+    std::vector<SavedBlock>().swap(saved_tasks_[t].blocks);
+    if (!same) changed = true;
   }
   if (!any_retained || !changed) return true;
-  SavedState s;
-  s.runtime = state_name_;
-  s.saved_unix_ms = unix_ms_now();
-  s.tasks = saved_tasks_;
-  if (auto r = save_state_file(state_path_, s); !r) {
+  std::vector<TaskStateRef> refs;
+  refs.reserve(tasks_.size());
+  for (size_t t = 0; t < tasks_.size() && t < saved_tasks_.size(); ++t) {
+    if (persisted_layout_[t]) {
+      refs.push_back({saved_tasks_[t].name, persisted_cycle_[t], nullptr, persisted_layout_[t].get(),
+                      &persisted_data_[t]});
+    } else {
+      refs.push_back({saved_tasks_[t].name, saved_tasks_[t].cycle, &saved_tasks_[t], nullptr, nullptr});
+    }
+  }
+  if (auto r = save_state_file(state_path_, state_name_, unix_ms_now(), refs); !r) {
     if (error) *error = "cannot write the retained block state: " + r.error();
     return false;
   }

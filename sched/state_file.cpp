@@ -29,41 +29,81 @@ const SavedTask* SavedState::find(std::string_view task) const {
   return nullptr;
 }
 
-uint32_t crc32(std::string_view bytes) {
+uint32_t crc32_update(uint32_t c, std::string_view bytes) {
   // IEEE 802.3 polynomial, reflected; the table is built once.
   static const std::array<uint32_t, 256> table = [] {
     std::array<uint32_t, 256> t{};
     for (uint32_t i = 0; i < 256; ++i) {
-      uint32_t c = i;
-      for (int k = 0; k < 8; ++k) c = (c & 1u) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
-      t[i] = c;
+      uint32_t v = i;
+      for (int k = 0; k < 8; ++k) v = (v & 1u) ? 0xEDB88320u ^ (v >> 1) : v >> 1;
+      t[i] = v;
     }
     return t;
   }();
-  uint32_t c = 0xFFFFFFFFu;
   for (const char ch : bytes) c = table[(c ^ static_cast<uint8_t>(ch)) & 0xFFu] ^ (c >> 8);
-  return c ^ 0xFFFFFFFFu;
+  return c;
 }
 
-std::string encode_state(const SavedState& s) {
-  std::string text = std::string(kStateMagic) + " " + std::to_string(kStateVersion) + "\n";
-  text += "runtime " + s.runtime + "\n";
-  text += "saved " + std::to_string(s.saved_unix_ms) + "\n";
+uint32_t crc32(std::string_view bytes) { return crc32_final(crc32_update(kCrc32Start, bytes)); }
+
+bool encode_state_to(const std::function<bool(std::string_view)>& sink, std::string_view runtime,
+                     int64_t saved_unix_ms, const std::vector<TaskStateRef>& tasks) {
+  uint32_t crc = kCrc32Start;
+  std::string line;
+  auto put = [&](std::string_view piece) {
+    crc = crc32_update(crc, piece);
+    return sink(piece);
+  };
   char buf[40];
-  for (const SavedTask& t : s.tasks) {
-    text += "task " + t.name + " " + std::to_string(t.cycle) + " " +
-            std::to_string(t.blocks.size()) + "\n";
-    for (const SavedBlock& b : t.blocks) {
-      text += "block " + b.name + " " + b.kind + " " + std::to_string(b.values.size());
-      for (const double v : b.values) {
-        std::snprintf(buf, sizeof buf, " %.17g", v);
-        text += buf;
+  auto block = [&](std::string_view name, std::string_view kind, const double* v, size_t n) {
+    line.assign("block ").append(name).append(" ").append(kind).append(" ").append(std::to_string(n));
+    for (size_t i = 0; i < n; ++i) {
+      std::snprintf(buf, sizeof buf, " %.17g", v[i]);
+      line += buf;
+    }
+    line += "\n";
+    return put(line);
+  };
+  line = std::string(kStateMagic) + " " + std::to_string(kStateVersion) + "\nruntime " + std::string(runtime) +
+         "\nsaved " + std::to_string(saved_unix_ms) + "\n";
+  if (!put(line)) return false;
+  for (const TaskStateRef& t : tasks) {
+    const size_t n_blocks = t.saved ? t.saved->blocks.size() : t.layout ? t.layout->size() : 0;
+    line = "task " + std::string(t.name) + " " + std::to_string(t.cycle) + " " + std::to_string(n_blocks) + "\n";
+    if (!put(line)) return false;
+    if (t.saved) {
+      for (const SavedBlock& sb : t.saved->blocks) {
+        if (!block(sb.name, sb.kind, sb.values.data(), sb.values.size())) return false;
       }
-      text += "\n";
+    } else if (t.layout) {
+      size_t i = 0;
+      for (const RetainedBlock& rb : *t.layout) {
+        if (!block(rb.name, rb.kind, t.data->data() + i, rb.width())) return false;
+        i += rb.width();
+      }
     }
   }
-  std::snprintf(buf, sizeof buf, "crc32 %08x\n", crc32(text));
-  return text + buf;
+  std::snprintf(buf, sizeof buf, "crc32 %08x\n", crc32_final(crc));
+  return sink(buf);
+}
+
+namespace {
+std::vector<TaskStateRef> refs_of(const SavedState& s) {
+  std::vector<TaskStateRef> refs;
+  for (const SavedTask& t : s.tasks) refs.push_back({t.name, t.cycle, &t, nullptr, nullptr});
+  return refs;
+}
+}  // namespace
+
+std::string encode_state(const SavedState& s) {
+  std::string text;
+  encode_state_to(
+      [&](std::string_view piece) {
+        text.append(piece);
+        return true;
+      },
+      s.runtime, s.saved_unix_ms, refs_of(s));
+  return text;
 }
 
 namespace {
@@ -195,7 +235,14 @@ Result<std::optional<SavedState>> load_state_file(const std::string& path) {
 }
 
 Result<void> save_state_file(const std::string& path, const SavedState& s) {
-  return write_file_atomically(path, encode_state(s), 0640);
+  return save_state_file(path, s.runtime, s.saved_unix_ms, refs_of(s));
+}
+
+Result<void> save_state_file(const std::string& path, std::string_view runtime, int64_t saved_unix_ms,
+                             const std::vector<TaskStateRef>& tasks) {
+  return write_file_atomically(path, 0640, [&](const FileSink& sink) {
+    return encode_state_to(sink, runtime, saved_unix_ms, tasks);
+  });
 }
 
 SavedTask saved_task(const std::string& task, const std::vector<RetainedBlock>& layout,

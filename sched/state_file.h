@@ -24,6 +24,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -59,7 +60,25 @@ struct SavedState {
 };
 
 uint32_t crc32(std::string_view bytes);
+// Incremental form: crc32(b) == crc32_final(crc32_update(kCrc32Start, b)).
+inline constexpr uint32_t kCrc32Start = 0xFFFFFFFFu;
+uint32_t crc32_update(uint32_t state, std::string_view bytes);
+inline uint32_t crc32_final(uint32_t state) { return state ^ 0xFFFFFFFFu; }
 
+// One task of a state file as the running runtime holds it, without a copy per
+// block: what the file had (`saved`, until the task's first snapshot), or its
+// retained blocks' layout and its last snapshot (`layout` and `data`).
+struct TaskStateRef {
+  std::string_view name;
+  uint64_t cycle = 0;
+  const SavedTask* saved = nullptr;
+  const std::vector<RetainedBlock>* layout = nullptr;
+  const std::vector<double>* data = nullptr;
+};
+// Writes the file's text piece by piece into `sink` (a big runtime's state is
+// megabytes: never built whole). False when the sink gave up.
+bool encode_state_to(const std::function<bool(std::string_view)>& sink, std::string_view runtime,
+                     int64_t saved_unix_ms, const std::vector<TaskStateRef>& tasks);
 std::string encode_state(const SavedState& s);
 // `file` names the source in errors ("/var/lib/rtplc/x.state: checksum mismatch ...").
 Result<SavedState> decode_state(std::string_view text, const std::string& file);
@@ -67,6 +86,8 @@ Result<SavedState> decode_state(std::string_view text, const std::string& file);
 // A missing file is no saved state (nullopt), not an error.
 Result<std::optional<SavedState>> load_state_file(const std::string& path);
 Result<void> save_state_file(const std::string& path, const SavedState& s);
+Result<void> save_state_file(const std::string& path, std::string_view runtime, int64_t saved_unix_ms,
+                             const std::vector<TaskStateRef>& tasks);
 
 // One task's snapshot (StateSnapshot::read's doubles) as saved blocks.
 SavedTask saved_task(const std::string& task, const std::vector<RetainedBlock>& layout,

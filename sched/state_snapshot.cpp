@@ -10,9 +10,9 @@ static_assert(std::atomic_ref<double>::is_always_lock_free,
               "snapshots need lock-free double stores");
 
 void StateSnapshot::prepare(std::vector<RetainedBlock> blocks) {
-  blocks_ = std::move(blocks);
+  blocks_ = std::make_shared<const std::vector<RetainedBlock>>(std::move(blocks));
   n_ = 0;
-  for (const RetainedBlock& b : blocks_) n_ += b.width();
+  for (const RetainedBlock& b : *blocks_) n_ += b.width();
   for (Buffer& b : buffers_) {
     b.data = std::make_unique<double[]>(std::max<uint32_t>(n_, 1));
     b.seq.store(0, std::memory_order_relaxed);
@@ -45,10 +45,10 @@ void StateSnapshot::end_take(uint32_t buffer, uint64_t cycle, int64_t now_ns) no
 }
 
 void StateSnapshot::take(const TaskArena& arena, int64_t now_ns) noexcept {
-  if (blocks_.empty()) return;
+  if (blocks_->empty()) return;
   const uint32_t w = begin_take();
   uint32_t i = 0;
-  for (const RetainedBlock& rb : blocks_) {
+  for (const RetainedBlock& rb : *blocks_) {
     if (rb.value != RetainedBlock::kNoValue) store(w, i++, arena.values[rb.value]);
     for (uint32_t k = 0; k < rb.n_state; ++k) store(w, i++, arena.state[rb.state + k]);
   }

@@ -61,7 +61,10 @@ class StateSnapshot {
 
   // Off the RT path: sizes the two buffers for `blocks` (the program's retained blocks).
   void prepare(std::vector<RetainedBlock> blocks);
-  const std::vector<RetainedBlock>& blocks() const { return blocks_; }
+  const std::vector<RetainedBlock>& blocks() const { return *blocks_; }
+  // The same layout, shared: the runtime keeps it with the last snapshot it
+  // persisted, so it outlives a program a swap retired.
+  std::shared_ptr<const std::vector<RetainedBlock>> layout() const { return blocks_; }
   uint32_t size() const { return n_; }
 
   // Task thread: copies the retained slots of `arena` into the free buffer and
@@ -95,7 +98,7 @@ class StateSnapshot {
     std::atomic<int64_t> taken_ns{0};
     std::unique_ptr<double[]> data;
   };
-  std::vector<RetainedBlock> blocks_;
+  std::shared_ptr<const std::vector<RetainedBlock>> blocks_ = std::make_shared<const std::vector<RetainedBlock>>();
   uint32_t n_ = 0;
   Buffer buffers_[2];
   std::atomic<uint32_t> latest_{kNone};
