@@ -124,5 +124,15 @@ TEST(GpioConfig, needs_some_lines) {
       << r.render();
 }
 
+TEST(GpioConfig, the_shipped_example_loads_with_its_program) {
+  auto r = config::load_config(std::string(RTPLC_SOURCE_DIR) + "/examples/gpio.yaml");
+  ASSERT_TRUE(r.ok()) << r.render();
+  ASSERT_EQ(r.config->drivers.size(), 1u);
+  const GpioSettings& s = settings_of(r.config->drivers[0]);
+  ASSERT_EQ(s.lines.size(), 4u);
+  EXPECT_EQ(s.lines[0].line_name, "BTN");
+  EXPECT_EQ(s.lines[3].safe, 1);
+}
+
 }  // namespace
 }  // namespace rtplc::gpio
