@@ -69,8 +69,9 @@ struct ChipOps {
   // Waits at most timeout_ns until one of `lines` (requested with edges) has
   // events queued; ready[i] says which. Returns how many are ready, or -errno.
   int (*wait)(std::span<void* const> lines, int64_t timeout_ns, bool* ready);
-  // Takes one queued event of a ready line: 0 or an errno.
-  int (*read_event)(void* line, EdgeEvent& ev);
+  // Takes up to `max` queued events of a ready line, oldest first: how many,
+  // or -errno.
+  int (*read_events)(void* line, EdgeEvent* out, unsigned max);
 };
 
 const ChipOps& gpiod_chip_ops();

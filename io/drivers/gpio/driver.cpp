@@ -194,34 +194,36 @@ void GpioDriver::io_loop() noexcept {
       const LineMap& m = settings_.lines[event_track_[e]];
       bool changed = false;
       if (r > 0 && ready[e]) {
-        EdgeEvent ev;
-        const int err = ops_.read_event(event_lines_[e], ev);
-        if (err != 0) {
+        EdgeEvent evs[16];
+        const int got = ops_.read_events(event_lines_[e], evs, 16);
+        changed = true;
+        if (got < 0) {
           ++st[e].errors;
           st[e].ok = 0;
-          changed = true;
-        } else if (m.role == Role::kCounter) {
-          st[e].ok = 1;
-          const bool kind = m.edge == Edge::kBoth || (m.edge == Edge::kRising) == ev.rising;
-          if (kind && (!counted_any[e] || ev.ts_ns - counted_at[e] >= m.debounce_ns)) {
-            ++st[e].count;
-            st[e].last_ns = ev.ts_ns;
-            counted_at[e] = ev.ts_ns;
-            counted_any[e] = true;
-          } else {
-            ++st[e].ignored;
-          }
-          st[e].level = ev.rising ? 1 : 0;
-          changed = true;
         } else {
           st[e].ok = 1;
-          const uint8_t lv = ev.rising ? 1 : 0;
-          if (lv != raw[e]) {
-            if (raw[e] != st[e].level) ++st[e].ignored;  // a bounce: the pending level did not hold
-            raw[e] = lv;
-            raw_at[e] = ev.ts_ns;
+        }
+        for (int j = 0; j < got; ++j) {
+          const EdgeEvent& ev = evs[j];
+          if (m.role == Role::kCounter) {
+            const bool kind = m.edge == Edge::kBoth || (m.edge == Edge::kRising) == ev.rising;
+            if (kind && (!counted_any[e] || ev.ts_ns - counted_at[e] >= m.debounce_ns)) {
+              ++st[e].count;
+              st[e].last_ns = ev.ts_ns;
+              counted_at[e] = ev.ts_ns;
+              counted_any[e] = true;
+            } else {
+              ++st[e].ignored;
+            }
+            st[e].level = ev.rising ? 1 : 0;
+          } else {
+            const uint8_t lv = ev.rising ? 1 : 0;
+            if (lv != raw[e]) {
+              if (raw[e] != st[e].level) ++st[e].ignored;  // a bounce: the pending level did not hold
+              raw[e] = lv;
+              raw_at[e] = ev.ts_ns;
+            }
           }
-          changed = true;
         }
       }
       if (m.role == Role::kInput && raw[e] != st[e].level &&

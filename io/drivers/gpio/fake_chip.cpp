@@ -120,20 +120,23 @@ struct FakeOps {
     self->cv_.wait_for(lock, std::chrono::nanoseconds(timeout_ns), [&] { return count() > 0; });
     return count();
   }
-  static int read_event(void* p, EdgeEvent& ev) {
+  static int read_events(void* p, EdgeEvent* out, unsigned max) {
     FakeChips::Line* l = line(p);
     std::lock_guard lock(l->chip->owner->mu_);
-    if (l->events.empty()) return EAGAIN;
-    ev = l->events.front();
-    l->events.pop_front();
-    return 0;
+    if (l->events.empty()) return -EAGAIN;
+    int n = 0;
+    for (; static_cast<unsigned>(n) < max && !l->events.empty(); ++n) {
+      out[n] = l->events.front();
+      l->events.pop_front();
+    }
+    return n;
   }
 };
 
 FakeChips::FakeChips()
     : ops_{"fake", this, &FakeOps::open, &FakeOps::close, &FakeOps::chip_info, &FakeOps::line_info,
            &FakeOps::find, &FakeOps::request, &FakeOps::release, &FakeOps::get, &FakeOps::set,
-           &FakeOps::wait, &FakeOps::read_event} {}
+           &FakeOps::wait, &FakeOps::read_events} {}
 
 FakeChips::~FakeChips() = default;
 

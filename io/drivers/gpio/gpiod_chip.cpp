@@ -129,16 +129,20 @@ int wait_lines(std::span<void* const> lines, int64_t timeout_ns, bool* ready) {
   return r;
 }
 
-int read_event(void* line, EdgeEvent& ev) {
-  gpiod_line_event e{};
-  if (gpiod_line_event_read(as_line(line), &e) != 0) return errno;
-  ev.rising = e.event_type == GPIOD_LINE_EVENT_RISING_EDGE;
-  ev.ts_ns = static_cast<int64_t>(e.ts.tv_sec) * 1000000000 + e.ts.tv_nsec;
-  return 0;
+int read_events(void* line, EdgeEvent* out, unsigned max) {
+  constexpr unsigned kMax = 16;  // the kernel's queue per line (v1 uAPI)
+  gpiod_line_event e[kMax] = {};
+  const int n = gpiod_line_event_read_multiple(as_line(line), e, max < kMax ? max : kMax);
+  if (n < 0) return -errno;
+  for (int i = 0; i < n; ++i) {
+    out[i].rising = e[i].event_type == GPIOD_LINE_EVENT_RISING_EDGE;
+    out[i].ts_ns = static_cast<int64_t>(e[i].ts.tv_sec) * 1000000000 + e[i].ts.tv_nsec;
+  }
+  return n;
 }
 
 const ChipOps kOps{"libgpiod", nullptr,   &open_chip,   &close_chip, &chip_info,  &line_info,  &find_line,
-                   &request_line, &release_line, &get_line, &set_line, &wait_lines, &read_event};
+                   &request_line, &release_line, &get_line, &set_line, &wait_lines, &read_events};
 
 }  // namespace
 
