@@ -179,7 +179,14 @@ void parse_gpio(YamlReader& r, const Fields& f, DriverConfig& out) {
   // a dpi counts it and a ddi of another line reads the level).
   std::map<std::string, SourcePos> seen;
   std::map<std::string, SourcePos> channels;
+  size_t with_events = 0;
   for (const LineMap& m : s.lines) {
+    if ((m.role == Role::kCounter || (m.role == Role::kInput && m.debounce_ns > 0)) &&
+        ++with_events == kMaxEventLines + 1) {
+      r.error(m.line_pos, fmt::format("a gpio driver follows the edges of at most {} lines (counters and "
+                                      "debounced inputs); this is one more: use a second gpio driver",
+                                      kMaxEventLines));
+    }
     const std::string key = m.chip + "/" + (m.line_name.empty() ? std::to_string(m.offset) : "'" + m.line_name + "'");
     auto [it, fresh] = seen.emplace(key, m.line_pos);
     if (!fresh) {

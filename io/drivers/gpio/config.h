@@ -38,6 +38,9 @@ struct LineMap {
   SourcePos pos, line_pos;
 };
 
+// Lines one driver's I/O thread waits on (counters and debounced inputs).
+inline constexpr size_t kMaxEventLines = 64;
+
 struct GpioSettings {
   std::string chip;  // the default chip of the entries
   std::vector<LineMap> lines;  // inputs, counters, then outputs, each as listed

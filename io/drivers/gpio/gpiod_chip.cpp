@@ -114,7 +114,7 @@ int set_line(void* line, int value) {
 }
 
 int wait_lines(std::span<void* const> lines, int64_t timeout_ns, bool* ready) {
-  constexpr size_t kMax = 64;
+  constexpr size_t kMax = 64;  // config.h kMaxEventLines: the config refuses more
   pollfd fds[kMax];
   const size_t n = lines.size() < kMax ? lines.size() : kMax;
   for (size_t i = 0; i < n; ++i) {

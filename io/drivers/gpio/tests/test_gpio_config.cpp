@@ -117,6 +117,15 @@ TEST(GpioConfig, refuses_keys_of_the_wrong_role) {
   EXPECT_FALSE(r.ok());
 }
 
+TEST(GpioConfig, refuses_more_event_lines_than_one_thread_waits_on) {
+  std::string counters = "    chip: gpiochip0\n    counters:\n";
+  for (int i = 0; i <= 64; ++i) counters += "      - {channel: p0.d0.c" + std::to_string(i) + ", line: " + std::to_string(i) + "}\n";
+  auto r = parse(counters);
+  EXPECT_NE(first_error(r).find("72:36: error: a gpio driver follows the edges of at most 64 lines"),
+            std::string::npos)
+      << r.render();
+}
+
 TEST(GpioConfig, needs_some_lines) {
   auto r = parse("    chip: gpiochip0\n");
   EXPECT_NE(first_error(r).find("6:11: error: a gpio driver needs 'inputs', 'outputs' or 'counters'"),
