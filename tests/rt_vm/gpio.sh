@@ -7,7 +7,7 @@
 # Checks: a line name the chip lacks fails the start naming the entry;
 # the button read, the outputs read back from gpio-sim's `value`; 1,000 rising
 # edges driven through the `pull` attribute -> exactly 1,000 pulses; after
-# `rtplc stop` the outputs at their safe values.
+# `rtplc stop` and after a watchdog stop the outputs at their safe values.
 # Files live under the step's work folder (the guest's /tmp is a small tmpfs).
 fail() { echo "FAILED: $*"; exit 1; }
 # --add ships files at their host paths: find the module and the unit test there.
@@ -111,7 +111,28 @@ while rtplc status >/dev/null 2>&1; do i=$((i + 1)); [ $i -le 50 ] || fail "the 
 [ "$(value 3)" = "1" ] || fail "idle is $(value 3) after stop"
 echo "ok: after rtplc stop: lamp $(value 2), idle $(value 3)"
 
-# 5. The host's libgpiod unit test runs here against a real chip, if shipped.
+# 5. The watchdog: a 20 us task overruns at once under emulation and watchdog 1
+# stops it; the runtime goes on holding the lines, so what gpio-sim shows now is
+# what the driver drives. The pulls and the entries' own `safe` levels (the
+# request's initial level) are the opposite of the task's safe values, so only
+# the task's safe values driven by the driver read Lamp 0, Idle 1.
+pull 2 up
+pull 3 down
+sed -e 's/watchdog: 1000000/watchdog: 1\n    period: 20us/' -e 's/line: 2, safe: 0/line: 2, safe: 1/' \
+    -e 's/line: 3, safe: 1/line: 3, safe: 0/' gpio.yaml > wd.yaml
+rtplc run wd.yaml > wd.log 2>&1 &
+i=0
+until rtplc status 2>/dev/null | grep -q 'STOPPED (watchdog)'; do
+  i=$((i + 1))
+  [ $i -le 100 ] || { rtplc status; cat wd.log; fail "the watchdog did not stop the 20 us task"; }
+  sleep 0.2
+done
+settle 2 0 || fail "lamp reads $(value 2) after the watchdog stop (safe 0)"
+settle 3 1 || fail "idle reads $(value 3) after the watchdog stop (safe 1)"
+echo "ok: watchdog stop -> lamp $(value 2), idle $(value 3) while the runtime holds the lines"
+rtplc stop
+
+# 6. The host's libgpiod unit test runs here against a real chip, if shipped.
 if [ -n "$GPIO_UNIT_TEST" ]; then
   "$GPIO_UNIT_TEST" --gtest_filter='GpiodChip.*' > unit.txt 2>&1 || { cat unit.txt; fail "unit tests"; }
   cat unit.txt
