@@ -12,6 +12,7 @@
   X(modbus)                      \
   X(modbus_server)               \
   X(can)                         \
+  X(gpio)                        \
   /* one line per driver, above this one */
 
 #define RTPLC_DECLARE_DRIVER(ns) \
