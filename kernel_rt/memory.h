@@ -19,9 +19,10 @@ struct MemoryLockOptions {
   // The runtime locks memory after loading its programs, so the reserve is only the
   // slack for what comes later on the non-RT side (a swap's program, a status reply);
   // the cycle allocates nothing. Beyond it the heap still grows locked and resident
-  // (MCL_FUTURE), the faults taken by the non-RT thread that allocates. 8 MiB holds
-  // a 10,000-block program several times over.
-  size_t heap_reserve_bytes = 8u * 1024u * 1024u;
+  // (MCL_FUTURE), the faults taken by the non-RT thread that allocates (a swap's
+  // compile, on the control thread), never by a task. 2 MiB covers a reply or a
+  // small program without growing the heap.
+  size_t heap_reserve_bytes = 2u * 1024u * 1024u;
   // Bytes of the calling thread's stack to touch now.
   size_t stack_prefault_bytes = 256u * 1024u;
 };

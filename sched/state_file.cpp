@@ -251,7 +251,7 @@ SavedTask saved_task(const std::string& task, const std::vector<RetainedBlock>& 
   t.blocks.reserve(layout.size());
   size_t i = 0;
   for (const RetainedBlock& rb : layout) {
-    SavedBlock b{rb.name, rb.kind, {}};
+    SavedBlock b{rb.name, std::string(rb.kind), {}};
     b.values.assign(data.begin() + static_cast<std::ptrdiff_t>(i),
                     data.begin() + static_cast<std::ptrdiff_t>(i + rb.width()));
     i += rb.width();
@@ -274,7 +274,7 @@ RestoreOutcome restore_task(const SavedTask& saved, const std::vector<RetainedBl
     const SavedBlock& b = *it->second;
     if (b.kind != rb.kind || b.values.size() != rb.width()) {
       o.refused.push_back(rb.name + " (saved as " + b.kind + " with " +
-                          std::to_string(b.values.size()) + " values, now " + rb.kind + " with " +
+                          std::to_string(b.values.size()) + " values, now " + std::string(rb.kind) + " with " +
                           std::to_string(rb.width()) + ")");
       continue;
     }

@@ -86,6 +86,21 @@ bool selects(const std::string& wanted, std::string_view block) {
   return block.size() == wanted.size() || block[wanted.size()] == '.';
 }
 
+// The opcode's name in lower case ("intg"), built once: every retained block
+// points at it instead of holding a copy.
+std::string_view lower_op_name(Op op) {
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> v;
+    for (uint32_t o = 0; o < kOpCount; ++o) {
+      std::string n = op_name(static_cast<Op>(o));
+      for (char& c : n) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+      v.push_back(std::move(n));
+    }
+    return v;
+  }();
+  return names[static_cast<uint32_t>(op)];
+}
+
 }  // namespace
 
 std::vector<RetainedBlock> retained_blocks(const TaskImage& image, bool all,
@@ -95,6 +110,22 @@ std::vector<RetainedBlock> retained_blocks(const TaskImage& image, bool all,
   std::vector<bool> used(names.size(), false);
   const auto code = image.code();
   const auto blocks = image.blocks();
+  // A block's last output is state only where a cycle reads it back: the
+  // blocks whose output is their state (y += ..., a filter's y, a ramp, a
+  // lead-lag's previous output) and every value some block reads from the
+  // previous cycle (a delayed reference). Any other output is recomputed from
+  // its inputs in the first cycle, so keeping it would cost memory for nothing.
+  std::vector<bool> read_next_cycle(image.header().n_values, false);
+  for (const Instr& in : code) {
+    if (op_is_load(in.op)) continue;
+    for (uint32_t k = 0; k < in.n_in; ++k) {
+      if ((in.flags & (kInstrDelayed0 << k)) != 0 && in.in[k] < read_next_cycle.size()) read_next_cycle[in.in[k]] = true;
+    }
+  }
+  auto output_is_state = [&](const Instr& in) {
+    return in.op == Op::Intg || in.op == Op::Filt || in.op == Op::Ramp || in.op == Op::Ldlg ||
+           (in.out < read_next_cycle.size() && read_next_cycle[in.out]);
+  };
   // Textual order, so the state file reads like the program.
   std::vector<uint32_t> order(blocks.size());
   for (uint32_t i = 0; i < blocks.size(); ++i) order[blocks[i].text_index] = i;
@@ -113,12 +144,11 @@ std::vector<RetainedBlock> retained_blocks(const TaskImage& image, bool all,
         op_state_size(in.op, op_param_count(in.op) ? image.params().data() + in.param : nullptr);
     // Inputs and set-points are not the program's state: their loads read the
     // image again in the first cycle (set-points have their own retain file).
-    const bool value = op_writes_value(in.op) && !op_is_load(in.op);
+    const bool value = op_writes_value(in.op) && !op_is_load(in.op) && output_is_state(in);
     if (n_state == 0 && !value) continue;
     RetainedBlock rb;
     rb.name = std::string(name);
-    rb.kind = op_name(in.op);
-    for (char& c : rb.kind) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    rb.kind = lower_op_name(in.op);
     rb.value = value ? in.out : RetainedBlock::kNoValue;
     rb.state = in.state;
     rb.n_state = n_state;

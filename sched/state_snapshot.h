@@ -35,6 +35,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "blocks/executor.h"
@@ -45,7 +46,7 @@ namespace rtplc::sched {
 struct RetainedBlock {
   static constexpr uint32_t kNoValue = UINT32_MAX;
   std::string name;  // BlockInfo name ("F10", "F10.M4", "step.Fill")
-  std::string kind;  // opcode name ("intg", "pid"...), so state restores only into its kind
+  std::string_view kind;  // opcode name ("intg", "pid"...; static text), so state restores only into its kind
   uint32_t value = kNoValue;  // value slot (the block's output), or kNoValue
   uint32_t state = 0;         // first state double
   uint32_t n_state = 0;
@@ -107,7 +108,7 @@ class StateSnapshot {
 };
 
 // The retained blocks of `image` under a task's `retain` selection: every block
-// with state or an output, but the input and set-point loads (`all`), none, or
+// with state, and the outputs a later cycle reads back, but the input and set-point loads (`all`), none, or
 // the blocks named in `names` (a name also selects what a macro call or SFC
 // chart expanded under it: "F10" selects "F10.M4"). Unknown names are listed
 // in `unknown` when given.

@@ -3,6 +3,8 @@
 // same-CPU preemption, and warm and cold restarts of the real runtime, also
 // after kill -9.
 #include <gtest/gtest.h>
+
+#include <map>
 #include <signal.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -140,6 +142,26 @@ TEST(StateFile, a_block_list_selects_blocks_and_what_they_expand_to) {
   ASSERT_EQ(unknown.size(), 1u);
   EXPECT_EQ(unknown[0], "F7");
   EXPECT_TRUE(retained_blocks(img, false, {}).empty());
+}
+
+TEST(StateFile, an_output_is_kept_only_where_a_later_cycle_reads_it) {
+  // F3 is read by F2 from the previous cycle (a delayed reference): its output
+  // is state. F2 and F4 are recomputed from their inputs: nothing to keep. The
+  // integrator's output is its state; the filter keeps its output too.
+  TaskImage img = compile(
+      "%%\nF1 = asp(d0, c0, 1, \"SP\")\nF2 = add(F3, F1)\nF3 = lim(F2, 0, 100)\nF4 = sub(F1, F3)\n"
+      "F5 = intg(F4, 1)\nF6 = filt(F5, 2)\ndao(F6, p0, d0, c0, \"OUT\")\nEND\n");
+  std::map<std::string, bool> kept;  // name -> its output is in the snapshot
+  for (const RetainedBlock& rb : retained_blocks(img, true, {})) kept[rb.name] = rb.value != RetainedBlock::kNoValue;
+  EXPECT_EQ(kept.count("F1"), 0u) << "a set-point load is not the program's state";
+  EXPECT_EQ(kept.count("F2"), 0u);
+  EXPECT_EQ(kept.count("F4"), 0u);
+  ASSERT_EQ(kept.count("F3"), 1u);
+  EXPECT_TRUE(kept["F3"]);
+  ASSERT_EQ(kept.count("F5"), 1u);
+  EXPECT_TRUE(kept["F5"]);
+  ASSERT_EQ(kept.count("F6"), 1u);
+  EXPECT_TRUE(kept["F6"]);
 }
 
 // ---- the snapshot protocol
