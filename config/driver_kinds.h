@@ -8,6 +8,7 @@
 // the kinds from here and never name one.
 #pragma once
 
+#include <any>
 #include <span>
 #include <string>
 #include <string_view>
@@ -35,6 +36,16 @@ struct DriverClaims {
   std::vector<ChannelClaim> consumes;  // task outputs it sends (each must have a writer task)
   uint32_t links = 0;                  // rows of the image's link table it reports (peers)
 };
+
+// A driver's parsed settings as its kind's type (the kind's parser stored them
+// in DriverConfig::settings); an empty default for a driver of another kind.
+// Each kind's settings_of() is this, for its own type.
+template <class Settings>
+const Settings& settings_as(const DriverConfig& d) {
+  static const Settings kNone;
+  const auto* s = std::any_cast<Settings>(&d.settings);
+  return s ? *s : kNone;
+}
 
 struct DriverKind {
   const char* kind;     // what `kind:` says

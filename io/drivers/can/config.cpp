@@ -329,11 +329,7 @@ std::optional<uint32_t> parse_id(const std::string& text) {
   return static_cast<uint32_t>(v);
 }
 
-const CanSettings& settings_of(const DriverConfig& d) {
-  static const CanSettings kNone;
-  const auto* s = std::any_cast<CanSettings>(&d.settings);
-  return s ? *s : kNone;
-}
+const CanSettings& settings_of(const DriverConfig& d) { return settings_as<CanSettings>(d); }
 
 const DriverKind kConfigKind{
     "can",         "raw CAN frames (SocketCAN) with drives, for tra/trd/twa/twd",

@@ -242,11 +242,7 @@ std::string line_text(const LineMap& m) {
   return m.line_name.empty() ? fmt::format("line {}", m.offset) : fmt::format("line '{}'", m.line_name);
 }
 
-const GpioSettings& settings_of(const DriverConfig& d) {
-  static const GpioSettings kNone;
-  const auto* s = std::any_cast<GpioSettings>(&d.settings);
-  return s ? *s : kNone;
-}
+const GpioSettings& settings_of(const DriverConfig& d) { return settings_as<GpioSettings>(d); }
 
 const DriverKind kConfigKind{
     "gpio",        "GPIO lines (libgpiod) as direct I/O: ddi, ddo and dpi pulse counters",

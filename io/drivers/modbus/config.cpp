@@ -363,11 +363,7 @@ std::string SlaveConfig::peer() const {
   return fmt::format("{}:{} unit {}", address, port, unit);
 }
 
-const ModbusSettings& settings_of(const DriverConfig& d) {
-  static const ModbusSettings kNone;
-  const auto* s = std::any_cast<ModbusSettings>(&d.settings);
-  return s ? *s : kNone;
-}
+const ModbusSettings& settings_of(const DriverConfig& d) { return settings_as<ModbusSettings>(d); }
 
 std::string read_key(const ChannelMap& m) {
   return channel_key(BindingDir::kInput, IoGroup::kPlc, m.device, m.addr.p, m.addr.d, m.addr.c);

@@ -293,11 +293,7 @@ bool parse_allow(const std::string& text, AllowRule& out) {
   return true;
 }
 
-const ServerSettings& settings_of(const DriverConfig& d) {
-  static const ServerSettings kNone;
-  const auto* s = std::any_cast<ServerSettings>(&d.settings);
-  return s ? *s : kNone;
-}
+const ServerSettings& settings_of(const DriverConfig& d) { return settings_as<ServerSettings>(d); }
 
 const DriverKind kConfigKind{
     "modbus-server",  "a Modbus TCP server exposing channels to SCADA and HMIs",

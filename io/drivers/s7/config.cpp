@@ -257,11 +257,7 @@ DriverClaims s7_claims(const DriverConfig& d) {
 
 }  // namespace
 
-const S7DriverSettings& settings_of(const DriverConfig& d) {
-  static const S7DriverSettings kNone;
-  const auto* s = std::any_cast<S7DriverSettings>(&d.settings);
-  return s ? *s : kNone;
-}
+const S7DriverSettings& settings_of(const DriverConfig& d) { return settings_as<S7DriverSettings>(d); }
 
 std::string read_key(const S7ChannelMap& m) {
   return channel_key(BindingDir::kInput, IoGroup::kEth, 0, m.addr.p, m.addr.d, m.addr.c);

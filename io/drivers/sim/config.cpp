@@ -180,11 +180,7 @@ std::string sim_doc() {
 
 }  // namespace
 
-const Settings& settings_of(const DriverConfig& d) {
-  static const Settings kNone;
-  const auto* s = std::any_cast<Settings>(&d.settings);
-  return s ? *s : kNone;
-}
+const Settings& settings_of(const DriverConfig& d) { return settings_as<Settings>(d); }
 
 std::string plant_output_key(const PlantConfig& p) {
   return channel_key(BindingDir::kInput, IoGroup::kDio, 0, p.output_addr.p, p.output_addr.d,
