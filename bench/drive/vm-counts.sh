@@ -97,7 +97,8 @@ for run in "0.002 500" "0.0005 500" "none 500"; do
   done
   after="$(steady pulses)"
   got=$((after - before))
-  echo "  pause ${pause} s after each edge: generated $n, counted $got, lost $((n - got))"
+  if [ "$pause" = none ]; then what="no pause (back to back)"; else what="a ${pause} s pause after each edge"; fi
+  echo "  $what: generated $n, counted $got, lost $((n - got))"
 done
 down
 echo "OK: counts reported (no timing: the guest is emulated)"
