@@ -23,7 +23,9 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <charconv>
+#include <iterator>
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
@@ -224,7 +226,12 @@ Options parse(int argc, char** argv) {
       o.scale = 0.2;
       continue;
     }
-    if (i + 1 >= argc) usage_error(fmt::format("unknown argument or missing value: '{}'", a));
+    constexpr std::string_view kValued[] = {"--scale",      "--can-rate",  "--gpio-rate",      "--paced-seconds",
+                                            "--can-queue",  "--gpio-queue", "--helper-priority"};
+    if (std::find(std::begin(kValued), std::end(kValued), a) == std::end(kValued)) {
+      usage_error(fmt::format("unknown argument '{}'", a));
+    }
+    if (i + 1 >= argc) usage_error(fmt::format("{} wants a value", a));
     const char* v = argv[++i];
     if (a == "--scale") o.scale = number_arg(a, v, 0.01, 100);
     else if (a == "--can-rate") o.can_paced_rate = number_arg(a, v, 1, 1e7);

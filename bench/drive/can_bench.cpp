@@ -19,6 +19,7 @@
 #include <fmt/format.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdio>
@@ -380,7 +381,11 @@ int stream(const Options& o) {
     }
     const pid_t io_tid = find_task("rtplc:can-io");
     const pid_t bridge_tid = find_task("rtplc:can");
-    Consumer c{[&] { return rig.driver->counters().frames_rx; }, [&] { return rig.bus.rx_dropped(); },
+    // counters() reads a snapshot slot; a rare miss returns zeros: the count
+    // only grows, so keep the highest seen.
+    uint64_t seen_rx = 0;
+    Consumer c{[&] { return seen_rx = std::max(seen_rx, rig.driver->counters().frames_rx); },
+               [&] { return rig.bus.rx_dropped(); },
                [&] { return io_tid ? task_cpu_ns(io_tid) : -1; }};
     if (io_tid) io_policy = policy_text(io_tid);
     const int64_t b0 = bridge_tid ? task_cpu_ns(bridge_tid) : -1;

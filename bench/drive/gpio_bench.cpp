@@ -16,6 +16,7 @@
 #include <fmt/format.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cstdio>
 #include <memory>
@@ -187,7 +188,11 @@ int run_gpio(const Options& o) {
     }
     const pid_t io_tid = find_task("rtplc:gpio-io");
     const pid_t bridge_tid = find_task("rtplc:gpio");
-    Consumer c{[&] { return rig.driver->edges_of(0).count; }, [&] { return chips.events_dropped(); },
+    // edges_of() reads a snapshot slot; a rare miss returns zeros: the count
+    // only grows, so keep the highest seen.
+    uint64_t seen_count = 0;
+    Consumer c{[&] { return seen_count = std::max(seen_count, rig.driver->edges_of(0).count); },
+               [&] { return chips.events_dropped(); },
                [&] { return io_tid ? task_cpu_ns(io_tid) : -1; }};
     if (io_tid) io_policy = policy_text(io_tid);
     const int64_t b0 = bridge_tid ? task_cpu_ns(bridge_tid) : -1;
@@ -205,7 +210,7 @@ int run_gpio(const Options& o) {
       std::this_thread::sleep_for(std::chrono::microseconds(500));
     }
     image_final = rig.image_count();
-    published_final = rig.driver->edges_of(0).count;
+    published_final = std::max(seen_count, rig.driver->edges_of(0).count);
     rig.driver->request_stop();
     rig.driver->join();
   }
