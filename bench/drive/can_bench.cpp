@@ -352,7 +352,8 @@ struct StreamPlan {
 std::vector<StreamPlan> can_plan(const Options& o) {
   auto count = [&](double base) { return static_cast<uint64_t>(std::max(200.0, base * o.scale)); };
   std::vector<StreamPlan> p;
-  p.push_back({"paced", o.can_paced_rate, count(o.can_paced_rate * o.paced_seconds / o.scale)});
+  // The paced run lasts what --paced-seconds says, whatever the scale.
+  p.push_back({"paced", o.can_paced_rate, static_cast<uint64_t>(std::max(100.0, o.can_paced_rate * o.paced_seconds))});
   for (double r : {1000.0, 4000.0, 16000.0, 64000.0, 256000.0}) p.push_back({nullptr, r, count(r * 0.5)});
   p.push_back({"flat out", 0, count(200000)});
   return p;
