@@ -1,33 +1,69 @@
 #!/bin/sh
-# bench_drive's VM half (`scripts/bench drive --vm`; issue 10, item 5): counts,
-# not timing, on the real kernel interfaces in the PREEMPT_RT VM (software
-# emulation: a guest second is not a host second, so no rate is claimed as
-# reached; the rates below are what the peers were asked for).
+# bench_drive's VM half (`scripts/bench drive --vm`, through tests/rt_vm/gpio-vm.sh;
+# issue 10, item 5): counts, not timing, on the real kernel interfaces in the
+# PREEMPT_RT VM (software emulation: a guest second is not a host second, so no
+# rate is claimed as reached; the gaps below are what the peers were asked for).
+# One runtime, its own config (below): a can driver on vcan0 and a gpio
+# counter on a gpio-sim line.
 #   CAN   cangen puts N frames of 0x181 on vcan0 with a given gap; candump
 #         (an independent listener) counts what was on the bus, the can
-#         driver's received-frame counter (`rtplc stats --json`,
-#         polls_completed) what rtplc took.
+#         driver's received-frame counter (`rtplc stats --json`, the vcan0
+#         link's polls_completed) what rtplc took.
 #   GPIO  N pulses driven through gpio-sim's `pull` attribute with a given
 #         pause (none: back to back from the shell); the dpi channel's count
 #         against N.
 # Prints one line per run; fails only when the harness itself does (a count
 # below the sent one is a finding, reported, not a failure).
-# Needs: cansend/cangen/candump and gpio-sim.ko shipped with --add (scripts/bench does).
 fail() { echo "FAILED: $*"; exit 1; }
-for t in cangen candump; do command -v $t >/dev/null || fail "$t missing (package can-utils)"; done
-up() {  # waits for the runtime's control socket
-  i=0
-  until rtplc status >/dev/null 2>&1; do
-    i=$((i + 1)); [ $i -le 150 ] || { cat "$1"; fail "the runtime did not come up"; }
-    sleep 0.2
-  done
-}
-down() {
-  rtplc stop >/dev/null 2>&1 || true
-  i=0
-  while rtplc status >/dev/null 2>&1; do i=$((i + 1)); [ $i -le 50 ] || fail "the runtime did not stop"; sleep 0.2; done
-}
-# A counter read until it holds still (the driver publishes it every 100 ms).
+shipped() { find / -name "$1" -type f -not -path '/proc/*' -not -path '/sys/*' 2>/dev/null | head -n1; }
+for t in cangen candump; do command -v $t >/dev/null || fail "$t missing (package can-utils, --add it)"; done
+. "$(shipped gpio-sim-lib.sh)"
+gpio_sim_up IN0
+pull 1 down
+modprobe vcan
+modprobe can-raw
+ip link add dev vcan0 type vcan
+ip link set vcan0 up
+
+cat > counts.yaml <<EOF
+tasks:
+  - program: counts.fbd
+    watchdog: 1000000
+drivers:
+  - kind: can
+    name: drive
+    period: 5ms
+    interface: vcan0
+    receive:
+      - id: 0x181
+        timeout: 100ms
+        signals:
+          - {channel: p0.d1.c0, byte: 0, length: 2, type: signed, scale: 0.1}
+          - {channel: p0.d1.c1, byte: 2}
+  - kind: gpio
+    name: meter
+    period: 1ms
+    chip: $chip
+    counters:
+      - {channel: p0.d0.c0, line: 1, edge: rising}
+EOF
+cat > counts.fbd <<'EOF'
+/* bench/drive/vm-counts.sh: reads what the two drivers count. */
+%%
+stime(0.01)
+F1 = tra(p0, d1, c0, "Speed")
+D2 = trd(p0, d1, c1, "Ready")
+F3 = dpi(p0, d0, c0, "Pulses")
+END
+%%
+EOF
+rtplc run counts.yaml > run.log 2>&1 &
+i=0
+until rtplc status >/dev/null 2>&1; do
+  i=$((i + 1)); [ $i -le 150 ] || { cat run.log; fail "the runtime did not come up"; }
+  sleep 0.2
+done
+# A counter read until it holds still (the drivers publish theirs every 100 ms).
 steady() {
   a="$($1)"
   while :; do sleep 0.4; b="$($1)"; [ "$a" = "$b" ] && break; a="$b"; done
@@ -35,15 +71,9 @@ steady() {
 }
 
 # ---- CAN --------------------------------------------------------------------------
-modprobe vcan
-modprobe can-raw
-ip link add dev vcan0 type vcan
-ip link set vcan0 up
-cp /examples/drive.yaml /examples/drive.fbd .
-rtplc run drive.yaml > can-run.log 2>&1 &
-up can-run.log
-frames_rx() { rtplc stats --json | grep -o '"polls_completed": [0-9]*' | head -n1 | awk '{print $2}'; }
-echo "counts: CAN, frames of 0x181 (3 bytes) from cangen on vcan0 to the can driver of examples/drive.yaml"
+frames_rx() { rtplc stats --json | grep '"name": "vcan0"' | grep -o '"polls_completed": [0-9]*' | awk '{print $2}'; }
+[ -n "$(frames_rx)" ] || { rtplc stats --json; fail "no vcan0 link in rtplc stats --json"; }
+echo "counts: CAN, frames of 0x181 (3 bytes) from cangen on vcan0 to the can driver"
 for run in "10 300" "1 2000" "0 5000"; do
   set -- $run
   gap=$1 n=$2
@@ -56,33 +86,14 @@ for run in "10 300" "1 2000" "0 5000"; do
   kill $DUMP; wait $DUMP 2>/dev/null || true
   seen="$(wc -l < dump.log)"
   got=$((after - before))
-  echo "  gap ${gap} ms (asked $( [ "$gap" = 0 ] && echo 'as fast as cangen can' || echo "$((1000 / gap)) frames/s")):" \
-       "sent $n, candump saw $seen, rtplc received $got, lost $((n - got))"
+  if [ "$gap" = 0 ]; then asked="no gap, as fast as cangen can"; else asked="a ${gap} ms gap, $((1000 / gap)) frames/s asked"; fi
+  echo "  $asked: sent $n, candump saw $seen, rtplc received $got, lost $((n - got))"
 done
-down
 
 # ---- GPIO -------------------------------------------------------------------------
-GPIO_SIM_KO="${GPIO_SIM_KO:-$(find / -name gpio-sim.ko -type f -not -path '/proc/*' -not -path '/sys/*' 2>/dev/null | head -n1)}"
-[ -f "$GPIO_SIM_KO" ] || fail "no gpio-sim.ko shipped (--add PATH)"
-modprobe configfs
-grep -q ' /sys/kernel/config ' /proc/mounts || mount -t configfs none /sys/kernel/config
-insmod "$GPIO_SIM_KO"
-cfs=/sys/kernel/config/gpio-sim/chip0
-mkdir $cfs $cfs/bank0 $cfs/bank0/line0
-echo 8 > $cfs/bank0/num_lines
-echo BTN > $cfs/bank0/line0/name
-echo 1 > $cfs/live
-chip="$(cat $cfs/bank0/chip_name)"
-sys="/sys/devices/platform/$(cat $cfs/dev_name)/$chip"
-sed -e "s/chip: gpiochip0/chip: $chip/" -e 's/watchdog: 3/watchdog: 1000000/' /examples/gpio.yaml > gpio.yaml
-cp /examples/gpio.fbd .
-echo pull-down > "$sys/sim_gpio2/pull"
-echo pull-up > "$sys/sim_gpio3/pull"
-echo pull-down > "$sys/sim_gpio1/pull"
-rtplc run gpio.yaml > gpio-run.log 2>&1 &
-up gpio-run.log
 pulses() { rtplc monitor --once | awk '$1 == "Pulses" {print $4; exit}'; }
-echo "counts: GPIO, rising edges on $chip line 1 through gpio-sim's pull attribute to the dpi counter of examples/gpio.yaml"
+[ -n "$(pulses)" ] || { rtplc monitor --once; fail "no Pulses channel in rtplc monitor"; }
+echo "counts: GPIO, rising edges on $chip line 1 through gpio-sim's pull attribute to the dpi counter"
 for run in "0.002 500" "0.0005 500" "none 500"; do
   set -- $run
   pause=$1 n=$2
@@ -100,5 +111,7 @@ for run in "0.002 500" "0.0005 500" "none 500"; do
   if [ "$pause" = none ]; then what="no pause (back to back)"; else what="a ${pause} s pause after each edge"; fi
   echo "  $what: generated $n, counted $got, lost $((n - got))"
 done
-down
+rtplc stop
+i=0
+while rtplc status >/dev/null 2>&1; do i=$((i + 1)); [ $i -le 50 ] || fail "the runtime did not stop"; sleep 0.2; done
 echo "OK: counts reported (no timing: the guest is emulated)"
