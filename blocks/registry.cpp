@@ -414,6 +414,25 @@ std::vector<BlockSpec> build_registry() {
                        param("Td", "derivative time (s)", 0)},
                       "integral, previous error", "PID controller on an error input",
                       pid_contract, kHold));
+  r.push_back(compute(
+      "pidc", G::kControl, A, {{"sp", A}, {"pv", A}, {"fb", A}},
+      {param("Kp", "proportional gain (negative: reverse acting)"),
+       param("Ti", "integral time (s), 0 = no integral", 0), param("Td", "derivative time (s)", 0),
+       param("lo", "lowest output"), param("hi", "highest output"),
+       ParamSpec{"N", "derivative filter: Tf = Td/N", 10, true, 0, kBig, true, false},
+       ParamSpec{"b", "set-point weight of P", 1, true, -kBig, kBig, false, false},
+       ParamSpec{"c", "set-point weight of D (0: on the measurement)", 0, true, -kBig, kBig, false, false}},
+      "I, D, c*sp - pv, primed (and its output)",
+      "PID to commission: limits, anti-windup, tracking (manual/auto), filtered D, weights",
+      "u = clamp(P + I + D, lo, hi) with P = Kp*(b*sp - pv); I += Kp*dt/Ti*(sp - pv) except "
+      "when that would drive u further beyond lo or hi (conditional integration: no windup); "
+      "D = Tf/(Tf+dt)*D + Kp*Td/(Tf+dt)*(yd - yd_prev), yd = c*sp - pv, Tf = Td/N (0 in the first "
+      "cycle: no start-up kick). fb is the value the actuator got last cycle: before each step I "
+      "moves by fb - u_prev, so wiring fb to the block itself gives plain clamping, and wiring "
+      "it to a manual/auto or tracking selector after the block (read last cycle) makes "
+      "the output continue from the applied value: bumpless transfer both ways. lo <= hi is "
+      "checked at compile time",
+      kHold));
   r.push_back(compute("ramp", G::kControl, A, {{"target", A}},
                       {param("rate", "units per second", 0, kBig, true)}, "its output",
                       "rate limiter / ramp generator",
@@ -491,7 +510,7 @@ Op block_op(const BlockSpec& b, uint32_t n_inputs) {
       {"ftrig", Op::Ftrig}, {"sr", Op::Sr},   {"rs", Op::Rs},     {"ton", Op::Ton},
       {"ton_et", Op::TonEt}, {"tof", Op::Tof}, {"tof_et", Op::TofEt}, {"tp", Op::Tp},
       {"tp_et", Op::TpEt}, {"ctu", Op::Ctu},  {"ctd", Op::Ctd},   {"updn", Op::Updn},
-      {"ctud", Op::Ctud},
+      {"ctud", Op::Ctud}, {"pidc", Op::Pidc},
   };
   if (n == "and") return n_inputs == 3 ? Op::And3 : Op::And2;
   if (n == "or") return n_inputs == 3 ? Op::Or3 : Op::Or2;
@@ -584,6 +603,20 @@ void prepare_params(Op op, std::span<const double> p, double dt, double* out) {
     case Op::Ton: case Op::TonEt: case Op::Tof: case Op::TofEt: case Op::Tp: case Op::TpEt:
       out[0] = dt;
       break;
+    case Op::Pidc: {
+      // Kp, Ti, Td, lo, hi, N, b, c -> Kp, Kp*dt/Ti, Tf/(Tf+dt), Kp*Td/(Tf+dt), b, c, lo, hi.
+      const double kp = at(0), ti = at(1), td = at(2), n = p.size() > 5 ? p[5] : 10.0;
+      const double tf = n > 0 ? td / n : 0.0;
+      out[0] = kp;
+      out[1] = ti > 0 ? kp * dt / ti : 0.0;
+      out[2] = tf / (tf + dt);
+      out[3] = kp * td / (tf + dt);
+      out[4] = p.size() > 6 ? p[6] : 1.0;
+      out[5] = at(7);
+      out[6] = at(3);
+      out[7] = at(4);
+      break;
+    }
     case Op::Wrap: {
       const double m = std::ldexp(1.0, static_cast<int>(at(0)));
       out[0] = m;
