@@ -183,7 +183,8 @@ void run_blocks(const CheckArgs& a) {
       if (f->extensible) ins += ", ...";
       for (const char* o : f->outputs) outs += (outs.empty() ? "" : ", ") + std::string(o);
       std::printf("%s — IEC 61131-3 standard %s (%s) -> (%s)\n  lowers to: %s\n", f->name.c_str(),
-                  f->function_block ? "function block" : "function", ins.c_str(), outs.c_str(), f->lowers_to);
+                  f->function_block ? "function block" : "function", ins.c_str(), outs.c_str(),
+                  f->lowers_to);
       return;
     }
     if (!b) {
@@ -253,8 +254,9 @@ void add_check_commands(CLI::App& app) {
   CLI::App* blocks = app.add_subcommand("blocks", "List the primitive blocks and their contracts.");
   blocks->add_option("name", args->block, "show one block in detail");
   blocks->add_flag("--markdown", args->markdown, "print the full reference (docs/blocks.md)");
-  blocks->add_flag("--iec", args->iec,
-                   "print how the IEC 61131-3 standard functions and blocks lower to these (docs/iec.md)");
+  blocks->add_flag(
+      "--iec", args->iec,
+      "print how the IEC 61131-3 standard functions and blocks lower to these (docs/iec.md)");
   blocks->callback([args] { run_blocks(*args); });
 }
 

@@ -6,7 +6,9 @@
 namespace rtplc::lang::iec {
 
 Emitter::Emitter(CheckedProgram& program, std::string prefix, SourcePos pos, uint32_t call_line)
-    : program_(program), prefix_(std::move(prefix)), pos_(pos),
+    : program_(program),
+      prefix_(std::move(prefix)),
+      pos_(pos),
       call_line_(call_line != 0 ? call_line : (pos.line != 0 ? pos.line : 1)) {}
 
 std::string Emitter::next_name(std::string_view role) {
@@ -42,7 +44,8 @@ uint32_t Emitter::block(std::string_view primitive, std::initializer_list<uint32
 uint32_t Emitter::constant(double v, Kind kind) {
   const auto key = std::make_pair(v, static_cast<int>(kind));
   if (auto it = constants_.find(key); it != constants_.end()) return it->second;
-  const uint32_t i = kind == Kind::kAnalog ? block("const", {}, {v}, "k") : block("dconst", {}, {v}, "kd");
+  const uint32_t i =
+      kind == Kind::kAnalog ? block("const", {}, {v}, "k") : block("dconst", {}, {v}, "kd");
   constants_.emplace(key, i);
   return i;
 }

@@ -12,9 +12,15 @@ namespace {
 
 using Out = Result<std::vector<uint32_t>>;
 
-uint32_t arg(const IecCall& c, size_t k) { return k < c.inputs.size() ? c.inputs[k] : kUnconnected; }
-bool wants(const IecCall& c, size_t k) { return c.wanted.empty() || (k < c.wanted.size() && c.wanted[k]); }
-Out one(uint32_t v) { return std::vector<uint32_t>{v}; }
+uint32_t arg(const IecCall& c, size_t k) {
+  return k < c.inputs.size() ? c.inputs[k] : kUnconnected;
+}
+bool wants(const IecCall& c, size_t k) {
+  return c.wanted.empty() || (k < c.wanted.size() && c.wanted[k]);
+}
+Out one(uint32_t v) {
+  return std::vector<uint32_t>{v};
+}
 size_t count(const IecFunction& f, const IecCall& c) {
   return f.extensible ? std::max(c.inputs.size(), f.inputs.size()) : f.inputs.size();
 }
@@ -31,15 +37,31 @@ Out chain(const IecFunction& f, Emitter& e, const IecCall& c, const char* prim, 
   for (size_t k = 1; k < count(f, c); ++k) acc = e.block(prim, {acc, e.analog_or_zero(arg(c, k))});
   return one(wrap ? e.wrap(acc, c.type) : acc);
 }
-Out lower_add(const IecFunction& f, Emitter& e, const IecCall& c) { return chain(f, e, c, "add", true); }
-Out lower_mul(const IecFunction& f, Emitter& e, const IecCall& c) { return chain(f, e, c, "mult", true); }
-Out lower_sub(const IecFunction& f, Emitter& e, const IecCall& c) { return chain(f, e, c, "sub", true); }
+Out lower_add(const IecFunction& f, Emitter& e, const IecCall& c) {
+  return chain(f, e, c, "add", true);
+}
+Out lower_mul(const IecFunction& f, Emitter& e, const IecCall& c) {
+  return chain(f, e, c, "mult", true);
+}
+Out lower_sub(const IecFunction& f, Emitter& e, const IecCall& c) {
+  return chain(f, e, c, "sub", true);
+}
 // Integer DIV truncates toward zero: wrap() truncates before it wraps.
-Out lower_div(const IecFunction& f, Emitter& e, const IecCall& c) { return chain(f, e, c, "div", true); }
-Out lower_mod(const IecFunction& f, Emitter& e, const IecCall& c) { return chain(f, e, c, "mod", false); }
-Out lower_expt(const IecFunction& f, Emitter& e, const IecCall& c) { return chain(f, e, c, "expt", false); }
-Out lower_max(const IecFunction& f, Emitter& e, const IecCall& c) { return chain(f, e, c, "max", false); }
-Out lower_min(const IecFunction& f, Emitter& e, const IecCall& c) { return chain(f, e, c, "min", false); }
+Out lower_div(const IecFunction& f, Emitter& e, const IecCall& c) {
+  return chain(f, e, c, "div", true);
+}
+Out lower_mod(const IecFunction& f, Emitter& e, const IecCall& c) {
+  return chain(f, e, c, "mod", false);
+}
+Out lower_expt(const IecFunction& f, Emitter& e, const IecCall& c) {
+  return chain(f, e, c, "expt", false);
+}
+Out lower_max(const IecFunction& f, Emitter& e, const IecCall& c) {
+  return chain(f, e, c, "max", false);
+}
+Out lower_min(const IecFunction& f, Emitter& e, const IecCall& c) {
+  return chain(f, e, c, "min", false);
+}
 
 // One-input functions: the primitive is the lower-case name (ABS -> abs), except
 // where `prim` says otherwise; ABS and NEG wrap on integers (ABS(-32768) = -32768).
@@ -48,8 +70,10 @@ Out unary(const IecFunction& f, Emitter& e, const IecCall& c, const char* prim, 
   const uint32_t v = e.block(prim, {e.analog_or_zero(arg(c, 0))});
   return one(wrap ? e.wrap(v, c.type) : v);
 }
-#define RTPLC_UNARY(fn, prim, wrap) \
-  Out fn(const IecFunction& f, Emitter& e, const IecCall& c) { return unary(f, e, c, prim, wrap); }
+#define RTPLC_UNARY(fn, prim, wrap)                            \
+  Out fn(const IecFunction& f, Emitter& e, const IecCall& c) { \
+    return unary(f, e, c, prim, wrap);                         \
+  }
 RTPLC_UNARY(lower_abs, "abs", true)
 RTPLC_UNARY(lower_neg, "neg", true)
 RTPLC_UNARY(lower_sqrt, "sqrt", false)
@@ -81,20 +105,35 @@ Out compare(const IecFunction& f, Emitter& e, const IecCall& c, const char* prim
   const size_t n = count(f, c);
   uint32_t acc = kUnconnected;
   for (size_t k = 0; k + 1 < n; ++k) {
-    const uint32_t r = e.block(prim, {e.analog_or_zero(arg(c, k)), e.analog_or_zero(arg(c, k + 1))});
+    const uint32_t r =
+        e.block(prim, {e.analog_or_zero(arg(c, k)), e.analog_or_zero(arg(c, k + 1))});
     acc = acc == kUnconnected ? r : e.block("and", {acc, r});
   }
   return one(acc);
 }
-Out lower_gt(const IecFunction& f, Emitter& e, const IecCall& c) { return compare(f, e, c, "gt"); }
-Out lower_ge(const IecFunction& f, Emitter& e, const IecCall& c) { return compare(f, e, c, "ge"); }
-Out lower_lt(const IecFunction& f, Emitter& e, const IecCall& c) { return compare(f, e, c, "lt"); }
-Out lower_le(const IecFunction& f, Emitter& e, const IecCall& c) { return compare(f, e, c, "le"); }
-Out lower_eq(const IecFunction& f, Emitter& e, const IecCall& c) { return compare(f, e, c, "eq"); }
-Out lower_ne(const IecFunction& f, Emitter& e, const IecCall& c) { return compare(f, e, c, "ne"); }
+Out lower_gt(const IecFunction& f, Emitter& e, const IecCall& c) {
+  return compare(f, e, c, "gt");
+}
+Out lower_ge(const IecFunction& f, Emitter& e, const IecCall& c) {
+  return compare(f, e, c, "ge");
+}
+Out lower_lt(const IecFunction& f, Emitter& e, const IecCall& c) {
+  return compare(f, e, c, "lt");
+}
+Out lower_le(const IecFunction& f, Emitter& e, const IecCall& c) {
+  return compare(f, e, c, "le");
+}
+Out lower_eq(const IecFunction& f, Emitter& e, const IecCall& c) {
+  return compare(f, e, c, "eq");
+}
+Out lower_ne(const IecFunction& f, Emitter& e, const IecCall& c) {
+  return compare(f, e, c, "ne");
+}
 
 // ---- selection ----
-uint32_t as_type(Emitter& e, uint32_t v, IecType t) { return t == IecType::kBool ? e.digital(v) : v; }
+uint32_t as_type(Emitter& e, uint32_t v, IecType t) {
+  return t == IecType::kBool ? e.digital(v) : v;
+}
 
 Out lower_sel(const IecFunction&, Emitter& e, const IecCall& c) {
   const uint32_t y = e.block("amux", {e.analog_or_zero(arg(c, 1)), e.analog_or_zero(arg(c, 2)),
@@ -121,7 +160,8 @@ Out lower_limit(const IecFunction&, Emitter& e, const IecCall& c) {
 }
 
 // ---- logic: BOOL -> and/or/exor/not; bit strings and integers -> bitwise ----
-Out logic(const IecFunction& f, Emitter& e, const IecCall& c, const char* bool_prim, const char* bit_prim) {
+Out logic(const IecFunction& f, Emitter& e, const IecCall& c, const char* bool_prim,
+          const char* bit_prim) {
   const IecTypeInfo& t = type_info(c.type);
   const size_t n = count(f, c);
   if (c.type == IecType::kBool) {
@@ -129,20 +169,28 @@ Out logic(const IecFunction& f, Emitter& e, const IecCall& c, const char* bool_p
     for (size_t k = 1; k < n; ++k) acc = e.block(bool_prim, {acc, e.digital_or_false(arg(c, k))});
     return one(acc);
   }
-  if (!t.integer) return make_error(f.name + " takes BOOL or a bit string (BYTE..LWORD), not " + t.name);
+  if (!t.integer)
+    return make_error(f.name + " takes BOOL or a bit string (BYTE..LWORD), not " + t.name);
   uint32_t acc = e.analog_or_zero(arg(c, 0));
   for (size_t k = 1; k < n; ++k) {
     acc = e.block(bit_prim, {acc, e.analog_or_zero(arg(c, k))}, {static_cast<double>(t.bits)});
   }
   return one(t.bit_string ? acc : e.wrap(acc, c.type));  // AND on INT reads the result as INT again
 }
-Out lower_and(const IecFunction& f, Emitter& e, const IecCall& c) { return logic(f, e, c, "and", "band"); }
-Out lower_or(const IecFunction& f, Emitter& e, const IecCall& c) { return logic(f, e, c, "or", "bor"); }
-Out lower_xor(const IecFunction& f, Emitter& e, const IecCall& c) { return logic(f, e, c, "exor", "bxor"); }
+Out lower_and(const IecFunction& f, Emitter& e, const IecCall& c) {
+  return logic(f, e, c, "and", "band");
+}
+Out lower_or(const IecFunction& f, Emitter& e, const IecCall& c) {
+  return logic(f, e, c, "or", "bor");
+}
+Out lower_xor(const IecFunction& f, Emitter& e, const IecCall& c) {
+  return logic(f, e, c, "exor", "bxor");
+}
 Out lower_not(const IecFunction& f, Emitter& e, const IecCall& c) {
   const IecTypeInfo& t = type_info(c.type);
   if (c.type == IecType::kBool) return one(e.block("not", {e.digital_or_false(arg(c, 0))}));
-  if (!t.integer) return make_error(f.name + " takes BOOL or a bit string (BYTE..LWORD), not " + t.name);
+  if (!t.integer)
+    return make_error(f.name + " takes BOOL or a bit string (BYTE..LWORD), not " + t.name);
   const uint32_t v = e.block("bnot", {e.analog_or_zero(arg(c, 0))}, {static_cast<double>(t.bits)});
   return one(t.bit_string ? v : e.wrap(v, c.type));
 }
@@ -154,10 +202,18 @@ Out shift(const IecFunction& f, Emitter& e, const IecCall& c, const char* prim) 
                              {static_cast<double>(t.bits)});
   return one(t.bit_string ? v : e.wrap(v, c.type));
 }
-Out lower_shl(const IecFunction& f, Emitter& e, const IecCall& c) { return shift(f, e, c, "shl"); }
-Out lower_shr(const IecFunction& f, Emitter& e, const IecCall& c) { return shift(f, e, c, "shr"); }
-Out lower_rol(const IecFunction& f, Emitter& e, const IecCall& c) { return shift(f, e, c, "rol"); }
-Out lower_ror(const IecFunction& f, Emitter& e, const IecCall& c) { return shift(f, e, c, "ror"); }
+Out lower_shl(const IecFunction& f, Emitter& e, const IecCall& c) {
+  return shift(f, e, c, "shl");
+}
+Out lower_shr(const IecFunction& f, Emitter& e, const IecCall& c) {
+  return shift(f, e, c, "shr");
+}
+Out lower_rol(const IecFunction& f, Emitter& e, const IecCall& c) {
+  return shift(f, e, c, "rol");
+}
+Out lower_ror(const IecFunction& f, Emitter& e, const IecCall& c) {
+  return shift(f, e, c, "ror");
+}
 
 Out lower_convert(const IecFunction& f, Emitter& e, const IecCall& c) {
   const IecType from = f.typed ? f.from : c.type;
@@ -173,9 +229,15 @@ Out timer(Emitter& e, const IecCall& c, const char* q_prim, const char* et_prim)
   const uint32_t et = wants(c, 1) ? e.block(et_prim, {in, pt}, {}, "ET") : kUnconnected;
   return std::vector<uint32_t>{q, et};
 }
-Out lower_ton(const IecFunction&, Emitter& e, const IecCall& c) { return timer(e, c, "ton", "ton_et"); }
-Out lower_tof(const IecFunction&, Emitter& e, const IecCall& c) { return timer(e, c, "tof", "tof_et"); }
-Out lower_tp(const IecFunction&, Emitter& e, const IecCall& c) { return timer(e, c, "tp", "tp_et"); }
+Out lower_ton(const IecFunction&, Emitter& e, const IecCall& c) {
+  return timer(e, c, "ton", "ton_et");
+}
+Out lower_tof(const IecFunction&, Emitter& e, const IecCall& c) {
+  return timer(e, c, "tof", "tof_et");
+}
+Out lower_tp(const IecFunction&, Emitter& e, const IecCall& c) {
+  return timer(e, c, "tp", "tp_et");
+}
 
 Out lower_rtrig(const IecFunction&, Emitter& e, const IecCall& c) {
   return one(e.block("rtrig", {e.digital_or_false(arg(c, 0))}, {}, "Q"));
@@ -184,10 +246,12 @@ Out lower_ftrig(const IecFunction&, Emitter& e, const IecCall& c) {
   return one(e.block("ftrig", {e.digital_or_false(arg(c, 0))}, {}, "Q"));
 }
 Out lower_sr(const IecFunction&, Emitter& e, const IecCall& c) {
-  return one(e.block("sr", {e.digital_or_false(arg(c, 0)), e.digital_or_false(arg(c, 1))}, {}, "Q1"));
+  return one(
+      e.block("sr", {e.digital_or_false(arg(c, 0)), e.digital_or_false(arg(c, 1))}, {}, "Q1"));
 }
 Out lower_rs(const IecFunction&, Emitter& e, const IecCall& c) {
-  return one(e.block("rs", {e.digital_or_false(arg(c, 0)), e.digital_or_false(arg(c, 1))}, {}, "Q1"));
+  return one(
+      e.block("rs", {e.digital_or_false(arg(c, 0)), e.digital_or_false(arg(c, 1))}, {}, "Q1"));
 }
 
 // The counter's CV type: the typed variant's (CTU_DINT), else the call's if it
@@ -207,9 +271,10 @@ Out lower_ctu(const IecFunction& f, Emitter& e, const IecCall& c) {
 
 Out lower_ctd(const IecFunction& f, Emitter& e, const IecCall& c) {
   const IecTypeInfo& t = counter_type(f, c);
-  const uint32_t cv = e.block("ctd", {e.digital_or_false(arg(c, 0)), e.digital_or_false(arg(c, 1)),
-                                      e.analog_or_zero(arg(c, 2))},
-                              {t.min_value()}, "CV");
+  const uint32_t cv = e.block(
+      "ctd",
+      {e.digital_or_false(arg(c, 0)), e.digital_or_false(arg(c, 1)), e.analog_or_zero(arg(c, 2))},
+      {t.min_value()}, "CV");
   const uint32_t q = e.block("le", {cv, e.constant(0, Kind::kAnalog)}, {}, "Q");
   return std::vector<uint32_t>{q, cv};
 }
@@ -217,7 +282,8 @@ Out lower_ctd(const IecFunction& f, Emitter& e, const IecCall& c) {
 // CTUD(CU, CD, R, LD, PV): five inputs over three-input blocks (docs/language.md).
 Out lower_ctud(const IecFunction& f, Emitter& e, const IecCall& c) {
   const IecTypeInfo& t = counter_type(f, c);
-  const uint32_t step = e.block("updn", {e.digital_or_false(arg(c, 0)), e.digital_or_false(arg(c, 1))});
+  const uint32_t step =
+      e.block("updn", {e.digital_or_false(arg(c, 0)), e.digital_or_false(arg(c, 1))});
   const uint32_t r = e.digital_or_false(arg(c, 2));
   const uint32_t ld = e.block("or", {r, e.digital_or_false(arg(c, 3))});
   const uint32_t pv = e.analog_or_zero(arg(c, 4));
@@ -243,8 +309,8 @@ IecFunction fn(const char* name, std::vector<const char*> ins, IecLower lower, c
   return f;
 }
 
-IecFunction fb(const char* name, std::vector<const char*> ins, std::vector<const char*> outs, IecLower lower,
-               const char* to) {
+IecFunction fb(const char* name, std::vector<const char*> ins, std::vector<const char*> outs,
+               IecLower lower, const char* to) {
   IecFunction f = fn(name, std::move(ins), lower, to);
   f.function_block = true;
   f.outputs = std::move(outs);
@@ -256,7 +322,8 @@ std::vector<IecFunction> build_table() {
   t.push_back(fn("ADD", {"IN1", "IN2"}, lower_add, "add chain; integers: + wrap", true));
   t.push_back(fn("MUL", {"IN1", "IN2"}, lower_mul, "mult chain; integers: + wrap", true));
   t.push_back(fn("SUB", {"IN1", "IN2"}, lower_sub, "sub; integers: + wrap"));
-  t.push_back(fn("DIV", {"IN1", "IN2"}, lower_div, "div; integers: + wrap (truncates toward zero)"));
+  t.push_back(
+      fn("DIV", {"IN1", "IN2"}, lower_div, "div; integers: + wrap (truncates toward zero)"));
   t.push_back(fn("MOD", {"IN1", "IN2"}, lower_mod, "mod"));
   t.push_back(fn("EXPT", {"IN1", "IN2"}, lower_expt, "expt"));
   t.push_back(fn("MOVE", {"IN"}, lower_move, "nothing: OUT is IN's producer"));
@@ -305,7 +372,8 @@ std::vector<IecFunction> build_table() {
   t.push_back(fb("CTUD", {"CU", "CD", "R", "LD", "PV"}, {"QU", "QD", "CV"}, lower_ctud,
                  "updn, or, amux, ctud (CV), ge (QU), le (QD)"));
   // The typed counters of the third edition: the same blocks with the type's limits.
-  for (IecType ty : {IecType::kInt, IecType::kDint, IecType::kLint, IecType::kUdint, IecType::kUlint}) {
+  for (IecType ty :
+       {IecType::kInt, IecType::kDint, IecType::kLint, IecType::kUdint, IecType::kUlint}) {
     const std::string suffix = std::string("_") + type_info(ty).name;
     const size_t base = t.size();
     for (const char* c : {"CTU", "CTD", "CTUD"}) {
@@ -354,7 +422,9 @@ std::string upper(std::string_view s) {
 
 }  // namespace
 
-std::span<const IecFunction> all_iec_functions() { return table(); }
+std::span<const IecFunction> all_iec_functions() {
+  return table();
+}
 
 const IecFunction* find_iec(std::string_view name) {
   static const std::unordered_map<std::string, size_t> index = [] {
@@ -375,7 +445,9 @@ int iec_input_index(const IecFunction& f, std::string_view formal) {
   // IN1, IN2, ... (or IN0, IN1, ... for MUX): the number past the last listed one.
   const std::string last = f.inputs.back();
   const size_t digits = last.find_first_of("0123456789");
-  if (digits == std::string::npos || u.compare(0, digits, last, 0, digits) != 0 || u.size() == digits) return -1;
+  if (digits == std::string::npos || u.compare(0, digits, last, 0, digits) != 0 ||
+      u.size() == digits)
+    return -1;
   int n = 0;
   for (size_t i = digits; i < u.size(); ++i) {
     if (!std::isdigit(static_cast<unsigned char>(u[i])) || n > 1000) return -1;
@@ -401,7 +473,8 @@ std::string iec_functions_markdown() {
       "fails if this file and the table disagree. How each standard function or block lowers to\n"
       "the primitive blocks of [blocks.md](blocks.md); the semantic choices (types, rounding,\n"
       "timers, counters) are in [language.md](language.md), \"IEC 61131-3 types and standard\n"
-      "blocks\". Names are matched in any case. An overloaded function takes its operand type from\n"
+      "blocks\". Names are matched in any case. An overloaded function takes its operand type "
+      "from\n"
       "the caller: on an integer type ADD, SUB, MUL, DIV, ABS, NEG wrap their result (`wrap`);\n"
       "AND, OR, XOR, NOT are bitwise on bit strings and logical on BOOL.\n\n"
       "| IEC name | kind | inputs | outputs | lowers to |\n"
@@ -413,12 +486,14 @@ std::string iec_functions_markdown() {
     if (f.extensible) ins += ", ...";
     std::string outs;
     for (const char* o : f.outputs) outs += (outs.empty() ? "" : ", ") + std::string(o);
-    s += "| `" + f.name + "` | " + (f.function_block ? "block" : "function") + " | " + ins + " | " + outs +
-         " | " + f.lowers_to + " |\n";
+    s += "| `" + f.name + "` | " + (f.function_block ? "block" : "function") + " | " + ins + " | " +
+         outs + " | " + f.lowers_to + " |\n";
   }
-  s += "| `CTU_INT` .. `CTUD_ULINT` | block | as CTU, CTD, CTUD | as CTU, CTD, CTUD | the same, with the type's "
+  s += "| `CTU_INT` .. `CTUD_ULINT` | block | as CTU, CTD, CTUD | as CTU, CTD, CTUD | the same, "
+       "with the type's "
        "limits |\n";
-  s += "| `X_TO_Y`, `TO_Y` | function | IN | OUT | the conversion rules above (round, wrap, d2a, a2d, TIME in ms) |\n";
+  s += "| `X_TO_Y`, `TO_Y` | function | IN | OUT | the conversion rules above (round, wrap, d2a, "
+       "a2d, TIME in ms) |\n";
   return s;
 }
 

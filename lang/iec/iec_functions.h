@@ -31,7 +31,8 @@ struct IecCall {
 };
 
 struct IecFunction;
-using IecLower = Result<std::vector<uint32_t>> (*)(const IecFunction& f, Emitter& e, const IecCall& call);
+using IecLower = Result<std::vector<uint32_t>> (*)(const IecFunction& f, Emitter& e,
+                                                   const IecCall& call);
 
 struct IecFunction {
   std::string name;                  // upper case: "TON", "INT_TO_REAL"
@@ -41,7 +42,7 @@ struct IecFunction {
   bool extensible;                   // IN1..INn: more inputs than listed
   uint32_t min_inputs;
   IecLower lower;
-  const char* lowers_to;             // the primitives, for the docs
+  const char* lowers_to;  // the primitives, for the docs
   // Conversions and typed variants (CTU_DINT) fix their types here.
   IecType from = IecType::kReal;
   IecType to = IecType::kReal;

@@ -31,7 +31,8 @@ constexpr IecTypeInfo kTypes[] = {
 bool same_ignoring_case(std::string_view a, std::string_view b) {
   if (a.size() != b.size()) return false;
   for (size_t i = 0; i < a.size(); ++i) {
-    if (std::toupper(static_cast<unsigned char>(a[i])) != std::toupper(static_cast<unsigned char>(b[i]))) {
+    if (std::toupper(static_cast<unsigned char>(a[i])) !=
+        std::toupper(static_cast<unsigned char>(b[i]))) {
       return false;
     }
   }
@@ -52,7 +53,9 @@ double IecTypeInfo::max_value() const {
   return is_signed ? std::ldexp(1.0, bits - 1) - 1 : std::ldexp(1.0, bits) - 1;
 }
 
-const IecTypeInfo& type_info(IecType t) { return kTypes[static_cast<uint8_t>(t)]; }
+const IecTypeInfo& type_info(IecType t) {
+  return kTypes[static_cast<uint8_t>(t)];
+}
 
 const IecTypeInfo* find_iec_type(std::string_view name) {
   for (const IecTypeInfo& t : kTypes) {

@@ -11,18 +11,32 @@
 namespace rtplc::lang::iec {
 
 enum class IecType : uint8_t {
-  kBool, kSint, kInt, kDint, kLint, kUsint, kUint, kUdint, kUlint,
-  kByte, kWord, kDword, kLword, kReal, kLreal, kTime,
+  kBool,
+  kSint,
+  kInt,
+  kDint,
+  kLint,
+  kUsint,
+  kUint,
+  kUdint,
+  kUlint,
+  kByte,
+  kWord,
+  kDword,
+  kLword,
+  kReal,
+  kLreal,
+  kTime,
 };
 
 struct IecTypeInfo {
   const char* name;  // "INT"
   IecType type;
-  uint8_t bits;      // 1 for BOOL; 32/64 for REAL/LREAL; 64 for TIME
+  uint8_t bits;  // 1 for BOOL; 32/64 for REAL/LREAL; 64 for TIME
   bool is_signed;
-  bool integer;      // SINT..ULINT and the bit strings BYTE..LWORD
-  bool bit_string;   // BYTE..LWORD
-  bool real;         // REAL, LREAL
+  bool integer;     // SINT..ULINT and the bit strings BYTE..LWORD
+  bool bit_string;  // BYTE..LWORD
+  bool real;        // REAL, LREAL
   Kind kind() const { return type == IecType::kBool ? Kind::kDigital : Kind::kAnalog; }
   // The type's range as doubles (integers only; +-1e300 otherwise).
   double min_value() const;

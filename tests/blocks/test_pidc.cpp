@@ -22,7 +22,8 @@ const char* kInputs =
 TEST(Pidc, matches_a_hand_computation_with_weights_filter_and_limits) {
   // dt 0.1, Kp 2, Ti 1, Td 0.5, N 5 (Tf 0.1), b 0.5, c 0, output -10..10; fb = itself.
   // ki = Kp*dt/Ti = 0.2, ad = Tf/(Tf+dt) = 0.5, bd = Kp*Td/(Tf+dt) = 5.
-  FbdHarness h(std::string(kInputs) + "F3 = pidc(F1, F2, F3, 2, 1, 0.5, -10, 10, 5, 0.5, 0)\n", 0.1);
+  FbdHarness h(std::string(kInputs) + "F3 = pidc(F1, F2, F3, 2, 1, 0.5, -10, 10, 5, 0.5, 0)\n",
+               0.1);
   ASSERT_TRUE(h.ok());
   h.set("sp", 1);
   h.set("pv", 0);
@@ -65,9 +66,9 @@ TEST(Pidc, the_integral_does_not_wind_up_while_the_output_is_saturated) {
 
 TEST(Pidc, manual_to_auto_is_bumpless_when_fb_reads_the_selector) {
   // Kp 2, Ti 1, no D; F5 = the value sent to the actuator (manual `man` or the PID).
-  FbdHarness h(std::string(kInputs) +
-                   "F3 = pidc(F1, F2, F5, 2, 1, 0, -100, 100)\nF5 = amux(F4, F3, D6)\n",
-               0.1);
+  FbdHarness h(
+      std::string(kInputs) + "F3 = pidc(F1, F2, F5, 2, 1, 0, -100, 100)\nF5 = amux(F4, F3, D6)\n",
+      0.1);
   ASSERT_TRUE(h.ok());
   h.set("sp", 1);
   h.set("man", 7);
@@ -94,24 +95,25 @@ TEST(Pidc, manual_to_auto_is_bumpless_when_fb_reads_the_selector) {
 
 TEST(Pidc, tracks_an_external_limit_wired_to_fb) {
   // The valve only takes 0..40 (a lim after the PID); fb reads it: back-calculation.
-  FbdHarness h(std::string(kInputs) +
-                   "F3 = pidc(F1, F2, F5, 1, 1, 0, 0, 100)\nF5 = lim(F3, 0, 40)\n",
-               0.1);
+  FbdHarness h(
+      std::string(kInputs) + "F3 = pidc(F1, F2, F5, 1, 1, 0, 0, 100)\nF5 = lim(F3, 0, 40)\n", 0.1);
   ASSERT_TRUE(h.ok());
   h.set("sp", 80);
   h.step(200);
   EXPECT_EQ(h.value("F5"), 40);
-  EXPECT_LT(h.value("F3"), 40 + 80 + 8.0 + 1e-9);  // P + one cycle's integral past the valve's limit
-  h.set("pv", 100);  // error -20: leaves the valve's limit at once
+  EXPECT_LT(h.value("F3"),
+            40 + 80 + 8.0 + 1e-9);  // P + one cycle's integral past the valve's limit
+  h.set("pv", 100);                 // error -20: leaves the valve's limit at once
   h.step();
   EXPECT_LT(h.value("F5"), 40);
 }
 
 TEST(Pidc, refuses_limits_in_the_wrong_order) {
-  lang::CompileResult r =
-      lang::compile_source(std::string("%%\n") + kInputs + "F3 = pidc(F1, F2, F3, 1, 1, 0, 10, 0)\nEND\n");
+  lang::CompileResult r = lang::compile_source(std::string("%%\n") + kInputs +
+                                               "F3 = pidc(F1, F2, F3, 1, 1, 0, 10, 0)\nEND\n");
   ASSERT_FALSE(r.ok());
-  EXPECT_NE(r.diags.render("t", "").find("lowest output 10 is above the highest output 0"), std::string::npos)
+  EXPECT_NE(r.diags.render("t", "").find("lowest output 10 is above the highest output 0"),
+            std::string::npos)
       << r.diags.render("t", "");
 }
 

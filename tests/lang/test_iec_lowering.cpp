@@ -92,10 +92,12 @@ class Lowered {
 };
 
 TEST(IecTable, finds_functions_blocks_and_conversions_by_any_case) {
-  for (const char* n : {"TON", "tof", "Tp", "CTU", "CTD", "CTUD", "R_TRIG", "F_TRIG", "SR", "RS", "LIMIT",
-                        "MAX", "MIN", "MOVE", "SEL", "MUX", "ADD", "SUB", "MUL", "DIV", "MOD", "EXPT", "GT",
-                        "NE", "AND", "XOR", "NOT", "SHL", "ROR", "INT_TO_REAL", "REAL_TO_INT", "TIME_TO_DINT",
-                        "TO_UINT", "CTU_DINT", "TRUNC"}) {
+  for (const char* n :
+       {"TON",    "tof",         "Tp",          "CTU",          "CTD",     "CTUD",     "R_TRIG",
+        "F_TRIG", "SR",          "RS",          "LIMIT",        "MAX",     "MIN",      "MOVE",
+        "SEL",    "MUX",         "ADD",         "SUB",          "MUL",     "DIV",      "MOD",
+        "EXPT",   "GT",          "NE",          "AND",          "XOR",     "NOT",      "SHL",
+        "ROR",    "INT_TO_REAL", "REAL_TO_INT", "TIME_TO_DINT", "TO_UINT", "CTU_DINT", "TRUNC"}) {
     EXPECT_NE(find_iec(n), nullptr) << n;
   }
   EXPECT_EQ(find_iec("PID"), nullptr);
@@ -240,11 +242,12 @@ TEST(IecLowering, conversions_round_wrap_and_scale_time_to_milliseconds) {
 TEST(IecLowering, selection_mux_limit_and_extensible_comparisons) {
   Lowered p;
   const uint32_t k = p.input("k", Kind::kAnalog), g = p.input("g", Kind::kDigital);
-  const uint32_t a = p.input("a", Kind::kAnalog), b = p.input("b", Kind::kAnalog), c = p.input("c", Kind::kAnalog);
+  const uint32_t a = p.input("a", Kind::kAnalog), b = p.input("b", Kind::kAnalog),
+                 c = p.input("c", Kind::kAnalog);
   const uint32_t mux = p.call("MUX", {k, a, b, c})[0];
   const uint32_t sel = p.call("SEL", {g, a, b})[0];
   const uint32_t lim = p.call("LIMIT", {a, c, b})[0];  // MN = a, IN = c, MX = b
-  const uint32_t gt = p.call("GT", {c, b, a})[0];       // c > b > a
+  const uint32_t gt = p.call("GT", {c, b, a})[0];      // c > b > a
   const uint32_t mx = p.call("MAX", {a, c, b})[0];
   const uint32_t mv = p.call("MOVE", {c})[0];
   EXPECT_EQ(mv, c);
@@ -306,7 +309,8 @@ TEST(IecTable, generated_docs_match_the_committed_reference) {
   ASSERT_TRUE(f) << "docs/iec.md is missing; run: rtplc blocks --iec > docs/iec.md";
   std::stringstream ss;
   ss << f.rdbuf();
-  EXPECT_EQ(ss.str(), iec_functions_markdown()) << "docs/iec.md is out of date; run: rtplc blocks --iec > docs/iec.md";
+  EXPECT_EQ(ss.str(), iec_functions_markdown())
+      << "docs/iec.md is out of date; run: rtplc blocks --iec > docs/iec.md";
 }
 
 }  // namespace

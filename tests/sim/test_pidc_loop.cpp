@@ -33,8 +33,9 @@ SimTrace run(const lang::CompileResult& r, std::vector<SetpointStep> steps, doub
 }
 
 SimTrace saturate_then_drop(const std::string& controller) {
-  const std::string src = "%%\nstime(0.01)\nF1 = dai(p0, d0, c0, \"FT\")\nF2 = asp(d0, c0, 20, \"SP\")\n" +
-                          controller + "dao(F4, p0, d0, c0, \"FV\")\nEND\n";
+  const std::string src =
+      "%%\nstime(0.01)\nF1 = dai(p0, d0, c0, \"FT\")\nF2 = asp(d0, c0, 20, \"SP\")\n" + controller +
+      "dao(F4, p0, d0, c0, \"FV\")\nEND\n";
   return run(lang::compile_source(src), {{"SP", 150, 1}, {"SP", 20, 11}}, 20);
 }
 
@@ -76,7 +77,9 @@ TEST(PidcLoop, recovers_from_saturation_at_once_where_the_seeds_pi_winds_up) {
   EXPECT_GT(seed_leaves, 5.5);
   EXPECT_LT(ours_leaves, 0.015);  // the first cycle after the drop (or the next)
 
-  auto settled = [](double pv) { return std::fabs(pv - 20) < 2.6; };  // the 2 % band of the 130 step
+  auto settled = [](double pv) {
+    return std::fabs(pv - 20) < 2.6;
+  };  // the 2 % band of the 130 step
   const double seed_settles = time_until(seed, seed.pv_column, 11, settled, true);
   const double ours_settles = time_until(ours, ours.pv_column, 11, settled, true);
   EXPECT_GT(seed_settles, 6.0);
@@ -91,7 +94,9 @@ TEST(PidcLoop, manual_to_auto_on_the_example_is_bumpless) {
   // cycle's action (P change + one integral step), then the loop pulls the flow to 30.
   const auto r = lang::compile_file(kSrc + "/examples/flow_pidc.fbd");
   const SimTrace t = run(r,
-                         {{"FIC_101_AUTO", 0, 0}, {"FIC_101_MAN", 40, 0}, {"FIC_101_SP", 30, 0},
+                         {{"FIC_101_AUTO", 0, 0},
+                          {"FIC_101_MAN", 40, 0},
+                          {"FIC_101_SP", 30, 0},
                           {"FIC_101_AUTO", 1, 5}},
                          10);
   ASSERT_GE(t.mv_column, 0);
@@ -100,7 +105,8 @@ TEST(PidcLoop, manual_to_auto_on_the_example_is_bumpless) {
   for (size_t i = 1; i < t.rows.size(); ++i) {
     const double now = t.rows[i][0];
     if (now < 4.99) before = t.rows[i][mv];
-    if (now >= 4.99 && now <= 5.2) worst_step = std::max(worst_step, std::fabs(t.rows[i][mv] - t.rows[i - 1][mv]));
+    if (now >= 4.99 && now <= 5.2)
+      worst_step = std::max(worst_step, std::fabs(t.rows[i][mv] - t.rows[i - 1][mv]));
   }
   EXPECT_EQ(before, 40);
   EXPECT_NEAR(t.rows[499][pv], 40, 0.5);  // settled in manual
