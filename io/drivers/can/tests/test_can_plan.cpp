@@ -19,6 +19,7 @@
 #include "io/drivers/can/config.h"
 #include "io/drivers/can/driver.h"
 #include "io/drivers/can/fake_bus.h"
+#include "sched/stats_source.h"
 
 namespace rtplc::can {
 namespace {
@@ -182,6 +183,25 @@ TEST(CanPlan, sends_periodic_frames_in_their_windows_urgent_first_and_bulk_cut_t
   EXPECT_LE(n.packet_max_ns.load(), plan.ln_max);
   EXPECT_EQ(n.packet_bound_ns.load(), plan.ln_max);
   EXPECT_EQ(ls.writes_acked.load(), r.bus.sent_count());
+
+  // What `rtplc stats` prints of it, text and JSON, without naming the kind.
+  const std::string text = sched::render_links_table(r.image);
+  EXPECT_NE(text.find("    plan plan.yaml: T1 10ms, gamma 4, Ln 1.554ms\n"), std::string::npos) << text;
+  EXPECT_NE(text.find("    periodic: 52 sent, delay p99/max 0.0/0.0 us (bound 3784.0 us), 0 missed, packet max "
+                      "270.0 us (bound 270.0 us)\n"),
+            std::string::npos)
+      << text;
+  EXPECT_NE(text.find("    non-RT: 3 sent"), std::string::npos) << text;
+  EXPECT_NE(text.find("(bound none)"), std::string::npos) << text;
+  EXPECT_EQ(text.find("EXCEEDS"), std::string::npos) << text;
+  const std::string json = sched::with_links_json(r.image, "{\n  \"tasks\": []\n}\n");
+  EXPECT_NE(json.find("\"plan\": \"plan.yaml: T1 10ms, gamma 4, Ln 1.554ms\", \"classes\": [{\"name\": "
+                      "\"periodic\", \"count\": 52, \"missed\": 0"),
+            std::string::npos)
+      << json;
+  EXPECT_NE(json.find("\"delay_bound\": null, \"packet_max\": 0.00135, \"packet_bound\": 0.001554, \"holds\": true}"),
+            std::string::npos)
+      << json;
 }
 
 TEST(CanPlan, refuses_a_plan_that_cannot_work_with_the_planners_reason) {
@@ -245,6 +265,23 @@ TEST(CanPlan, refuses_frames_the_plan_does_not_describe) {
   e = error_of(kPlan, "    period: 1ms\n    interface: vcan0\n    plan: nope.yaml\n    transmit:\n"
                       "      - {id: 0x201, loop: L1, signals: [{channel: p0.d1.c0, byte: 0}]}\n");
   EXPECT_NE(e.find("nope.yaml"), std::string::npos) << e;
+}
+
+TEST(CanPlan, loads_the_example_and_its_plan) {
+  auto r = config::load_config(std::string(RTPLC_SOURCE_DIR) + "/examples/drive_plan.yaml",
+                               config::LoadOptions{false});
+  ASSERT_TRUE(r.ok()) << r.render();
+  const CanSettings& s = settings_of(r.config->drivers[0]);
+  ASSERT_TRUE(s.plan);
+  EXPECT_EQ(s.plan->plan.t1, 10 * kMs);
+  EXPECT_EQ(s.plan->plan.gamma, 4);
+  EXPECT_EQ(s.plan->plan.ln_max, 1554000);
+  ASSERT_EQ(s.transmit.size(), 2u);
+  EXPECT_EQ(s.transmit[0].loop, "speed");
+  EXPECT_EQ(s.transmit[1].tx_class, FrameMap::Class::kUrgent);
+  ASSERT_EQ(s.bulk.size(), 1u);
+  EXPECT_EQ(s.bulk[0].id, 0x5F0u);
+  EXPECT_DOUBLE_EQ(s.bulk[0].every_s, 2.0);
 }
 
 }  // namespace
