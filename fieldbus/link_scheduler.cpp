@@ -92,13 +92,15 @@ void LinkScheduler::urgent_ready(uint32_t i, int64_t at_ns) noexcept {
   if (i >= urgent_pending_.size() || urgent_pending_[i]) return;
   urgent_pending_[i] = 1;
   urgent_late_[i] = 0;
-  urgent_since_[i] = at_ns;
+  // Ready before frame 0 (a link's first cycle runs before its first release):
+  // it waits from frame 0, the first time it could go.
+  urgent_since_[i] = started_ ? std::max(at_ns, epoch_) : at_ns;
 }
 
 void LinkScheduler::nonrt_ready(int64_t at_ns) noexcept {
   if (nonrt_pending_) return;
   nonrt_pending_ = true;
-  nonrt_since_ = at_ns;
+  nonrt_since_ = started_ ? std::max(at_ns, epoch_) : at_ns;
 }
 
 void LinkScheduler::enter_frame(int64_t f) noexcept {

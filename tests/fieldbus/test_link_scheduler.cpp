@@ -184,6 +184,21 @@ TEST(LinkScheduler, gives_nonrt_only_what_is_left_of_the_frame) {
   }
 }
 
+TEST(LinkScheduler, lets_messages_ready_before_frame_0_wait_from_frame_0) {
+  Rig r;
+  r.sched.start(10 * kMs);  // the first release; the link's first cycle runs before it
+  r.sched.urgent_ready(0, 7 * kMs);
+  g_now = 8 * kMs;
+  r.sched.tick(8 * kMs, r.rec);  // before frame 0: nothing goes
+  EXPECT_TRUE(r.rec.sent.empty());
+  g_now = 10 * kMs;
+  r.sched.tick(10 * kMs, r.rec);
+  ASSERT_FALSE(r.rec.sent.empty());
+  EXPECT_EQ(r.rec.sent[0].cls, TrafficClass::kUrgent);
+  EXPECT_EQ(r.sched.stats(TrafficClass::kUrgent).missed(), 0u);
+  EXPECT_EQ(r.sched.stats(TrafficClass::kUrgent).max(), 150 * kUs);  // its own hand-over, not the 3 ms before frame 0
+}
+
 TEST(LinkScheduler, counts_a_window_missed_when_its_frame_ends_unsent) {
   Rig r;
   r.rec.fail = true;
