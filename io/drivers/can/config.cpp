@@ -1,6 +1,7 @@
 // The `can` driver kind of the configuration (issue "CAN/GPIO", items 1 and 4):
 // the interface, and the receive and transmit frames with the signals that map
-// their bytes to EPC channels. Every id, byte range and encoding is checked
+// their bytes to EPC channels; and the fieldbus plan the link may run on (issue
+// 11, item 4: `plan`, `bulk`, a frame's `loop` or `class`), planned here. Every id, byte range and encoding is checked
 // here with a position, so a config that loads never fails later (except an
 // interface that is missing when the driver starts).
 #include <fmt/format.h>
