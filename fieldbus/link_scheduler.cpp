@@ -73,6 +73,15 @@ LinkScheduler::LinkScheduler(SchedulerSetup setup, Clock clock)
   if (setup_.t1 <= 0) setup_.t1 = 1;
 }
 
+LinkFigures LinkScheduler::figures() const {
+  LinkFigures f{};
+  for (size_t c = 0; c < kTrafficClasses; ++c) {
+    const DelayStats& d = stats_[c];
+    f[c] = {d.count(), d.missed(), d.p99(), d.max(), d.packet_max()};
+  }
+  return f;
+}
+
 void LinkScheduler::start(int64_t epoch_ns) noexcept {
   epoch_ = epoch_ns;
   frame_ = -1;

@@ -57,6 +57,17 @@ class DelayStats {
   Nanos packet_max_ = 0;
 };
 
+// The figures of one class, plain data: what a link's thread hands to the
+// thread that writes its link row.
+struct ClassFigures {
+  uint64_t count = 0;
+  uint64_t missed = 0;
+  Nanos delay_p99 = 0;
+  Nanos delay_max = 0;
+  Nanos packet_max = 0;
+};
+using LinkFigures = std::array<ClassFigures, kTrafficClasses>;
+
 // One periodic message: it samples in the frames f with f mod period = offset.
 struct PeriodicSlot {
   int64_t period_frames = 1;  // 2^k
@@ -112,6 +123,7 @@ class LinkScheduler {
   void tick(int64_t now_ns, LinkSender& sender) noexcept;
 
   const DelayStats& stats(TrafficClass c) const { return stats_[static_cast<size_t>(c)]; }
+  LinkFigures figures() const;
   int64_t frame() const { return frame_; }
   int64_t frame_of(int64_t t_ns) const;
   Nanos t1() const { return setup_.t1; }

@@ -26,15 +26,18 @@ void describe_planned_link(LinkStatus& ls, const fieldbus::LinkPlan& lp) {
 }
 
 void publish_planned_link(LinkStatus& ls, const fieldbus::LinkScheduler& s) noexcept {
+  publish_planned_link(ls, s.figures());
+}
+
+void publish_planned_link(LinkStatus& ls, const fieldbus::LinkFigures& f) noexcept {
   const auto r = std::memory_order_relaxed;
   for (size_t c = 0; c < kLinkClasses; ++c) {
-    const fieldbus::DelayStats& d = s.stats(static_cast<fieldbus::TrafficClass>(c));
     LinkClassStatus& cs = ls.classes[c];
-    cs.count.store(d.count(), r);
-    cs.missed.store(d.missed(), r);
-    cs.delay_p99_ns.store(d.p99(), r);
-    cs.delay_max_ns.store(d.max(), r);
-    cs.packet_max_ns.store(d.packet_max(), r);
+    cs.count.store(f[c].count, r);
+    cs.missed.store(f[c].missed, r);
+    cs.delay_p99_ns.store(f[c].delay_p99, r);
+    cs.delay_max_ns.store(f[c].delay_max, r);
+    cs.packet_max_ns.store(f[c].packet_max, r);
   }
 }
 

@@ -21,5 +21,7 @@ namespace rtplc::io {
 void describe_planned_link(LinkStatus& ls, const fieldbus::LinkPlan& plan);
 // On the link's thread (the row's one writer): the scheduler's figures.
 void publish_planned_link(LinkStatus& ls, const fieldbus::LinkScheduler& s) noexcept;
+// The same from figures another thread took of its scheduler (a Modbus line's).
+void publish_planned_link(LinkStatus& ls, const fieldbus::LinkFigures& f) noexcept;
 
 }  // namespace rtplc::io
