@@ -101,12 +101,6 @@ TEST(ModbusPlan, reads_each_loop_in_its_frames_cuts_nonrt_to_ln_and_sends_urgent
   slave.stop();
 
   const std::vector<FakeSlave::LoggedRequest> log = slave.request_log();
-  if (getenv("RTPLC_TEST_DUMP")) {
-    for (const auto& r : log) {
-      std::printf("%lld fc%d %d+%d at %lld\n", static_cast<long long>(r.at_ns / plan.t1), r.function, r.address, r.count,
-                  static_cast<long long>(r.at_ns % plan.t1 / 1000));
-    }
-  }
   ASSERT_GE(count(0), 14u);
   std::map<int64_t, std::vector<FakeSlave::LoggedRequest>> by_frame;  // frames lie on the clock's multiples of T_1
   for (const FakeSlave::LoggedRequest& r : log) by_frame[r.at_ns / plan.t1].push_back(r);
