@@ -205,5 +205,19 @@ TEST(ModbusPlan, refuses_what_the_plan_does_not_describe) {
   EXPECT_NE(r.render().find("'plan' applies to RTU slaves"), std::string::npos) << r.render();
 }
 
+TEST(ModbusPlan, loads_the_example_and_its_plan) {
+  auto r = config::load_config(std::string(RTPLC_SOURCE_DIR) + "/examples/modbus_plan.yaml",
+                               config::LoadOptions{false});
+  ASSERT_TRUE(r.ok()) << r.render();
+  const ModbusSettings& s = settings_of(r.config->drivers[0]);
+  ASSERT_TRUE(s.slaves[0].plan);
+  EXPECT_EQ(s.slaves[0].plan->plan.t1, 100'000'000);
+  EXPECT_EQ(s.reads[0].traffic, ChannelMap::Traffic::kPeriodic);
+  EXPECT_EQ(s.reads[1].loop, "status");
+  EXPECT_EQ(s.reads[2].traffic, ChannelMap::Traffic::kNonRt);
+  EXPECT_EQ(s.writes[0].traffic, ChannelMap::Traffic::kUrgent);
+  EXPECT_EQ(s.writes[1].traffic, ChannelMap::Traffic::kUrgent);
+}
+
 }  // namespace
 }  // namespace rtplc::modbus
