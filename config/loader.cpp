@@ -138,13 +138,17 @@ void parse_retain(YamlReader& r, const Field& field, TaskConfig& t) {
   }
 }
 
-// safe_outputs: {LABEL: number, ...}
-void parse_safe_outputs(YamlReader& r, const Field& field, TaskConfig& t) {
+// A map keyed by channel label ({LABEL: ..., ...}): checks the map, each key
+// (a valid label, given once) and hands each entry to `each(label, key_pos,
+// value)`. `what` names an entry in the errors ("safe output", "set-point").
+template <class Each>
+void for_each_labelled(YamlReader& r, const Field& field, const char* key, const char* what,
+                       Each&& each) {
   const YAML::Node& map = field.value;
   if (!map.IsDefined() || map.IsNull()) return;
   if (!map.IsMap()) {
-    r.error(field, "'safe_outputs' expects " + describe_type(*field.spec) + ", got " +
-                       YamlReader::describe_node(map));
+    r.error(field, std::string("'") + key + "' expects " + describe_type(*field.spec) +
+                       ", got " + YamlReader::describe_node(map));
     return;
   }
   std::unordered_map<std::string, SourcePos> seen;
@@ -153,8 +157,9 @@ void parse_safe_outputs(YamlReader& r, const Field& field, TaskConfig& t) {
     const SourcePos kp = or_else(YamlReader::pos(k), field.pos);
     if (!k.IsScalar() || !is_valid_label(k.Scalar())) {
       r.error(kp,
-              "a safe output is named by its channel label (1 to 31 letters, digits, '_', '-' "
-              "or '.'), got " +
+              std::string("a ") + what +
+                  " is named by its channel label (1 to 31 letters, digits, '_', '-' or '.'), "
+                  "got " +
                   YamlReader::describe_node(k),
               YamlReader::width(k));
       continue;
@@ -163,49 +168,33 @@ void parse_safe_outputs(YamlReader& r, const Field& field, TaskConfig& t) {
     // A map, not a scan: the list is as long as the file makes it.
     auto [first, fresh] = seen.emplace(label, kp);
     if (!fresh) {
-      r.error(kp, "safe output '" + label + "' is given twice", YamlReader::width(k));
+      r.error(kp, std::string(what) + " '" + label + "' is given twice", YamlReader::width(k));
       r.note(first->second, "first given here", static_cast<uint32_t>(label.size()));
       continue;
     }
-    auto v = r.real(it->second, kp, "safe output '" + label + "'");
-    if (v) t.safe_outputs.push_back(SafeOutput{label, *v, kp});
+    each(label, kp, it->second);
   }
+}
+
+// safe_outputs: {LABEL: number, ...}
+void parse_safe_outputs(YamlReader& r, const Field& field, TaskConfig& t) {
+  for_each_labelled(r, field, "safe_outputs", "safe output",
+                    [&](const std::string& label, SourcePos kp, const YAML::Node& v) {
+                      auto x = r.real(v, kp, "safe output '" + label + "'");
+                      if (x) t.safe_outputs.push_back(SafeOutput{label, *x, kp});
+                    });
 }
 
 // setpoints: {LABEL: {min: number, max: number}, ...}
 void parse_setpoint_limits(YamlReader& r, const Field& field, TaskConfig& t) {
-  const YAML::Node& map = field.value;
-  if (!map.IsDefined() || map.IsNull()) return;
-  if (!map.IsMap()) {
-    r.error(field, "'setpoints' expects " + describe_type(*field.spec) + ", got " +
-                       YamlReader::describe_node(map));
-    return;
-  }
-  std::unordered_map<std::string, SourcePos> seen;
-  for (auto it = map.begin(); it != map.end(); ++it) {
-    const YAML::Node k = it->first;
-    const SourcePos kp = or_else(YamlReader::pos(k), field.pos);
-    if (!k.IsScalar() || !is_valid_label(k.Scalar())) {
-      r.error(kp,
-              "a set-point is named by its label (1 to 31 letters, digits, '_', '-' or '.'), got " +
-                  YamlReader::describe_node(k),
-              YamlReader::width(k));
-      continue;
-    }
-    const std::string& label = k.Scalar();
-    auto [first, fresh] = seen.emplace(label, kp);
-    if (!fresh) {
-      r.error(kp, "set-point '" + label + "' is given twice", YamlReader::width(k));
-      r.note(first->second, "first given here", static_cast<uint32_t>(label.size()));
-      continue;
-    }
-    const YAML::Node& v = it->second;
+  for_each_labelled(r, field, "setpoints", "set-point", [&](const std::string& label,
+                                                             SourcePos kp, const YAML::Node& v) {
     const SourcePos vp = or_else(YamlReader::pos(v), kp);
     if (!v.IsMap()) {
       r.error(vp, "set-point '" + label + "' expects {min: number, max: number}, got " +
                       YamlReader::describe_node(v),
               YamlReader::width(v));
-      continue;
+      return;
     }
     SetpointLimits lim{label, std::nullopt, std::nullopt, kp};
     bool ok = true;
@@ -234,7 +223,7 @@ void parse_setpoint_limits(YamlReader& r, const Field& field, TaskConfig& t) {
       ok = false;
     }
     if (ok) t.setpoint_limits.push_back(std::move(lim));
-  }
+  });
 }
 
 // - program: ...

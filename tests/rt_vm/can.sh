@@ -2,12 +2,13 @@
 # The can driver on a real SocketCAN stack (the PREEMPT_RT VM; the host has no
 # PF_CAN), against can-utils as the independent peer: cansend plays the drive's
 # status frames (and cangen repeats them), candump records what rtplc sends. examples/drive.yaml runs the
-# seed's PID macro in a speed loop through frame 0x181 (in) and 0x201 (out).
+# seed's PID macro in a speed loop through frame 0x181 (in) and 0x201 (out),
+# with its run switch on a gpio-sim line (gpio-sim-lib.sh; gpio-vm.sh builds the module).
 # Checks: an interface that does not exist fails the start clearly; frames in
 # -> channel values; outputs -> frames with the right id, bytes and period; a
 # peer that stops -> bad quality after the frame's timeout (and the program
 # drops Enable); `rtplc stop` -> the safe values on the bus; `rtplc can dump`
-# decodes by the config's mapping.
+# decodes by the config's mapping; the run switch off drops Enable.
 # Files live under the step's work folder (the guest's /tmp is a small tmpfs).
 fail() { echo "FAILED: $*"; exit 1; }
 for t in cansend cangen candump; do
@@ -17,7 +18,12 @@ modprobe vcan
 modprobe can-raw
 ip link add dev vcan0 type vcan
 ip link set vcan0 up
-cp /examples/drive.yaml /examples/drive.fbd .
+shipped() { find / -name "$1" -type f -not -path '/proc/*' -not -path '/sys/*' 2>/dev/null | head -n1; }
+. "$(shipped gpio-sim-lib.sh)"
+gpio_sim_up RUN
+pull 0 up  # the run switch is on
+sed "s/chip: gpiochip0/chip: $chip/" /examples/drive.yaml > drive.yaml
+cp /examples/drive.fbd .
 
 # 1. A missing interface fails at start, saying which.
 sed 's/interface: vcan0/interface: vcan9/' drive.yaml > missing.yaml
@@ -36,6 +42,7 @@ until rtplc status >/dev/null 2>&1; do
   [ $i -le 150 ] || { cat run.log; fail "the runtime did not come up"; }
   sleep 0.2
 done
+# (replaces gpio-sim-lib.sh's value(): here a label's value in the monitor)
 value() { rtplc monitor --once | awk -v l="$1" '$1 == l {print $4; exit}'; }
 quality() { rtplc monitor --once | awk -v l="$1" '$1 == l {print $5; exit}'; }
 [ "$(quality Speed)" = "bad" ] || fail "Speed is $(quality Speed) before any frame came"
@@ -54,6 +61,17 @@ rtplc monitor --once
 awk -v v="$(value Speed)" 'BEGIN { exit !(v > 299.9 && v < 300.1) }' || fail "Speed reads $(value Speed), not 300"
 [ "$(value Ready)" = "1" ] || fail "Ready reads $(value Ready)"
 [ "$(value Enable)" = "1" ] || fail "Enable is $(value Enable) with a good speed and a ready drive"
+# The run switch off drops Enable on the bus; on again, it comes back.
+enable_is() {
+  for i in 1 2 3 4 5 6 7 8 9 10; do [ "$(value Enable)" = "$1" ] && return 0; sleep 0.3; done
+  return 1
+}
+pull 0 down
+enable_is 0 || fail "Enable is $(value Enable) with the run switch off"
+[ "$(value Run)" = "0" ] && [ "$(quality Run)" = "good" ] || fail "Run reads $(value Run) ($(quality Run))"
+pull 0 up
+enable_is 1 || fail "Enable is $(value Enable) with the run switch on again"
+echo "ok: the run switch on gpio-sim line 0 of $chip gates Enable"
 rtplc status
 rtplc stats | grep -A3 '^  link' || true
 rtplc can dump vcan0 --config drive.yaml --seconds 0.5 > dump.txt

@@ -2,7 +2,7 @@
 # The gpio driver on real GPIO lines (the PREEMPT_RT VM, against gpio-sim as
 # the independent peer; the host has no /dev/gpiochip). The module is built out
 # of tree by scripts/lib/rt-vm/gpio-sim-build.sh and shipped with --add; its
-# path is found (or given in $GPIO_SIM_KO). examples/gpio.yaml: a button (line BTN = 0) lights a
+# path is found (or given in $GPIO_SIM_KO); gpio-sim-lib.sh makes the chip. examples/gpio.yaml: a button (line BTN = 0) lights a
 # lamp (line 2) and clears an idle light (line 3); line 1 counts pulses.
 # Checks: a line name the chip lacks fails the start naming the entry;
 # the button read, the outputs read back from gpio-sim's `value`; 1,000 rising
@@ -12,23 +12,9 @@
 fail() { echo "FAILED: $*"; exit 1; }
 # --add ships files at their host paths: find the module and the unit test there.
 shipped() { find / -name "$1" -type f -not -path '/proc/*' -not -path '/sys/*' 2>/dev/null | head -n1; }
-GPIO_SIM_KO="${GPIO_SIM_KO:-$(shipped gpio-sim.ko)}"
 GPIO_UNIT_TEST="${GPIO_UNIT_TEST:-$(shipped test_gpio)}"
-[ -f "$GPIO_SIM_KO" ] || fail "no gpio-sim.ko at '$GPIO_SIM_KO' (run the VM with --add PATH and GPIO_SIM_KO=PATH)"
-modprobe configfs
-grep -q ' /sys/kernel/config ' /proc/mounts || mount -t configfs none /sys/kernel/config
-insmod "$GPIO_SIM_KO"
-cfs=/sys/kernel/config/gpio-sim/chip0
-mkdir $cfs $cfs/bank0 $cfs/bank0/line0
-echo 8 > $cfs/bank0/num_lines
-echo BTN > $cfs/bank0/line0/name
-echo 1 > $cfs/live
-chip="$(cat $cfs/bank0/chip_name)"
-sys="/sys/devices/platform/$(cat $cfs/dev_name)/$chip"
-[ -e "/dev/$chip" ] || fail "/dev/$chip did not appear"
-echo "ok: gpio-sim is $chip ($sys)"
-pull() { echo "pull-$2" > "$sys/sim_gpio$1/pull"; }
-value() { cat "$sys/sim_gpio$1/value"; }
+. "$(shipped gpio-sim-lib.sh)"
+gpio_sim_up BTN
 # A watchdog that never fires: under emulation a 10 ms task overruns now and
 # then, and 3 in a row would stop it (driving the safe values) mid-test.
 sed -e "s/chip: gpiochip0/chip: $chip/" -e 's/watchdog: 3/watchdog: 1000000/' /examples/gpio.yaml > gpio.yaml
@@ -63,12 +49,6 @@ until rtplc status >/dev/null 2>&1; do
   sleep 0.2
 done
 mon() { rtplc monitor --once | awk -v l="$1" -v c="$2" '$1 == l {print $c; exit}'; }
-settle() {  # waits until line $1 reads $2 (bounded: emulation is slow, not wrong)
-  i=0
-  while [ "$(value $1)" != "$2" ]; do
-    i=$((i + 1)); [ $i -le 50 ] || return 1; sleep 0.1
-  done
-}
 settle 2 0 || fail "lamp reads $(value 2) with the button up"
 settle 3 1 || fail "idle reads $(value 3) with the button up"
 pull 0 up

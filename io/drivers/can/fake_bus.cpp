@@ -68,7 +68,12 @@ void FakeBus::deliver(const Frame& f, const FakePort* from) {
     std::lock_guard lock(mu_);
     for (FakePort* p : ports_) {
       if (p == from) continue;
-      if (f.error ? p->error_frames : takes(p->filters, f)) p->rx.push_back(f);
+      if (!(f.error ? p->error_frames : takes(p->filters, f))) continue;
+      if (rx_limit_ != 0 && p->rx.size() >= rx_limit_) {
+        ++rx_dropped_;
+        continue;
+      }
+      p->rx.push_back(f);
     }
   }
   cv_.notify_all();
@@ -90,6 +95,16 @@ void FakeBus::inject_error(uint32_t error_class, uint8_t ctrl) {
 void FakeBus::refuse_sends(bool on) {
   std::lock_guard lock(mu_);
   refuse_ = on;
+}
+
+void FakeBus::limit_rx(size_t frames) {
+  std::lock_guard lock(mu_);
+  rx_limit_ = frames;
+}
+
+uint64_t FakeBus::rx_dropped() const {
+  std::lock_guard lock(mu_);
+  return rx_dropped_;
 }
 
 std::vector<Frame> FakeBus::sent() const {

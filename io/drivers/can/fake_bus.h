@@ -2,8 +2,10 @@
 // FakeBus see each other's frames as nodes on one wire do (a sender never
 // receives its own frame), each through its own filters, so the driver's whole
 // logic runs without SocketCAN. Faults are injected deterministically:
-// error frames (bus-off, restart...) to every port that asked for them, and a
-// bus that refuses sends (as a controller in bus-off does).
+// error frames (bus-off, restart...) to every port that asked for them, a
+// bus that refuses sends (as a controller in bus-off does), and a bounded
+// receive queue per port that drops what does not fit (as a SocketCAN
+// socket whose receive buffer is full drops frames).
 // Not for the RT path: ports wait on a mutex and a condition variable.
 #pragma once
 
@@ -36,6 +38,11 @@ class FakeBus {
   void inject_error(uint32_t error_class, uint8_t ctrl = 0);
   // Sends fail with ENETDOWN while set (a controller in bus-off).
   void refuse_sends(bool on);
+  // Each port queues at most `frames` received frames (0: no limit, the
+  // default); a frame that finds its port's queue full is dropped and counted.
+  void limit_rx(size_t frames);
+  // Frames dropped so far because a port's queue was full (all ports).
+  uint64_t rx_dropped() const;
 
   // Every frame a port sent, in order (the peer's candump).
   std::vector<Frame> sent() const;
@@ -66,6 +73,8 @@ class FakeBus {
   std::vector<Frame> sent_;
   std::vector<IdFilter> last_filters_;
   bool refuse_ = false;
+  size_t rx_limit_ = 0;
+  uint64_t rx_dropped_ = 0;
 };
 
 }  // namespace rtplc::can

@@ -173,6 +173,10 @@ void FakeChips::pull(const std::string& chip, unsigned offset, int level, int64_
     const bool rising = (l.physical != 0) != l.req.active_low;  // logical edge
     const Edge e = l.req.edge;
     if (e == Edge::kBoth || (e == Edge::kRising && rising) || (e == Edge::kFalling && !rising)) {
+      if (event_limit_ != 0 && l.events.size() >= event_limit_) {
+        ++events_dropped_;
+        return;
+      }
       l.events.push_back({rising, ts_ns});
     }
   }
@@ -197,6 +201,16 @@ uint64_t FakeChips::sets() const {
 void FakeChips::fail_io(int err) {
   std::lock_guard lock(mu_);
   fail_ = err;
+}
+
+void FakeChips::limit_events(size_t events) {
+  std::lock_guard lock(mu_);
+  event_limit_ = events;
+}
+
+uint64_t FakeChips::events_dropped() const {
+  std::lock_guard lock(mu_);
+  return events_dropped_;
 }
 
 }  // namespace rtplc::gpio

@@ -2,8 +2,10 @@
 // of N lines, each line driven from outside like gpio-sim's `pull` attribute
 // and read back like its `value`. Edges on requested lines queue events with
 // the timestamps the test gives, exactly as the kernel queues them, so a test
-// can drive bursts and bounces without timing anything. Thread-safe (one
-// mutex: the fake is not real-time).
+// can drive bursts and bounces without timing anything. A line's event queue
+// can be bounded like the kernel's (16 events per line in the uAPI v1 that
+// libgpiod 1.6 uses): an edge that finds it full is dropped and counted.
+// Thread-safe (one mutex: the fake is not real-time).
 #pragma once
 
 #include <condition_variable>
@@ -41,6 +43,11 @@ class FakeChips {
   uint64_t sets() const;
   // Makes get()/set() on every line fail with `err` (0: work again).
   void fail_io(int err);
+  // Each requested line queues at most `events` edge events (0: no limit,
+  // the default); an edge that finds the queue full is dropped and counted.
+  void limit_events(size_t events);
+  // Edge events dropped so far because a line's queue was full (all lines).
+  uint64_t events_dropped() const;
 
  private:
   struct Line;
@@ -53,6 +60,8 @@ class FakeChips {
   std::map<std::string, std::unique_ptr<Chip>> chips_;
   uint64_t sets_ = 0;
   int fail_ = 0;
+  size_t event_limit_ = 0;
+  uint64_t events_dropped_ = 0;
 
   friend struct FakeOps;
 };

@@ -313,5 +313,29 @@ TEST(CanDriver, sends_the_safe_values_once_more_at_stop) {
   EXPECT_EQ(r.bus.ports_open(), 0);
 }
 
+// The fake's bounded receive queue (what the benchmark's loss counts rest on):
+// a port holds at most the limit, the rest is dropped and counted, in order.
+TEST(FakeBus, drops_frames_beyond_a_ports_receive_limit_and_counts_them) {
+  FakeBus bus;
+  bus.limit_rx(2);
+  const IdFilter only181[] = {{0x181, false, kMaxExtendedId}};
+  auto port = Port::open(bus.transport(), "vcan0", only181, false);
+  ASSERT_TRUE(port.ok()) << port.error();
+  for (uint8_t i = 1; i <= 3; ++i) bus.inject(frame(0x181, {i}));
+  bus.inject(frame(0x182, {9}));  // filtered out: neither queued nor dropped
+  EXPECT_EQ(bus.rx_dropped(), 1u);
+  Frame f;
+  int err = 0;
+  ASSERT_EQ(port->recv(f, kMs, &err), RecvResult::kFrame);
+  EXPECT_EQ(f.data[0], 1);
+  ASSERT_EQ(port->recv(f, kMs, &err), RecvResult::kFrame);
+  EXPECT_EQ(f.data[0], 2);
+  EXPECT_EQ(port->recv(f, kMs, &err), RecvResult::kTimeout);
+  bus.inject(frame(0x181, {4}));  // room again
+  ASSERT_EQ(port->recv(f, kMs, &err), RecvResult::kFrame);
+  EXPECT_EQ(f.data[0], 4);
+  EXPECT_EQ(bus.rx_dropped(), 1u);
+}
+
 }  // namespace
 }  // namespace rtplc::can

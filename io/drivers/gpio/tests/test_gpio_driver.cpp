@@ -285,5 +285,35 @@ TEST(GpioDriver, a_busy_line_fails_the_start_saying_who_holds_it) {
   EXPECT_NE(l.error().find("used by 'rtplc-dio'"), std::string::npos) << l.error();
 }
 
+// The fake's bounded event queue, as the kernel's 16-event line queue: edges
+// beyond the limit are dropped and counted; once read, there is room again.
+TEST(FakeChips, drops_edges_beyond_a_lines_event_limit_and_counts_them) {
+  FakeChips chips;
+  chips.add_chip("gpiochip0", "gpio-fake.0", 4);
+  chips.limit_events(3);
+  const ChipOps& ops = chips.ops();
+  auto chip = ops.open(ops.context, "gpiochip0");
+  ASSERT_TRUE(chip.ok()) << chip.error();
+  LineRequest req;
+  req.offset = 1;
+  req.edge = Edge::kRising;
+  auto line = ops.request(*chip, req, "test");
+  ASSERT_TRUE(line.ok()) << line.error();
+  for (int i = 0; i < 5; ++i) {
+    chips.pull("gpiochip0", 1, 1, 10 * i);
+    chips.pull("gpiochip0", 1, 0, 10 * i + 5);  // a falling edge: not asked for, not queued
+  }
+  EXPECT_EQ(chips.events_dropped(), 2u);
+  EdgeEvent evs[8];
+  ASSERT_EQ(ops.read_events(*line, evs, 8), 3);
+  EXPECT_EQ(evs[0].ts_ns, 0);
+  EXPECT_EQ(evs[2].ts_ns, 20);
+  chips.pull("gpiochip0", 1, 1, 100);
+  ASSERT_EQ(ops.read_events(*line, evs, 8), 1);
+  EXPECT_EQ(evs[0].ts_ns, 100);
+  EXPECT_EQ(chips.events_dropped(), 2u);
+  ops.release(*line);
+}
+
 }  // namespace
 }  // namespace rtplc::gpio
