@@ -126,6 +126,7 @@ void run_monitor(const ViewArgs& a) {
                     ls.rtt_p50_us, ls.rtt_p99_us, ls.reconnects, ls.timeouts, ls.errors, ls.writes_acked,
                     ls.writes_failed, ls.writes_pending);
       out += line;
+      out += sched::render_link_classes(ls);  // a planned link's classes; "" otherwise
     }
     std::snprintf(line, sizeof line, "\n  %-20s %-9s %-24s %14s  %-7s %8s  %s\n", "label", "dir", "channel",
                   "value", "quality", "age", "writer");
@@ -175,6 +176,9 @@ void add_stats_commands(CLI::App& app) {
       "Reads the running runtime's shared memory (read-only). Wake latency is the time from a\n"
       "task's release to its thread running; exec is the cycle's run time. Lines starting with\n"
       "T: read like cyclictest's (microseconds). docs/jitter.md explains every column.\n"
+      "L: lines are the drivers' links; a link that runs on a fieldbus plan adds, per traffic\n"
+      "class (periodic, urgent, non-RT), its measured delays beside the plan's bounds\n"
+      "(docs/fieldbus.md, \"Running a link on a plan\").\n"
       "Examples:\n  rtplc stats\n  rtplc stats --json\n  rtplc stats --hist jitter.hist && scripts/plot-jitter jitter.hist");
   stats->add_option("--name", a->name, "runtime name (default rtplc)")->check(runtime_name());
   stats->add_flag("--json", a->json, "machine-readable output");

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "common/diagnostic.h"
+#include "fieldbus/link_timing.h"
 #include "fieldbus/units.h"
 
 namespace rtplc::fieldbus {
@@ -53,6 +54,9 @@ struct Design {
   double nonrt_rate = -1;
   std::vector<LoopSpec> loops;
   std::string link_text;  // "CAN 11-bit id at 500 kbit/s", for the report
+  // The bit rate and frame layout, when the file gave them: a link that runs
+  // on the plan (link_plan.h) computes its own frames' wire times with it.
+  std::optional<LinkTiming> timing;
 };
 
 // The worked example of docs/fieldbus.md in its generic form (what

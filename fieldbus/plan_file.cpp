@@ -179,6 +179,7 @@ LinkContext parse_link(YamlReader& r, const Field& section, Design& d) {
   if (bits && lay) {
     ctx.timing = LinkTiming{*lay, *bits};
     d.link_text = ctx.timing->describe();
+    d.timing = ctx.timing;
   }
   const Field* so = f.get("server_overhead");
   const Field* sf = f.get("server_frame");

@@ -91,7 +91,8 @@
 namespace rtplc::io {
 
 inline constexpr char kProcessImageMagic[8] = {'R', 'T', 'P', 'L', 'C', 'S', 'H', 'M'};
-inline constexpr uint32_t kProcessImageVersion = 5;  // 4: the force table; 5: per-task trace rings
+inline constexpr uint32_t kProcessImageVersion = 6;  // 4: the force table; 5: per-task trace rings;
+                                                    // 6: per-class delays of planned links
 inline constexpr uint32_t kRingSlots = 4;
 inline constexpr size_t kLabelBytes = 32;
 
@@ -224,6 +225,24 @@ const char* link_state_name(LinkState s);
 
 inline constexpr size_t kLinkLatencyBuckets = 12;  // io/link/latency_buckets.h
 
+inline constexpr size_t kLinkClasses = 3;  // fieldbus/link_scheduler.h: periodic, urgent, non-RT
+
+// One traffic class of a link that runs on a fieldbus plan (docs/fieldbus.md,
+// "Running a link on a plan"): what was measured beside what the plan bounds.
+// Same writer and readers as its LinkStatus; relaxed atomics, as there: each
+// field is a counter or a maximum read on its own, no reader needs two of them
+// to agree. The name is written once before the threads start ("" = unused).
+struct LinkClassStatus {
+  char name[16];                         // "periodic", "urgent", "non-RT"
+  std::atomic<uint64_t> count;           // messages handed to the bus
+  std::atomic<uint64_t> missed;          // windows missed (not sent in their T_1 frame)
+  std::atomic<int64_t> delay_p99_ns;     // ready -> handed over
+  std::atomic<int64_t> delay_max_ns;
+  std::atomic<int64_t> delay_bound_ns;   // the plan's bound; 0: the plan claims none
+  std::atomic<int64_t> packet_max_ns;    // longest packet sent (wire time)
+  std::atomic<int64_t> packet_bound_ns;  // the plan's L_p, L_c, L_n
+};
+
 // Per-link status of a driver that talks to remote peers (one per S7 PLC, per
 // Modbus slave, ...): what `rtplc stats`, `monitor` and `status` show without
 // knowing the kind. One writer (the driver's bridge thread); every field a
@@ -252,6 +271,8 @@ struct alignas(64) LinkStatus {
   std::atomic<uint64_t> writes_pending;
   std::atomic<uint64_t> writes_rejected;
   std::atomic<uint64_t> latency[kLinkLatencyBuckets];  // round trips per bucket
+  char plan[64];  // "drive_plan.yaml: T1 5ms, gamma 4, Ln 585.714us"; "" = not planned (written before start)
+  LinkClassStatus classes[kLinkClasses];
 };
 
 enum class TaskState : uint8_t { kStarting = 0, kRunning = 1, kStoppedWatchdog = 2, kStopped = 3 };

@@ -314,7 +314,10 @@ std::string Runtime::status() const {
                   " drivers, " + std::to_string(image_.channel_count()) + " channels\n";
   s += "shared memory " + image_.object_name() + ", control socket " + socket_path_ +
        ", retain file " + retain_.path() + "\n";
-  for (uint32_t l = 0; l < image_.link_count(); ++l) s += "  " + link_status_line(link_snapshot(image_.link(l))) + "\n";
+  for (uint32_t l = 0; l < image_.link_count(); ++l) {
+    const LinkSnapshot ls = link_snapshot(image_.link(l));
+    s += "  " + link_status_line(ls) + "\n" + render_link_classes(ls);  // classes: planned links only
+  }
   if (forces_.empty()) {
     s += "  forced: none\n";
   } else {

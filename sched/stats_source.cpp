@@ -88,7 +88,51 @@ LinkSnapshot link_snapshot(const io::LinkStatus& ls) {
   s.writes_pending = ls.writes_pending.load(r);
   s.writes_rejected = ls.writes_rejected.load(r);
   for (size_t b = 0; b < io::kLinkLatencyBuckets; ++b) s.latency.push_back(ls.latency[b].load(r));
+  s.plan = std::string(ls.plan, strnlen(ls.plan, sizeof ls.plan));
+  for (const io::LinkClassStatus& c : ls.classes) {
+    if (c.name[0] == '\0') continue;
+    LinkSnapshot::TrafficClass t;
+    t.name = std::string(c.name, strnlen(c.name, sizeof c.name));
+    t.count = c.count.load(r);
+    t.missed = c.missed.load(r);
+    t.delay_p99_ns = c.delay_p99_ns.load(r);
+    t.delay_max_ns = c.delay_max_ns.load(r);
+    t.delay_bound_ns = c.delay_bound_ns.load(r);
+    t.packet_max_ns = c.packet_max_ns.load(r);
+    t.packet_bound_ns = c.packet_bound_ns.load(r);
+    s.classes.push_back(std::move(t));
+  }
   return s;
+}
+
+namespace {
+
+std::string us_text(long long ns) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.1f", static_cast<double>(ns) / 1e3);
+  return b;
+}
+
+// A class holds its design when nothing missed its window and no measured
+// figure passes its bound.
+bool class_holds(const LinkSnapshot::TrafficClass& c) {
+  return c.missed == 0 && (c.delay_bound_ns == 0 || c.delay_max_ns <= c.delay_bound_ns) &&
+         (c.packet_bound_ns == 0 || c.packet_max_ns <= c.packet_bound_ns);
+}
+
+}  // namespace
+
+std::string render_link_classes(const LinkSnapshot& s) {
+  if (s.plan.empty()) return "";
+  std::string out = "    plan " + s.plan + "\n";
+  for (const LinkSnapshot::TrafficClass& c : s.classes) {
+    out += "    " + c.name + ": " + std::to_string(c.count) + " sent, delay p99/max " + us_text(c.delay_p99_ns) +
+           "/" + us_text(c.delay_max_ns) + " us (bound " +
+           (c.delay_bound_ns ? us_text(c.delay_bound_ns) + " us" : std::string("none")) + "), " +
+           std::to_string(c.missed) + " missed, packet max " + us_text(c.packet_max_ns) + " us (bound " +
+           us_text(c.packet_bound_ns) + " us)" + (class_holds(c) ? "" : "  EXCEEDS THE PLAN") + "\n";
+  }
+  return out;
 }
 
 std::string link_status_line(const LinkSnapshot& s) {
@@ -113,6 +157,7 @@ std::string render_links_table(const io::ProcessImage& img) {
                   s.rtt_p99_us, s.polls_completed, s.polls_missed, s.polls_offline, s.reconnects, s.timeouts,
                   s.errors, s.writes_acked, s.writes_failed, s.writes_pending);
     out += line;
+    out += render_link_classes(s);
   }
   return out;
 }
@@ -138,6 +183,32 @@ std::string with_links_json(const io::ProcessImage& img, const std::string& json
                   s.polls_completed, s.polls_missed, s.polls_offline, s.connects, s.reconnects, s.timeouts,
                   s.errors, s.writes_acked, s.writes_failed, s.writes_pending, s.writes_rejected, hist.c_str());
     links += item;
+    if (!s.plan.empty()) {
+      // Planned link: the plan and its classes, times in seconds like the planner's JSON.
+      links.pop_back();  // the item's closing brace
+      std::string plan_text;
+      for (char ch : s.plan) {
+        if (ch == '"' || ch == '\\') plan_text += '\\';
+        if (static_cast<unsigned char>(ch) >= 0x20) plan_text += ch;
+      }
+      links += ", \"plan\": \"" + plan_text + "\", \"classes\": [";
+      for (size_t c = 0; c < s.classes.size(); ++c) {
+        const LinkSnapshot::TrafficClass& t = s.classes[c];
+        char bound[32] = "null";
+        if (t.delay_bound_ns) std::snprintf(bound, sizeof bound, "%.9g", static_cast<double>(t.delay_bound_ns) / 1e9);
+        std::snprintf(item, sizeof item,
+                      "%s{\"name\": \"%s\", \"count\": %llu, \"missed\": %llu, \"delay_p99\": %.9g, "
+                      "\"delay_max\": %.9g, \"delay_bound\": %s, \"packet_max\": %.9g, \"packet_bound\": %.9g, "
+                      "\"holds\": %s}",
+                      c ? ", " : "", t.name.c_str(), t.count, t.missed, static_cast<double>(t.delay_p99_ns) / 1e9,
+                      static_cast<double>(t.delay_max_ns) / 1e9,
+                      bound,
+                      static_cast<double>(t.packet_max_ns) / 1e9, static_cast<double>(t.packet_bound_ns) / 1e9,
+                      class_holds(t) ? "true" : "false");
+        links += item;
+      }
+      links += "]}";
+    }
   }
   links += img.link_count() ? "\n  ]\n" : "]\n";
   std::string out = json.substr(0, close);

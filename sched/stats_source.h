@@ -31,11 +31,24 @@ struct LinkSnapshot {
   unsigned long long connects = 0, reconnects = 0, timeouts = 0, errors = 0;
   unsigned long long writes_acked = 0, writes_failed = 0, writes_pending = 0, writes_rejected = 0;
   std::vector<unsigned long long> latency;  // io::kLinkLatencyBuckets counts
+  // A link that runs on a fieldbus plan: the plan and, per traffic class, the
+  // measured delays beside the plan's bounds (io/drivers/planned_link.h).
+  std::string plan;  // "" = not planned
+  struct TrafficClass {
+    std::string name;
+    unsigned long long count = 0, missed = 0;
+    long long delay_p99_ns = 0, delay_max_ns = 0, delay_bound_ns = 0;  // bound 0: none claimed
+    long long packet_max_ns = 0, packet_bound_ns = 0;
+  };
+  std::vector<TrafficClass> classes;
 };
 LinkSnapshot link_snapshot(const io::LinkStatus& ls);
 
 // "plc f01 (s7 driver plc, 10.0.0.11:102): up, rtt p50/p99 ..." for `status`.
 std::string link_status_line(const LinkSnapshot& s);
+// "    periodic: 812 sent, delay p99/max 41/97 us (bound 1486 us), 0 missed,
+// packet max 270 us (bound 270 us)": one line per class of a planned link; "" when not planned.
+std::string render_link_classes(const LinkSnapshot& s);
 // The "L:" lines under the stats table (like the tasks' "T:" lines); "" without links.
 std::string render_links_table(const io::ProcessImage& image);
 // The stats JSON object with a "links" array added.

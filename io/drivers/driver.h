@@ -163,6 +163,9 @@ class Driver {
   void log(LinkEvent::Level level, std::string_view text) const noexcept;
 
   const DriverSetup& setup() const { return setup_; }
+  // The first release start() was given (the common time grid); 0 before start
+  // or when a test drives cycles itself.
+  int64_t first_release_ns() const { return first_release_; }
   bool stopping() const { return stop_.load(std::memory_order_relaxed); }
 
  private:

@@ -1,11 +1,13 @@
 // The `can` driver kind of the configuration (issue "CAN/GPIO", items 1 and 4):
 // the interface, and the receive and transmit frames with the signals that map
-// their bytes to EPC channels. Every id, byte range and encoding is checked
+// their bytes to EPC channels; and the fieldbus plan the link may run on (issue
+// 11, item 4: `plan`, `bulk`, a frame's `loop` or `class`), planned here. Every id, byte range and encoding is checked
 // here with a position, so a config that loads never fails later (except an
 // interface that is missing when the driver starts).
 #include <fmt/format.h>
 
 #include <cerrno>
+#include <cmath>
 #include <cstdlib>
 #include <algorithm>
 #include <map>
@@ -32,6 +34,24 @@ const KeySpec kCanKeys[] = {
      "these ids."},
     {"transmit", ValueType::kList, false, 0, 2048, "can-frame", "no transmit frames",
      "Frames built from `twa`/`twd` outputs (`out/EPC/pN.dN.cN`)."},
+    {"plan", ValueType::kPath, false, 0, 0, nullptr, "unplanned",
+     "The fieldbus plan the link runs on: an `rtplc fieldbus plan` input file (relative to this "
+     "file) with `bit_rate` and a `can-11`/`can-29` layout. It is planned when the config loads; "
+     "a design that cannot work refuses to start with the planner's reason. Every transmit frame "
+     "then needs `loop` or `class: urgent`, and the driver `period` must divide T_1 "
+     "(docs/fieldbus.md, \"Running a link on a plan\")."},
+    {"bulk", ValueType::kList, false, 0, 16, "can-bulk", "no non-RT transfers",
+     "With a `plan`: non-RT transfers, sent in what the plan leaves of each T_1 frame in "
+     "fragments of at most L_n."},
+};
+
+const KeySpec kBulkKeys[] = {
+    {"id", ValueType::kText, true, 0, 0, "0x5F0 or 1520", "", "The CAN identifier the transfer's frames carry."},
+    {"extended", ValueType::kBool, false, 0, 0, nullptr, "id > 0x7FF", "A 29-bit identifier."},
+    {"file", ValueType::kPath, true, 0, 0, nullptr, "",
+     "The bytes to send (relative to this file), 8 to a frame in order; read at start."},
+    {"every", ValueType::kDuration, false, 0.001, 86400, nullptr, "once, at start",
+     "Send the file again this long after the previous transfer began (when it has ended)."},
 };
 
 const KeySpec kFrameKeys[] = {
@@ -50,6 +70,12 @@ const KeySpec kFrameKeys[] = {
      "changed."},
     {"timeout", ValueType::kDuration, false, 0.001, 3600, nullptr, "500ms",
      "Receive only: no frame for this long marks its channels bad (last values kept)."},
+    {"loop", ValueType::kName, false, 0, 0, nullptr, "none",
+     "Transmit, with the driver's `plan`: the plan's loop whose windows the frame is sent in, at "
+     "the loop's period and frame offset (no `period` then)."},
+    {"class", ValueType::kChoice, false, 0, 0, "periodic|urgent", "periodic with `loop`",
+     "Transmit, with a `plan`: `urgent` frames are sent when a value changes, first in the T_1 "
+     "frame in which it changed (one of the plan's N_c real-time queues each)."},
     {"signals", ValueType::kList, true, 1, 64, "can-signal", "",
      "The channels in the frame's data bytes."},
 };
@@ -82,7 +108,9 @@ const SectionSpec kFrameSection{"can-frame", "a CAN frame", "`receive:` and `tra
                                 "", kFrameKeys};
 const SectionSpec kSignalSection{"can-signal", "a CAN signal", "`signals:` entries of a CAN frame", "",
                                  kSignalKeys};
-const SectionSpec* const kSubsections[] = {&kFrameSection, &kSignalSection};
+const SectionSpec kBulkSection{"can-bulk", "a CAN non-RT transfer", "`bulk:` entries of a can driver", "",
+                               kBulkKeys};
+const SectionSpec* const kSubsections[] = {&kFrameSection, &kSignalSection, &kBulkSection};
 
 void parse_signal(YamlReader& r, const YAML::Node& node, SourcePos where, std::vector<SignalMap>& out) {
   SignalMap m;
@@ -193,6 +221,40 @@ void parse_frame(YamlReader& r, const YAML::Node& node, SourcePos where, bool tr
     if (auto v = r.duration(*p)) fm.timeout_s = *v;
     else ok = false;
   }
+  for (const char* key : {"loop", "class"}) {
+    if (f.get(key) && !transmit) {
+      r.error(*f.get(key), fmt::format("'{}' applies to transmit frames only", key));
+      ok = false;
+    }
+  }
+  if (const Field* l = f.get("loop"); l && transmit) {
+    if (auto v = r.name(*l)) {
+      fm.loop = *v;
+      fm.tx_class = FrameMap::Class::kPeriodic;
+    } else {
+      ok = false;
+    }
+  }
+  if (const Field* c = f.get("class"); c && transmit) {
+    if (auto v = r.choice(*c)) {
+      if (*v == "urgent") {
+        fm.tx_class = FrameMap::Class::kUrgent;
+        if (f.get("loop")) {
+          r.error(*c, "an urgent frame is sent on change, not in a loop's windows: drop 'loop' or the class");
+          ok = false;
+        }
+      } else if (!f.get("loop")) {
+        r.error(*c, "a periodic frame needs 'loop': the plan's loop whose windows it is sent in");
+        ok = false;
+      }
+    } else {
+      ok = false;
+    }
+  }
+  if (const Field* p = f.get("period"); p && fm.tx_class == FrameMap::Class::kPeriodic) {
+    r.error(*p, "a frame of loop '" + fm.loop + "' is sent at the loop's period from the plan; drop 'period'");
+    ok = false;
+  }
   if (const Field* c = f.get("on_change"); c && transmit) {
     if (auto v = r.boolean(*c)) fm.on_change = *v;
     else ok = false;
@@ -235,6 +297,112 @@ void parse_frame(YamlReader& r, const YAML::Node& node, SourcePos where, bool tr
   if (ok) out.push_back(std::move(fm));
 }
 
+void parse_bulk(YamlReader& r, const YAML::Node& node, SourcePos where, std::vector<BulkTransfer>& out) {
+  BulkTransfer b;
+  b.pos = YamlReader::pos(node).line ? YamlReader::pos(node) : where;
+  b.id_pos = b.pos;
+  Fields f = r.fields(node, b.pos, kBulkSection.noun, {kBulkSection.keys});
+  if (!f.is_map()) return;
+  bool ok = true;
+  if (const Field* id = f.get("id")) {
+    b.id_pos = id->pos;
+    auto t = r.text(*id);
+    auto v = t ? parse_id(*t) : std::nullopt;
+    if (!v || *v > kMaxExtendedId) {
+      if (t) r.error(*id, "'id' expects a CAN identifier (0x5F0 or 1520, at most 0x1FFFFFFF), got '" + *t + "'");
+      ok = false;
+    } else {
+      b.id = *v;
+    }
+  }
+  b.extended = b.id > kMaxStandardId;
+  if (const Field* e = f.get("extended")) {
+    if (auto v = r.boolean(*e)) b.extended = *v;
+    else ok = false;
+  }
+  if (ok && !b.extended && b.id > kMaxStandardId) {
+    r.error(*f.get("id"), fmt::format("CAN id 0x{:X} does not fit 11 bits (at most 0x7FF)", b.id));
+    ok = false;
+  }
+  if (const Field* p = f.get("file")) {
+    if (auto v = r.path(*p)) b.file = *v;
+    else ok = false;
+  }
+  if (const Field* e = f.get("every")) {
+    if (auto v = r.duration(*e)) b.every_s = *v;
+    else ok = false;
+  }
+  if (ok) out.push_back(std::move(b));
+}
+
+// The plan a can link runs on: planned now, so a design that cannot work, or
+// frames the plan does not describe, refuse the config (and so the start).
+void check_plan(YamlReader& r, const Field& at, const DriverConfig& d, CanSettings& s) {
+  auto path = r.path(at);
+  if (!path) return;
+  auto lp = fieldbus::load_link_plan(*path);
+  if (!lp) {
+    r.error(at, lp.error());
+    return;
+  }
+  const fieldbus::Plan& p = lp->plan;
+  const fieldbus::Design& design = lp->design;
+  if (!design.timing || design.timing->layout == fieldbus::FrameLayout::kModbusRtu) {
+    r.error(at, "the plan " + *path + " gives no CAN frame layout: a can link's plan needs 'bit_rate' and "
+                "'layout: can-11' or 'can-29' in its link, so the frames' wire times are known");
+    return;
+  }
+  const fieldbus::LinkTiming& timing = *design.timing;
+  const auto period_ns = static_cast<int64_t>(std::llround(d.period_s * 1e9));
+  if (period_ns <= 0 || p.t1 % period_ns != 0) {
+    r.error(d.period_pos.line ? d.period_pos : at.pos,
+            fmt::format("the driver period ({}) must divide the plan's T_1 = {}: the link schedules at its "
+                        "cycles, and every T_1 frame must start on one",
+                        fieldbus::format_time(period_ns), fieldbus::format_time(p.t1)));
+  }
+  int urgent = 0;
+  for (const FrameMap& fm : s.transmit) {
+    const fieldbus::Nanos wire = timing.packet(fm.length);
+    switch (fm.tx_class) {
+      case FrameMap::Class::kUnplanned:
+        r.error(fm.pos, fmt::format("frame {} is not in the plan: give it 'loop: NAME' (one of {}) or "
+                                    "'class: urgent'",
+                                    id_text(fm.id, fm.extended), lp->loop_names()));
+        break;
+      case FrameMap::Class::kPeriodic:
+        if (!lp->loop(fm.loop)) {
+          r.error(fm.pos, fmt::format("frame {}: the plan has no loop '{}' (its loops: {})", id_text(fm.id, fm.extended),
+                                      fm.loop, lp->loop_names()));
+        } else if (wire > design.periodic_packet) {
+          r.error(fm.pos, fmt::format("frame {} takes {} on the wire, longer than the plan's periodic packet L_p = {}",
+                                      id_text(fm.id, fm.extended), fieldbus::format_time(wire),
+                                      fieldbus::format_time(design.periodic_packet)));
+        }
+        break;
+      case FrameMap::Class::kUrgent:
+        ++urgent;
+        if (wire > design.rt_packet) {
+          r.error(fm.pos, fmt::format("urgent frame {} takes {} on the wire, longer than the plan's real-time "
+                                      "packet L_c = {}",
+                                      id_text(fm.id, fm.extended), fieldbus::format_time(wire),
+                                      fieldbus::format_time(design.rt_packet)));
+        }
+        break;
+    }
+  }
+  if (urgent > design.rt_queues) {
+    r.error(at, fmt::format("{} urgent frames, but the plan reserves {} real-time queues (N_c): each urgent frame "
+                            "is one",
+                            urgent, design.rt_queues));
+  }
+  if (!s.bulk.empty() && timing.packet(8) > p.ln_max) {
+    r.error(s.bulk.front().pos, fmt::format("the plan's L_n max = {} is shorter than one 8-byte frame ({}): a "
+                                            "non-RT transfer cannot be cut to L_n",
+                                            fieldbus::format_time(p.ln_max), fieldbus::format_time(timing.packet(8))));
+  }
+  s.plan = std::make_shared<const fieldbus::LinkPlan>(std::move(*lp));
+}
+
 void parse_can(YamlReader& r, const Fields& f, DriverConfig& out) {
   CanSettings s;
   if (const Field* i = f.get("interface")) {
@@ -274,6 +442,29 @@ void parse_can(YamlReader& r, const Fields& f, DriverConfig& out) {
           r.error(m.channel_pos,
                   fmt::format("output {} is sent in two frames (first at line {})", m.channel, c->second.line));
         }
+      }
+    }
+  }
+  if (const Field* b = f.get("bulk")) {
+    if (auto items = r.list(*b)) {
+      for (const YAML::Node& n : *items) parse_bulk(r, n, b->pos, s.bulk);
+    }
+    if (!f.get("plan")) r.error(*b, "'bulk' needs the driver's 'plan': a non-RT transfer uses what the plan leaves");
+    for (const BulkTransfer& t : s.bulk) {
+      for (const FrameMap& fm : s.transmit) {
+        if (fm.id == t.id && fm.extended == t.extended) {
+          r.error(t.id_pos, fmt::format("CAN id 0x{:X} is already a transmit frame (line {})", t.id, fm.id_pos.line));
+        }
+      }
+    }
+  }
+  if (const Field* p = f.get("plan")) {
+    check_plan(r, *p, out, s);
+  } else {
+    for (const FrameMap& fm : s.transmit) {
+      if (fm.tx_class != FrameMap::Class::kUnplanned) {
+        r.error(fm.pos, fmt::format("frame {} has a 'loop' or 'class', which needs the driver's 'plan'",
+                                    id_text(fm.id, fm.extended)));
       }
     }
   }

@@ -8,12 +8,14 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "common/diagnostic.h"
 #include "config/driver_kinds.h"
 #include "config/values.h"
+#include "fieldbus/link_plan.h"
 #include "io/drivers/can/codec.h"
 
 namespace rtplc::can {
@@ -36,6 +38,21 @@ struct FrameMap {
   double timeout_s = 0.5;   // receive: no frame for this long -> its channels bad
   std::vector<SignalMap> signals;
   SourcePos pos, id_pos;
+  // With the driver's plan (transmit only): the loop whose windows the frame
+  // is sent in, or urgent (sent on change, first in its T_1 frame).
+  enum class Class : uint8_t { kUnplanned, kPeriodic, kUrgent };
+  Class tx_class = Class::kUnplanned;
+  std::string loop;
+};
+
+// A non-RT transfer of a link that runs on a plan: a file's bytes, 8 to a
+// frame on one id, cut into fragments of at most L_n of wire time.
+struct BulkTransfer {
+  uint32_t id = 0;
+  bool extended = false;
+  std::string file;     // resolved against the config's folder
+  double every_s = 0;   // 0: once, at start
+  SourcePos pos, id_pos;
 };
 
 struct CanSettings {
@@ -43,6 +60,10 @@ struct CanSettings {
   bool error_frames = true;
   std::vector<FrameMap> receive;
   std::vector<FrameMap> transmit;
+  // The fieldbus plan the link runs on (docs/fieldbus.md, "Running a link on
+  // a plan"); null: frames go out as they are due, unplanned.
+  std::shared_ptr<const fieldbus::LinkPlan> plan;
+  std::vector<BulkTransfer> bulk;
 };
 
 const CanSettings& settings_of(const config::DriverConfig& d);

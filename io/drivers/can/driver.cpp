@@ -7,8 +7,11 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <fstream>
+#include <iterator>
 
 #include "io/drivers/can/cli.h"
+#include "io/drivers/planned_link.h"
 #include "kernel_rt/clock.h"
 #include "kernel_rt/periodic.h"
 
@@ -34,7 +37,8 @@ struct Line {
 
 }  // namespace
 
-CanDriver::CanDriver(const io::DriverSetup& setup, const TransportOps& transport)
+CanDriver::CanDriver(const io::DriverSetup& setup, const TransportOps& transport,
+                     fieldbus::LinkScheduler::Clock clock)
     : io::Driver(setup, "can"),
       settings_(settings_of(*setup.config)),
       transport_(transport),
@@ -60,6 +64,30 @@ CanDriver::CanDriver(const io::DriverSetup& setup, const TransportOps& transport
   // most half a driver period keeps a queued frame from waiting longer.
   io_wait_ns_ = std::clamp<int64_t>(setup.period_ns / 2, 1 * kMs, 20 * kMs);
   describe_link(0, settings_.interface, fmt::format("{} ({})", settings_.interface, transport.name));
+  if (settings_.plan) {
+    // The config checked the plan against the frames (config.cpp, check_plan).
+    const fieldbus::LinkPlan& lp = *settings_.plan;
+    const fieldbus::LinkTiming& timing = *lp.design.timing;
+    for (int n = 0; n <= 8; ++n) wire_[n] = timing.packet(n);
+    fieldbus::SchedulerSetup ss;
+    ss.t1 = lp.plan.t1;
+    ss.ln = lp.plan.ln_max;
+    for (uint32_t i = 0; i < settings_.transmit.size(); ++i) {
+      const FrameMap& fm = settings_.transmit[i];
+      if (fm.tx_class == FrameMap::Class::kUrgent) {
+        tx_track_[i].slot = static_cast<uint32_t>(urgent_tx_.size());
+        urgent_tx_.push_back(i);
+        ss.urgent.push_back(wire_[fm.length]);
+      } else if (const fieldbus::LoopPlan* loop = lp.loop(fm.loop)) {
+        tx_track_[i].slot = static_cast<uint32_t>(periodic_tx_.size());
+        periodic_tx_.push_back(i);
+        const int64_t frames = int64_t{1} << loop->shift;
+        ss.periodic.push_back({frames, std::max<int64_t>(loop->offset, 0) % frames, wire_[fm.length]});
+      }
+    }
+    sched_ = std::make_unique<fieldbus::LinkScheduler>(std::move(ss), clock);
+    io::describe_planned_link(link_row(0), lp);
+  }
 }
 
 CanDriver::~CanDriver() {
@@ -78,7 +106,20 @@ Result<void> CanDriver::on_start() {
   return start_io();
 }
 
+Result<void> CanDriver::load_bulk() {
+  bulk_data_.clear();
+  bulk_next_.clear();
+  for (const BulkTransfer& b : settings_.bulk) {
+    std::ifstream in(b.file, std::ios::binary);
+    if (!in) return make_error(fmt::format("cannot read the bulk transfer file {}", b.file));
+    bulk_data_.emplace_back(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    bulk_next_.push_back(0);  // due at the first cycle
+  }
+  return {};
+}
+
 Result<void> CanDriver::start_io() {
+  if (auto b = load_bulk(); !b) return make_error(fmt::format("can driver '{}': {}", name(), b.error()));
   auto p = Port::open(transport_, settings_.interface, filters_, settings_.error_frames);
   if (!p) return make_error(fmt::format("can driver '{}': {}", name(), p.error()));
   port_ = std::move(*p);
@@ -210,7 +251,11 @@ void CanDriver::cycle(int64_t now) noexcept {
   }
   const uint32_t k = begin_snapshot();
   receive(k, now);
-  transmit(k, now);
+  if (sched_) {
+    transmit_planned(k, now);
+  } else {
+    transmit(k, now);
+  }
   end_snapshot(k, now);
   if (now >= next_status_) {
     publish_status();
@@ -244,6 +289,140 @@ void CanDriver::receive(uint32_t k, int64_t now) noexcept {
   }
 }
 
+bool CanDriver::pack_frame(uint32_t i, uint8_t (&data)[8]) noexcept {
+  TxTrack& t = tx_track_[i];
+  const FrameMap& fm = settings_.transmit[i];
+  std::memcpy(data, t.data, sizeof data);
+  bool sendable = true;
+  bool refused = false;
+  for (uint32_t s = 0; s < fm.signals.size(); ++s) {
+    double v = 0;
+    Quality q = Quality::kBad;
+    if (!read_output(t.first + s, v, q) || (q != Quality::kGood && q != Quality::kForced)) {
+      sendable = false;
+      continue;
+    }
+    if (!pack(fm.signals[s].layout, v, data)) {
+      sendable = false;
+      refused = true;
+      if (!t.refusal_logged) {
+        rejected_.fetch_add(1, std::memory_order_relaxed);
+        log(io::LinkEvent::Level::kError,
+            Line("{} = {} does not fit its signal in frame {}; the frame is not sent", fm.signals[s].channel, v,
+                 id_text(fm.id, fm.extended))
+                .text);
+      }
+    }
+  }
+  t.refusal_logged = refused;
+  return sendable;
+}
+
+// ---- on a plan: the bridge is the link's scheduler ---------------------------
+
+void CanDriver::transmit_planned(uint32_t k, int64_t now) noexcept {
+  if (!sched_started_) {
+    // Frame 0 starts at the first release: every T_1 frame then starts on a cycle.
+    sched_->start(first_release_ns() > 0 ? first_release_ns() : now);
+    sched_started_ = true;
+  }
+  const bool up = seen_.up != 0;
+  for (uint32_t i = 0; i < tx_track_.size(); ++i) {
+    TxTrack& t = tx_track_[i];
+    const FrameMap& fm = settings_.transmit[i];
+    t.staged_ok = pack_frame(i, t.staged);
+    const bool delivered = t.staged_ok && up && t.sent && t.last_err == 0;
+    for (uint32_t s = 0; s < fm.signals.size(); ++s) {
+      put_delivery(k, t.first + s, t.sent ? unpack(fm.signals[s].layout, t.data) : 0.0,
+                   delivered ? Quality::kGood : Quality::kBad, now);
+    }
+    if (fm.tx_class == FrameMap::Class::kUrgent && t.staged_ok &&
+        (!t.sent || t.force || std::memcmp(t.staged, t.data, sizeof t.data) != 0)) {
+      sched_->urgent_ready(t.slot, now);
+    }
+  }
+  if (bulk_active_ == SIZE_MAX) {
+    for (size_t b = 0; b < bulk_data_.size(); ++b) {
+      if (bulk_next_[b] > now || bulk_data_[b].empty()) continue;
+      bulk_active_ = b;
+      bulk_offset_ = 0;
+      const double every = settings_.bulk[b].every_s;
+      bulk_next_[b] = every > 0 ? now + seconds_to_ns(every) : INT64_MAX;
+      sched_->nonrt_ready(now);
+      break;
+    }
+  }
+  sched_->tick(now, *this);
+}
+
+int CanDriver::send_now(uint32_t i) noexcept {
+  TxTrack& t = tx_track_[i];
+  const FrameMap& fm = settings_.transmit[i];
+  Frame f;
+  f.id = fm.id;
+  f.extended = fm.extended;
+  f.len = fm.length;
+  std::memcpy(f.data, t.staged, sizeof f.data);
+  const int err = port_.send(f);
+  t.last_err = err;
+  if (err != 0) {
+    ++planned_failed_;
+    if (!planned_failure_logged_) {
+      log(io::LinkEvent::Level::kError, Line("sending {} failed: {}", frame_text(f), std::strerror(err)).text);
+    }
+    planned_failure_logged_ = true;
+    return err;
+  }
+  planned_failure_logged_ = false;
+  ++planned_tx_;
+  std::memcpy(t.data, t.staged, sizeof t.data);
+  t.sent = true;
+  t.force = false;
+  return 0;
+}
+
+fieldbus::SendOutcome CanDriver::send_periodic(uint32_t slot) noexcept {
+  const uint32_t i = periodic_tx_[slot];
+  if (!tx_track_[i].staged_ok) return fieldbus::SendOutcome::kNothing;
+  return send_now(i) == 0 ? fieldbus::SendOutcome::kSent : fieldbus::SendOutcome::kFailed;
+}
+
+fieldbus::SendOutcome CanDriver::send_urgent(uint32_t slot) noexcept {
+  const uint32_t i = urgent_tx_[slot];
+  if (!tx_track_[i].staged_ok) return fieldbus::SendOutcome::kNothing;
+  return send_now(i) == 0 ? fieldbus::SendOutcome::kSent : fieldbus::SendOutcome::kFailed;
+}
+
+fieldbus::Nanos CanDriver::send_nonrt(fieldbus::Nanos budget, bool& more) noexcept {
+  more = false;
+  if (bulk_active_ == SIZE_MAX) return 0;
+  const std::vector<uint8_t>& data = bulk_data_[bulk_active_];
+  const BulkTransfer& b = settings_.bulk[bulk_active_];
+  fieldbus::Nanos used = 0;
+  while (bulk_offset_ < data.size()) {
+    const size_t n = std::min<size_t>(8, data.size() - bulk_offset_);
+    if (used + wire_[n] > budget) break;
+    Frame f;
+    f.id = b.id;
+    f.extended = b.extended;
+    f.len = static_cast<uint8_t>(n);
+    std::memcpy(f.data, data.data() + bulk_offset_, n);
+    if (const int err = port_.send(f); err != 0) {
+      ++planned_failed_;
+      break;  // the rest waits for the next frame
+    }
+    ++planned_tx_;
+    used += wire_[n];
+    bulk_offset_ += n;
+  }
+  more = bulk_offset_ < data.size();
+  if (!more) {
+    bulk_active_ = SIZE_MAX;
+    ++transfers_done_;
+  }
+  return used;
+}
+
 void CanDriver::transmit(uint32_t k, int64_t now) noexcept {
   const bool up = seen_.up != 0;
   for (uint32_t i = 0; i < tx_track_.size(); ++i) {
@@ -257,29 +436,7 @@ void CanDriver::transmit(uint32_t k, int64_t now) noexcept {
       }
     }
     uint8_t data[8];
-    std::memcpy(data, t.data, sizeof data);
-    bool sendable = true;
-    bool refused = false;
-    for (uint32_t s = 0; s < fm.signals.size(); ++s) {
-      double v = 0;
-      Quality q = Quality::kBad;
-      if (!read_output(t.first + s, v, q) || (q != Quality::kGood && q != Quality::kForced)) {
-        sendable = false;
-        continue;
-      }
-      if (!pack(fm.signals[s].layout, v, data)) {
-        sendable = false;
-        refused = true;
-        if (!t.refusal_logged) {
-          rejected_.fetch_add(1, std::memory_order_relaxed);
-          log(io::LinkEvent::Level::kError,
-              Line("{} = {} does not fit its signal in frame {}; the frame is not sent", fm.signals[s].channel, v,
-                   id_text(fm.id, fm.extended))
-                  .text);
-        }
-      }
-    }
-    t.refusal_logged = refused;
+    const bool sendable = pack_frame(i, data);
     const bool delivered = sendable && up && t.sent && t.last_err == 0;
     for (uint32_t s = 0; s < fm.signals.size(); ++s) {
       put_delivery(k, t.first + s, t.sent ? unpack(fm.signals[s].layout, t.data) : 0.0,
@@ -324,13 +481,24 @@ void CanDriver::publish_status() noexcept {
   ls.errors.store(c.error_frames + c.bad_frames + c.rx_errors, r);
   ls.polls_completed.store(c.frames_rx, r);
   ls.polls_missed.store(c.bus_offs, r);
-  ls.writes_acked.store(c.frames_tx, r);
-  ls.writes_failed.store(c.tx_failed, r);
+  ls.writes_acked.store(c.frames_tx + planned_tx_, r);
+  ls.writes_failed.store(c.tx_failed + planned_failed_, r);
+  if (sched_) io::publish_planned_link(ls, *sched_);
   ls.writes_pending.store(pending, r);
   ls.writes_rejected.store(rejected_.load(r), r);
 }
 
 void CanDriver::on_stop() noexcept {
+  if (sched_) {
+    // The tasks have set their outputs to their safe values: every frame goes
+    // once more with them, outside the schedule (the link is ending).
+    cycle(kernel_rt::monotonic_now_ns());
+    for (uint32_t i = 0; i < tx_track_.size(); ++i) {
+      if (tx_track_[i].staged_ok) (void)send_now(i);
+    }
+    publish_status();
+    return;
+  }
   // The tasks have set their outputs to their safe values: send every frame
   // once more with them, and give the I/O thread a moment to put them out.
   for (TxTrack& t : tx_track_) t.force = true;

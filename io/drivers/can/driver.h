@@ -27,6 +27,16 @@
 //   io_stop_     written by the control thread (on_joined), read by the I/O
 //                thread; relaxed: it carries no data, the thread's join orders
 //                the rest.
+//
+// On a plan (`plan:`, docs/fieldbus.md "Running a link on a plan") the bridge
+// is the link's scheduler (fieldbus/link_scheduler.h): each cycle it stages
+// every transmit frame from the outputs, then urgent frames that changed,
+// the periodic frames whose loop samples in this T_1 frame and one non-RT
+// fragment (`bulk`) of at most L_n are handed to the controller by the bridge
+// itself, in that order, with non-blocking sends: the order and the instant
+// are the schedule, and a queue to the I/O thread would add up to its receive
+// timeout of delay. The I/O thread then only receives. The per-class delays
+// go to the link row (io/drivers/planned_link.h).
 #pragma once
 
 #include <atomic>
@@ -34,10 +44,12 @@
 #include <string>
 #include <vector>
 
+#include "fieldbus/link_scheduler.h"
 #include "io/drivers/can/config.h"
 #include "io/drivers/can/transport.h"
 #include "io/drivers/driver.h"
 #include "io/link/handoff.h"
+#include "kernel_rt/clock.h"
 
 namespace rtplc::can {
 
@@ -72,9 +84,11 @@ struct TxJob {
   Frame f;
 };
 
-class CanDriver final : public io::Driver {
+class CanDriver final : public io::Driver, private fieldbus::LinkSender {
  public:
-  CanDriver(const io::DriverSetup& setup, const TransportOps& transport);
+  // `clock` stamps the planned link's hand-overs (tests give a virtual one).
+  CanDriver(const io::DriverSetup& setup, const TransportOps& transport,
+            fieldbus::LinkScheduler::Clock clock = &kernel_rt::monotonic_now_ns);
   ~CanDriver() override;
 
   // Opens the port and starts the I/O thread (on_start does; tests call it
@@ -84,6 +98,10 @@ class CanDriver final : public io::Driver {
   BusCounters counters() const;
   uint64_t rx_timeouts() const { return rx_timeouts_.load(std::memory_order_relaxed); }
   uint64_t rejected() const { return rejected_.load(std::memory_order_relaxed); }
+  // Tests, on a plan: the scheduler (its stats), frames the bridge sent, bulk transfers finished.
+  const fieldbus::LinkScheduler* scheduler() const { return sched_.get(); }
+  uint64_t planned_sent() const { return planned_tx_; }
+  uint64_t transfers_done() const { return transfers_done_; }
 
  private:
   struct RxTrack {
@@ -103,6 +121,9 @@ class CanDriver final : public io::Driver {
     int last_err = 0;
     bool refusal_logged = false;
     bool failure_logged = false;
+    uint8_t staged[8] = {};    // on a plan: what the outputs say now
+    bool staged_ok = false;    // ... and whether we can vouch for it
+    uint32_t slot = 0;         // on a plan: its index among the scheduler's periodic or urgent messages
   };
 
   Result<void> on_start() override;
@@ -114,6 +135,14 @@ class CanDriver final : public io::Driver {
   void publish_status() noexcept;
   void receive(uint32_t k, int64_t now) noexcept;
   void transmit(uint32_t k, int64_t now) noexcept;
+  // Packs frame i from the outputs into `data`; false when it must not be sent.
+  bool pack_frame(uint32_t i, uint8_t (&data)[8]) noexcept;
+  void transmit_planned(uint32_t k, int64_t now) noexcept;
+  int send_now(uint32_t i) noexcept;  // frame i's staged data, from the bridge
+  fieldbus::SendOutcome send_periodic(uint32_t slot) noexcept override;
+  fieldbus::SendOutcome send_urgent(uint32_t slot) noexcept override;
+  fieldbus::Nanos send_nonrt(fieldbus::Nanos budget, bool& more) noexcept override;
+  Result<void> load_bulk();
 
   const CanSettings& settings_;
   const TransportOps& transport_;
@@ -136,6 +165,20 @@ class CanDriver final : public io::Driver {
   std::atomic<uint64_t> rejected_{0};
   bool was_up_ = true;
   int64_t next_status_ = 0;
+
+  // On a plan (bridge thread only once started).
+  std::unique_ptr<fieldbus::LinkScheduler> sched_;
+  bool sched_started_ = false;
+  std::vector<uint32_t> periodic_tx_, urgent_tx_;  // scheduler slot -> transmit frame
+  fieldbus::Nanos wire_[9] = {};                   // wire time of a frame with n data bytes
+  std::vector<std::vector<uint8_t>> bulk_data_;    // read at start
+  std::vector<int64_t> bulk_next_;
+  size_t bulk_active_ = SIZE_MAX;
+  size_t bulk_offset_ = 0;
+  uint64_t planned_tx_ = 0;
+  uint64_t planned_failed_ = 0;
+  uint64_t transfers_done_ = 0;
+  bool planned_failure_logged_ = false;
 };
 
 extern const io::DriverKind kDriverKind;

@@ -6,10 +6,12 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
 #include <map>
 #include <string>
 
 #include "io/drivers/modbus/config.h"
+#include "io/drivers/modbus/planner.h"
 
 #include "blocks/image.h"
 #include "config/map_entries.h"
@@ -53,6 +55,12 @@ const KeySpec kSlaveKeys[] = {
      "At most this many registers per read request (contiguous items are batched)."},
     {"max_bits", ValueType::kInteger, false, 1, 2000, nullptr, "2000",
      "At most this many coils or discrete inputs per read request."},
+    {"plan", ValueType::kPath, false, 0, 0, nullptr, "unplanned",
+     "RTU: the fieldbus plan the line runs on, an `rtplc fieldbus plan` input file (relative "
+     "to this file) with `layout: modbus-rtu` at this `baud`; every slave on the device names "
+     "the same one. Planned when the config loads; a design that cannot work refuses to start "
+     "with the planner's reason. Reads then need `loop` or `class: nonrt`; writes are urgent "
+     "(docs/fieldbus.md, \"Running a link on a plan\")."},
 };
 
 const KeySpec kMapKeys[] = {
@@ -76,6 +84,12 @@ const KeySpec kMapKeys[] = {
     {"mode", ValueType::kChoice, false, 0, 0, "on_change|every_cycle", "on_change",
      "Writes only: send when the task's value changes (and again after a failure or a "
      "reconnect), or every driver cycle."},
+    {"loop", ValueType::kName, false, 0, 0, nullptr, "none",
+     "Reads of a slave on a plan: the plan's loop whose windows the item is read in (items of "
+     "one loop are batched as usual; no `poll` then)."},
+    {"class", ValueType::kChoice, false, 0, 0, "periodic|urgent|nonrt", "periodic with `loop`, urgent for writes",
+     "On a plan: `nonrt` reads (large ranges) are read every `poll`, cut into requests of at most "
+     "L_n, in what the T_1 frames leave; writes are `urgent`: first in the frame they change in."},
 };
 
 const SectionSpec kModbusSection{
@@ -174,6 +188,32 @@ void parse_slave(YamlReader& r, const YAML::Node& node, SourcePos where, ModbusS
     if (auto v = r.duration(*p)) sc.timeout_s = *v;
     else ok = false;
   }
+  if (const Field* p = f.get("plan")) {
+    sc.plan_pos = p->pos;
+    if (!dev) {
+      r.error(*p, "'plan' applies to RTU slaves (with 'device') only: a TCP slave has a line of its own");
+      ok = false;
+    } else if (auto path = r.path(*p)) {
+      sc.plan_file = *path;
+      auto lp = fieldbus::load_link_plan(*path);
+      if (!lp) {
+        r.error(*p, lp.error());
+        ok = false;
+      } else if (!lp->design.timing || lp->design.timing->layout != fieldbus::FrameLayout::kModbusRtu) {
+        r.error(*p, "the plan " + *path + " gives no Modbus RTU layout: an RTU line's plan needs 'bit_rate' and "
+                    "'layout: modbus-rtu' in its link, so the requests' wire times are known");
+        ok = false;
+      } else if (std::llround(lp->design.timing->bit_rate) != static_cast<long long>(sc.baud)) {
+        r.error(*p, fmt::format("the plan {} is for {} bit/s, the line runs at {} baud", *path,
+                                std::llround(lp->design.timing->bit_rate), sc.baud));
+        ok = false;
+      } else {
+        sc.plan = std::make_shared<const fieldbus::LinkPlan>(std::move(*lp));
+      }
+    } else {
+      ok = false;
+    }
+  }
   if (ok) out.slaves.push_back(std::move(sc));
 }
 
@@ -269,7 +309,124 @@ void parse_map(YamlReader& r, const YAML::Node& node, SourcePos where, bool writ
     }
   }
   ok &= parse_write_mode(r, f, write, m.mode);
+  if (const Field* l = f.get("loop")) {
+    if (write) {
+      r.error(*l, "a write on a plan is urgent (sent when it changes, first in its frame), not in a loop");
+      ok = false;
+    } else if (auto v = r.name(*l)) {
+      m.loop = *v;
+      m.traffic = ChannelMap::Traffic::kPeriodic;
+    } else {
+      ok = false;
+    }
+  }
+  if (const Field* c = f.get("class")) {
+    if (auto v = r.choice(*c)) {
+      const bool loop = f.get("loop") != nullptr;
+      if (write && *v != "urgent") {
+        r.error(*c, "a write on a plan is urgent: 'class: urgent' (or no class)");
+        ok = false;
+      } else if (!write && *v == "urgent") {
+        r.error(*c, "a read is periodic (with 'loop') or 'nonrt'; only writes are urgent");
+        ok = false;
+      } else if (*v == "periodic" && !loop) {
+        r.error(*c, "a periodic read needs 'loop': the plan's loop whose windows it is read in");
+        ok = false;
+      } else if (*v == "nonrt" && loop) {
+        r.error(*c, "a non-RT read is not in a loop's windows: drop 'loop' or the class");
+        ok = false;
+      } else if (*v == "nonrt") {
+        m.traffic = ChannelMap::Traffic::kNonRt;
+      } else if (*v == "urgent") {
+        m.traffic = ChannelMap::Traffic::kUrgent;
+      }
+    } else {
+      ok = false;
+    }
+  }
+  if (f.get("poll") && m.traffic == ChannelMap::Traffic::kPeriodic) {
+    r.error(*f.get("poll"), "an item of loop '" + m.loop + "' is read at the loop's period from the plan; drop 'poll'");
+    ok = false;
+  }
   if (ok) out.push_back(std::move(m));
+}
+
+// The maps of slaves on a plan: every read in a loop the plan has or non-RT,
+// every write urgent; a loop's requests no longer than L_p, a write's no
+// longer than L_c, no more urgent writes per line than the plan's N_c.
+void check_planned_maps(YamlReader& r, ModbusSettings& s, const std::map<std::string, const SlaveConfig*>& names) {
+  std::map<std::string, int> urgent_per_line;
+  for (auto* maps : {&s.reads, &s.writes}) {
+    const bool write = maps == &s.writes;
+    for (ChannelMap& m : *maps) {
+      auto it = names.find(m.slave);
+      if (it == names.end()) continue;
+      const SlaveConfig& sc = *it->second;
+      if (!sc.plan) {
+        if (m.traffic != ChannelMap::Traffic::kUnplanned) {
+          r.error(m.pos, "'loop' or 'class' needs the slave's 'plan' (slave '" + sc.name + "' has none)");
+        }
+        continue;
+      }
+      const fieldbus::LinkPlan& lp = *sc.plan;
+      const fieldbus::LinkTiming& timing = *lp.design.timing;
+      const int bytes = m.item.type == ItemType::kBit ? 1 : 2 * width(m.item);
+      if (write) {
+        m.traffic = ChannelMap::Traffic::kUrgent;
+        if (++urgent_per_line[sc.device] == lp.design.rt_queues + 1) {
+          r.error(m.pos, fmt::format("more urgent writes on {} than the plan's {} real-time queues (N_c): each "
+                                     "write is one",
+                                     sc.device, lp.design.rt_queues));
+        }
+        if (timing.packet(bytes) > lp.design.rt_packet) {
+          r.error(m.pos, fmt::format("this write's {} data bytes take {} on the line, longer than the plan's "
+                                     "real-time packet L_c = {}",
+                                     bytes, fieldbus::format_time(timing.packet(bytes)),
+                                     fieldbus::format_time(lp.design.rt_packet)));
+        }
+        continue;
+      }
+      if (m.traffic == ChannelMap::Traffic::kUnplanned) {
+        r.error(m.pos, fmt::format("read {} {} of slave '{}' is not in the plan: give it 'loop: NAME' (one of {}) "
+                                   "or 'class: nonrt'",
+                                   m.device, m.channel, sc.name, lp.loop_names()));
+      } else if (m.traffic == ChannelMap::Traffic::kPeriodic && !lp.loop(m.loop)) {
+        r.error(m.pos, fmt::format("the plan has no loop '{}' (its loops: {})", m.loop, lp.loop_names()));
+      } else if (m.traffic == ChannelMap::Traffic::kNonRt && timing.packet(bytes) > lp.plan.ln_max) {
+        r.error(m.pos, fmt::format("L_n max = {} is shorter than this item's {} bytes on the line ({})",
+                                   fieldbus::format_time(lp.plan.ln_max), bytes,
+                                   fieldbus::format_time(timing.packet(bytes))));
+      }
+    }
+  }
+  // A loop's items of one slave are read in as few requests as the caps allow:
+  // each request's data must fit L_p.
+  for (const SlaveConfig& sc : s.slaves) {
+    if (!sc.plan) continue;
+    std::map<std::string, std::vector<PlannedItem>> by_loop;
+    std::map<std::string, const ChannelMap*> first;
+    for (uint32_t i = 0; i < s.reads.size(); ++i) {
+      const ChannelMap& m = s.reads[i];
+      if (m.slave != sc.name || m.traffic != ChannelMap::Traffic::kPeriodic) continue;
+      by_loop[m.loop].push_back({m.item, 1, i});
+      first.emplace(m.loop, &m);
+    }
+    const fieldbus::LinkPlan& lp = *sc.plan;
+    for (const auto& [loop, items] : by_loop) {
+      for (const Block& b : plan_blocks(items, sc.max_registers, sc.max_bits)) {
+        const bool bits = b.table == Table::kCoil || b.table == Table::kDiscreteInput;
+        const int bytes = bits ? (b.count + 7) / 8 : 2 * b.count;
+        const fieldbus::Nanos wire = lp.design.timing->packet(bytes);
+        if (wire > lp.design.periodic_packet) {
+          r.error(first[loop]->pos,
+                  fmt::format("loop '{}' of slave '{}' reads {} data bytes in one request ({} on the line), longer "
+                              "than the plan's periodic packet L_p = {}; lower 'max_registers' or split the loop",
+                              loop, sc.name, bytes, fieldbus::format_time(wire),
+                              fieldbus::format_time(lp.design.periodic_packet)));
+        }
+      }
+    }
+  }
 }
 
 void parse_modbus(YamlReader& r, const Fields& f, DriverConfig& out) {
@@ -298,6 +455,11 @@ void parse_modbus(YamlReader& r, const Fields& f, DriverConfig& out) {
       r.error(sc.address_pos, fmt::format("slave '{}' is on {} with other line settings than '{}' (line {})",
                                           sc.name, sc.device, o.name, o.pos.line));
     }
+    if (o.plan_file != sc.plan_file) {
+      r.error(sc.plan_pos.line ? sc.plan_pos : sc.address_pos,
+              fmt::format("slave '{}' is on {} with another plan than '{}' (line {}): one line runs on one plan",
+                          sc.name, sc.device, o.name, o.pos.line));
+    }
     if (o.unit == sc.unit) {
       r.error(sc.address_pos, fmt::format("slave '{}' has unit {} on {}, as '{}' (line {}) has", sc.name,
                                           sc.unit, sc.device, o.name, o.pos.line));
@@ -319,6 +481,7 @@ void parse_modbus(YamlReader& r, const Fields& f, DriverConfig& out) {
         }
         m.item.address = static_cast<uint16_t>(coil);
       }
+      if (m.traffic == ChannelMap::Traffic::kNonRt && m.poll_s <= 0) m.poll_s = it->second->poll_s;
       const std::string key = std::string(1, m.device) + "/" + m.channel;
       auto [seen_it, fresh] = seen.emplace(key, m.channel_pos);
       if (!fresh) {
@@ -327,6 +490,7 @@ void parse_modbus(YamlReader& r, const Fields& f, DriverConfig& out) {
       }
     }
   }
+  check_planned_maps(r, s, names);
   out.settings = std::move(s);
 }
 

@@ -11,6 +11,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -18,6 +19,7 @@
 #include "config/driver_kinds.h"
 #include "config/map_entries.h"
 #include "config/values.h"
+#include "fieldbus/link_plan.h"
 #include "io/drivers/modbus/address.h"
 
 namespace rtplc::modbus {
@@ -43,6 +45,11 @@ struct SlaveConfig {
   uint16_t max_registers = 125;  // batching caps per request
   uint16_t max_bits = 2000;
   SourcePos pos, name_pos, address_pos;
+  // RTU: the fieldbus plan its line runs on (docs/fieldbus.md, "Running a link
+  // on a plan"); every slave on one device names the same one. Null: unplanned.
+  std::shared_ptr<const fieldbus::LinkPlan> plan;
+  std::string plan_file;
+  SourcePos plan_pos;
 
   bool rtu() const { return !device.empty(); }
   std::string peer() const;  // "10.0.0.5:502 unit 1", "/dev/ttyUSB0 unit 7"
@@ -61,6 +68,11 @@ struct ChannelMap {
   double poll_s = 0;    // 0: the slave's poll period
   WriteMode mode = WriteMode::kOnChange;
   SourcePos pos, channel_pos, slave_pos;
+  // On a planned line: reads of a loop (sent in its windows) or non-RT (cut to
+  // L_n, in what the frames leave); writes are urgent (first in their frame).
+  enum class Traffic : uint8_t { kUnplanned, kPeriodic, kUrgent, kNonRt };
+  Traffic traffic = Traffic::kUnplanned;
+  std::string loop;
 };
 
 struct ModbusSettings {

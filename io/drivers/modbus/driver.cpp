@@ -8,6 +8,7 @@
 #include <map>
 
 #include "io/drivers/modbus/cli.h"
+#include "io/drivers/planned_link.h"
 #include "kernel_rt/clock.h"
 
 namespace rtplc::modbus {
@@ -47,9 +48,15 @@ Result<void> ModbusDriver::prepare() {
   }
   for (auto& [device, slaves] : rtu_lines) groups.push_back(slaves);
   std::vector<uint32_t> line_of(s.slaves.size(), 0);
+  planned_row_.assign(s.slaves.size(), 0);
   for (auto& g : groups) {
     for (uint32_t slave : g) line_of[slave] = static_cast<uint32_t>(lines_.size());
     lines_.push_back(std::make_unique<Line>(s, g, exchange_, opt));
+    // A line on a plan shows its classes in its first slave's row.
+    if (const auto& plan = s.slaves[g.front()].plan) {
+      io::describe_planned_link(link_row(g.front()), *plan);
+      planned_row_[g.front()] = 1;
+    }
   }
   auto slave_index = [&](const std::string& name) -> uint32_t {
     for (uint32_t i = 0; i < s.slaves.size(); ++i) {
@@ -199,6 +206,8 @@ void ModbusDriver::publish_status() noexcept {
     ls.writes_pending.store(t.pending, r);
     ls.writes_rejected.store(t.rejected, r);
     for (size_t b = 0; b < io::kLinkLatencyBuckets; ++b) ls.latency[b].store(st.buckets.counts[b], r);
+    fieldbus::LinkFigures fig;
+    if (planned_row_[i] && exchange_.planned[i].try_load(fig)) io::publish_planned_link(ls, fig);
   }
 }
 

@@ -10,7 +10,9 @@
 //           is refused here (counted rejected, logged once) and never sent.
 //           Its delivery entry is bad while its slave is down or its last write
 //           failed.
-//   status  each slave's counters -> its generic link row.
+//   status  each slave's counters -> its generic link row; a line on a
+//           fieldbus plan also puts its per-class delays in its first slave's
+//           row (line.h, io/drivers/planned_link.h).
 #pragma once
 
 #include <memory>
@@ -63,6 +65,7 @@ class ModbusDriver final : public io::Driver {
   std::vector<ItemSample> reads_;  // last sample per read map
   std::vector<Write> writes_;
   std::vector<SlaveTrack> track_;
+  std::vector<uint8_t> planned_row_;  // 1: the first slave of a line on a plan (its row has the classes)
   int64_t next_status_ = 0;
 };
 

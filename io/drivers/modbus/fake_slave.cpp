@@ -284,6 +284,15 @@ Response FakeSlave::respond(const FrameOps& ops, const uint8_t* frame, size_t le
   Frame req;
   if (!ops.open(frame, len, req)) return r;
   requests_.fetch_add(1);
+  if (req.pdu_len >= 5) {
+    std::lock_guard lock(mu_);
+    const uint8_t fc = req.pdu[0];
+    const bool spans = fc == 1 || fc == 2 || fc == 3 || fc == 4 || fc == 15 || fc == 16;
+    if (log_.size() < 100000) {
+      log_.push_back({fc, be16(req.pdu + 1), static_cast<uint16_t>(spans ? be16(req.pdu + 3) : 1),
+                      kernel_rt::monotonic_now_ns()});
+    }
+  }
   if (silent_.load()) return r;
   {
     std::lock_guard lock(mu_);
@@ -310,6 +319,11 @@ Response FakeSlave::respond(const FrameOps& ops, const uint8_t* frame, size_t le
   r.action = Response::Action::kReply;
   r.delay_ns = opt_.reply_delay_ns + (magic == kMagicDelay ? opt_.delay_ns : 0);
   return r;
+}
+
+std::vector<FakeSlave::LoggedRequest> FakeSlave::request_log() const {
+  std::lock_guard lock(mu_);
+  return log_;
 }
 
 // The PDU of the answer to one request; `magic` says which fault, if any, the

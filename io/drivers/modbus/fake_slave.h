@@ -97,6 +97,15 @@ class FakeSlave {
   void put(const Address& a, double value);
   double value(const Address& a) const;
   uint64_t requests() const { return requests_.load(); }
+  // Every request in arrival order (function, address, span, CLOCK_MONOTONIC),
+  // the first 100,000: a test checks a planned line's order and sizes with it.
+  struct LoggedRequest {
+    uint8_t function = 0;
+    uint16_t address = 0;
+    uint16_t count = 0;
+    int64_t at_ns = 0;
+  };
+  std::vector<LoggedRequest> request_log() const;
   uint64_t writes() const { return writes_.load(); }
   // The answer PDU to one request PDU (function code onwards) against the
   // tables; `magic` says which fault, if any, the request's range covered.
@@ -122,6 +131,7 @@ class FakeSlave {
   FakeSlaveOptions opt_;
   mutable std::mutex mu_;
   std::vector<uint16_t> tables_[4];
+  std::vector<LoggedRequest> log_;  // under mu_
   std::atomic<int> listen_fd_{-1};  // TCP: the listener; RTU: the serial device
   std::atomic<bool> stop_{false};
   std::atomic<bool> silent_{false};

@@ -16,6 +16,15 @@
 // whichever comes first, so a queued write waits at most about one period.
 // Polls fall on the clock's multiples of their period, so all lines of one
 // period wake together (see poll_block).
+//
+// An RTU line on a fieldbus plan (its slaves' `plan`, docs/fieldbus.md
+// "Running a link on a plan") is scheduled by fieldbus/link_scheduler.h
+// instead, in T_1 frames on the clock's multiples of T_1: urgent writes first
+// in the frame they were queued in, then the read requests of the loops that
+// sample in this frame, then one non-RT read of at most L_n of data. The
+// line's per-class figures go to the bridge through `planned` (one writer:
+// the line; reader: the bridge, which writes them into the line's first
+// slave's link row).
 #pragma once
 
 #include <atomic>
@@ -26,6 +35,7 @@
 #include <vector>
 
 #include "common/result.h"
+#include "fieldbus/link_scheduler.h"
 #include "io/drivers/driver.h"
 #include "io/drivers/modbus/client.h"
 #include "io/drivers/modbus/config.h"
@@ -70,10 +80,13 @@ struct Exchange {
   explicit Exchange(size_t reads, size_t writes, size_t slaves)
       : samples(std::make_unique<link::SnapshotSlot<ItemSample>[]>(reads)),
         outcomes(std::make_unique<link::SnapshotSlot<WriteOutcome>[]>(writes)),
-        status(std::make_unique<link::SnapshotSlot<UnitStatus>[]>(slaves)) {}
+        status(std::make_unique<link::SnapshotSlot<UnitStatus>[]>(slaves)),
+        planned(std::make_unique<link::SnapshotSlot<fieldbus::LinkFigures>[]>(slaves)) {}
   std::unique_ptr<link::SnapshotSlot<ItemSample>[]> samples;
   std::unique_ptr<link::SnapshotSlot<WriteOutcome>[]> outcomes;
   std::unique_ptr<link::SnapshotSlot<UnitStatus>[]> status;
+  // A planned line's figures, in the slot of its first slave.
+  std::unique_ptr<link::SnapshotSlot<fieldbus::LinkFigures>[]> planned;
 };
 
 struct LineOptions {
@@ -89,7 +102,7 @@ struct LineOptions {
   std::function<void(uint32_t slave, int64_t due_ns, int64_t answered_ns)> on_poll;
 };
 
-class Line {
+class Line final : private fieldbus::LinkSender {
  public:
   // `slaves`: the indices of the slaves on this line (one for TCP).
   Line(const ModbusSettings& s, std::vector<uint32_t> slaves, Exchange& x, LineOptions opt);
@@ -103,6 +116,8 @@ class Line {
   // The bridge (one producer): false when the queue is full.
   bool push(const WriteJob& job) { return queue_.push(job); }
   bool serves(uint32_t slave) const;
+  // On a plan: the scheduler (tests read its figures through Exchange::planned).
+  bool planned() const { return sched_ != nullptr; }
 
  private:
   struct Read {
@@ -113,6 +128,8 @@ class Line {
     Block block;
     int64_t next_due = 0;
     bool refusal_logged = false;
+    ChannelMap::Traffic traffic = ChannelMap::Traffic::kUnplanned;
+    size_t cursor = 0;  // non-RT: the next of block.items to read
   };
   struct Unit {
     uint32_t slave = 0;
@@ -128,6 +145,14 @@ class Line {
   };
 
   void run() noexcept;
+  void run_planned() noexcept;
+  void plan_line(const fieldbus::LinkPlan& lp);
+  void write_one(const WriteJob& job) noexcept;
+  void store_items(Unit& u, const UnitBlock& b, size_t from, size_t to, uint16_t start, const uint16_t* words,
+                   int64_t answered) noexcept;
+  fieldbus::SendOutcome send_periodic(uint32_t slot) noexcept override;
+  fieldbus::SendOutcome send_urgent(uint32_t slot) noexcept override;
+  fieldbus::Nanos send_nonrt(fieldbus::Nanos budget, bool& more) noexcept override;
   bool ensure_connected(int64_t now) noexcept;
   void drop_connection(int64_t now, const char* why) noexcept;
   void serve_writes() noexcept;
@@ -152,6 +177,21 @@ class Line {
   int64_t next_connect_ = 0;
   uint64_t random_ = 0x9E3779B97F4A7C15ull;
   std::string name_;  // "pump" or "/dev/ttyUSB0"
+
+  // On a plan (the line's thread only).
+  struct BlockRef {
+    uint32_t unit = 0;
+    uint32_t block = 0;
+  };
+  std::unique_ptr<fieldbus::LinkScheduler> sched_;
+  const fieldbus::LinkTiming* timing_ = nullptr;
+  int64_t epoch_ = 0;
+  std::vector<BlockRef> periodic_;       // scheduler slot -> block
+  std::vector<BlockRef> nonrt_;          // the non-RT blocks
+  std::vector<int32_t> write_slot_;      // write map -> urgent slot, -1: not on this line
+  std::vector<WriteJob> pending_;        // urgent slot -> its queued write
+  std::vector<uint8_t> pending_set_;
+  size_t nonrt_active_ = SIZE_MAX;       // index into nonrt_
 };
 
 }  // namespace rtplc::modbus

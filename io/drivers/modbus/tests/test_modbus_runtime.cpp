@@ -18,6 +18,7 @@
 
 #include "io/drivers/modbus/fake_slave.h"
 #include "io/drivers/modbus/tests/pty_pair.h"
+#include "sched/stats_source.h"
 #include "tests/support/runtime_fixture.h"
 #include "tests/support/eventually.h"
 
@@ -175,6 +176,47 @@ TEST(ModbusPymodbus, our_master_reads_and_writes_a_pymodbus_server) {
   rt->stop();
   kill(pid, SIGTERM);
   waitpid(pid, nullptr, 0);
+}
+
+// An RTU line on a fieldbus plan inside a running runtime: its loop's item is
+// read and good, the urgent write arrives, and its first slave's link row
+// carries the plan and the per-class figures `rtplc stats` prints.
+TEST(ModbusRtuRuntime, a_line_on_a_plan_shows_its_classes_in_its_link_row) {
+  modbus::testing::PtyPair pty;
+  if (!pty.available()) GTEST_SKIP() << pty.why();
+  modbus::FakeSlaveOptions o;
+  o.serial = {pty.a(), 19200, 'N', 8, 1};
+  o.units = {1};
+  FakeSlave slave(o);
+  ASSERT_TRUE(slave.start().ok());
+  slave.put(*parse_address("hr:0:f32"), 2.5);
+  RuntimeFixture fx;
+  fx.write("p.fbd", "%%\nstime(0.02)\nF1 = prr(p1, d0, c0, \"Level\")\nF2 = scale(F1, 2, 1)\n"
+                    "pwr(F2, p1, d0, c1, \"Out\")\nEND\n");
+  fx.write("plan.yaml",
+           "link: {nodes: 4, bit_rate: 19200, layout: modbus-rtu}\nperiodic: {bytes: 4}\n"
+           "realtime: {queues: 1, bytes: 4}\nloops:\n  - {name: level, period: 100ms}\n");
+  auto rt = fx.start("tasks:\n  - {name: t, program: p.fbd}\n"
+                     "drivers:\n  - kind: modbus\n    name: mb\n    slaves:\n"
+                     "      - {name: meter, unit: 1, timeout: 150ms, device: " + pty.b() +
+                     ", parity: N, plan: plan.yaml}\n"
+                     "    read:\n"
+                     "      - {device: R, channel: p1.d0.c0, slave: meter, address: 0, type: f32, loop: level}\n"
+                     "    write:\n"
+                     "      - {device: R, channel: p1.d0.c1, slave: meter, address: 10, type: f32}\n");
+  ASSERT_NE(rt, nullptr);
+  auto ch = [&](const char* l) { return rt->image().read_channel(static_cast<uint32_t>(rt->image().find_channel(l))); };
+  const io::LinkStatus& row = rt->image().link(0);
+  ASSERT_TRUE(eventually([&] { return ch("Level").quality == Quality::kGood; }));
+  EXPECT_TRUE(eventually([&] { return slave.value(*parse_address("hr:10:f32")) == 6.0; }));  // 2.5 * 2 + 1
+  ASSERT_TRUE(eventually([&] { return row.classes[0].count.load() >= 5 && row.classes[1].count.load() >= 1; }, 30));
+  EXPECT_NE(std::string(row.plan).find("plan.yaml: T1 100ms"), std::string::npos) << row.plan;
+  EXPECT_STREQ(row.classes[0].name, "periodic");
+  EXPECT_LE(row.classes[0].packet_max_ns.load(), row.classes[0].packet_bound_ns.load());
+  const std::string text = sched::render_link_classes(sched::link_snapshot(row));
+  EXPECT_NE(text.find("    periodic: "), std::string::npos) << text;
+  EXPECT_NE(text.find("    urgent: "), std::string::npos) << text;
+  rt->stop();
 }
 
 // Two units on one RTU line; the fake has only unit 1, so unit 2 is dead. Each
