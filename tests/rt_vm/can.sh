@@ -22,7 +22,10 @@ shipped() { find / -name "$1" -type f -not -path '/proc/*' -not -path '/sys/*' 2
 . "$(shipped gpio-sim-lib.sh)"
 gpio_sim_up RUN
 pull 0 up  # the run switch is on
-sed "s/chip: gpiochip0/chip: $chip/" /examples/drive.yaml > drive.yaml
+# A watchdog that never fires (as in gpio.sh): under emulation on a loaded host
+# a 20 ms task overruns now and then, and 3 in a row would stop it mid-test.
+nowd='s/watchdog: 3/watchdog: 1000000/'
+sed -e "s/chip: gpiochip0/chip: $chip/" -e "$nowd" /examples/drive.yaml > drive.yaml
 cp /examples/drive.fbd .
 
 # 1. A missing interface fails at start, saying which.
@@ -119,7 +122,8 @@ awk '{ split($3, p, "#"); if (length(p[2]) != 16) bad++ } END { exit bad > 0 }' 
 # Checked from candump's log by counts and order, not durations: the transfer
 # arrives whole and in order, and between two 0x201 frames (one T_1 frame)
 # there are at most 5 bulk frames; `rtplc stats` shows the three classes.
-cp /examples/drive_plan.yaml /examples/drive_plan.fbd /examples/drive_bus_plan.yaml /examples/drive_params.txt .
+cp /examples/drive_plan.fbd /examples/drive_bus_plan.yaml /examples/drive_params.txt .
+sed "$nowd" /examples/drive_plan.yaml > drive_plan.yaml
 candump -L vcan0 > plan.log &
 DUMP=$!
 rtplc run drive_plan.yaml > planrun.log 2>&1 &
@@ -148,8 +152,8 @@ n5f0=$(grep -c 'vcan0 5F0#' plan.log || true)
 echo "planned run: $n201 frames 0x201, $n5f0 frames 0x5F0, $(grep -c 'vcan0 0A0#' plan.log || true) frames 0x0A0"
 [ "$n201" -gt 50 ] || fail "only $n201 periodic frames in a 4 s run at T_1 = 10 ms"
 grep -q 'vcan0 0A0#' plan.log || fail "no urgent enable frame at all"
-# (Enable 1 needs the task running through the 100 ms the drive is ready: under
-# emulation on a loaded host its watchdog may stop it first, so only shown.)
+# (Enable 1 needs a task cycle inside the 100 ms the drive is ready: under
+# emulation on a loaded host that is likely, not certain, so only shown.)
 grep -q 'vcan0 0A0#01' plan.log && echo "the urgent enable frame carried 1, then 0" || echo "note: Enable never reached 1 here"
 awk '{ split($3, p, "#"); id = p[1] }
   id == "201" { if (open && run > 5) bad++; if (run > max && open) max = run; open = 1; run = 0 }
