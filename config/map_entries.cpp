@@ -50,4 +50,34 @@ void for_each_map_entry(YamlReader& r, const Fields& f,
   }
 }
 
+bool parse_channel_field(YamlReader& r, const Fields& f, const char* key, bool required, ChannelAddress& addr,
+                         std::string& text, SourcePos* pos) {
+  const Field* k = f.get(key);
+  if (k == nullptr) return !required;
+  if (pos != nullptr) *pos = k->pos;
+  auto a = r.channel(*k);
+  if (!a) return false;
+  addr = *a;
+  text = to_string(*a);
+  return true;
+}
+
+std::optional<uint32_t> FirstSeen::again(const std::string& key, SourcePos at) {
+  auto [it, fresh] = first_.emplace(key, at);
+  if (fresh) return std::nullopt;
+  return it->second.line;
+}
+
+void refuse_mapped_twice(YamlReader& r, FirstSeen& seen, const std::string& key, const std::string& label,
+                         SourcePos at) {
+  if (auto first = seen.again(key, at)) {
+    r.error(at, "channel " + label + " is mapped twice (first at line " + std::to_string(*first) + ")");
+  }
+}
+
+std::string used_twice(std::string_view noun, const std::string& name, uint32_t first_line) {
+  return std::string(noun) + " name '" + name + "' is used twice (first at line " + std::to_string(first_line) +
+         ")";
+}
+
 }  // namespace rtplc::config

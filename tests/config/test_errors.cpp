@@ -338,6 +338,39 @@ TEST(ConfigErrors, one_dai_channel_has_one_plant) {
   EXPECT_EQ(r.diags.error_count(), 1u) << r.render();  // sharing an input is fine
 }
 
+// The maps' shared checks (config/map_entries.h) say the same in every kind:
+// a name used twice, a channel mapped twice in one direction, a bad channel.
+TEST(ConfigErrors, driver_maps_refuse_a_name_used_twice_and_a_channel_mapped_twice) {
+  LoadResult r = parse(
+      "tasks: [{program: a.fbd}]\n"
+      "drivers:\n"
+      "  - kind: s7\n"
+      "    plcs:\n"
+      "      - {name: a, address: 10.0.0.1}\n"
+      "      - {name: a, address: 10.0.0.2}\n"
+      "    read:\n"
+      "      - {channel: p1.d0.c0, plc: a, item: DB1.DBW0}\n"
+      "      - {channel: p1.d0.c0, plc: a, item: DB1.DBW2}\n"
+      "      - {channel: p1.d0.x, plc: a, item: DB1.DBW4}\n"
+      "  - kind: modbus\n"
+      "    slaves:\n"
+      "      - {name: x, address: 10.0.0.3}\n"
+      "      - {name: x, address: 10.0.0.4}\n"
+      "    read:\n"
+      "      - {device: R, channel: p1.d0.c0, slave: x, address: 1}\n"
+      "      - {device: R, channel: p1.d0.c0, slave: x, address: 2}\n"
+      "      - {device: X, channel: p1.d0.c0, slave: x, address: 2}\n");
+  EXPECT_TRUE(has_diag(r, 6, 16, "PLC name 'a' is used twice (first at line 5)"));
+  EXPECT_TRUE(has_diag(r, 9, 19, "channel p1.d0.c0 is mapped twice (first at line 8)"));
+  EXPECT_TRUE(has_diag(
+      r, 10, 19, "'channel' expects a channel address pN.dN.cN (p and d 0..255, c 0..65535), got 'p1.d0.x'"));
+  EXPECT_TRUE(has_diag(r, 14, 16, "slave name 'x' is used twice (first at line 13)"));
+  EXPECT_TRUE(has_diag(r, 17, 30, "channel R p1.d0.c0 is mapped twice (first at line 16)"));
+  for (const Diagnostic& d : r.diags.items()) {
+    EXPECT_EQ(d.message.find("channel X p1.d0.c0 is mapped twice"), std::string::npos) << d.message;
+  }
+}
+
 TEST(ConfigErrors, driver_priority_inside_the_task_band_is_a_warning) {
   LoadResult r = parse("tasks: [{program: a.fbd}]\ndrivers: [{kind: sim, priority: 30}]\n");
   EXPECT_TRUE(r.ok()) << r.render();

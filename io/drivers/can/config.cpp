@@ -118,16 +118,7 @@ void parse_signal(YamlReader& r, const YAML::Node& node, SourcePos where, std::v
   m.channel_pos = m.pos;
   Fields f = r.fields(node, m.pos, kSignalSection.noun, {kSignalSection.keys});
   if (!f.is_map()) return;
-  bool ok = true;
-  if (const Field* c = f.get("channel")) {
-    m.channel_pos = c->pos;
-    if (auto a = r.channel(*c)) {
-      m.addr = *a;
-      m.channel = to_string(*a);
-    } else {
-      ok = false;
-    }
-  }
+  bool ok = parse_channel_field(r, f, "channel", false, m.addr, m.channel, &m.channel_pos);
   SignalLayout& s = m.layout;
   if (const Field* t = f.get("type")) {
     if (auto v = r.choice(*t)) {

@@ -12,6 +12,7 @@
 #include "io/drivers/gpio/config.h"
 
 #include "blocks/image.h"
+#include "config/map_entries.h"
 #include "config/yaml_reader.h"
 
 namespace rtplc::gpio {
@@ -84,15 +85,7 @@ void parse_line(YamlReader& r, const YAML::Node& node, SourcePos where, Role rol
   m.edge = role == Role::kCounter ? Edge::kRising : Edge::kNone;
   Fields f = r.fields(node, m.pos, kLineSection.noun, {kLineSection.keys});
   if (!f.is_map()) return;
-  bool ok = true;
-  if (const Field* c = f.get("channel")) {
-    if (auto a = r.channel(*c)) {
-      m.addr = *a;
-      m.channel = to_string(*a);
-    } else {
-      ok = false;
-    }
-  }
+  bool ok = parse_channel_field(r, f, "channel", false, m.addr, m.channel);
   if (const Field* l = f.get("line")) {
     m.line_pos = l->pos;
     if (auto t = r.text(*l)) {
@@ -177,8 +170,8 @@ void parse_gpio(YamlReader& r, const Fields& f, DriverConfig& out) {
   }
   // One line, one use: a line is requested once (an input cannot also be counted;
   // a dpi counts it and a ddi of another line reads the level).
-  std::map<std::string, SourcePos> seen;
-  std::map<std::string, SourcePos> channels;
+  FirstSeen seen;
+  FirstSeen channels;
   size_t with_events = 0;
   for (const LineMap& m : s.lines) {
     if ((m.role == Role::kCounter || (m.role == Role::kInput && m.debounce_ns > 0)) &&
@@ -188,15 +181,13 @@ void parse_gpio(YamlReader& r, const Fields& f, DriverConfig& out) {
                                       kMaxEventLines));
     }
     const std::string key = m.chip + "/" + (m.line_name.empty() ? std::to_string(m.offset) : "'" + m.line_name + "'");
-    auto [it, fresh] = seen.emplace(key, m.line_pos);
-    if (!fresh) {
-      r.error(m.line_pos, fmt::format("{} of chip {} is already used by the entry at line {}", line_text(m), m.chip,
-                                      it->second.line));
+    if (auto first = seen.again(key, m.line_pos)) {
+      r.error(m.line_pos,
+              fmt::format("{} of chip {} is already used by the entry at line {}", line_text(m), m.chip, *first));
     }
     if (m.role != Role::kOutput) continue;  // (an input provided twice is the loader's error)
-    auto [c, first] = channels.emplace(m.channel, m.pos);
-    if (!first) {
-      r.error(m.pos, fmt::format("output {} drives two lines (first at line {})", m.channel, c->second.line));
+    if (auto first = channels.again(m.channel, m.pos)) {
+      r.error(m.pos, fmt::format("output {} drives two lines (first at line {})", m.channel, *first));
     }
   }
   if (s.lines.empty() && !f.get("inputs") && !f.get("outputs") && !f.get("counters")) {

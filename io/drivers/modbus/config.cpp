@@ -232,15 +232,7 @@ void parse_map(YamlReader& r, const YAML::Node& node, SourcePos where, bool writ
     r.error(*f.get("device"), "X maps to discrete inputs, which a master cannot write (use Y, M or R)");
     ok = false;
   }
-  if (const Field* c = f.get("channel")) {
-    m.channel_pos = c->pos;
-    if (auto a = r.channel(*c)) {
-      m.addr = *a;
-      m.channel = to_string(*a);
-    } else {
-      ok = false;
-    }
-  }
+  ok &= parse_channel_field(r, f, "channel", false, m.addr, m.channel, &m.channel_pos);
   if (const Field* s = f.get("slave")) {
     m.slave_pos = s->pos;
     if (auto v = r.name(*s)) m.slave = *v;
@@ -444,8 +436,7 @@ void parse_modbus(YamlReader& r, const Fields& f, DriverConfig& out) {
   for (const SlaveConfig& sc : s.slaves) {
     auto [it, fresh] = names.emplace(sc.name, &sc);
     if (!fresh) {
-      r.error(sc.name_pos, fmt::format("slave name '{}' is used twice (first at line {})", sc.name,
-                                       it->second->name_pos.line));
+      r.error(sc.name_pos, used_twice("slave", sc.name, it->second->name_pos.line));
     }
     if (!sc.rtu()) continue;
     auto [line, first] = lines.emplace(sc.device, &sc);
@@ -466,7 +457,7 @@ void parse_modbus(YamlReader& r, const Fields& f, DriverConfig& out) {
     }
   }
   for (auto* maps : {&s.reads, &s.writes}) {
-    std::map<std::string, SourcePos> seen;
+    FirstSeen seen;
     for (ChannelMap& m : *maps) {
       auto it = names.find(m.slave);
       if (it == names.end()) {
@@ -482,12 +473,8 @@ void parse_modbus(YamlReader& r, const Fields& f, DriverConfig& out) {
         m.item.address = static_cast<uint16_t>(coil);
       }
       if (m.traffic == ChannelMap::Traffic::kNonRt && m.poll_s <= 0) m.poll_s = it->second->poll_s;
-      const std::string key = std::string(1, m.device) + "/" + m.channel;
-      auto [seen_it, fresh] = seen.emplace(key, m.channel_pos);
-      if (!fresh) {
-        r.error(m.channel_pos, fmt::format("channel {} {} is mapped twice (first at line {})", m.device, m.channel,
-                                           seen_it->second.line));
-      }
+      refuse_mapped_twice(r, seen, std::string(1, m.device) + "/" + m.channel,
+                          std::string(1, m.device) + " " + m.channel, m.channel_pos);
     }
   }
   check_planned_maps(r, s, names);
@@ -510,12 +497,10 @@ std::string modbus_doc() {
 DriverClaims modbus_claims(const DriverConfig& d) {
   const ModbusSettings& s = settings_of(d);
   DriverClaims c;
-  for (const ChannelMap& m : s.reads) {
-    c.provides.push_back({read_key(m), fmt::format("{}.{}.{}", d.name, m.device, m.channel), m.channel_pos});
-  }
-  for (const ChannelMap& m : s.writes) {
-    c.consumes.push_back({write_key(m), fmt::format("{}.{}.{}", d.name, m.device, m.channel), m.channel_pos});
-  }
+  claim_maps(c, s.reads, s.writes, [&](const ChannelMap& m, bool write) {
+    return ChannelClaim{write ? write_key(m) : read_key(m), fmt::format("{}.{}.{}", d.name, m.device, m.channel),
+                        m.channel_pos};
+  });
   c.links = static_cast<uint32_t>(s.slaves.size());
   return c;
 }

@@ -5,7 +5,6 @@
 // that loads never fails later on an item.
 #include <arpa/inet.h>
 
-#include <map>
 #include <set>
 #include <string>
 
@@ -163,18 +162,7 @@ void parse_map(YamlReader& r, const YAML::Node& node, SourcePos where, bool writ
   m.channel_pos = m.plc_pos = m.item_pos = m.pos;
   Fields f = r.fields(node, m.pos, kMapSection.noun, {kMapSection.keys});
   if (!f.is_map()) return;
-  bool ok = true;
-  if (const Field* c = f.get("channel")) {
-    m.channel_pos = c->pos;
-    if (auto a = r.channel(*c)) {
-      m.addr = *a;
-      m.channel = to_string(*a);
-    } else {
-      ok = false;
-    }
-  } else {
-    ok = false;
-  }
+  bool ok = parse_channel_field(r, f, "channel", true, m.addr, m.channel, &m.channel_pos);
   if (const Field* p = f.get("plc")) {
     m.plc_pos = p->pos;
     if (auto v = r.name(*p)) m.plc = *v;
@@ -214,23 +202,15 @@ void parse_s7(YamlReader& r, const Fields& f, DriverConfig& out) {
     parse_map(r, n, at, write, write ? s.writes : s.reads);
   });
   // Names unique; every map names a PLC; a channel is mapped once per direction.
-  std::map<std::string, SourcePos> names;
+  FirstSeen names;
   for (const S7PlcConfig& p : s.plcs) {
-    auto [it, fresh] = names.emplace(p.name, p.name_pos);
-    if (!fresh) {
-      r.error(p.name_pos, "PLC name '" + p.name + "' is used twice (first at line " +
-                              std::to_string(it->second.line) + ")");
-    }
+    if (auto first = names.again(p.name, p.name_pos)) r.error(p.name_pos, used_twice("PLC", p.name, *first));
   }
   for (auto* maps : {&s.reads, &s.writes}) {
-    std::map<std::string, SourcePos> seen;
+    FirstSeen seen;
     for (const S7ChannelMap& m : *maps) {
-      if (!names.count(m.plc)) r.error(m.plc_pos, "no PLC named '" + m.plc + "' in this driver's plcs");
-      auto [it, fresh] = seen.emplace(m.channel, m.channel_pos);
-      if (!fresh) {
-        r.error(m.channel_pos, "channel " + m.channel + " is mapped twice (first at line " +
-                                   std::to_string(it->second.line) + ")");
-      }
+      if (!names.has(m.plc)) r.error(m.plc_pos, "no PLC named '" + m.plc + "' in this driver's plcs");
+      refuse_mapped_twice(r, seen, m.channel, m.channel, m.channel_pos);
     }
   }
   out.settings = std::move(s);
@@ -249,8 +229,9 @@ std::string s7_doc() {
 DriverClaims s7_claims(const DriverConfig& d) {
   const S7DriverSettings& s = settings_of(d);
   DriverClaims c;
-  for (const S7ChannelMap& m : s.reads) c.provides.push_back({read_key(m), d.name + "." + m.channel, m.channel_pos});
-  for (const S7ChannelMap& m : s.writes) c.consumes.push_back({write_key(m), d.name + "." + m.channel, m.channel_pos});
+  claim_maps(c, s.reads, s.writes, [&](const S7ChannelMap& m, bool write) {
+    return ChannelClaim{write ? write_key(m) : read_key(m), d.name + "." + m.channel, m.channel_pos};
+  });
   c.links = static_cast<uint32_t>(s.plcs.size());
   return c;
 }

@@ -9,6 +9,7 @@
 #include "io/drivers/sim/config.h"
 
 #include "blocks/image.h"
+#include "config/map_entries.h"
 #include "config/yaml_reader.h"
 #include "io/drivers/sim/plant.h"
 
@@ -120,28 +121,8 @@ void parse_plant(YamlReader& r, const YAML::Node& node, SourcePos where,
       ok = false;
     }
   }
-  if (const Field* in = f.get("input")) {
-    pc.input_pos = in->pos;
-    if (auto a = r.channel(*in)) {
-      pc.input_addr = *a;
-      pc.input = to_string(*a);
-    } else {
-      ok = false;
-    }
-  } else {
-    ok = false;
-  }
-  if (const Field* o = f.get("output")) {
-    pc.output_pos = o->pos;
-    if (auto a = r.channel(*o)) {
-      pc.output_addr = *a;
-      pc.output = to_string(*a);
-    } else {
-      ok = false;
-    }
-  } else {
-    ok = false;
-  }
+  ok &= parse_channel_field(r, f, "input", true, pc.input_addr, pc.input, &pc.input_pos);
+  ok &= parse_channel_field(r, f, "output", true, pc.output_addr, pc.output, &pc.output_pos);
   if (ok) out.push_back(std::move(pc));
 }
 
