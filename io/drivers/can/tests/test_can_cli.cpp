@@ -15,24 +15,14 @@
 #include "common/exit_codes.h"
 #include "io/drivers/can/cli.h"
 #include "io/drivers/can/transport.h"
+#include "tests/support/cli_app.h"
 
 namespace rtplc::can {
 namespace {
 
 // Runs `rtplc ARGS...` in process; its exit code (0 when the callback returned).
 int run(const std::vector<std::string>& args) {
-  CLI::App app("rtplc");
-  add_commands(app);
-  std::vector<std::string> all = {"rtplc"};
-  all.insert(all.end(), args.begin(), args.end());
-  std::vector<const char*> argv;
-  for (const std::string& a : all) argv.push_back(a.c_str());
-  try {
-    app.parse(static_cast<int>(argv.size()), argv.data());
-  } catch (const CLI::ParseError& e) {
-    return e.get_exit_code();
-  }
-  return 0;
+  return test::run_cli([](CLI::App& app) { add_commands(app); }, args);
 }
 
 std::string write_config(const std::string& name, const std::string& text) {

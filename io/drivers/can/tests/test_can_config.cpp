@@ -5,23 +5,13 @@
 #include "config/config.h"
 #include "config/driver_kinds.h"
 #include "io/drivers/can/config.h"
+#include "tests/support/driver_test.h"
 
 namespace rtplc::can {
 namespace {
 
-const char* kTask = "tasks:\n  - {name: t, program: p.fbd}\n";
-
-config::LoadResult parse(const std::string& driver) {
-  return config::parse_config(std::string(kTask) + "drivers:\n  - kind: can\n    name: epc\n" + driver, "c.yaml", "",
-                              config::LoadOptions{false});
-}
-
-// The first error's "line:col: message" (the render starts with the file).
-std::string first_error(const config::LoadResult& r) {
-  const std::string text = r.render();
-  const auto nl = text.find('\n');
-  return text.substr(0, nl);
-}
+config::LoadResult parse(const std::string& driver) { return test::parse_driver("can", "epc", driver); }
+using test::first_error;
 
 TEST(CanConfig, reads_frames_signals_and_defaults) {
   auto r = parse(

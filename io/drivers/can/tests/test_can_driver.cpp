@@ -17,6 +17,7 @@
 #include "io/drivers/can/driver.h"
 #include "io/drivers/can/fake_bus.h"
 #include "kernel_rt/clock.h"
+#include "tests/support/driver_test.h"
 
 namespace rtplc::can {
 namespace {
@@ -49,41 +50,15 @@ struct Rig {
   explicit Rig(const char* yaml = kConfig) {
     cfg = config::parse_config(yaml, "c.yaml", "", config::LoadOptions{false});
     EXPECT_TRUE(cfg.ok()) << cfg.render();
-    io::ImageLayout l;
-    l.name = "test-candrv-" + std::to_string(getpid());
-    l.channel_capacity = 8;
-    l.regions.push_back({"task:t", io::RegionKind::kTask, 0, 3});
-    l.regions.push_back({"driver:epc", io::RegionKind::kDriver, 0, 5});
-    l.n_tasks = 1;
-    l.task_stats_bytes = 64;
-    l.n_links = 1;
-    auto img = io::ProcessImage::create(l);
-    EXPECT_TRUE(img.ok()) << img.error();
-    image = std::move(img).value();
-    io::DriverSetup setup;
-    setup.config = &cfg.config->drivers[0];
-    setup.image = &image;
-    setup.region = 1;
-    setup.n_provides = 2;
-    setup.consumes = {{0, 0}, {0, 1}, {0, 2}};
-    setup.period_ns = 5 * kMs;
-    setup.events = &events;
-    driver = std::make_unique<CanDriver>(setup, bus.transport());
+    image = test::driver_image("candrv", "epc", 2, 3);
+    driver = std::make_unique<CanDriver>(test::driver_setup(cfg.config->drivers[0], image, events, 2, 3, 5 * kMs),
+                                         bus.transport());
   }
 
   void outputs(double a, double b, double c, Quality q = Quality::kGood) {
-    const uint32_t k = image.begin_write(0);
-    image.put(0, k, 0, a, q, 1);
-    image.put(0, k, 1, b, q, 1);
-    image.put(0, k, 2, c, q, 1);
-    image.end_write(0, k, 1, 0);
+    test::put_task_outputs(image, {a, b, c}, q);
   }
-  std::pair<double, Quality> entry(uint32_t idx) {
-    double v = 0;
-    Quality q = Quality::kGood;
-    EXPECT_TRUE(image.read_values(1, &idx, 1, &v, 8, nullptr, &q));
-    return {v, q};
-  }
+  std::pair<double, Quality> entry(uint32_t idx) { return test::driver_entry(image, idx); }
   // Waits (by count; the bound only keeps a broken build from hanging) until
   // the fake bus saw `n` frames from the driver.
   bool wait_sent(size_t n) {

@@ -20,6 +20,7 @@
 #include "io/drivers/can/driver.h"
 #include "io/drivers/can/fake_bus.h"
 #include "sched/stats_source.h"
+#include "tests/support/driver_test.h"
 
 namespace rtplc::can {
 namespace {
@@ -81,34 +82,11 @@ struct Rig {
     dir.write("blob.bin", blob());
     cfg = load(dir, kDriver);
     if (!cfg.ok()) return;
-    io::ImageLayout l;
-    l.name = "test-canplan-" + std::to_string(getpid());
-    l.channel_capacity = 8;
-    l.regions.push_back({"task:t", io::RegionKind::kTask, 0, 3});
-    l.regions.push_back({"driver:epc", io::RegionKind::kDriver, 0, 3});
-    l.n_tasks = 1;
-    l.task_stats_bytes = 64;
-    l.n_links = 1;
-    auto img = io::ProcessImage::create(l);
-    EXPECT_TRUE(img.ok()) << img.error();
-    image = std::move(img).value();
-    io::DriverSetup setup;
-    setup.config = &cfg.config->drivers[0];
-    setup.image = &image;
-    setup.region = 1;
-    setup.n_provides = 0;
-    setup.consumes = {{0, 0}, {0, 1}, {0, 2}};
-    setup.period_ns = 1 * kMs;
-    setup.events = &events;
-    driver = std::make_unique<CanDriver>(setup, bus.transport(), &virtual_now);
+    image = test::driver_image("canplan", "epc", 0, 3);
+    driver = std::make_unique<CanDriver>(test::driver_setup(cfg.config->drivers[0], image, events, 0, 3, 1 * kMs),
+                                         bus.transport(), &virtual_now);
   }
-  void outputs(double a, double b, double c) {
-    const uint32_t k = image.begin_write(0);
-    image.put(0, k, 0, a, Quality::kGood, 1);
-    image.put(0, k, 1, b, Quality::kGood, 1);
-    image.put(0, k, 2, c, Quality::kGood, 1);
-    image.end_write(0, k, 1, 0);
-  }
+  void outputs(double a, double b, double c) { test::put_task_outputs(image, {a, b, c}); }
 };
 
 TEST(CanPlan, sends_periodic_frames_in_their_windows_urgent_first_and_bulk_cut_to_ln) {

@@ -14,23 +14,13 @@
 #include "common/exit_codes.h"
 #include "io/drivers/gpio/cli.h"
 #include "io/drivers/gpio/fake_chip.h"
+#include "tests/support/cli_app.h"
 
 namespace rtplc::gpio {
 namespace {
 
 int run(FakeChips& chips, const std::vector<std::string>& args) {
-  CLI::App app("rtplc");
-  add_commands_with(app, chips.ops());
-  std::vector<std::string> all = {"rtplc"};
-  all.insert(all.end(), args.begin(), args.end());
-  std::vector<const char*> argv;
-  for (const std::string& a : all) argv.push_back(a.c_str());
-  try {
-    app.parse(static_cast<int>(argv.size()), argv.data());
-  } catch (const CLI::ParseError& e) {
-    return e.get_exit_code();
-  }
-  return 0;
+  return test::run_cli([&](CLI::App& app) { add_commands_with(app, chips.ops()); }, args);
 }
 
 struct Chips {

@@ -6,21 +6,13 @@
 #include "config/config.h"
 #include "config/driver_kinds.h"
 #include "io/drivers/gpio/config.h"
+#include "tests/support/driver_test.h"
 
 namespace rtplc::gpio {
 namespace {
 
-const char* kTask = "tasks:\n  - {name: t, program: p.fbd}\n";
-
-config::LoadResult parse(const std::string& driver) {
-  return config::parse_config(std::string(kTask) + "drivers:\n  - kind: gpio\n    name: dio\n" + driver, "c.yaml", "",
-                              config::LoadOptions{false});
-}
-
-std::string first_error(const config::LoadResult& r) {
-  const std::string text = r.render();
-  return text.substr(0, text.find('\n'));
-}
+config::LoadResult parse(const std::string& driver) { return test::parse_driver("gpio", "dio", driver); }
+using test::first_error;
 
 TEST(GpioConfig, reads_inputs_counters_outputs_and_defaults) {
   auto r = parse(

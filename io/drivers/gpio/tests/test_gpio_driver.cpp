@@ -19,6 +19,7 @@
 #include "io/drivers/gpio/driver.h"
 #include "io/drivers/gpio/fake_chip.h"
 #include "kernel_rt/clock.h"
+#include "tests/support/driver_test.h"
 
 namespace rtplc::gpio {
 namespace {
@@ -52,40 +53,13 @@ struct Rig {
     chips.add_chip("gpiochip0", "gpio-fake.0", 8, {"", "BTN", "", "", "", "LAMP"});
     cfg = config::parse_config(yaml, "c.yaml", "", config::LoadOptions{false});
     EXPECT_TRUE(cfg.ok()) << cfg.render();
-    io::ImageLayout l;
-    l.name = "test-gpiodrv-" + std::to_string(getpid());
-    l.channel_capacity = 8;
-    l.regions.push_back({"task:t", io::RegionKind::kTask, 0, 2});
-    l.regions.push_back({"driver:dio", io::RegionKind::kDriver, 0, 6});
-    l.n_tasks = 1;
-    l.task_stats_bytes = 64;
-    l.n_links = 1;
-    auto img = io::ProcessImage::create(l);
-    EXPECT_TRUE(img.ok()) << img.error();
-    image = std::move(img).value();
-    io::DriverSetup setup;
-    setup.config = &cfg.config->drivers[0];
-    setup.image = &image;
-    setup.region = 1;
-    setup.n_provides = 4;
-    setup.consumes = {{0, 0}, {0, 1}};
-    setup.period_ns = 1 * kMs;
-    setup.events = &events;
-    driver = std::make_unique<GpioDriver>(setup, chips.ops());
+    image = test::driver_image("gpiodrv", "dio", 4, 2);
+    driver = std::make_unique<GpioDriver>(test::driver_setup(cfg.config->drivers[0], image, events, 4, 2, 1 * kMs),
+                                          chips.ops());
   }
 
-  void outputs(double a, double b, Quality q = Quality::kGood) {
-    const uint32_t k = image.begin_write(0);
-    image.put(0, k, 0, a, q, 1);
-    image.put(0, k, 1, b, q, 1);
-    image.end_write(0, k, 1, 0);
-  }
-  std::pair<double, Quality> entry(uint32_t idx) {
-    double v = 0;
-    Quality q = Quality::kGood;
-    EXPECT_TRUE(image.read_values(1, &idx, 1, &v, 8, nullptr, &q));
-    return {v, q};
-  }
+  void outputs(double a, double b, Quality q = Quality::kGood) { test::put_task_outputs(image, {a, b}, q); }
+  std::pair<double, Quality> entry(uint32_t idx) { return test::driver_entry(image, idx); }
   // Waits (by condition; the bound only keeps a broken build from hanging).
   static bool wait_for(const std::function<bool()>& done) {
     for (int i = 0; i < 20000 && !done(); ++i) std::this_thread::sleep_for(std::chrono::microseconds(500));
