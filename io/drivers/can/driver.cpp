@@ -12,6 +12,7 @@
 
 #include "io/drivers/can/cli.h"
 #include "io/drivers/planned_link.h"
+#include "io/drivers/lifecycle.h"
 #include "kernel_rt/clock.h"
 #include "kernel_rt/periodic.h"
 
@@ -502,14 +503,13 @@ void CanDriver::on_stop() noexcept {
   // The tasks have set their outputs to their safe values: send every frame
   // once more with them, and give the I/O thread a moment to put them out.
   for (TxTrack& t : tx_track_) t.force = true;
-  const int64_t give_up = kernel_rt::monotonic_now_ns() + 500 * kMs;
-  for (;;) {
-    cycle(kernel_rt::monotonic_now_ns());
-    bool pending = false;
-    for (const TxTrack& t : tx_track_) pending |= t.force || t.in_flight != 0;
-    if (!pending || kernel_rt::monotonic_now_ns() > give_up) break;
-    kernel_rt::sleep_until_ns(kernel_rt::monotonic_now_ns() + 2 * kMs);
-  }
+  io::cycle_until_sent(
+      500 * kMs, 2 * kMs, [this](int64_t now) { cycle(now); },
+      [this] {
+        bool pending = false;
+        for (const TxTrack& t : tx_track_) pending |= t.force || t.in_flight != 0;
+        return pending;
+      });
   publish_status();
 }
 

@@ -9,6 +9,7 @@
 
 #include "io/drivers/modbus/cli.h"
 #include "io/drivers/planned_link.h"
+#include "io/drivers/lifecycle.h"
 #include "kernel_rt/clock.h"
 
 namespace rtplc::modbus {
@@ -214,30 +215,19 @@ void ModbusDriver::publish_status() noexcept {
 void ModbusDriver::on_stop() noexcept {
   // The tasks have set their outputs to their safe values: queue those (the
   // lines send what is queued before they end), and give the slaves a moment.
-  const int64_t give_up = kernel_rt::monotonic_now_ns() + 1000000000;
-  for (;;) {
-    cycle(kernel_rt::monotonic_now_ns());
-    bool pending = false;
-    for (uint32_t j = 0; j < writes_.size(); ++j) {
-      pending |= writes_[j].in_flight != 0 && slave_up(writes_[j].slave);
-    }
-    if (!pending || kernel_rt::monotonic_now_ns() > give_up) break;
-    kernel_rt::sleep_until_ns(kernel_rt::monotonic_now_ns() + 5000000);
-  }
+  io::cycle_until_sent(
+      1000000000, 5000000, [this](int64_t now) { cycle(now); },
+      [this] {
+        bool pending = false;
+        for (uint32_t j = 0; j < writes_.size(); ++j) {
+          pending |= writes_[j].in_flight != 0 && slave_up(writes_[j].slave);
+        }
+        return pending;
+      });
   track_status();
   publish_status();
 }
 
-namespace {
-
-Result<std::unique_ptr<io::Driver>> create(const io::DriverSetup& setup) {
-  auto d = std::make_unique<ModbusDriver>(setup);
-  if (auto r = d->prepare(); !r) return make_error(r.error());
-  return std::unique_ptr<io::Driver>(std::move(d));
-}
-
-}  // namespace
-
-const io::DriverKind kDriverKind{&kConfigKind, &create, &add_commands};
+const io::DriverKind kDriverKind{&kConfigKind, &io::create_prepared<ModbusDriver>, &add_commands};
 
 }  // namespace rtplc::modbus

@@ -6,6 +6,7 @@
 #include <algorithm>
 
 #include "blocks/registry.h"
+#include "io/drivers/lifecycle.h"
 #include "kernel_rt/clock.h"
 
 namespace rtplc::modbus_server {
@@ -122,16 +123,6 @@ void ServerDriver::publish_counters() noexcept {
   ls.writes_failed.store(c.writes_refused.load(r), r);
 }
 
-namespace {
-
-Result<std::unique_ptr<io::Driver>> create(const io::DriverSetup& setup) {
-  auto d = std::make_unique<ServerDriver>(setup);
-  if (auto r = d->prepare(); !r) return make_error(r.error());
-  return std::unique_ptr<io::Driver>(std::move(d));
-}
-
-}  // namespace
-
-const io::DriverKind kDriverKind{&kConfigKind, &create, nullptr};
+const io::DriverKind kDriverKind{&kConfigKind, &io::create_prepared<ServerDriver>, nullptr};
 
 }  // namespace rtplc::modbus_server

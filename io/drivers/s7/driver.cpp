@@ -9,6 +9,7 @@
 #include "io/drivers/s7/address.h"
 #include "io/drivers/s7/cli.h"
 #include "io/drivers/s7/protocol.h"
+#include "io/drivers/lifecycle.h"
 #include "kernel_rt/clock.h"
 
 namespace rtplc::s7 {
@@ -320,28 +321,17 @@ void S7Driver::publish_status() noexcept {
 void S7Driver::on_stop() noexcept {
   // Stopping: the tasks have set their outputs to their safe values. Send those,
   // and give the PLCs a moment to acknowledge them, so shutdown loses no write.
-  const int64_t give_up = kernel_rt::monotonic_now_ns() + 1000000000;
-  for (;;) {
-    cycle(kernel_rt::monotonic_now_ns());
-    bool pending = false;
-    for (const Write& w : writes_) pending |= w.ticket.id != 0 || (w.resend && !w.out_of_range);
-    if (!pending || kernel_rt::monotonic_now_ns() > give_up) break;
-    kernel_rt::sleep_until_ns(kernel_rt::monotonic_now_ns() + 10000000);
-  }
+  io::cycle_until_sent(
+      1000000000, 10000000, [this](int64_t now) { cycle(now); },
+      [this] {
+        bool pending = false;
+        for (const Write& w : writes_) pending |= w.ticket.id != 0 || (w.resend && !w.out_of_range);
+        return pending;
+      });
   track_status(kernel_rt::monotonic_now_ns());
   publish_status();
 }
 
-namespace {
-
-Result<std::unique_ptr<io::Driver>> create(const io::DriverSetup& setup) {
-  auto d = std::make_unique<S7Driver>(setup);
-  if (auto r = d->prepare(); !r) return make_error(r.error());
-  return std::unique_ptr<io::Driver>(std::move(d));
-}
-
-}  // namespace
-
-const io::DriverKind kDriverKind{&kConfigKind, &create, &add_commands};
+const io::DriverKind kDriverKind{&kConfigKind, &io::create_prepared<S7Driver>, &add_commands};
 
 }  // namespace rtplc::s7
