@@ -4,6 +4,7 @@
 
 #include "io/drivers/modbus/client.h"
 #include "io/drivers/modbus/fake_slave.h"
+#include "io/drivers/modbus/tests/client_checks.h"
 
 namespace rtplc::modbus {
 namespace {
@@ -21,44 +22,24 @@ class ModbusClient : public ::testing::Test {
     client_.set_timeout_ns(150000000);
     ASSERT_TRUE(client_.connect().ok());
   }
-  Outcome read_hr(uint16_t start, uint16_t count) {
-    uint16_t w[125];
-    return client_.read(Table::kHoldingRegister, start, count, w);
-  }
+  Outcome read_hr(uint16_t start, uint16_t count) { return testing::read_hr(client_, start, count); }
   std::unique_ptr<FakeSlave> slave_;
   Client client_;
 };
 
 TEST_F(ModbusClient, reads_and_writes_every_table) {
-  slave_->put(*parse_address("hr:4:f32"), 21.5);
-  slave_->set(Table::kDiscreteInput, 3, 1);
+  ASSERT_NO_FATAL_FAILURE(testing::expect_values_both_ways(*slave_, client_));
   slave_->set(Table::kInputRegister, 7, 0xFFFF);
   uint16_t w[2] = {};
-  ASSERT_TRUE(client_.read(Table::kHoldingRegister, 4, 2, w).ok());
-  EXPECT_EQ(decode(*parse_address("hr:4:f32"), w), 21.5);
-  ASSERT_TRUE(client_.read(Table::kDiscreteInput, 3, 1, w).ok());
-  EXPECT_EQ(w[0], 1);
   ASSERT_TRUE(client_.read(Table::kInputRegister, 7, 1, w).ok());
   EXPECT_EQ(decode(*parse_address("ir:7:i16"), w), -1);
-  const Address pair = *parse_address("hr:22:f32:swapped");
-  encode(pair, -3.25, w);
-  ASSERT_TRUE(client_.write(pair, w).ok());
-  EXPECT_EQ(slave_->value(pair), -3.25);
-  w[0] = 1;
-  ASSERT_TRUE(client_.write(*parse_address("coil:21"), w).ok());
-  EXPECT_EQ(slave_->get(Table::kCoil, 21), 1);
   w[0] = 513;
   ASSERT_TRUE(client_.write(*parse_address("hr:20"), w).ok());
   EXPECT_EQ(slave_->get(Table::kHoldingRegister, 20), 513);
 }
 
 TEST_F(ModbusClient, magic_addresses_answer_with_each_exception_by_name) {
-  for (int code : {1, 2, 3, 4, 6, 11}) {
-    const Outcome o = read_hr(static_cast<uint16_t>(kMagicExceptionBase + code), 1);
-    EXPECT_EQ(o.kind, Outcome::Kind::kException) << code;
-    EXPECT_EQ(o.code, code);
-  }
-  EXPECT_EQ(outcome_text(read_hr(kMagicExceptionBase + 2, 1)), "illegal data address (exception 2)");
+  testing::expect_each_exception_by_name(client_);
   EXPECT_TRUE(read_hr(0, 10).ok());  // the connection survives exceptions
 }
 

@@ -13,6 +13,7 @@
 #include "io/drivers/modbus/client.h"
 #include "io/drivers/modbus/fake_slave.h"
 #include "io/drivers/modbus/pdu.h"
+#include "io/drivers/modbus/tests/client_checks.h"
 #include "io/drivers/modbus/tests/pty_pair.h"
 #include "tests/support/run_tool.h"
 
@@ -144,39 +145,16 @@ class ModbusRtuClient : public ::testing::Test {
     const Outcome o2 = client_.connect();
     ASSERT_TRUE(o2.ok()) << outcome_text(o2);
   }
-  Outcome read_hr(uint16_t start, uint16_t count) {
-    uint16_t w[125];
-    return client_.read(Table::kHoldingRegister, start, count, w);
-  }
+  Outcome read_hr(uint16_t start, uint16_t count) { return testing::read_hr(client_, start, count); }
   PtyPair pty_;
   std::unique_ptr<FakeSlave> slave_;
   Client client_;
 };
 
-TEST_F(ModbusRtuClient, reads_and_writes_over_a_pty) {
-  slave_->put(*parse_address("hr:4:f32"), 21.5);
-  slave_->set(Table::kDiscreteInput, 3, 1);
-  uint16_t w[2] = {};
-  ASSERT_TRUE(client_.read(Table::kHoldingRegister, 4, 2, w).ok());
-  EXPECT_EQ(decode(*parse_address("hr:4:f32"), w), 21.5);
-  ASSERT_TRUE(client_.read(Table::kDiscreteInput, 3, 1, w).ok());
-  EXPECT_EQ(w[0], 1);
-  const Address pair = *parse_address("hr:22:f32:swapped");
-  encode(pair, -3.25, w);
-  ASSERT_TRUE(client_.write(pair, w).ok());
-  EXPECT_EQ(slave_->value(pair), -3.25);
-  w[0] = 1;
-  ASSERT_TRUE(client_.write(*parse_address("coil:21"), w).ok());
-  EXPECT_EQ(slave_->get(Table::kCoil, 21), 1);
-}
+TEST_F(ModbusRtuClient, reads_and_writes_over_a_pty) { testing::expect_values_both_ways(*slave_, client_); }
 
 TEST_F(ModbusRtuClient, magic_addresses_answer_with_each_exception_by_name) {
-  for (int code : {1, 2, 3, 4, 6, 11}) {
-    const Outcome o = read_hr(static_cast<uint16_t>(kMagicExceptionBase + code), 1);
-    EXPECT_EQ(o.kind, Outcome::Kind::kException) << code;
-    EXPECT_EQ(o.code, code);
-  }
-  EXPECT_EQ(outcome_text(read_hr(kMagicExceptionBase + 2, 1)), "illegal data address (exception 2)");
+  testing::expect_each_exception_by_name(client_);
   EXPECT_EQ(outcome_text(read_hr(kMagicExceptionBase + 4, 1)), "slave device failure (exception 4)");
   EXPECT_TRUE(read_hr(0, 10).ok());
 }
