@@ -10,6 +10,7 @@
 #include "io/drivers/modbus/cli.h"
 #include "io/drivers/planned_link.h"
 #include "io/drivers/lifecycle.h"
+#include "io/drivers/link_row.h"
 #include "kernel_rt/clock.h"
 
 namespace rtplc::modbus {
@@ -189,24 +190,8 @@ void ModbusDriver::publish_status() noexcept {
     const SlaveTrack& t = track_[i];
     const UnitStatus& st = t.st;
     io::LinkStatus& ls = link_row(i);
-    const auto r = std::memory_order_relaxed;
-    ls.state.store(st.state, r);
-    ls.quality.store(static_cast<uint8_t>(slave_up(i) ? Quality::kGood : Quality::kBad), r);
-    ls.rtt_p50_us.store(st.rtt_p50_us, r);
-    ls.rtt_p99_us.store(st.rtt_p99_us, r);
-    ls.rtt_max_us.store(st.rtt_max_us, r);
-    ls.connects.store(st.connects, r);
-    ls.reconnects.store(st.reconnects, r);
-    ls.timeouts.store(st.timeouts, r);
-    ls.errors.store(st.errors, r);
-    ls.polls_completed.store(st.polls_completed, r);
-    ls.polls_missed.store(st.polls_missed, r);
-    ls.polls_offline.store(st.polls_offline, r);
-    ls.writes_acked.store(t.acked, r);
-    ls.writes_failed.store(t.failed, r);
-    ls.writes_pending.store(t.pending, r);
-    ls.writes_rejected.store(t.rejected, r);
-    for (size_t b = 0; b < io::kLinkLatencyBuckets; ++b) ls.latency[b].store(st.buckets.counts[b], r);
+    io::publish_link_row(ls, st.state, slave_up(i) ? Quality::kGood : Quality::kBad, st, st.buckets,
+                         {t.acked, t.failed, t.pending, t.rejected});
     fieldbus::LinkFigures fig;
     if (planned_row_[i] && exchange_.planned[i].try_load(fig)) io::publish_planned_link(ls, fig);
   }

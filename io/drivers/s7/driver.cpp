@@ -10,6 +10,7 @@
 #include "io/drivers/s7/cli.h"
 #include "io/drivers/s7/protocol.h"
 #include "io/drivers/lifecycle.h"
+#include "io/drivers/link_row.h"
 #include "kernel_rt/clock.h"
 
 namespace rtplc::s7 {
@@ -296,25 +297,9 @@ void S7Driver::publish_status() noexcept {
   for (size_t i = 0; i < plcs_.size(); ++i) {
     PlcStatus st;
     if (!engine_.try_status(plcs_[i], st)) continue;
-    io::LinkStatus& ls = link_row(static_cast<uint32_t>(i));
-    const auto r = std::memory_order_relaxed;
-    ls.state.store(static_cast<uint8_t>(link_state(st.state)), r);
-    ls.quality.store(static_cast<uint8_t>(st.state == PlcState::kReady ? Quality::kGood : Quality::kBad), r);
-    ls.rtt_p50_us.store(st.rtt_p50_us, r);
-    ls.rtt_p99_us.store(st.rtt_p99_us, r);
-    ls.rtt_max_us.store(st.rtt_max_us, r);
-    ls.connects.store(st.connects, r);
-    ls.reconnects.store(st.reconnects, r);
-    ls.timeouts.store(st.timeouts, r);
-    ls.errors.store(st.errors, r);
-    ls.polls_completed.store(st.polls_completed, r);
-    ls.polls_missed.store(st.polls_missed, r);
-    ls.polls_offline.store(st.polls_offline, r);
-    ls.writes_acked.store(acked_[i], r);
-    ls.writes_failed.store(failed_[i], r);
-    ls.writes_pending.store(pending_[i], r);
-    ls.writes_rejected.store(rejected_[i], r);
-    for (size_t b = 0; b < io::kLinkLatencyBuckets; ++b) ls.latency[b].store(st.rtt_buckets.counts[b], r);
+    io::publish_link_row(link_row(static_cast<uint32_t>(i)), static_cast<uint8_t>(link_state(st.state)),
+                         st.state == PlcState::kReady ? Quality::kGood : Quality::kBad, st, st.rtt_buckets,
+                         {acked_[i], failed_[i], pending_[i], rejected_[i]});
   }
 }
 
