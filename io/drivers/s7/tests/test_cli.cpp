@@ -11,6 +11,7 @@
 #include "common/exit_codes.h"
 #include "io/drivers/s7/cli.h"
 #include "io/drivers/s7/fake_plc.h"
+#include "tests/support/cli_app.h"
 
 namespace rtplc::s7 {
 namespace {
@@ -28,19 +29,9 @@ class S7Cli : public ::testing::Test {
 
   // Runs `rtplc s7 write 127.0.0.1 --port P ASSIGNMENTS...`; its exit code.
   int write(const std::vector<std::string>& assignments) {
-    CLI::App app("rtplc");
-    add_commands(app);
-    std::vector<std::string> args = {"rtplc",     "s7",     "write",
-                                     "127.0.0.1", "--port", std::to_string(fake_.port(0))};
+    std::vector<std::string> args = {"s7", "write", "127.0.0.1", "--port", std::to_string(fake_.port(0))};
     args.insert(args.end(), assignments.begin(), assignments.end());
-    std::vector<const char*> argv;
-    for (const std::string& a : args) argv.push_back(a.c_str());
-    try {
-      app.parse(static_cast<int>(argv.size()), argv.data());
-    } catch (const CLI::ParseError& e) {
-      return e.get_exit_code();
-    }
-    return 0;
+    return test::run_cli([](CLI::App& app) { add_commands(app); }, args);
   }
   Bytes memory() const { return fake_.read_memory(0, Area::kDB, 1, 4, 5); }
 
