@@ -164,8 +164,12 @@ TEST_F(S7Runtime, a_restarted_plc_gets_our_unchanged_outputs_again) {
 // driver's delivery: bad while its PLC is gone, though the task is fine.
 TEST_F(S7Runtime, an_output_reads_bad_while_its_plc_is_down_and_good_once_back) {
   start();
-  ASSERT_TRUE(eventually([&] { return channel("Out").quality == Quality::kGood; })) << int(channel("Out").quality);
-  EXPECT_EQ(channel("Out").value, 6.0);
+  // Out = 2 * Volt + 1 is delivered (good) from the first cycles on, as 1 until
+  // the first read of Volt (2.5) reaches the task: wait for the value too.
+  ASSERT_TRUE(eventually([&] {
+    const io::ChannelValue out = channel("Out");
+    return out.quality == Quality::kGood && out.value == 6.0;
+  })) << int(channel("Out").quality) << " " << channel("Out").value;
   plc_.kill(0);
   EXPECT_TRUE(eventually([&] { return channel("Out").quality == Quality::kBad; })) << int(channel("Out").quality);
   EXPECT_TRUE(eventually([&] { return channel("Bit").quality == Quality::kBad; }));
