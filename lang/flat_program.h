@@ -41,6 +41,9 @@ struct CheckedProgram {
   bool period_from_stime = false;
   SourcePos stime_pos;
   uint32_t macro_calls = 0;
+  // What a front end decided that the blocks alone do not show (a PLCopen
+  // feedback loop broken at a connection); `check --explain` lists them.
+  std::vector<std::string> notes;
 };
 
 inline constexpr double kDefaultPeriod = 0.1;

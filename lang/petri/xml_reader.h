@@ -30,6 +30,18 @@ struct XmlElement {
   std::vector<XmlElement> children;
   std::string text;  // the element's own character data, concatenated
   SourcePos pos;
+  // Where each run of `text` starts in the file (a run is CDATA, plain
+  // characters or one reference), so a language embedded in the text (PLCopen
+  // ST bodies) can report file positions.
+  struct TextAnchor {
+    size_t offset;
+    SourcePos pos;
+  };
+  std::vector<TextAnchor> text_anchors;
+
+  // The file position of text offset `offset` (the element's own position
+  // when it has no text).
+  SourcePos text_position(size_t offset) const;
 
   const XmlAttribute* attribute(std::string_view n) const;
   const XmlElement* child(std::string_view n) const;

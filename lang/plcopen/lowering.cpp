@@ -1,0 +1,781 @@
+// Scopes, variables, functions and function block instances (see lowering.h).
+#include "lang/plcopen/lowering.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+
+#include "blocks/registry.h"
+
+namespace rtplc::lang::plcopen {
+
+namespace {
+constexpr int kMaxNesting = 16;
+
+bool integer_type(BaseType b) {
+  return b != BaseType::kBool && b != BaseType::kReal && b != BaseType::kLreal &&
+         b != BaseType::kTime && b != BaseType::kDerived;
+}
+
+const char* const kStdFbs[] = {"R_TRIG", "F_TRIG", "SR", "RS", "TON", "TOF", "TP", "CTU", "CTD", "CTUD"};
+
+bool is_std_fb(const std::string& up) {
+  for (const char* n : kStdFbs) {
+    if (up == n) return true;
+  }
+  return false;
+}
+}  // namespace
+
+std::optional<Location> parse_location(const std::string& a, std::string* error) {
+  Location l;
+  auto bad = [&](const std::string& why) -> std::optional<Location> {
+    *error = "address '" + a + "' " + why;
+    return std::nullopt;
+  };
+  if (a.size() < 3 || a[0] != '%') return bad("is not a located address such as %IX0.0");
+  l.area = static_cast<char>(std::toupper(static_cast<unsigned char>(a[1])));
+  if (l.area != 'I' && l.area != 'Q' && l.area != 'M') return bad("has an area other than I, Q or M");
+  size_t i = 2;
+  l.size = 'X';
+  if (std::isalpha(static_cast<unsigned char>(a[i]))) {
+    l.size = static_cast<char>(std::toupper(static_cast<unsigned char>(a[i])));
+    ++i;
+  }
+  if (l.size != 'X' && l.size != 'W' && l.size != 'D' && l.size != 'L')
+    return bad("has size '" + std::string(1, l.size) + "' (rtplc maps X, W, D and L)");
+  std::vector<uint32_t> parts;
+  uint64_t v = 0;
+  bool any = false;
+  for (; i <= a.size(); ++i) {
+    if (i == a.size() || a[i] == '.') {
+      if (!any) return bad("is malformed");
+      parts.push_back(static_cast<uint32_t>(v));
+      v = 0;
+      any = false;
+      continue;
+    }
+    if (!std::isdigit(static_cast<unsigned char>(a[i]))) return bad("is malformed");
+    v = v * 10 + static_cast<uint64_t>(a[i] - '0');
+    if (v > 65535) return bad("has a number above 65535");
+    any = true;
+  }
+  if (l.size == 'X') {
+    if (parts.size() != 2) return bad("needs byte.bit, e.g. %IX0.3");
+    if (parts[0] > 255) return bad("has a byte above 255");
+    if (parts[1] > 7) return bad("has a bit above 7");
+    l.p = 1;
+    l.d = parts[0];
+    l.c = parts[1];
+    if (l.area == 'M') {  // set-points: d0, channel byte*8+bit
+      l.d = 0;
+      l.c = parts[0] * 8 + parts[1];
+    }
+  } else {
+    if (parts.size() != 1) return bad("needs one number, e.g. %IW2");
+    const uint32_t group = l.size == 'W' ? 0 : l.size == 'D' ? 2 : 3;
+    l.p = group;
+    l.d = 0;
+    l.c = parts[0];
+    if (l.area == 'M') {
+      l.d = l.size == 'W' ? 1 : l.size == 'D' ? 2 : 3;
+      l.c = parts[0];
+    }
+  }
+  return l;
+}
+
+Lowering::Lowering(const Project& p, CheckedProgram& out, DiagnosticList& d)
+    : proj_(p), em_(out, d), d_(d), out_(out) {
+  for (const Pou& pou : proj_.pous) collect_written(pou, written_);
+}
+
+void Lowering::emit_channel(Var& v) {
+  // Inputs and set-points are read at the start of the cycle: emitted when
+  // the scope is made, before any body reads them.
+  const Location& l = *v.loc;
+  const SourcePos pos = v.decl->pos;
+  const size_t i = v.role == Var::Role::kInput ? em_.emit(v.digital ? "ddi" : "dai", v.path, pos, {})
+                                               : em_.emit(v.digital ? "dsp" : "asp", v.path, pos, {});
+  FlatBlock& b = em_.block(i);
+  b.p = static_cast<uint16_t>(l.p);
+  b.d = static_cast<uint16_t>(l.d);
+  b.c = l.c;
+  b.label = v.decl->name;
+  if (v.role == Var::Role::kSetpoint && !v.decl->initial.empty()) {
+    if (auto k = parse_literal(v.decl->initial)) b.init = v.digital ? (*k != 0 ? 1.0 : 0.0) : *k;
+  }
+}
+
+std::unique_ptr<Var> Lowering::make_var(const Variable& decl, const std::string& path, int depth,
+                                        bool in_function) {
+  auto v = std::make_unique<Var>();
+  v->decl = &decl;
+  v->path = path;
+  v->digital = decl.type.is_bool();
+  v->integer = integer_type(decl.type.base);
+  if (decl.type.base == BaseType::kDerived) {
+    const std::string up = upper(decl.type.derived);
+    if (in_function) {
+      d_.error(decl.pos, "variable '" + decl.name + "': a function cannot hold a function block instance");
+    } else if (is_std_fb(up)) {
+      v->role = Var::Role::kStdFb;
+      v->std_fb.type = up;
+    } else if (const Pou* fb = proj_.pou(decl.type.derived); fb && fb->type == PouType::kFunctionBlock) {
+      if (depth >= kMaxNesting) {
+        d_.error(decl.pos, "function block instances nested deeper than " + std::to_string(kMaxNesting) +
+                               " (a block containing itself?)");
+      } else {
+        v->role = Var::Role::kUserFb;
+        v->fb = make_scope(*fb, path, depth + 1);
+      }
+    } else {
+      d_.error(decl.pos, "variable '" + decl.name + "' has type '" + decl.type.derived +
+                             "', which is neither an elementary type, a standard function block "
+                             "nor a function block of this project");
+    }
+    return v;
+  }
+  if (!decl.address.empty()) {
+    std::string err;
+    v->loc = parse_location(decl.address, &err);
+    if (!v->loc) {
+      d_.error(decl.pos, "variable '" + decl.name + "': " + err);
+    } else if (v->loc->area == 'I') {
+      v->role = Var::Role::kInput;
+    } else if (v->loc->area == 'M' &&
+               std::find(written_.begin(), written_.end(), upper(decl.name)) == written_.end()) {
+      v->role = Var::Role::kSetpoint;  // only read: the operator sets it
+    }
+    if (v->loc && (v->loc->size == 'X') != v->digital)
+      d_.error(decl.pos, "variable '" + decl.name + "' is " + type_name(decl.type) + " at " + decl.address +
+                             (v->digital ? ": a BOOL needs a bit address (%IX, %QX, %MX)"
+                                         : ": a bit address (X) needs a BOOL"));
+    else if (v->role == Var::Role::kInput || v->role == Var::Role::kSetpoint)
+      emit_channel(*v);
+  }
+  return v;
+}
+
+std::unique_ptr<Scope> Lowering::make_scope(const Pou& pou, const std::string& path, int depth) {
+  auto s = std::make_unique<Scope>();
+  s->path = path;
+  s->pou = &pou;
+  s->globals = globals_.get();
+  s->function = pou.type == PouType::kFunction;
+  for (const Variable& decl : pou.vars) {
+    if (decl.section == VarSection::kExternal) continue;  // resolved through globals
+    if (decl.section == VarSection::kInOut) {
+      d_.error(decl.pos, "variable '" + decl.name + "': VAR_IN_OUT is not supported yet");
+      continue;
+    }
+    if (decl.section == VarSection::kGlobal) {
+      d_.error(decl.pos, "variable '" + decl.name + "': globalVars inside a POU are not supported; declare it in the configuration or resource");
+      continue;
+    }
+    if (!decl.address.empty() && pou.type != PouType::kProgram)
+      d_.error(decl.pos, "variable '" + decl.name + "': only programs and the configuration may declare located variables");
+    auto v = make_var(decl, path + "." + decl.name, depth, s->function);
+    all_vars_.push_back(v.get());
+    s->vars.emplace(upper(decl.name), std::move(v));
+  }
+  for (const Variable& decl : pou.vars) {
+    if (decl.section != VarSection::kExternal) continue;
+    if (!globals_ || !globals_->vars.count(upper(decl.name)))
+      d_.error(decl.pos, "external variable '" + decl.name + "' names no global variable of the configuration");
+  }
+  if (s->function && pou.return_type) {
+    Variable* rv = nullptr;
+    (void)rv;
+  }
+  return s;
+}
+
+void Lowering::set_globals(const std::vector<const Variable*>& globals) {
+  globals_ = std::make_unique<Scope>();
+  for (const Variable* g : globals) {
+    if (globals_->vars.count(upper(g->name))) {
+      d_.error(g->pos, "global variable '" + g->name + "' is declared twice");
+      continue;
+    }
+    auto v = make_var(*g, g->name, 0, false);
+    all_vars_.push_back(v.get());
+    globals_->vars.emplace(upper(g->name), std::move(v));
+  }
+}
+
+Var* Lowering::lookup(Scope& s, const std::string& name, SourcePos pos, bool report) {
+  const std::string up = upper(name);
+  auto it = s.vars.find(up);
+  if (it != s.vars.end()) return it->second.get();
+  if (s.globals && s.pou) {
+    const Variable* decl = s.pou->var(name);
+    if (decl && decl->section == VarSection::kExternal) {
+      auto g = s.globals->vars.find(up);
+      if (g != s.globals->vars.end()) return g->second.get();
+    }
+    // Programs see the configuration's globals without declaring them
+    // (OpenPLC and Beremiz habit); FBs and functions must declare VAR_EXTERNAL.
+    if (s.pou->type == PouType::kProgram) {
+      auto g = s.globals->vars.find(up);
+      if (g != s.globals->vars.end()) return g->second.get();
+    }
+  }
+  if (report) d_.error(pos, "'" + name + "' is not a variable of " + (s.pou ? "POU '" + s.pou->name + "'" : "the project"));
+  return nullptr;
+}
+
+Var* Lowering::resolve_path(Scope& s, const std::string& path, SourcePos pos) {
+  const size_t dot = path.find('.');
+  if (dot == std::string::npos) return lookup(s, path, pos);
+  Var* base = lookup(s, path.substr(0, dot), pos);
+  if (!base) return nullptr;
+  if (base->role != Var::Role::kUserFb) {
+    d_.error(pos, "'" + path + "': '" + path.substr(0, dot) + "' is not a function block instance of this project");
+    return nullptr;
+  }
+  return resolve_path(*base->fb, path.substr(dot + 1), pos);
+}
+
+Value Lowering::start_value(Var& v, SourcePos pos) {
+  if (v.start) return *v.start;
+  Value init = constant(0, v.digital);
+  if (!v.decl->initial.empty()) {
+    bool b = false;
+    auto k = parse_literal(v.decl->initial, &b);
+    if (!k) {
+      d_.error(v.decl->pos, "variable '" + v.decl->name + "': initial value '" + v.decl->initial +
+                                "' is not a literal rtplc reads");
+    } else {
+      init = constant(*k, v.digital);
+    }
+  }
+  init.integer = v.integer;
+  if (v.role == Var::Role::kInput || v.role == Var::Role::kSetpoint) {
+    Value r;
+    r.ref = v.path;
+    r.digital = v.digital;
+    r.integer = v.integer;
+    v.start = r;
+    return r;
+  }
+  // In a function nothing is remembered: each call starts from the initial value.
+  const bool in_function = v.path.find("()") != std::string::npos;
+  if (in_function || (v.decl->constant)) {
+    v.start = init;
+    return init;
+  }
+  Value prev;
+  prev.ref = v.path;  // the end-of-cycle copy, which runs later: last cycle's value
+  prev.digital = v.digital;
+  prev.integer = v.integer;
+  if (init.k == 0) {
+    v.start = prev;
+  } else {
+    Value s = em_.select(em_.first_cycle(pos), init, prev, pos);
+    s.integer = v.integer;
+    v.start = s;
+  }
+  return *v.start;
+}
+
+Value Lowering::read(Var& v, SourcePos pos) {
+  if (v.role == Var::Role::kUserFb || v.role == Var::Role::kStdFb) {
+    d_.error(pos, "'" + v.decl->name + "' is a function block instance; read one of its outputs (" +
+                      v.decl->name + ".Q)");
+    return constant(0, false);
+  }
+  if (before_read) before_read(upper(v.decl->name));
+  if (v.cur) return *v.cur;
+  return start_value(v, pos);
+}
+
+void Lowering::assign(Var& v, Value value, SourcePos pos) {
+  if (v.role == Var::Role::kInput) {
+    d_.error(pos, "'" + v.decl->name + "' is an input (" + v.decl->address + "): the program cannot write it");
+    return;
+  }
+  if (v.role == Var::Role::kUserFb || v.role == Var::Role::kStdFb) {
+    d_.error(pos, "'" + v.decl->name + "' is a function block instance and cannot be assigned");
+    return;
+  }
+  if (v.decl->constant) {
+    d_.error(pos, "'" + v.decl->name + "' is CONSTANT");
+    return;
+  }
+  if (v.role == Var::Role::kSetpoint) {
+    d_.error(pos, "internal: set-point '" + v.decl->name + "' written");
+    return;
+  }
+  value = v.digital ? em_.to_digital(value, pos) : em_.to_analog(value, pos);
+  value.integer = v.integer;
+  v.cur = value;
+}
+
+Value Lowering::rising(const Value& v, const std::string& mem, SourcePos pos) {
+  edge_memories_.emplace_back(v, mem);
+  Value m;
+  m.ref = mem;
+  m.digital = true;
+  return em_.binary(BinOp::kAnd, v, em_.unary_not(m, pos), pos);
+}
+
+Value Lowering::falling(const Value& v, const std::string& mem, SourcePos pos) {
+  const Value n = em_.unary_not(v, pos);
+  return rising(n, mem, pos);
+}
+
+std::vector<std::optional<Value>> Lowering::save() const {
+  std::vector<std::optional<Value>> st;
+  st.reserve(all_vars_.size());
+  for (const Var* v : all_vars_) st.push_back(v->cur);
+  return st;
+}
+
+void Lowering::restore(const std::vector<std::optional<Value>>& st) {
+  for (size_t i = 0; i < all_vars_.size() && i < st.size(); ++i) all_vars_[i]->cur = st[i];
+  for (size_t i = st.size(); i < all_vars_.size(); ++i) all_vars_[i]->cur.reset();
+}
+
+// ---- functions ----
+
+bool Lowering::is_function(const std::string& up) const {
+  static const char* const kStd[] = {
+      "ADD", "SUB", "MUL", "DIV", "MOD", "EXPT", "AND", "OR", "XOR", "NOT", "GT", "GE", "EQ", "NE",
+      "LT", "LE", "MOVE", "ABS", "SQRT", "SIN", "COS", "TAN", "ASIN", "ACOS", "ATAN", "MAX", "MIN",
+      "LIMIT", "SEL", "MUX", "TRUNC", "LN", "LOG", "EXP"};
+  for (const char* n : kStd) {
+    if (up == n) return true;
+  }
+  if (up.find("_TO_") != std::string::npos) return true;
+  const Pou* p = proj_.pou(up);
+  return p && p->type == PouType::kFunction;
+}
+
+namespace {
+// Orders formal arguments the way the standard function takes them.
+int formal_rank(const std::string& f) {
+  if (f == "G" || f == "K" || f == "MN") return 0;
+  if (f == "IN" || f == "IN0" || f == "IN1") return f == "IN1" ? 2 : 1;
+  if (f == "MX") return 1000;
+  if (f.size() > 2 && f.compare(0, 2, "IN") == 0) {
+    int n = 0;
+    for (size_t i = 2; i < f.size() && std::isdigit(static_cast<unsigned char>(f[i])); ++i) n = n * 10 + (f[i] - '0');
+    return n + 1;
+  }
+  return 500;
+}
+}  // namespace
+
+std::optional<Value> Lowering::call_function(Scope& s, const std::string& name, std::vector<Value> args,
+                                             std::vector<std::string> formals, SourcePos pos) {
+  const std::string up = upper(name);
+  // Put formal arguments in the standard's order (IN1, IN2... / G, IN0, IN1 / MN, IN, MX).
+  bool all_formal = !formals.empty();
+  for (const std::string& f : formals) all_formal = all_formal && !f.empty();
+  const Pou* user = proj_.pou(up);
+  if (all_formal && !(user && user->type == PouType::kFunction)) {
+    std::vector<size_t> idx(args.size());
+    for (size_t i = 0; i < idx.size(); ++i) idx[i] = i;
+    std::stable_sort(idx.begin(), idx.end(),
+                     [&](size_t a, size_t b) { return formal_rank(formals[a]) < formal_rank(formals[b]); });
+    std::vector<Value> sorted;
+    for (size_t i : idx) sorted.push_back(args[i]);
+    args = std::move(sorted);
+  }
+  auto want = [&](size_t n) {
+    if (args.size() == n) return true;
+    d_.error(pos, name + " takes " + std::to_string(n) + " argument" + (n == 1 ? "" : "s") + ", found " +
+                      std::to_string(args.size()));
+    return false;
+  };
+  auto chain = [&](BinOp op) -> Value {
+    if (args.size() < 2) {
+      d_.error(pos, name + " takes at least 2 arguments");
+      return constant(0, false);
+    }
+    Value r = em_.binary(op, args[0], args[1], pos);
+    for (size_t i = 2; i < args.size(); ++i) r = em_.binary(op, r, args[i], pos);
+    return r;
+  };
+  if (user && user->type == PouType::kFunction) {
+    if (++call_depth_ > kMaxNesting) {
+      d_.error(pos, "function calls nested deeper than " + std::to_string(kMaxNesting) + " (recursion?)");
+      --call_depth_;
+      return constant(0, false);
+    }
+    auto sc = make_scope(*user, s.path + "." + user->name + "()" + em_.fresh(""), call_depth_);
+    // The result variable carries the function's name.
+    auto rv_decl = std::make_unique<Variable>();
+    rv_decl->name = user->name;
+    rv_decl->type = *user->return_type;
+    Variable* rdecl = rv_decl.get();
+    owned_decls_.push_back(std::move(rv_decl));
+    auto rv = make_var(*rdecl, sc->path + "." + user->name, call_depth_, true);
+    all_vars_.push_back(rv.get());
+    sc->vars.emplace(upper(user->name), std::move(rv));
+    std::vector<Var*> inputs;
+    for (const Variable& d : user->vars) {
+      if (d.section == VarSection::kInput) inputs.push_back(sc->vars[upper(d.name)].get());
+    }
+    for (size_t i = 0; i < args.size(); ++i) {
+      Var* target = nullptr;
+      if (i < formals.size() && !formals[i].empty()) {
+        auto it = sc->vars.find(upper(formals[i]));
+        if (it == sc->vars.end() || it->second->decl->section != VarSection::kInput) {
+          d_.error(pos, "function '" + user->name + "' has no input '" + formals[i] + "'");
+          continue;
+        }
+        target = it->second.get();
+      } else if (i < inputs.size()) {
+        target = inputs[i];
+      } else {
+        d_.error(pos, "function '" + user->name + "' takes " + std::to_string(inputs.size()) + " inputs");
+        break;
+      }
+      assign(*target, args[i], pos);
+    }
+    Scope& ref = *sc;
+    function_scopes_.push_back(std::move(sc));
+    lower_body(ref);
+    --call_depth_;
+    return read(*ref.vars[upper(user->name)], pos);
+  }
+  if (up == "ADD") return chain(BinOp::kAdd);
+  if (up == "MUL") return chain(BinOp::kMul);
+  if (up == "AND") return chain(BinOp::kAnd);
+  if (up == "OR") return chain(BinOp::kOr);
+  if (up == "XOR") return chain(BinOp::kXor);
+  if (up == "SUB") return want(2) ? em_.binary(BinOp::kSub, args[0], args[1], pos) : constant(0, false);
+  if (up == "DIV") return want(2) ? em_.binary(BinOp::kDiv, args[0], args[1], pos) : constant(0, false);
+  if (up == "MOD") return want(2) ? em_.binary(BinOp::kMod, args[0], args[1], pos) : constant(0, false);
+  if (up == "EXPT") return want(2) ? em_.binary(BinOp::kExpt, args[0], args[1], pos) : constant(0, false);
+  if (up == "NOT") return want(1) ? em_.unary_not(args[0], pos) : constant(0, true);
+  if (up == "MOVE") return want(1) ? args[0] : constant(0, false);
+  static const std::pair<const char*, BinOp> kCompare[] = {
+      {"GT", BinOp::kGt}, {"GE", BinOp::kGe}, {"EQ", BinOp::kEq},
+      {"NE", BinOp::kNe}, {"LT", BinOp::kLt}, {"LE", BinOp::kLe}};
+  for (const auto& [n, op] : kCompare) {
+    if (up != n) continue;
+    if (args.size() < 2 || (op == BinOp::kNe && args.size() != 2)) {
+      want(2);
+      return constant(0, true);
+    }
+    Value r = em_.binary(op, args[0], args[1], pos);  // GT(a, b, c) = a > b AND b > c
+    for (size_t i = 2; i < args.size(); ++i)
+      r = em_.binary(BinOp::kAnd, r, em_.binary(op, args[i - 1], args[i], pos), pos);
+    return r;
+  }
+  static const std::pair<const char*, const char*> kMath[] = {
+      {"ABS", "abs"}, {"SQRT", "sqrt"}, {"SIN", "sin"}, {"COS", "cos"}, {"TAN", "tan"},
+      {"ASIN", "asin"}, {"ACOS", "acos"}, {"ATAN", "atan"}, {"TRUNC", "trunc"},
+      {"LN", "ln"}, {"LOG", "log"}, {"EXP", "exp"}};
+  for (const auto& [n, blk] : kMath) {
+    if (up != n) continue;
+    if (!want(1)) return constant(0, false);
+    Value r = em_.call1(blk, args[0], pos);
+    r.integer = up == "ABS" ? args[0].integer : up == "TRUNC";
+    return r;
+  }
+  if (up == "MAX" || up == "MIN") {
+    if (args.size() < 2) {
+      want(2);
+      return constant(0, false);
+    }
+    const char* blk = up == "MAX" ? "max" : "min";
+    Value r = em_.call2(blk, args[0], args[1], pos);
+    for (size_t i = 2; i < args.size(); ++i) r = em_.call2(blk, r, args[i], pos);
+    return r;
+  }
+  if (up == "LIMIT") {
+    if (!want(3)) return constant(0, false);
+    return em_.call2("max", args[0], em_.call2("min", args[1], args[2], pos), pos);
+  }
+  if (up == "SEL") {
+    if (!want(3)) return constant(0, false);
+    return em_.select(args[0], args[2], args[1], pos);
+  }
+  if (up == "MUX") {
+    if (args.size() < 3) {
+      d_.error(pos, "MUX takes K and at least 2 inputs");
+      return constant(0, false);
+    }
+    Value r = args.back();  // K out of range: the last input (MatIEC keeps the last too)
+    for (size_t i = args.size() - 1; i-- > 1;) {
+      r = em_.select(em_.binary(BinOp::kEq, args[0], constant(static_cast<double>(i - 1), false), pos), args[i], r, pos);
+    }
+    return r;
+  }
+  const size_t to = up.find("_TO_");
+  if (to != std::string::npos) {
+    if (!want(1)) return constant(0, false);
+    const std::string from_t = up.substr(0, to), to_t = up.substr(to + 4);
+    const auto ft = elementary_type(from_t), tt = elementary_type(to_t);
+    if (!tt || !ft) {
+      d_.error(pos, "conversion " + name + " names a type rtplc does not have");
+      return constant(0, false);
+    }
+    if (*tt == BaseType::kBool) return em_.to_digital(args[0], pos);
+    Value r = em_.to_analog(args[0], pos);
+    const bool from_real = *ft == BaseType::kReal || *ft == BaseType::kLreal || *ft == BaseType::kTime;
+    if (integer_type(*tt) && from_real && !r.is_const) {
+      // IEC rounds REAL to an integer (to nearest); trunc(x + 0.5*sign(x)).
+      Value half = em_.select(em_.binary(BinOp::kGe, r, constant(0, false), pos), constant(0.5, false),
+                              constant(-0.5, false), pos);
+      r = em_.call1("trunc", em_.binary(BinOp::kAdd, r, half, pos), pos);
+    } else if (integer_type(*tt) && from_real && r.is_const) {
+      r = constant(std::round(r.k), false);
+    }
+    r.integer = integer_type(*tt);
+    return r;
+  }
+  return std::nullopt;
+}
+
+// ---- function block instances ----
+
+bool Lowering::fb_output_digital(const Var& v, const std::string& name) const {
+  const std::string up = upper(name);
+  if (v.role == Var::Role::kUserFb) {
+    auto it = v.fb->vars.find(up);
+    return it != v.fb->vars.end() && it->second->digital;
+  }
+  return up == "Q" || up == "Q1" || up == "QU" || up == "QD";
+}
+
+Value Lowering::fb_output(Var& v, const std::string& name, SourcePos pos) {
+  const std::string up = upper(name);
+  if (v.role == Var::Role::kUserFb) {
+    auto it = v.fb->vars.find(up);
+    if (it == v.fb->vars.end()) {
+      d_.error(pos, "function block '" + v.fb->pou->name + "' has no variable '" + name + "'");
+      return constant(0, false);
+    }
+    return read(*it->second, pos);
+  }
+  static const std::pair<const char*, const char*> kOutputs[] = {
+      {"R_TRIG", "Q"}, {"F_TRIG", "Q"}, {"SR", "Q1"}, {"RS", "Q1"}, {"TON", "Q ET"}, {"TOF", "Q ET"},
+      {"TP", "Q ET"},  {"CTU", "Q CV"}, {"CTD", "Q CV"}, {"CTUD", "QU QD CV"}};
+  bool known = false;
+  for (const auto& [t, outs] : kOutputs) {
+    if (v.std_fb.type != t) continue;
+    std::string list = std::string(" ") + outs + " ";
+    known = list.find(" " + up + " ") != std::string::npos;
+    if (!known) {
+      d_.error(pos, v.std_fb.type + " has no output '" + name + "' (it has " + outs + ")");
+      return constant(0, false);
+    }
+  }
+  Value r;
+  r.ref = v.path + "." + up;  // made by the call; read before it: last cycle's
+  r.digital = fb_output_digital(v, up);
+  r.integer = up == "CV";
+  if (!v.std_fb.called) pending_outputs_.emplace_back(&v, up, pos);
+  return r;
+}
+
+void Lowering::call_fb(Var& v, const std::vector<std::pair<std::string, Value>>& inputs, SourcePos pos) {
+  if (conditional_depth > 0) {
+    d_.error(pos, "a function block call inside IF or CASE is not supported yet (call '" + v.decl->name +
+                      "' unconditionally and use its inputs)");
+    return;
+  }
+  if (v.role == Var::Role::kUserFb) {
+    Scope& fb = *v.fb;
+    if (fb.called) {
+      d_.error(pos, "'" + v.decl->name + "' is called twice in one cycle; rtplc gives each call its own state, so call an instance once");
+      return;
+    }
+    fb.called = true;
+    std::vector<Var*> in_order;
+    for (const Variable& d : fb.pou->vars) {
+      if (d.section == VarSection::kInput) in_order.push_back(fb.vars[upper(d.name)].get());
+    }
+    size_t positional = 0;
+    for (const auto& [formal, value] : inputs) {
+      Var* target = nullptr;
+      if (!formal.empty()) {
+        auto it = fb.vars.find(upper(formal));
+        if (it == fb.vars.end() || it->second->decl->section != VarSection::kInput) {
+          d_.error(pos, "function block '" + fb.pou->name + "' has no input '" + formal + "'");
+          continue;
+        }
+        target = it->second.get();
+      } else if (positional < in_order.size()) {
+        target = in_order[positional++];
+      } else {
+        d_.error(pos, "too many inputs for function block '" + fb.pou->name + "'");
+        break;
+      }
+      assign(*target, value, pos);
+    }
+    auto saved = before_read;
+    before_read = nullptr;
+    lower_body(fb);
+    before_read = saved;
+    return;
+  }
+  StdFb& f = v.std_fb;
+  if (f.called) {
+    d_.error(pos, "'" + v.decl->name + "' is called twice in one cycle; call an instance once");
+    return;
+  }
+  f.called = true;
+  std::map<std::string, Value> in;
+  size_t positional = 0;
+  static const std::pair<const char*, const char*> kInputs[] = {
+      {"R_TRIG", "CLK"}, {"F_TRIG", "CLK"}, {"SR", "S1 R"}, {"RS", "S R1"}, {"TON", "IN PT"},
+      {"TOF", "IN PT"}, {"TP", "IN PT"}, {"CTU", "CU R PV"}, {"CTD", "CD LD PV"},
+      {"CTUD", "CU CD R LD PV"}};
+  std::vector<std::string> names;
+  for (const auto& [t, list] : kInputs) {
+    if (f.type != t) continue;
+    std::string l = list, w;
+    for (char c : l + " ") {
+      if (c == ' ') {
+        names.push_back(w);
+        w.clear();
+      } else {
+        w += c;
+      }
+    }
+  }
+  for (const auto& [formal, value] : inputs) {
+    std::string n = upper(formal);
+    if (n.empty()) n = positional < names.size() ? names[positional++] : "";
+    if (std::find(names.begin(), names.end(), n) == names.end()) {
+      d_.error(pos, f.type + " has no input '" + formal + "'");
+      continue;
+    }
+    in[n] = value;
+  }
+  const std::string& p = v.path;
+  auto input = [&](const char* n, bool digital) {
+    auto it = in.find(n);
+    if (it == in.end()) return constant(0, digital);
+    return digital ? em_.to_digital(it->second, pos) : em_.to_analog(it->second, pos);
+  };
+  auto out = [&](const char* n, const Value& val) {
+    em_.copy_as(val, p + "." + n, pos);
+    produced_.push_back(p + "." + n);
+  };
+  auto literal = [&](const char* n) -> std::optional<double> {
+    Value x = input(n, false);
+    if (x.is_const) return x.k;
+    return std::nullopt;
+  };
+  if (f.type == "R_TRIG") {
+    out("Q", rising(input("CLK", true), p + ".M", pos));
+  } else if (f.type == "F_TRIG") {
+    out("Q", falling(input("CLK", true), p + ".M", pos));
+  } else if (f.type == "SR" || f.type == "RS") {
+    Value q;
+    q.ref = p + ".Q1";
+    q.digital = true;
+    const bool sr = f.type == "SR";
+    const Value s = input(sr ? "S1" : "S", true), r = input(sr ? "R" : "R1", true);
+    Value hold = em_.binary(BinOp::kAnd, q, em_.unary_not(r, pos), pos);
+    Value res = sr ? em_.binary(BinOp::kOr, s, hold, pos)
+                   : em_.binary(BinOp::kAnd, em_.binary(BinOp::kOr, s, q, pos), em_.unary_not(r, pos), pos);
+    out("Q1", res);
+  } else if (f.type == "TON" && literal("PT") && !em_.has_block("ton")) {
+    const Value x = input("IN", true);
+    em_.emit("time", p, pos, {em_.ref(x, pos)}, {std::max(0.0, *literal("PT"))});
+    Value q;
+    q.ref = p;
+    q.digital = true;
+    out("Q", q);
+  } else if (f.type == "CTU" && literal("PV") && !em_.has_block("ctu")) {
+    const Value cu = input("CU", true), r = input("R", true);
+    em_.emit("cnt", p, pos, {em_.ref(cu, pos), em_.ref(r, pos)}, {std::max(0.0, std::round(*literal("PV")))});
+    Value q;
+    q.ref = p;
+    q.digital = true;
+    out("Q", q);
+  } else {
+    std_fb_iec(v, in, pos);
+  }
+}
+
+void Lowering::std_fb_iec(Var& v, const std::map<std::string, Value>& in, SourcePos pos) {
+  (void)in;
+  std::string blk = v.std_fb.type;
+  for (char& c : blk) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  em_.missing_block(blk.c_str(), v.std_fb.type + " '" + v.decl->name + "'", pos);
+}
+
+bool Lowering::finish() {
+  if (globals_) finalize(*globals_);
+  for (const auto& [v, mem] : edge_memories_) em_.copy_as(v, mem, SourcePos{});
+  for (const PendingOutput& po : pending_outputs_) {
+    const std::string n = po.fb->path + "." + po.name;
+    if (std::find(produced_.begin(), produced_.end(), n) != produced_.end()) continue;
+    if (!po.fb->std_fb.called)
+      d_.error(po.pos, "'" + po.fb->decl->name + "." + po.name + "' is read but '" + po.fb->decl->name +
+                           "' is never called");
+    else
+      em_.missing_block(po.fb->std_fb.type == "TON" ? "ton" : "ctu",
+                        po.fb->std_fb.type + " output " + po.name, po.pos);
+  }
+  if (d_.has_errors()) return false;
+  return em_.finish();
+}
+
+// ---- bodies ----
+
+void Lowering::lower_body(Scope& s) {
+  const Body& b = s.pou->body;
+  switch (b.language) {
+    case BodyLanguage::kFbd:
+      lower_graph(s, *b.graph, false);
+      break;
+    case BodyLanguage::kLd:
+      lower_graph(s, *b.graph, true);
+      break;
+    case BodyLanguage::kSt: {
+      Block blk = parse_st(b.source, *b.text, d_);
+      if (!d_.has_errors()) lower_st(s, blk);
+      break;
+    }
+    case BodyLanguage::kIl:
+      d_.error(b.pos, "POU '" + s.pou->name + "': IL bodies are not supported yet");
+      break;
+    case BodyLanguage::kSfc:
+      d_.error(b.pos, "POU '" + s.pou->name + "': SFC bodies in PLCopen XML are not supported yet (write the chart in rtplc's SFC language, docs/sfc.md)");
+      break;
+    case BodyLanguage::kNone:
+      break;
+  }
+}
+
+void Lowering::finalize(Scope& s) {
+  for (auto& [name, vp] : s.vars) {
+    Var& v = *vp;
+    if (v.role == Var::Role::kUserFb) {
+      finalize(*v.fb);
+      continue;
+    }
+    if (v.role == Var::Role::kStdFb) continue;
+    const SourcePos pos = v.decl->pos;
+    if (v.role == Var::Role::kInput || v.role == Var::Role::kSetpoint) continue;
+    em_.copy_as(read(v, pos), v.path, pos);
+    if (v.loc && v.loc->area == 'Q') {
+      const size_t i = em_.emit(v.digital ? "ddo" : "dao", "", pos, {v.path});
+      FlatBlock& b = em_.block(i);
+      b.p = static_cast<uint16_t>(v.loc->p);
+      b.d = static_cast<uint16_t>(v.loc->d);
+      b.c = v.loc->c;
+      b.label = v.decl->name;
+    }
+  }
+}
+
+void Lowering::program_instance(const Pou& pou, const std::string& path) {
+  programs_.push_back(make_scope(pou, path, 0));
+  Scope& s = *programs_.back();
+  s.called = true;
+  lower_body(s);
+  finalize(s);
+}
+
+}  // namespace rtplc::lang::plcopen
