@@ -78,7 +78,7 @@ std::string blocks_markdown() {
       "Blocks with state start from zero; a reference to a block that runs later (or to\n"
       "itself) reads its value from the previous cycle.\n";
   const BlockGroup groups[] = {BlockGroup::kInput, BlockGroup::kOutput, BlockGroup::kArithmetic,
-                               BlockGroup::kLogic, BlockGroup::kControl};
+                               BlockGroup::kLogic, BlockGroup::kControl, BlockGroup::kIec};
   size_t total = 0;
   for (BlockGroup g : groups) {
     size_t n = 0;
@@ -101,7 +101,8 @@ std::string blocks_markdown() {
              b.summary + ": " + b.contract + " | " + (b.errors[0] ? b.errors : "-") + " |\n";
     }
   }
-  out += "\n" + std::to_string(total) + " primitive blocks: the 58 of the seed's language and `good`.\n";
+  out += "\n" + std::to_string(total) + " primitive blocks: the 58 of the seed's language, `good`, and the IEC 61131-3 set\n"
+         "(docs/language.md, \"IEC 61131-3 types and standard blocks\").\n";
   return out;
 }
 

@@ -19,8 +19,13 @@ uint32_t op_param_count(Op op) {
     case Op::Add: case Op::Sub: case Op::Mult: case Op::Div:
     case Op::Dzon: case Op::Dely: case Op::Time: case Op::Cnt:
     case Op::Intg: case Op::Derv: case Op::Filt: case Op::Ramp:
+    case Op::ConstA: case Op::ConstD:
+    case Op::Ton: case Op::TonEt: case Op::Tof: case Op::TofEt: case Op::Tp: case Op::TpEt:
+    case Op::Ctu: case Op::Ctd:
       return 1;
-    case Op::Scale: case Op::Lim: case Op::Pi: case Op::Epi:
+    case Op::Scale: case Op::Lim: case Op::Pi: case Op::Epi: case Op::Wrap:
+    case Op::Band: case Op::Bor: case Op::Bxor: case Op::Bnot:
+    case Op::Shl: case Op::Shr: case Op::Rol: case Op::Ror: case Op::Ctud:
       return 2;
     case Op::Ldlg: case Op::Pid: case Op::Epid:
       return 3;
@@ -32,10 +37,12 @@ uint32_t op_param_count(Op op) {
 uint32_t op_state_size(Op op, const double* prepared) {
   switch (op) {
     case Op::Time: case Op::Ldlg: case Op::Pi: case Op::Epi:
+    case Op::Rtrig: case Op::Ftrig: case Op::Ton: case Op::TonEt: case Op::Ctud:
       return 1;
-    case Op::Cnt: case Op::Derv:
+    case Op::Cnt: case Op::Derv: case Op::Tof: case Op::TofEt:
+    case Op::Ctu: case Op::Ctd: case Op::Updn:
       return 2;
-    case Op::Pid: case Op::Epid:
+    case Op::Pid: case Op::Epid: case Op::Tp: case Op::TpEt:
       return 3;
     case Op::Dely:
       // [0] = next ring index, [1..n] = ring. n was range-checked before prepare.
@@ -47,13 +54,18 @@ uint32_t op_state_size(Op op, const double* prepared) {
 
 uint32_t op_input_count(Op op) {
   switch (op) {
-    case Op::LoadA: case Op::LoadD:
+    case Op::LoadA: case Op::LoadD: case Op::ConstA: case Op::ConstD:
       return 0;
     case Op::Add: case Op::Sub: case Op::Mult: case Op::Div:
     case Op::Max: case Op::Min: case Op::And2: case Op::Or2: case Op::Exor:
     case Op::Pi: case Op::Pid: case Op::Cnt:
+    case Op::Gt: case Op::Ge: case Op::Lt: case Op::Le: case Op::Eq: case Op::Ne:
+    case Op::Mod: case Op::Expt: case Op::Band: case Op::Bor: case Op::Bxor:
+    case Op::Shl: case Op::Shr: case Op::Rol: case Op::Ror: case Op::Sr: case Op::Rs:
+    case Op::Ton: case Op::TonEt: case Op::Tof: case Op::TofEt: case Op::Tp: case Op::TpEt:
+    case Op::Ctu: case Op::Updn:
       return 2;
-    case Op::And3: case Op::Or3: case Op::Amux:
+    case Op::And3: case Op::Or3: case Op::Amux: case Op::Ctd: case Op::Ctud:
       return 3;
     default:
       return 1;
@@ -69,6 +81,9 @@ bool op_output_digital(Op op) {
     case Op::LoadD: case Op::StoreD:
     case Op::And2: case Op::And3: case Op::Or2: case Op::Or3:
     case Op::Not: case Op::Exor: case Op::Time: case Op::Cnt:
+    case Op::Gt: case Op::Ge: case Op::Lt: case Op::Le: case Op::Eq: case Op::Ne:
+    case Op::ConstD: case Op::A2d: case Op::Rtrig: case Op::Ftrig: case Op::Sr: case Op::Rs:
+    case Op::Ton: case Op::Tof: case Op::Tp:
       return true;
     default:
       return false;

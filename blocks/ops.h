@@ -31,6 +31,22 @@
 //  Pid Epid  Kp*(e + I + Td*(e-e')/dt)                                             Kp dt/Ti Td/dt      I e' primed
 //  Ramp      y moves to target by <= rate*dt                                       rate*dt             (y = own output)
 //  Amux      sel ? b : a                                                           -                   -
+// IEC 61131-3 set (docs/language.md, "IEC 61131-3 types and standard blocks"):
+//  Gt Ge Lt Le Eq Ne   a OP b -> 0/1                                               -                   -
+//  ConstA ConstD       y = v (no inputs)                                           v                   -
+//  D2a A2d   kind change: y = (a != 0)                                             -                   -
+//  Mod       a - b*trunc(a/b) (fmod), b == 0 -> 0                                  -                   -
+//  Trunc Round Neg     toward zero / nearest, ties away from zero / -a             -                   -
+//  Expt Ln Log Exp     a^b, ln a, log10 a, e^a    domain error -> err              -                   -
+//  Wrap      trunc(a) wrapped into the integer type's range                        2^bits half         -
+//  Band Bor Bxor Bnot  bitwise on trunc(a) mod 2^bits                              2^bits bits         -
+//  Shl Shr Rol Ror     shift/rotate a by n bits within `bits`                      2^bits bits         -
+//  Rtrig Ftrig         edge of in (IEC R_TRIG / F_TRIG)                            -                   M
+//  Sr Rs     bistables, set / reset dominant                                       -                   (y = own output)
+//  Ton Tof Tp          IEC timers' Q; *Et the same machine's ET (s)                dt                  n [armed] [prev]
+//  Ctu Ctd   counter value CV (IEC CTU / CTD)                                      pvmax | pvmin       cv edge
+//  Updn      +1 on a rising cu, -1 on a rising cd, 0 otherwise or both             -                   edges
+//  Ctud      CV of IEC CTUD from updn's step, load, pv                             pvmin pvmax         cv
 #pragma once
 
 #include <cstdint>
@@ -43,7 +59,12 @@ namespace rtplc {
   X(Max) X(Min) X(Inv) X(Scale)                                                            \
   X(And2) X(And3) X(Or2) X(Or3) X(Not) X(Exor) X(Time) X(Cnt)                              \
   X(Lim) X(Dzon) X(Dely) X(Intg) X(Derv) X(Filt) X(Ldlg) X(Pi) X(Epi) X(Pid) X(Epid)       \
-  X(Ramp) X(Amux)
+  X(Ramp) X(Amux)                                                                          \
+  X(Gt) X(Ge) X(Lt) X(Le) X(Eq) X(Ne) X(ConstA) X(ConstD) X(D2a) X(A2d)                     \
+  X(Mod) X(Trunc) X(Round) X(Neg) X(Expt) X(Ln) X(Log) X(Exp) X(Wrap)                       \
+  X(Band) X(Bor) X(Bxor) X(Bnot) X(Shl) X(Shr) X(Rol) X(Ror)                                \
+  X(Rtrig) X(Ftrig) X(Sr) X(Rs) X(Ton) X(TonEt) X(Tof) X(TofEt) X(Tp) X(TpEt)               \
+  X(Ctu) X(Ctd) X(Updn) X(Ctud)
 
 enum class Op : uint8_t {
 #define RTPLC_OP_ENUM(name) name,

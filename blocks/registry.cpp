@@ -1,6 +1,6 @@
-// The 58 primitive blocks of the spec (fbd-language.md), and `good`, which the
-// seed lacks: a program's view of its inputs' quality. Every contract written here is
-// what the executor implements (blocks/executor.cpp) and what docs/blocks.md says.
+// The 58 primitive blocks of the spec (fbd-language.md); `good`, which the seed
+// lacks: a program's view of its inputs' quality; and the IEC 61131-3 set
+// (add_iec_blocks). Every contract written here is what the executor implements (blocks/executor.cpp) and what docs/blocks.md says.
 #include "blocks/registry.h"
 
 #include <algorithm>
@@ -104,6 +104,162 @@ BlockSpec compute(const char* name, BlockGroup g, Kind out, std::initializer_lis
 }
 
 constexpr const char* kHold = "a non-finite result: y holds its previous value, error counted";
+
+// The IEC 61131-3 set the PLCopen importer lowers standard functions and blocks
+// to (lang/iec/), callable from FBD text as well. Values are doubles: an integer
+// type is a double holding an integer, kept in range by `wrap` (docs/language.md,
+// "IEC 61131-3 types and standard blocks", says where this differs from a PLC).
+ParamSpec bits_param() {
+  return ParamSpec{"bits", "width in bits (8, 16, 32, 64 for the IEC types)", 16, true, 1, 64, false,
+                   true};
+}
+
+void add_iec_blocks(std::vector<BlockSpec>& r) {
+  using G = BlockGroup;
+  struct Cmp {
+    const char* name;
+    const char* summary;
+    const char* contract;
+  };
+  for (Cmp c : {Cmp{"gt", "greater than (IEC GT)", "y = 1 if a > b, else 0"},
+                Cmp{"ge", "greater or equal (IEC GE)", "y = 1 if a >= b, else 0"},
+                Cmp{"lt", "less than (IEC LT)", "y = 1 if a < b, else 0"},
+                Cmp{"le", "less or equal (IEC LE)", "y = 1 if a <= b, else 0"},
+                Cmp{"eq", "equal (IEC EQ)", "y = 1 if a == b (exact, as doubles), else 0"},
+                Cmp{"ne", "not equal (IEC NE)", "y = 1 if a != b (exact, as doubles), else 0"}}) {
+    r.push_back(compute(c.name, G::kIec, D, {{"a", A}, {"b", A}}, {}, "", c.summary, c.contract));
+  }
+  r.push_back(compute("const", G::kIec, A, {}, {param("v", "the value")}, "", "analog constant",
+                      "y = v every cycle (FBD has no literal inputs; a constant an operator may "
+                      "change is an `asp`)"));
+  r.push_back(compute("dconst", G::kIec, D, {}, {param("v", "the value, 0 or 1", 0, 1, false, true)},
+                      "", "digital constant", "y = v every cycle"));
+  r.push_back(compute("d2a", G::kIec, A, {{"a", D}}, {}, "", "digital to analog (BOOL_TO_*)",
+                      "y = 1 if a is true, else 0"));
+  r.push_back(compute("a2d", G::kIec, D, {{"a", A}}, {}, "", "analog to digital (*_TO_BOOL)",
+                      "y = 1 if a != 0, else 0"));
+  r.push_back(compute("mod", G::kIec, A, {{"a", A}, {"b", A}}, {}, "", "remainder (IEC MOD)",
+                      "y = a - b*trunc(a/b): the sign of the dividend a (-7 mod 2 = -1); b = 0 gives "
+                      "0, as the standard's definition of MOD says (not an error)"));
+  r.push_back(compute("trunc", G::kIec, A, {{"a", A}}, {}, "", "truncation (IEC TRUNC)",
+                      "y = a rounded toward zero"));
+  r.push_back(compute("round", G::kIec, A, {{"a", A}}, {}, "", "rounding (REAL_TO_INT and kin)",
+                      "y = a rounded to the nearest integer, halves away from zero (2.5 -> 3, "
+                      "-2.5 -> -3)"));
+  r.push_back(compute("neg", G::kIec, A, {{"a", A}}, {}, "", "negation (IEC NEG)", "y = -a"));
+  r.push_back(compute("expt", G::kIec, A, {{"a", A}, {"b", A}}, {}, "", "power (IEC EXPT)",
+                      "y = a^b",
+                      "a < 0 with a non-integer b, 0 to a negative power, or overflow: y holds, "
+                      "error counted"));
+  r.push_back(compute("ln", G::kIec, A, {{"a", A}}, {}, "", "natural logarithm (IEC LN)",
+                      "y = ln(a)", "a <= 0: y holds, error counted"));
+  r.push_back(compute("log", G::kIec, A, {{"a", A}}, {}, "", "decimal logarithm (IEC LOG)",
+                      "y = log10(a)", "a <= 0: y holds, error counted"));
+  r.push_back(compute("exp", G::kIec, A, {{"a", A}}, {}, "", "exponential (IEC EXP)", "y = e^a",
+                      kHold));
+  r.push_back(compute(
+      "wrap", G::kIec, A, {{"a", A}},
+      {bits_param(), ParamSpec{"signed", "1 for SINT..LINT, 0 for USINT..ULINT", 1, true, 0, 1, false, true}},
+      "", "integer overflow (the IEC integer types)",
+      "y = trunc(a) reduced modulo 2^bits into the type's range: [-2^(bits-1), 2^(bits-1)) when "
+      "signed, [0, 2^bits) when not (wrap(32768, 16) = -32768); exact while |a| < 2^53, beyond that "
+      "a double cannot hold every LINT/ULINT value"));
+  const char* bit_note =
+      "; operands are trunc(x) mod 2^bits, read as unsigned bit strings (BYTE 8, WORD 16, DWORD "
+      "32, LWORD 64; above 2^53 doubles lose low bits)";
+  static const std::string band_c = std::string("y = a AND b bit by bit") + bit_note;
+  static const std::string bor_c = std::string("y = a OR b bit by bit") + bit_note;
+  static const std::string bxor_c = std::string("y = a XOR b bit by bit") + bit_note;
+  static const std::string bnot_c = std::string("y = the bits of a inverted") + bit_note;
+  r.push_back(compute("band", G::kIec, A, {{"a", A}, {"b", A}}, {bits_param()}, "",
+                      "bitwise AND (IEC AND on bit strings)", band_c.c_str()));
+  r.push_back(compute("bor", G::kIec, A, {{"a", A}, {"b", A}}, {bits_param()}, "",
+                      "bitwise OR (IEC OR on bit strings)", bor_c.c_str()));
+  r.push_back(compute("bxor", G::kIec, A, {{"a", A}, {"b", A}}, {bits_param()}, "",
+                      "bitwise XOR (IEC XOR on bit strings)", bxor_c.c_str()));
+  r.push_back(compute("bnot", G::kIec, A, {{"a", A}}, {bits_param()}, "",
+                      "bitwise NOT (IEC NOT on bit strings)", bnot_c.c_str()));
+  const char* n_note = "; n = trunc(n), a negative n shifts by 0";
+  static const std::string shl_c = std::string("y = a shifted left by n within `bits` bits, zeros in; n >= bits gives 0") + n_note;
+  static const std::string shr_c = std::string("y = a shifted right by n, zeros in (logical); n >= bits gives 0") + n_note;
+  static const std::string rol_c = std::string("y = a rotated left by n mod bits within `bits` bits") + n_note;
+  static const std::string ror_c = std::string("y = a rotated right by n mod bits within `bits` bits") + n_note;
+  r.push_back(compute("shl", G::kIec, A, {{"a", A}, {"n", A}}, {bits_param()}, "",
+                      "shift left (IEC SHL)", shl_c.c_str()));
+  r.push_back(compute("shr", G::kIec, A, {{"a", A}, {"n", A}}, {bits_param()}, "",
+                      "shift right (IEC SHR)", shr_c.c_str()));
+  r.push_back(compute("rol", G::kIec, A, {{"a", A}, {"n", A}}, {bits_param()}, "",
+                      "rotate left (IEC ROL)", rol_c.c_str()));
+  r.push_back(compute("ror", G::kIec, A, {{"a", A}, {"n", A}}, {bits_param()}, "",
+                      "rotate right (IEC ROR)", ror_c.c_str()));
+  r.push_back(compute("rtrig", G::kIec, D, {{"clk", D}}, {}, "M = clk last cycle",
+                      "rising edge (IEC R_TRIG)",
+                      "y = clk AND NOT M; M := clk. M starts false, so clk true in the first cycle "
+                      "gives a pulse (as the standard's body and MatIEC)"));
+  r.push_back(compute("ftrig", G::kIec, D, {{"clk", D}}, {}, "M = NOT clk last cycle",
+                      "falling edge (IEC F_TRIG)",
+                      "y = NOT clk AND NOT M; M := NOT clk. M starts false, so clk false in the "
+                      "first cycle gives a pulse (the standard's body, literally)"));
+  r.push_back(compute("sr", G::kIec, D, {{"s1", D}, {"r", D}}, {}, "its output",
+                      "set-dominant bistable (IEC SR)", "y = s1 OR (NOT r AND y_prev), starts 0"));
+  r.push_back(compute("rs", G::kIec, D, {{"s", D}, {"r1", D}}, {}, "its output",
+                      "reset-dominant bistable (IEC RS)", "y = NOT r1 AND (s OR y_prev), starts 0"));
+  const char* timing =
+      " Time is n*dt, n the cycles since the starting edge (0 in that cycle); PT is reached when "
+      "n*dt >= PT within 1e-9*dt; PT < 0 acts as 0; PT is read every cycle";
+  static const std::string ton_c =
+      std::string("on-delay, IEC TON's Q: y = in AND ET >= PT; ET counts while in is true, from 0 "
+                  "in the cycle it rose, up to PT; in false resets it.") + timing;
+  static const std::string tof_c =
+      std::string("off-delay, IEC TOF's Q: y = 1 while in is true; after in falls ET counts from 0 "
+                  "and y stays 1 until ET >= PT; starts 0 (in never true).") + timing;
+  static const std::string tp_c =
+      std::string("pulse, IEC TP's Q: a rising in (while no pulse runs) gives y = 1 for PT; not "
+                  "retriggerable; in may fall during the pulse. Edge memory starts false.") + timing;
+  static const std::string et_c =
+      "the same state machine as the block without `_et` on the same inputs, giving ET in seconds: "
+      "TON: 0 while in is false, min(elapsed, PT) while true; TOF: 0 while in is true, min(elapsed, "
+      "PT) after it fell (0 before in was ever true); TP: elapsed during the pulse, PT after it "
+      "while in stays true, else 0";
+  r.push_back(compute("ton", G::kIec, D, {{"in", D}, {"pt", A}}, {}, "cycles in has been true",
+                      "on-delay timer Q (IEC TON)", ton_c.c_str()));
+  r.push_back(compute("ton_et", G::kIec, A, {{"in", D}, {"pt", A}}, {}, "cycles in has been true",
+                      "on-delay timer ET (IEC TON)", et_c.c_str()));
+  r.push_back(compute("tof", G::kIec, D, {{"in", D}, {"pt", A}}, {},
+                      "cycles since in fell, armed", "off-delay timer Q (IEC TOF)", tof_c.c_str()));
+  r.push_back(compute("tof_et", G::kIec, A, {{"in", D}, {"pt", A}}, {},
+                      "cycles since in fell, armed", "off-delay timer ET (IEC TOF)", et_c.c_str()));
+  r.push_back(compute("tp", G::kIec, D, {{"in", D}, {"pt", A}}, {},
+                      "cycles since the pulse started, running, in last cycle",
+                      "pulse timer Q (IEC TP)", tp_c.c_str()));
+  r.push_back(compute("tp_et", G::kIec, A, {{"in", D}, {"pt", A}}, {},
+                      "cycles since the pulse started, running, in last cycle",
+                      "pulse timer ET (IEC TP)", et_c.c_str()));
+  r.push_back(compute(
+      "ctu", G::kIec, A, {{"cu", D}, {"r", D}},
+      {ParamSpec{"pvmax", "highest count (INT: 32767)", 32767, true, -kBig, kBig, false, false}},
+      "CV, cu last cycle", "up-counter CV (IEC CTU)",
+      "IF r THEN CV := 0 ELSIF cu rose AND CV < pvmax THEN CV := CV + 1; y = CV. IEC's Q is "
+      "ge(CV, PV). Edge memory starts false and follows cu every cycle, also while r is true"));
+  r.push_back(compute(
+      "ctd", G::kIec, A, {{"cd", D}, {"ld", D}, {"pv", A}},
+      {ParamSpec{"pvmin", "lowest count (INT: -32768)", -32768, true, -kBig, kBig, false, false}},
+      "CV, cd last cycle", "down-counter CV (IEC CTD)",
+      "IF ld THEN CV := pv ELSIF cd rose AND CV > pvmin THEN CV := CV - 1; y = CV. IEC's Q is "
+      "le(CV, 0)"));
+  r.push_back(compute("updn", G::kIec, A, {{"cu", D}, {"cd", D}}, {}, "cu and cd last cycle",
+                      "up/down edge step (for ctud)",
+                      "y = +1 when cu rose and cd did not, -1 when cd rose and cu did not, else 0 "
+                      "(IEC CTUD counts nothing when both rise)"));
+  r.push_back(compute(
+      "ctud", G::kIec, A, {{"step", A}, {"ld", D}, {"pv", A}},
+      {ParamSpec{"pvmin", "lowest count (INT: -32768)", -32768, true, -kBig, kBig, false, false},
+       ParamSpec{"pvmax", "highest count (INT: 32767)", 32767, true, -kBig, kBig, false, false}},
+      "CV", "up/down counter CV (IEC CTUD, 5 inputs split over 3)",
+      "IF ld THEN CV := pv ELSIF step > 0 AND CV < pvmax THEN CV := CV + 1 ELSIF step < 0 AND "
+      "CV > pvmin THEN CV := CV - 1; y = CV. IEC CTUD(CU, CD, R, LD, PV) is step = updn(CU, CD), "
+      "ld = R OR LD, pv = R ? 0 : PV; QU = ge(CV, PV), QD = le(CV, 0)"));
+}
 
 std::vector<BlockSpec> build_registry() {
   using G = BlockGroup;
@@ -264,6 +420,7 @@ std::vector<BlockSpec> build_registry() {
                       "y moves toward target by at most rate*dt per cycle, starts at 0"));
   r.push_back(compute("amux", G::kControl, A, {{"a", A}, {"b", A}, {"sel", D}}, {}, "",
                       "analog multiplexer", "y = sel ? b : a"));
+  add_iec_blocks(r);
   return r;
 }
 
@@ -324,6 +481,17 @@ Op block_op(const BlockSpec& b, uint32_t n_inputs) {
       {"derv", Op::Derv}, {"filt", Op::Filt}, {"ldlg", Op::Ldlg}, {"pi", Op::Pi},
       {"epi", Op::Epi},   {"pid", Op::Pid},   {"epid", Op::Epid}, {"ramp", Op::Ramp},
       {"amux", Op::Amux}, {"good", Op::LoadD},
+      {"gt", Op::Gt},     {"ge", Op::Ge},     {"lt", Op::Lt},     {"le", Op::Le},
+      {"eq", Op::Eq},     {"ne", Op::Ne},     {"const", Op::ConstA}, {"dconst", Op::ConstD},
+      {"d2a", Op::D2a},   {"a2d", Op::A2d},   {"mod", Op::Mod},   {"trunc", Op::Trunc},
+      {"round", Op::Round}, {"neg", Op::Neg}, {"expt", Op::Expt}, {"ln", Op::Ln},
+      {"log", Op::Log},   {"exp", Op::Exp},   {"wrap", Op::Wrap}, {"band", Op::Band},
+      {"bor", Op::Bor},   {"bxor", Op::Bxor}, {"bnot", Op::Bnot}, {"shl", Op::Shl},
+      {"shr", Op::Shr},   {"rol", Op::Rol},   {"ror", Op::Ror},   {"rtrig", Op::Rtrig},
+      {"ftrig", Op::Ftrig}, {"sr", Op::Sr},   {"rs", Op::Rs},     {"ton", Op::Ton},
+      {"ton_et", Op::TonEt}, {"tof", Op::Tof}, {"tof_et", Op::TofEt}, {"tp", Op::Tp},
+      {"tp_et", Op::TpEt}, {"ctu", Op::Ctu},  {"ctd", Op::Ctd},   {"updn", Op::Updn},
+      {"ctud", Op::Ctud},
   };
   if (n == "and") return n_inputs == 3 ? Op::And3 : Op::And2;
   if (n == "or") return n_inputs == 3 ? Op::Or3 : Op::Or2;
@@ -340,6 +508,7 @@ const char* group_name(BlockGroup g) {
     case BlockGroup::kArithmetic: return "Arithmetic";
     case BlockGroup::kLogic: return "Logic";
     case BlockGroup::kControl: return "Control";
+    case BlockGroup::kIec: return "IEC 61131-3";
   }
   return "?";
 }
@@ -404,6 +573,27 @@ void prepare_params(Op op, std::span<const double> p, double dt, double* out) {
       break;
     case Op::Ramp:
       out[0] = at(0) * dt;
+      break;
+    case Op::ConstA: case Op::ConstD: case Op::Ctu: case Op::Ctd:
+      out[0] = at(0);
+      break;
+    case Op::Ctud:
+      out[0] = at(0);
+      out[1] = at(1);
+      break;
+    case Op::Ton: case Op::TonEt: case Op::Tof: case Op::TofEt: case Op::Tp: case Op::TpEt:
+      out[0] = dt;
+      break;
+    case Op::Wrap: {
+      const double m = std::ldexp(1.0, static_cast<int>(at(0)));
+      out[0] = m;
+      out[1] = at(1) != 0.0 ? m / 2 : m;  // where a value starts to read as negative
+      break;
+    }
+    case Op::Band: case Op::Bor: case Op::Bxor: case Op::Bnot:
+    case Op::Shl: case Op::Shr: case Op::Rol: case Op::Ror:
+      out[0] = std::ldexp(1.0, static_cast<int>(at(0)));
+      out[1] = at(0);
       break;
     default:
       break;

@@ -16,7 +16,7 @@ namespace rtplc {
 
 enum class Kind : uint8_t { kAnalog, kDigital };
 
-enum class BlockGroup : uint8_t { kInput, kOutput, kArithmetic, kLogic, kControl };
+enum class BlockGroup : uint8_t { kInput, kOutput, kArithmetic, kLogic, kControl, kIec };
 
 // Where an I/O block's data comes from (the seed's five data kinds).
 enum class IoGroup : uint8_t { kNone, kDio, kEpc, kPlc, kEth, kSetp };
@@ -57,7 +57,7 @@ struct BlockSpec {
   Kind input_kind[3];
   const char* input_names[3];
   uint8_t param_count;
-  ParamSpec params[3];
+  ParamSpec params[8];
   const char* state;    // what it remembers between cycles, "" if nothing
   const char* summary;  // one line
   const char* contract; // formula and edge behaviour

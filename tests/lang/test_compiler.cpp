@@ -63,10 +63,12 @@ Generated random_program(std::mt19937& rng, int n) {
       params.push_back(v);
     }
     if (std::string_view(b.name) == "lim" && params[0] > params[1]) std::swap(params[0], params[1]);
+    bool first = n_in == 0;  // `const` and `dconst` have parameters only
     for (double v : params) {
       char buf[32];
       std::snprintf(buf, sizeof buf, "%.17g", v);
-      s += std::string(", ") + buf;
+      s += std::string(first ? "" : ", ") + buf;
+      first = false;
     }
     s += ")\n";
   }
