@@ -53,24 +53,13 @@ void Emitter::missing_block(const char* block, const std::string& what, SourcePo
 
 std::string Emitter::ref(const Value& v, SourcePos pos) {
   if (!v.is_const) return v.ref;
-  if (v.digital) {
-    if (!consts_.count(kFalse)) {
-      consts_[kFalse] = kFalse;
-      emit("and", kFalse, pos, {kFalse, kFalse});  // reads itself: 0 forever
-    }
-    if (v.k == 0) return kFalse;
-    if (!consts_.count(kTrue)) {
-      consts_[kTrue] = kTrue;
-      emit("not", kTrue, pos, {kFalse});
-    }
-    return kTrue;
-  }
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "k:%.17g", v.k);
+  char buf[48];
+  if (v.digital) std::snprintf(buf, sizeof buf, "%s", v.k != 0 ? kTrue : kFalse);
+  else std::snprintf(buf, sizeof buf, "k:%.17g", v.k);
   auto it = consts_.find(buf);
   if (it != consts_.end()) return it->second;
   consts_[buf] = buf;
-  emit("scale", buf, pos, {buf}, {0.0, v.k});  // 0*self + k
+  emit(v.digital ? "dconst" : "const", buf, pos, {}, {v.digital ? (v.k != 0 ? 1.0 : 0.0) : v.k});
   return buf;
 }
 
@@ -79,28 +68,27 @@ Value Emitter::to_analog(const Value& v, SourcePos pos) {
   if (v.is_const) return constant(v.k, false);
   Value r;
   r.ref = fresh("b2a");
-  emit("amux", r.ref, pos, {ref(constant(0, false), pos), ref(constant(1, false), pos), v.ref});
+  emit("d2a", r.ref, pos, {v.ref});
   return r;
 }
 
 Value Emitter::to_digital(const Value& v, SourcePos pos) {
   if (v.digital) return v;
   if (v.is_const) return constant(v.k != 0 ? 1 : 0, true);
-  if (!has_block("ne")) {
-    missing_block("ne", "an analog value used as BOOL", pos);
-    return constant(0, true);
-  }
   Value r;
   r.digital = true;
   r.ref = fresh("a2b");
-  emit("ne", r.ref, pos, {v.ref, ref(constant(0, false), pos)});
+  emit("a2d", r.ref, pos, {v.ref});
   return r;
 }
 
 Value Emitter::unary_not(const Value& v, SourcePos pos) {
   if (!v.digital) {
-    missing_block("bnot", "NOT on an integer or bit string", pos);
-    return constant(0, false);
+    Value r;
+    r.integer = true;
+    r.ref = fresh("bnot");
+    emit("bnot", r.ref, pos, {ref(v, pos)});
+    return r;
   }
   if (v.is_const) return constant(v.k != 0 ? 0 : 1, true);
   Value r;
@@ -283,7 +271,7 @@ void Emitter::copy_as(const Value& v, const std::string& name, SourcePos pos) {
 Value Emitter::first_cycle(SourcePos pos) {
   if (!first_made_) {
     first_made_ = true;
-    ref(constant(0, true), pos);
+    ref(constant(0, true), pos);  // plcopen.false, which plcopen.one reads
     emit("not", kFirst, pos, {kOne});  // `one` runs last: 0 only before the first cycle ends
   }
   Value r;

@@ -87,9 +87,16 @@ class Graph {
     }
     auto saved = L_.before_read;
     L_.before_read = [this](const std::string& name) { lower_writers(name); };
-    for (const std::string& id : order_) {
-      if (d_.has_errors()) break;
-      lower(id);
+    // Sinks first (assignments, coils, rails), then blocks (FB calls whose
+    // outputs nobody reads), then the rest: a loop through a variable is then
+    // broken at the variable's read, the reference the author drew last.
+    for (int pass = 0; pass < 3; ++pass) {
+      for (const std::string& id : order_) {
+        if (d_.has_errors()) break;
+        const std::string& n = elems_[id]->name;
+        const bool sink = n == "outVariable" || n == "inOutVariable" || n == "coil" || n == "rightPowerRail";
+        if ((pass == 0 && sink) || (pass == 1 && n == "block") || pass == 2) lower(id);
+      }
     }
     L_.before_read = saved;
   }

@@ -308,6 +308,20 @@ void Lowering::assign(Var& v, Value value, SourcePos pos) {
     return;
   }
   value = v.digital ? em_.to_digital(value, pos) : em_.to_analog(value, pos);
+  if (v.integer && !value.is_const) {
+    // IEC integers wrap (an INT counter goes 32767 -> -32768): the value is
+    // truncated and wrapped into the variable's range.
+    const BaseType b = v.decl->type.base;
+    const bool is_signed = b == BaseType::kSint || b == BaseType::kInt || b == BaseType::kDint || b == BaseType::kLint;
+    const double bits = (b == BaseType::kSint || b == BaseType::kUsint || b == BaseType::kByte)   ? 8
+                        : (b == BaseType::kInt || b == BaseType::kUint || b == BaseType::kWord)   ? 16
+                        : (b == BaseType::kDint || b == BaseType::kUdint || b == BaseType::kDword) ? 32
+                                                                                                  : 64;
+    Value w;
+    w.ref = em_.fresh("wrap");
+    em_.emit("wrap", w.ref, pos, {value.ref}, {bits, is_signed ? 1.0 : 0.0});
+    value = w;
+  }
   value.integer = v.integer;
   v.cur = value;
 }
@@ -519,10 +533,7 @@ std::optional<Value> Lowering::call_function(Scope& s, const std::string& name, 
     Value r = em_.to_analog(args[0], pos);
     const bool from_real = *ft == BaseType::kReal || *ft == BaseType::kLreal || *ft == BaseType::kTime;
     if (integer_type(*tt) && from_real && !r.is_const) {
-      // IEC rounds REAL to an integer (to nearest); trunc(x + 0.5*sign(x)).
-      Value half = em_.select(em_.binary(BinOp::kGe, r, constant(0, false), pos), constant(0.5, false),
-                              constant(-0.5, false), pos);
-      r = em_.call1("trunc", em_.binary(BinOp::kAdd, r, half, pos), pos);
+      r = em_.call1("round", r, pos);  // IEC rounds REAL to an integer (halves away from 0)
     } else if (integer_type(*tt) && from_real && r.is_const) {
       r = constant(std::round(r.k), false);
     }
@@ -655,53 +666,42 @@ void Lowering::call_fb(Var& v, const std::vector<std::pair<std::string, Value>>&
     if (it == in.end()) return constant(0, digital);
     return digital ? em_.to_digital(it->second, pos) : em_.to_analog(it->second, pos);
   };
-  auto out = [&](const char* n, const Value& val) {
-    em_.copy_as(val, p + "." + n, pos);
+  auto ref = [&](const char* n, bool digital) { return em_.ref(input(n, digital), pos); };
+  // Each output is a block named `instance.OUTPUT`: reads before the call find
+  // it later in the cycle (last cycle's value), and hot swap keeps its state.
+  auto out = [&](const char* n, const char* blk, std::vector<std::string> ins, std::vector<double> prm = {}) {
+    em_.emit(blk, p + "." + n, pos, std::move(ins), std::move(prm));
     produced_.push_back(p + "." + n);
   };
-  auto literal = [&](const char* n) -> std::optional<double> {
-    Value x = input(n, false);
-    if (x.is_const) return x.k;
-    return std::nullopt;
-  };
-  if (f.type == "R_TRIG") {
-    out("Q", rising(input("CLK", true), p + ".M", pos));
-  } else if (f.type == "F_TRIG") {
-    out("Q", falling(input("CLK", true), p + ".M", pos));
-  } else if (f.type == "SR" || f.type == "RS") {
-    Value q;
-    q.ref = p + ".Q1";
-    q.digital = true;
-    const bool sr = f.type == "SR";
-    const Value s = input(sr ? "S1" : "S", true), r = input(sr ? "R" : "R1", true);
-    Value hold = em_.binary(BinOp::kAnd, q, em_.unary_not(r, pos), pos);
-    Value res = sr ? em_.binary(BinOp::kOr, s, hold, pos)
-                   : em_.binary(BinOp::kAnd, em_.binary(BinOp::kOr, s, q, pos), em_.unary_not(r, pos), pos);
-    out("Q1", res);
-  } else if (f.type == "TON" && literal("PT") && !em_.has_block("ton")) {
-    const Value x = input("IN", true);
-    em_.emit("time", p, pos, {em_.ref(x, pos)}, {std::max(0.0, *literal("PT"))});
-    Value q;
-    q.ref = p;
-    q.digital = true;
-    out("Q", q);
-  } else if (f.type == "CTU" && literal("PV") && !em_.has_block("ctu")) {
-    const Value cu = input("CU", true), r = input("R", true);
-    em_.emit("cnt", p, pos, {em_.ref(cu, pos), em_.ref(r, pos)}, {std::max(0.0, std::round(*literal("PV")))});
-    Value q;
-    q.ref = p;
-    q.digital = true;
-    out("Q", q);
-  } else {
-    std_fb_iec(v, in, pos);
+  const std::string& t = f.type;
+  if (t == "R_TRIG" || t == "F_TRIG") {
+    out("Q", t == "R_TRIG" ? "rtrig" : "ftrig", {ref("CLK", true)});
+  } else if (t == "SR") {
+    out("Q1", "sr", {ref("S1", true), ref("R", true)});
+  } else if (t == "RS") {
+    out("Q1", "rs", {ref("S", true), ref("R1", true)});
+  } else if (t == "TON" || t == "TOF" || t == "TP") {
+    std::string blk = t == "TON" ? "ton" : t == "TOF" ? "tof" : "tp";
+    const std::string x = ref("IN", true), pt = ref("PT", false);
+    out("Q", blk.c_str(), {x, pt});
+    out("ET", (blk + "_et").c_str(), {x, pt});
+  } else if (t == "CTU") {
+    const std::string pv = ref("PV", false);
+    out("CV", "ctu", {ref("CU", true), ref("R", true)});
+    out("Q", "ge", {p + ".CV", pv});
+  } else if (t == "CTD") {
+    out("CV", "ctd", {ref("CD", true), ref("LD", true), ref("PV", false)});
+    out("Q", "le", {p + ".CV", em_.ref(constant(0, false), pos)});
+  } else if (t == "CTUD") {
+    const Value r = input("R", true);
+    const std::string pv = ref("PV", false);
+    em_.emit("updn", p + ".step", pos, {ref("CU", true), ref("CD", true)});
+    const Value load = em_.binary(BinOp::kOr, r, input("LD", true), pos);
+    const Value pv_or_0 = em_.select(r, constant(0, false), input("PV", false), pos);
+    out("CV", "ctud", {p + ".step", em_.ref(load, pos), em_.ref(pv_or_0, pos)});
+    out("QU", "ge", {p + ".CV", pv});
+    out("QD", "le", {p + ".CV", em_.ref(constant(0, false), pos)});
   }
-}
-
-void Lowering::std_fb_iec(Var& v, const std::map<std::string, Value>& in, SourcePos pos) {
-  (void)in;
-  std::string blk = v.std_fb.type;
-  for (char& c : blk) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  em_.missing_block(blk.c_str(), v.std_fb.type + " '" + v.decl->name + "'", pos);
 }
 
 bool Lowering::finish() {
@@ -713,9 +713,6 @@ bool Lowering::finish() {
     if (!po.fb->std_fb.called)
       d_.error(po.pos, "'" + po.fb->decl->name + "." + po.name + "' is read but '" + po.fb->decl->name +
                            "' is never called");
-    else
-      em_.missing_block(po.fb->std_fb.type == "TON" ? "ton" : "ctu",
-                        po.fb->std_fb.type + " output " + po.name, po.pos);
   }
   if (d_.has_errors()) return false;
   return em_.finish();
@@ -755,8 +752,14 @@ void Lowering::finalize(Scope& s) {
       finalize(*v.fb);
       continue;
     }
-    if (v.role == Var::Role::kStdFb) continue;
+    if (v.role == Var::Role::kStdFb) {
+      for (const std::string& n : produced_) {
+        if (n.compare(0, v.path.size() + 1, v.path + ".") == 0) out_.variables.push_back(n);
+      }
+      continue;
+    }
     const SourcePos pos = v.decl->pos;
+    out_.variables.push_back(v.path);
     if (v.role == Var::Role::kInput || v.role == Var::Role::kSetpoint) continue;
     em_.copy_as(read(v, pos), v.path, pos);
     if (v.loc && v.loc->area == 'Q') {

@@ -115,7 +115,6 @@ class Lowering {
   std::unique_ptr<Var> make_var(const Variable& decl, const std::string& path, int depth, bool in_function);
   void finalize(Scope& s);
   Value start_value(Var& v, SourcePos pos);
-  void std_fb_iec(Var& v, const std::map<std::string, Value>& in, SourcePos pos);
   void emit_channel(Var& v);
 
   const Project& proj_;
