@@ -1,0 +1,312 @@
+// The PLCopen XML importer (docs/plcopen.md): projects written for these tests
+// in the habits of OpenPLC Editor / Beremiz (tc6_0201, xhtml:p CDATA) and
+// CODESYS (tc6_0200, xhtml element, positions 0,0), run cycle by cycle.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <string>
+
+#include "blocks/executor.h"
+#include "lang/compiler.h"
+
+namespace rtplc::lang {
+namespace {
+
+std::string data(const char* f) { return std::string(RTPLC_PLCOPEN_DATA) + "/" + f; }
+
+// A running image with access to its channels by label and blocks by name.
+struct Machine {
+  TaskImage img;
+  TaskArena arena;
+  explicit Machine(TaskImage i) : img(std::move(i)), arena(img) {}
+  void set(const std::string& label, double v) {
+    for (const Binding& b : img.bindings()) {
+      if (b.dir != BindingDir::kOutput && img.str(b.label) == label) {
+        arena.io_in[b.io_index] = v;
+        return;
+      }
+    }
+    ADD_FAILURE() << "no input " << label;
+  }
+  double out(const std::string& label) const {
+    for (const Binding& b : img.bindings()) {
+      if (b.dir == BindingDir::kOutput && img.str(b.label) == label) return arena.io_out[b.io_index];
+    }
+    ADD_FAILURE() << "no output " << label;
+    return -1;
+  }
+  double value(const std::string& block) const {
+    for (size_t s = 0; s < img.blocks().size(); ++s) {
+      if (img.str(img.blocks()[s].name) == block) return arena.values[img.code()[s].out];
+    }
+    ADD_FAILURE() << "no block " << block;
+    return -1;
+  }
+  void cycles(int n) {
+    for (int i = 0; i < n; ++i) execute_cycle(img, arena);
+  }
+};
+
+std::string project(const std::string& ns, const std::string& pous, const std::string& instances = "") {
+  return "<?xml version=\"1.0\"?>\n<project xmlns=\"" + ns +
+         "\" xmlns:xhtml=\"http://www.w3.org/1999/xhtml\">\n<fileHeader companyName=\"t\"/>\n"
+         "<types><dataTypes/><pous>\n" + pous + "</pous></types>\n" + instances + "</project>\n";
+}
+
+std::string st_program(const std::string& vars, const std::string& body) {
+  return "<pou name=\"main\" pouType=\"program\"><interface>" + vars +
+         "</interface><body><ST><xhtml:p><![CDATA[" + body + "]]></xhtml:p></ST></body></pou>\n";
+}
+
+std::string var(const std::string& name, const std::string& type, const std::string& addr = "",
+                const std::string& init = "") {
+  return "<variable name=\"" + name + "\"" + (addr.empty() ? "" : " address=\"" + addr + "\"") + "><type><" +
+         type + "/></type>" + (init.empty() ? "" : "<initialValue><simpleValue value=\"" + init + "\"/></initialValue>") +
+         "</variable>";
+}
+
+const char* kNs201 = "http://www.plcopen.org/xml/tc6_0201";
+
+TEST(Plcopen, runs_the_openplc_style_fbd_project) {
+  CompileResult r = compile_file(data("openplc_mixed.xml"));
+  ASSERT_TRUE(r.ok()) << r.diags.render("openplc_mixed.xml", "");
+  EXPECT_DOUBLE_EQ(r.image->period_s(), 0.02);  // the task's interval
+  Machine run(std::move(*r.image));
+  run.cycles(5);
+  EXPECT_EQ(run.value("instance0.cycles"), 5);  // cycles := cycles + 1 through a feedback loop
+  EXPECT_EQ(run.out("pump"), 0);
+  run.set("level", 90);  // above the hysteresis FB's HI (its initial value 80)
+  run.cycles(1);
+  EXPECT_EQ(run.value("instance0.hys.Q"), 1);
+  EXPECT_EQ(run.out("pump"), 0);  // TON 500 ms not elapsed
+  run.cycles(30);                 // 0.6 s at 20 ms
+  EXPECT_EQ(run.value("instance0.t1.Q"), 1);
+  EXPECT_EQ(run.out("pump"), 1);
+  EXPECT_DOUBLE_EQ(run.out("valve"), 75.5);
+  run.set("start", 1);  // negated input of the AND
+  run.cycles(1);
+  EXPECT_EQ(run.out("pump"), 0);
+  run.set("level", 50);  // between LO and HI: the FB keeps Q
+  run.cycles(1);
+  EXPECT_EQ(run.value("instance0.hys.Q"), 1);
+  run.set("level", 10);
+  run.cycles(1);
+  EXPECT_EQ(run.value("instance0.hys.Q"), 0);
+}
+
+TEST(Plcopen, explains_the_feedback_loop) {
+  CompileResult r = compile_file(data("openplc_mixed.xml"));
+  ASSERT_TRUE(r.ok());
+  const std::string e = explain(r);
+  EXPECT_NE(e.find("feedback loop"), std::string::npos) << e;
+  EXPECT_NE(e.find("CYCLES"), std::string::npos) << e;
+}
+
+TEST(Plcopen, runs_a_codesys_ladder_latch) {
+  CompileOptions o;
+  o.entry = "Fast";
+  CompileResult r = compile_file(data("codesys_ld_st.xml"), o);
+  ASSERT_TRUE(r.ok()) << r.diags.render("codesys_ld_st.xml", "");
+  EXPECT_DOUBLE_EQ(r.image->period_s(), 0.01);
+  Machine run(std::move(*r.image));
+  run.cycles(2);
+  EXPECT_EQ(run.out("motor"), 0);
+  run.set("start_btn", 1);
+  run.cycles(1);
+  EXPECT_EQ(run.out("motor"), 1);
+  run.set("start_btn", 0);
+  run.cycles(3);
+  EXPECT_EQ(run.out("motor"), 1);  // seal-in contact on motor
+  EXPECT_EQ(run.out("alarm"), 0);
+  run.set("stop_btn", 1);
+  run.cycles(1);
+  EXPECT_EQ(run.out("motor"), 0);
+  EXPECT_EQ(run.out("alarm"), 1);  // rising contact sets the alarm coil
+  run.set("stop_btn", 0);
+  run.cycles(3);
+  EXPECT_EQ(run.out("alarm"), 1);  // set coil holds
+  run.set("start_btn", 1);
+  run.cycles(1);
+  EXPECT_EQ(run.out("alarm"), 0);  // reset coil
+}
+
+TEST(Plcopen, runs_st_with_for_case_globals_and_fb_calls) {
+  CompileOptions o;
+  o.entry = "scale1";
+  CompileResult r = compile_file(data("codesys_ld_st.xml"), o);
+  ASSERT_TRUE(r.ok()) << r.diags.render("codesys_ld_st.xml", "");
+  Machine run(std::move(*r.image));
+  run.set("raw", 40);
+  run.cycles(1);
+  EXPECT_DOUBLE_EQ(run.out("out"), 80);  // 4 x 40 x 0.25 x g_gain 2
+  run.set("raw", 0);
+  run.cycles(1);
+  EXPECT_DOUBLE_EQ(run.out("out"), 0);
+  run.set("raw", 500);
+  run.cycles(1);
+  EXPECT_DOUBLE_EQ(run.out("out"), 100);  // CASE ELSE
+  for (int i = 0; i < 3; ++i) {
+    run.set("raw", 0);
+    run.cycles(1);
+    run.set("raw", 60);
+    run.cycles(1);
+  }
+  EXPECT_EQ(run.value("scale1.n"), 4);  // the 500 edge and three more
+  EXPECT_EQ(run.value("scale1.pulses.Q"), 1);
+}
+
+TEST(Plcopen, if_conversion_keeps_unassigned_values_and_integers_wrap) {
+  const std::string src = project(
+      kNs201, st_program("<localVars>" + var("c", "INT", "", "32766") + var("x", "REAL") + var("flag", "BOOL") +
+                             "</localVars>",
+                         "c := c + 1;\nIF c < 0 THEN flag := TRUE; ELSIF c > 100 THEN x := 1.5; ELSE x := -2.0; END_IF;"));
+  CompileResult r = compile_source(src);
+  ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
+  Machine run(std::move(*r.image));
+  run.cycles(1);
+  EXPECT_EQ(run.value("main.c"), 32767);
+  EXPECT_EQ(run.value("main.x"), 1.5);
+  EXPECT_EQ(run.value("main.flag"), 0);
+  run.cycles(1);
+  EXPECT_EQ(run.value("main.c"), -32768);  // INT wraps
+  EXPECT_EQ(run.value("main.flag"), 1);
+  EXPECT_EQ(run.value("main.x"), 1.5);  // not assigned in the taken branch: kept
+}
+
+TEST(Plcopen, refuses_while_with_its_position) {
+  const std::string src =
+      project(kNs201, st_program("<localVars>" + var("i", "INT") + "</localVars>", "i := 0;\nWHILE i < 3 DO i := i + 1; END_WHILE;"));
+  CompileResult r = compile_source(src);
+  ASSERT_FALSE(r.ok());
+  const std::string msg = r.diags.render("t.xml", src);
+  EXPECT_NE(msg.find("WHILE loops are refused"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("t.xml:6:1"), std::string::npos) << msg;  // the line after i := 0;
+}
+
+TEST(Plcopen, refuses_for_with_variable_bounds_and_repeat) {
+  for (const char* body : {"FOR i := 0 TO n DO x := x + 1.0; END_FOR;", "REPEAT x := 1.0; UNTIL TRUE END_REPEAT;"}) {
+    const std::string src = project(
+        kNs201, st_program("<localVars>" + var("i", "INT") + var("n", "INT") + var("x", "REAL") + "</localVars>", body));
+    CompileResult r = compile_source(src);
+    EXPECT_FALSE(r.ok()) << body;
+    EXPECT_TRUE(r.diags.has_errors());
+  }
+}
+
+TEST(Plcopen, accepts_three_namespaces_and_refuses_others) {
+  const std::string pou = st_program("<localVars>" + var("x", "REAL") + "</localVars>", "x := x + 1.0;");
+  for (const char* ns : {"http://www.plcopen.org/xml/tc6_0201", "http://www.plcopen.org/xml/tc6_0200",
+                         "http://www.plcopen.org/xml/tc6.xsd"}) {
+    CompileResult r = compile_source(project(ns, pou));
+    EXPECT_TRUE(r.ok()) << ns << "\n" << r.diags.render("t.xml", "");
+  }
+  CompileResult bad = compile_source(project("http://example.org/other", pou));
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.diags.items()[0].message.find("not PLCopen TC6"), std::string::npos);
+}
+
+TEST(Plcopen, refuses_sfc_bodies_and_vendor_elements_by_name) {
+  const std::string sfc = project(kNs201,
+                                  "<pou name=\"main\" pouType=\"program\"><interface/><body><SFC>"
+                                  "<step localId=\"1\" name=\"Init\" initialStep=\"true\"/></SFC></body></pou>");
+  CompileResult r = compile_source(sfc);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.diags.items()[0].message.find("SFC bodies"), std::string::npos);
+  const std::string vendor = project(kNs201,
+                                     "<pou name=\"main\" pouType=\"program\"><interface/><body><FBD>"
+                                     "<vendorElement localId=\"1\"/></FBD></body></pou>");
+  CompileResult v = compile_source(vendor);
+  ASSERT_FALSE(v.ok());
+  EXPECT_NE(v.diags.items()[0].message.find("vendorElement"), std::string::npos);
+  EXPECT_EQ(v.diags.items()[0].pos.line, 5u);  // the line of the <pou>
+}
+
+TEST(Plcopen, refuses_writing_an_input) {
+  const std::string src =
+      project(kNs201, st_program("<inputVars>" + var("b", "BOOL", "%IX0.0") + "</inputVars>", "b := TRUE;"));
+  CompileResult r = compile_source(src);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.diags.items()[0].message.find("cannot write"), std::string::npos);
+}
+
+TEST(Plcopen, maps_located_variables_to_channels) {
+  const std::string src = project(
+      kNs201, st_program("<inputVars>" + var("ai", "REAL", "%IW3") + var("di", "BOOL", "%IX2.5") + var("big", "DINT", "%ID1") +
+                             "</inputVars><outputVars>" + var("ao", "REAL", "%QW3") + var("dq", "BOOL", "%QX1.7") +
+                             "</outputVars><localVars>" + var("sp", "REAL", "%MD4", "12.5") + var("mem", "INT", "%MW2") +
+                             "</localVars>",
+                         "ao := ai + sp + DINT_TO_REAL(big); dq := di; mem := 3;"));
+  CompileResult r = compile_source(src);
+  ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
+  auto find = [&](const char* label) -> const Binding* {
+    for (const Binding& b : r.image->bindings())
+      if (std::string_view(r.image->str(b.label)) == label) return &b;
+    return nullptr;
+  };
+  for (const char* l : {"ai", "di", "ao", "dq", "sp", "big"}) ASSERT_NE(find(l), nullptr) << l;
+  EXPECT_EQ(1000u * find("ai")->p + 100u * find("ai")->d + find("ai")->c, 3u);     // p0.d0.c3
+  EXPECT_EQ(1000u * find("di")->p + 100u * find("di")->d + find("di")->c, 1205u);  // p1.d2.c5
+  EXPECT_EQ(find("big")->p, 2u);
+  EXPECT_EQ(1000u * find("dq")->p + 100u * find("dq")->d + find("dq")->c, 1107u);
+  EXPECT_EQ(find("sp")->dir, BindingDir::kSetpoint);  // read-only %M: an operator set-point
+  EXPECT_DOUBLE_EQ(find("sp")->init, 12.5);
+  EXPECT_EQ(find("mem"), nullptr);  // written by the program: internal
+}
+
+// An FBD body imported gives the same trace as the seed-language program it stands for.
+TEST(Plcopen, fbd_body_matches_the_equivalent_seed_program) {
+  const std::string fbd =
+      project(kNs201,
+              "<pou name=\"p\" pouType=\"program\"><interface><inputVars>" + var("pv", "REAL", "%IW0") +
+                  "</inputVars><outputVars>" + var("mv", "REAL", "%QW0") +
+                  "</outputVars></interface><body><FBD>"
+                  "<inVariable localId=\"1\"><position x=\"0\" y=\"0\"/><connectionPointOut/><expression>pv</expression></inVariable>"
+                  "<inVariable localId=\"2\"><position x=\"0\" y=\"0\"/><connectionPointOut/><expression>2.5</expression></inVariable>"
+                  "<block localId=\"3\" typeName=\"MUL\" executionOrderId=\"0\"><position x=\"0\" y=\"0\"/><inputVariables>"
+                  "<variable formalParameter=\"IN1\"><connectionPointIn><connection refLocalId=\"1\"/></connectionPointIn></variable>"
+                  "<variable formalParameter=\"IN2\"><connectionPointIn><connection refLocalId=\"2\"/></connectionPointIn></variable>"
+                  "</inputVariables><inOutVariables/><outputVariables><variable formalParameter=\"OUT\"><connectionPointOut/></variable></outputVariables></block>"
+                  "<block localId=\"4\" typeName=\"LIMIT\" executionOrderId=\"0\"><position x=\"0\" y=\"0\"/><inputVariables>"
+                  "<variable formalParameter=\"MN\"><connectionPointIn><connection refLocalId=\"5\"/></connectionPointIn></variable>"
+                  "<variable formalParameter=\"IN\"><connectionPointIn><connection refLocalId=\"3\"/></connectionPointIn></variable>"
+                  "<variable formalParameter=\"MX\"><connectionPointIn><connection refLocalId=\"6\"/></connectionPointIn></variable>"
+                  "</inputVariables><inOutVariables/><outputVariables><variable formalParameter=\"OUT\"><connectionPointOut/></variable></outputVariables></block>"
+                  "<inVariable localId=\"5\"><position x=\"0\" y=\"0\"/><connectionPointOut/><expression>0.0</expression></inVariable>"
+                  "<inVariable localId=\"6\"><position x=\"0\" y=\"0\"/><connectionPointOut/><expression>100.0</expression></inVariable>"
+                  "<outVariable localId=\"7\"><position x=\"0\" y=\"0\"/><connectionPointIn><connection refLocalId=\"4\"/></connectionPointIn><expression>mv</expression></outVariable>"
+                  "</FBD></body></pou>");
+  const std::string seed =
+      "%%\nstime(0.1)\nF1 = dai(p0, d0, c0, \"pv\")\nF2 = mult(F1, F1, 0)\nF3 = scale(F2, 0, 2.5)\n"
+      "F4 = mult(F1, F3)\nF5 = lim(F4, 0, 100)\ndao(F5, p0, d0, c0, \"mv\")\nEND\n%%\n";
+  CompileResult a = compile_source(fbd), b = compile_source(seed);
+  ASSERT_TRUE(a.ok()) << a.diags.render("t.xml", fbd);
+  ASSERT_TRUE(b.ok()) << b.diags.render("t.fbd", seed);
+  Machine ra(std::move(*a.image)), rb(std::move(*b.image));
+  for (int i = 0; i < 60; ++i) {
+    const double pv = -10 + i * 1.5;
+    ra.set("pv", pv);
+    rb.set("pv", pv);
+    ra.cycles(1);
+    rb.cycles(1);
+    EXPECT_DOUBLE_EQ(ra.out("mv"), rb.out("mv")) << "cycle " << i;
+  }
+}
+
+TEST(Plcopen, names_stateful_blocks_by_instance_path) {
+  CompileResult r = compile_file(data("openplc_mixed.xml"));
+  ASSERT_TRUE(r.ok());
+  bool ton = false;
+  for (const FlatBlock& b : r.program.blocks) ton = ton || (b.name == "instance0.t1.Q" && b.written == "ton");
+  EXPECT_TRUE(ton);
+  EXPECT_NE(std::find(r.program.variables.begin(), r.program.variables.end(), "instance0.hys.Q"),
+            r.program.variables.end());
+}
+
+TEST(Plcopen, asks_which_task_when_there_are_several) {
+  CompileResult r = compile_file(data("codesys_ld_st.xml"));
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.diags.items()[0].message.find("task Fast, task Slow"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace rtplc::lang
