@@ -139,6 +139,13 @@ ImportResult import_plcopen(std::string_view xml, const ImportOptions& opt, Diag
   res.entry = chosen.name;
   if (chosen.task) {
     res.priority = chosen.task->priority;
+    std::string ins;
+    for (const PouInstance& pi : chosen.instances) ins += (ins.empty() ? "" : ", ") + pi.name;
+    res.program.notes.push_back("task " + chosen.task->name + " (line " + std::to_string(chosen.task->pos.line) +
+                                "): runs " + ins + "; interval " +
+                                (chosen.task->interval > 0 ? std::to_string(chosen.task->interval) + " s" : "none (default period)") +
+                                ", PLCopen priority " + std::to_string(chosen.task->priority) +
+                                " (the runtime config's `priority` sets the SCHED_FIFO priority)");
     if (chosen.task->interval > 0) {
       res.program.period = chosen.task->interval;
       res.program.period_from_stime = true;
