@@ -8,6 +8,7 @@
 
 #include "blocks/executor.h"
 #include "lang/compiler.h"
+#include "sched/program.h"
 
 namespace rtplc::lang {
 namespace {
@@ -300,6 +301,22 @@ TEST(Plcopen, names_stateful_blocks_by_instance_path) {
   EXPECT_TRUE(ton);
   EXPECT_NE(std::find(r.program.variables.begin(), r.program.variables.end(), "instance0.hys.Q"),
             r.program.variables.end());
+}
+
+// Hot swap matches blocks by name and opcode: an edited project (another PT, one
+// more rung) keeps the timer, the FB instance's latch and the counter variable.
+TEST(Plcopen, hot_swap_keeps_state_by_instance_path) {
+  std::string err;
+  auto text = read_text_file(data("openplc_mixed.xml"), &err);
+  ASSERT_TRUE(text) << err;
+  std::string edited = *text;
+  edited.replace(edited.find("T#500ms"), 7, "T#800ms");
+  CompileResult a = compile_source(*text), b = compile_source(edited);
+  ASSERT_TRUE(a.ok() && b.ok());
+  const sched::Migration m = sched::plan_migration(*a.image, *b.image);
+  for (const char* kept : {"instance0.t1.Q", "instance0.t1.ET", "instance0.hys.Q", "instance0.cycles"})
+    EXPECT_NE(std::find(m.kept.begin(), m.kept.end(), kept), m.kept.end()) << kept;
+
 }
 
 TEST(Plcopen, asks_which_task_when_there_are_several) {
