@@ -735,7 +735,7 @@ void Lowering::lower_body(Scope& s) {
       break;
     }
     case BodyLanguage::kIl:
-      d_.error(b.pos, "POU '" + s.pou->name + "': IL bodies are not supported yet");
+      lower_il(s, b);
       break;
     case BodyLanguage::kSfc:
       d_.error(b.pos, "POU '" + s.pou->name + "': SFC bodies in PLCopen XML are not supported yet (write the chart in rtplc's SFC language, docs/sfc.md)");

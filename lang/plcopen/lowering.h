@@ -94,6 +94,7 @@ class Lowering {
   void lower_body(Scope& s);
   void lower_graph(Scope& s, const XmlElement& body, bool ladder);
   void lower_st(Scope& s, const Block& b);
+  void lower_il(Scope& s, const Body& body);
   Value eval(Scope& s, const Expr& e);
 
   // Values of every variable's `cur` (if-conversion).

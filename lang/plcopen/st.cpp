@@ -3,6 +3,7 @@
 // OR, XOR, AND/&, = <>, < > <= >=, + -, * / MOD, **, unary - NOT, primary.
 #include "lang/plcopen/st.h"
 
+#include <algorithm>
 #include <cctype>
 
 #include "lang/plcopen/project.h"
@@ -52,10 +53,11 @@ class PosMap {
 bool ident_start(char c) { return std::isalpha(static_cast<unsigned char>(c)) || c == '_'; }
 bool ident_char(char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; }
 
-std::vector<Tok> lex(std::string_view s, const petri::XmlElement& origin, DiagnosticList& d) {
+// Tokens of s[begin, s.size()); positions count from the start of `s`.
+std::vector<Tok> lex(std::string_view s, const petri::XmlElement& origin, DiagnosticList& d, size_t begin = 0) {
   std::vector<Tok> out;
   PosMap pm(s, origin);
-  size_t i = 0;
+  size_t i = begin;
   while (i < s.size()) {
     const char c = s[i];
     if (std::isspace(static_cast<unsigned char>(c))) {
@@ -554,10 +556,20 @@ Block parse_st(std::string_view text, const petri::XmlElement& origin, Diagnosti
   return b;
 }
 
-std::unique_ptr<Expr> parse_st_expression(std::string_view text, const petri::XmlElement& origin,
-                                          DiagnosticList& diags) {
+Block parse_st_range(std::string_view text, size_t begin, size_t end, const petri::XmlElement& origin,
+                     DiagnosticList& diags) {
   const size_t before = diags.error_count();
-  std::vector<Tok> toks = lex(text, origin, diags);
+  std::vector<Tok> toks = lex(text.substr(0, end), origin, diags, begin);
+  if (diags.error_count() != before) return {};
+  Parser p(std::move(toks), diags);
+  Block b = p.statements({});
+  return b;
+}
+
+std::unique_ptr<Expr> parse_st_expression(std::string_view text, const petri::XmlElement& origin,
+                                          DiagnosticList& diags, size_t begin, size_t end) {
+  const size_t before = diags.error_count();
+  std::vector<Tok> toks = lex(text.substr(0, std::min(end, text.size())), origin, diags, begin);
   if (diags.error_count() != before) return nullptr;
   Parser p(std::move(toks), diags);
   auto e = p.whole_expression();

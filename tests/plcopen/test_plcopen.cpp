@@ -156,6 +156,41 @@ TEST(Plcopen, runs_st_with_for_case_globals_and_fb_calls) {
   EXPECT_EQ(run.value("scale1.pulses.Q"), 1);
 }
 
+// IL with forward jumps, S/R, a parenthesised operand and CAL (legacy tc6.xsd namespace).
+TEST(Plcopen, runs_il_with_forward_jumps) {
+  CompileResult r = compile_file(data("legacy_il.xml"));
+  ASSERT_TRUE(r.ok()) << r.diags.render("legacy_il.xml", "");
+  Machine run(std::move(*r.image));
+  run.set("a", 1);
+  run.set("n", 21);
+  run.cycles(1);
+  EXPECT_EQ(run.out("q"), 1);
+  EXPECT_EQ(run.out("m"), 42);  // the path that falls through JMPCN
+  run.set("a", 0);
+  run.cycles(1);
+  EXPECT_EQ(run.out("q"), 0);
+  EXPECT_EQ(run.out("m"), 7);  // the path through the label
+  run.set("b", 1);
+  run.cycles(1);
+  EXPECT_EQ(run.value("main.lat"), 1);  // S
+  run.set("a", 1);
+  run.cycles(1);
+  EXPECT_EQ(run.value("main.lat"), 0);  // R wins: a AND (b OR a)
+  EXPECT_EQ(run.out("q"), 0);           // a ANDN b
+  run.cycles(10);
+  EXPECT_EQ(run.value("main.t1.Q"), 1);  // CAL t1 after the jumps joined: 1 s at 0.1 s
+}
+
+TEST(Plcopen, refuses_an_il_backward_jump) {
+  const std::string src = project(kNs201,
+                                  "<pou name=\"main\" pouType=\"program\"><interface><localVars>" + var("x", "INT") +
+                                      "</localVars></interface><body><IL><xhtml:p><![CDATA[top: LD x\n ADD 1\n ST x\n LT 10\n JMPC top\n]]></xhtml:p></IL></body></pou>");
+  CompileResult r = compile_source(src);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.diags.items()[0].message.find("backward jump"), std::string::npos) << r.diags.items()[0].message;
+  EXPECT_EQ(r.diags.items()[0].pos.line, 9u);
+}
+
 TEST(Plcopen, if_conversion_keeps_unassigned_values_and_integers_wrap) {
   const std::string src = project(
       kNs201, st_program("<localVars>" + var("c", "INT", "", "32766") + var("x", "REAL") + var("flag", "BOOL") +
