@@ -29,8 +29,8 @@ std::string trim(std::string s) {
 // The first identifier of a target expression ("fb1.IN" -> "FB1").
 std::string target_name(const std::string& text) {
   std::string t = trim(text);
-  size_t e = 0;
-  while (e < t.size() && (std::isalnum(static_cast<unsigned char>(t[e])) || t[e] == '_')) ++e;
+  size_t e = t.empty() || t[0] != '%' ? 0 : 1;  // %QX0.0: the whole address
+  while (e < t.size() && (std::isalnum(static_cast<unsigned char>(t[e])) || t[e] == '_' || (t[0] == '%' && t[e] == '.'))) ++e;
   return upper(t.substr(0, e));
 }
 

@@ -144,7 +144,8 @@ std::unique_ptr<Var> Lowering::make_var(const Variable& decl, const std::string&
     } else if (v->loc->area == 'I') {
       v->role = Var::Role::kInput;
     } else if (v->loc->area == 'M' &&
-               std::find(written_.begin(), written_.end(), upper(decl.name)) == written_.end()) {
+               std::find(written_.begin(), written_.end(), upper(decl.name)) == written_.end() &&
+               std::find(written_.begin(), written_.end(), upper(decl.address)) == written_.end()) {
       v->role = Var::Role::kSetpoint;  // only read: the operator sets it
     }
     if (v->loc && (v->loc->size == 'X') != v->digital)
@@ -206,6 +207,33 @@ void Lowering::set_globals(const std::vector<const Variable*>& globals) {
 
 Var* Lowering::lookup(Scope& s, const std::string& name, SourcePos pos, bool report) {
   const std::string up = upper(name);
+  if (!up.empty() && up[0] == '%') {
+    // A directly represented variable: an implicit global, labelled with its
+    // address without the '%' (IX0_0 is not needed: '.' is allowed in labels).
+    if (!globals_) globals_ = std::make_unique<Scope>();
+    auto it = globals_->vars.find(up);
+    if (it != globals_->vars.end()) return it->second.get();
+    std::string err;
+    auto loc = parse_location(up, &err);
+    if (!loc) {
+      d_.error(pos, err);
+      return nullptr;
+    }
+    auto decl = std::make_unique<Variable>();
+    decl->name = up.substr(1);
+    decl->address = up;
+    decl->type.base = loc->size == 'X' ? BaseType::kBool : loc->size == 'W' ? BaseType::kInt
+                      : loc->size == 'D' ? BaseType::kDint : BaseType::kLint;
+    decl->section = VarSection::kGlobal;
+    decl->pos = pos;
+    const Variable& d = *decl;
+    owned_decls_.push_back(std::move(decl));
+    auto v = make_var(d, d.name, 0, false);
+    Var* raw = v.get();
+    all_vars_.push_back(raw);
+    globals_->vars.emplace(up, std::move(v));
+    return raw;
+  }
   auto it = s.vars.find(up);
   if (it != s.vars.end()) return it->second.get();
   if (s.globals && s.pou) {
@@ -226,7 +254,7 @@ Var* Lowering::lookup(Scope& s, const std::string& name, SourcePos pos, bool rep
 }
 
 Var* Lowering::resolve_path(Scope& s, const std::string& path, SourcePos pos) {
-  const size_t dot = path.find('.');
+  const size_t dot = path.empty() || path[0] == '%' ? std::string::npos : path.find('.');
   if (dot == std::string::npos) return lookup(s, path, pos);
   Var* base = lookup(s, path.substr(0, dot), pos);
   if (!base) return nullptr;
@@ -285,7 +313,10 @@ Value Lowering::read(Var& v, SourcePos pos) {
                       v.decl->name + ".Q)");
     return constant(0, false);
   }
-  if (before_read) before_read(upper(v.decl->name));
+  if (before_read) {
+    before_read(upper(v.decl->name));
+    if (!v.decl->address.empty()) before_read(upper(v.decl->address));  // %QX0.0 written directly
+  }
   if (v.cur) return *v.cur;
   return start_value(v, pos);
 }
@@ -581,7 +612,7 @@ Value Lowering::fb_output(Var& v, const std::string& name, SourcePos pos) {
   r.ref = v.path + "." + up;  // made by the call; read before it: last cycle's
   r.digital = fb_output_digital(v, up);
   r.integer = up == "CV";
-  if (!v.std_fb.called) pending_outputs_.emplace_back(&v, up, pos);
+  if (!v.std_fb.called) pending_outputs_.push_back(PendingOutput{&v, up, pos});
   return r;
 }
 

@@ -82,7 +82,14 @@ std::vector<Tok> lex(std::string_view s, const petri::XmlElement& origin, Diagno
     t.offset = i;
     t.pos = pm.at(i);
     const size_t b = i;
-    if (ident_start(c)) {
+    if (c == '%' && i + 1 < s.size() && std::isalpha(static_cast<unsigned char>(s[i + 1]))) {
+      // A directly represented variable: %IX0.0, %QW3, %MD10.
+      ++i;
+      while (i < s.size() && (ident_char(s[i]) || (s[i] == '.' && i + 1 < s.size() &&
+                                                   std::isdigit(static_cast<unsigned char>(s[i + 1])))))
+        ++i;
+      t.t = Tok::T::kIdent;
+    } else if (ident_start(c)) {
       while (i < s.size() && ident_char(s[i])) ++i;
       if (i < s.size() && s[i] == '#') {  // T#1s, INT#5, BOOL#TRUE
         ++i;

@@ -21,7 +21,7 @@ Value Lowering::eval(Scope& s, const Expr& e) {
       return v;
     }
     case Expr::Kind::kName: {
-      const size_t dot = e.name.find('.');
+      const size_t dot = e.name[0] == '%' ? std::string::npos : e.name.find('.');
       if (dot != std::string::npos) {
         // fb1.Q: an output of an FB instance (or a nested variable of a user FB).
         Var* base = lookup(s, e.name.substr(0, dot), e.pos);

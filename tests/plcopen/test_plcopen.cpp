@@ -209,6 +209,21 @@ TEST(Plcopen, if_conversion_keeps_unassigned_values_and_integers_wrap) {
   EXPECT_EQ(run.value("main.x"), 1.5);  // not assigned in the taken branch: kept
 }
 
+// Directly represented variables (%IX0.0 in an expression, without a declaration).
+TEST(Plcopen, reads_and_writes_directly_represented_variables) {
+  const std::string src = project(
+      kNs201, st_program("<localVars>" + var("k", "INT") + "</localVars>",
+                         "%QX0.1 := %IX0.0 AND NOT %IX0.1;\nk := %MW4 * 2;\n%QW2 := k;"));
+  CompileResult r = compile_source(src);
+  ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
+  Machine run(std::move(*r.image));
+  run.set("IX0.0", 1);
+  run.set("MW4", 21);  // read only: an operator set-point
+  run.cycles(1);
+  EXPECT_EQ(run.out("QX0.1"), 1);
+  EXPECT_EQ(run.out("QW2"), 42);
+}
+
 TEST(Plcopen, refuses_while_with_its_position) {
   const std::string src =
       project(kNs201, st_program("<localVars>" + var("i", "INT") + "</localVars>", "i := 0;\nWHILE i < 3 DO i := i + 1; END_WHILE;"));
