@@ -769,7 +769,7 @@ void Lowering::lower_body(Scope& s) {
       lower_il(s, b);
       break;
     case BodyLanguage::kSfc:
-      d_.error(b.pos, "POU '" + s.pou->name + "': SFC bodies in PLCopen XML are not supported yet (write the chart in rtplc's SFC language, docs/sfc.md)");
+      lower_sfc(s, *b.graph);
       break;
     case BodyLanguage::kNone:
       break;

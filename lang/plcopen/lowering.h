@@ -95,6 +95,9 @@ class Lowering {
   void lower_graph(Scope& s, const XmlElement& body, bool ladder);
   void lower_st(Scope& s, const Block& b);
   void lower_il(Scope& s, const Body& body);
+  void lower_sfc(Scope& s, const XmlElement& body);
+  // `b` runs only while `cond` holds (an SFC action): if-converted.
+  void lower_st_guarded(Scope& s, const Block& b, const Value& cond, SourcePos pos);
   Value eval(Scope& s, const Expr& e);
 
   // Values of every variable's `cur` (if-conversion).

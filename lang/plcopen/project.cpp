@@ -131,9 +131,20 @@ class Reader {
         had_body = true;
         body(c, p.body);
       } else if (c.name == "actions" || c.name == "transitions") {
-        if (!c.children.empty())
-          d_.error(c.pos, "<pou name=\"" + p.name + "\">: <" + c.name +
-                              "> (SFC actions and transitions) are not supported yet");
+        const bool act = c.name == "actions";
+        for (const XmlElement& a : c.children) {
+          if (a.name != (act ? "action" : "transition")) continue;
+          NamedBody nb;
+          nb.name = attr(a, "name");
+          nb.pos = a.pos;
+          const XmlElement* b = a.child("body");
+          if (nb.name.empty() || !b) {
+            d_.error(a.pos, "<" + a.name + "> needs a name and a <body>");
+            continue;
+          }
+          body(*b, nb.body);
+          (act ? p.actions : p.transitions).push_back(std::move(nb));
+        }
       }
     }
     if (!had_body) d_.error(e.pos, "<pou name=\"" + p.name + "\"> has no <body>");

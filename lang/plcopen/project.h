@@ -63,12 +63,20 @@ struct Body {
 
 enum class PouType : uint8_t { kProgram, kFunctionBlock, kFunction };
 
+// An SFC action or transition declared beside the body (<actions>, <transitions>).
+struct NamedBody {
+  std::string name;
+  Body body;
+  SourcePos pos;
+};
+
 struct Pou {
   std::string name;
   PouType type = PouType::kProgram;
   std::optional<TypeRef> return_type;  // functions
   std::vector<Variable> vars;
   Body body;
+  std::vector<NamedBody> actions, transitions;  // SFC
   SourcePos pos;
 
   const Variable* var(std::string_view n) const;  // case-insensitive

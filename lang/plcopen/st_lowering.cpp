@@ -236,4 +236,9 @@ void Lowering::lower_st(Scope& s, const Block& b) {
   st.block(b);
 }
 
+void Lowering::lower_st_guarded(Scope& s, const Block& b, const Value& cond, SourcePos pos) {
+  StLowerer st{*this, s};
+  st.branch(cond, pos, [&] { st.block(b); }, [] {});
+}
+
 }  // namespace rtplc::lang::plcopen

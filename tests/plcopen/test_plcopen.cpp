@@ -191,6 +191,45 @@ TEST(Plcopen, refuses_an_il_backward_jump) {
   EXPECT_EQ(r.diags.items()[0].pos.line, 9u);
 }
 
+// SFC: steps, inline and named transitions, a simultaneous divergence and
+// convergence, N/P/L/D actions on variables and a named ST action.
+TEST(Plcopen, runs_an_sfc_body) {
+  CompileResult r = compile_file(data("beremiz_sfc.xml"));
+  ASSERT_TRUE(r.ok()) << r.diags.render("beremiz_sfc.xml", "");
+  Machine run(std::move(*r.image));
+  run.cycles(2);
+  EXPECT_EQ(run.value("fill0.step.Idle.X"), 1);
+  EXPECT_EQ(run.out("inlet"), 0);
+  run.set("start", 1);
+  run.cycles(1);
+  EXPECT_EQ(run.value("fill0.step.Filling.X"), 1);
+  EXPECT_EQ(run.value("fill0.step.Idle.X"), 0);
+  EXPECT_EQ(run.out("inlet"), 1);  // N
+  run.set("start", 0);
+  run.cycles(3);
+  EXPECT_EQ(run.value("fill0.batches"), 1);  // P: once per activation
+  run.set("level", 85);
+  run.cycles(1);
+  EXPECT_EQ(run.value("fill0.step.Mixing.X"), 1);
+  EXPECT_EQ(run.value("fill0.step.Draining.X"), 1);
+  EXPECT_EQ(run.out("inlet"), 0);
+  EXPECT_EQ(run.out("mixer"), 1);  // L 1 s
+  EXPECT_EQ(run.out("drain"), 0);  // D 500 ms
+  run.cycles(6);
+  EXPECT_EQ(run.out("drain"), 1);
+  EXPECT_EQ(run.out("mixer"), 1);
+  run.cycles(5);
+  EXPECT_EQ(run.out("mixer"), 0);
+  run.set("level", 2);
+  run.cycles(1);
+  EXPECT_EQ(run.value("fill0.step.Idle.X"), 1);  // the convergence fired
+  EXPECT_EQ(run.value("fill0.step.Mixing.X"), 0);
+  EXPECT_EQ(run.out("drain"), 0);
+  run.set("start", 1);
+  run.cycles(2);
+  EXPECT_EQ(run.value("fill0.batches"), 2);
+}
+
 TEST(Plcopen, if_conversion_keeps_unassigned_values_and_integers_wrap) {
   const std::string src = project(
       kNs201, st_program("<localVars>" + var("c", "INT", "", "32766") + var("x", "REAL") + var("flag", "BOOL") +
@@ -256,13 +295,14 @@ TEST(Plcopen, accepts_three_namespaces_and_refuses_others) {
   EXPECT_NE(bad.diags.items()[0].message.find("not PLCopen TC6"), std::string::npos);
 }
 
-TEST(Plcopen, refuses_sfc_bodies_and_vendor_elements_by_name) {
+TEST(Plcopen, refuses_macro_steps_and_vendor_elements_by_name) {
   const std::string sfc = project(kNs201,
                                   "<pou name=\"main\" pouType=\"program\"><interface/><body><SFC>"
-                                  "<step localId=\"1\" name=\"Init\" initialStep=\"true\"/></SFC></body></pou>");
+                                  "<macroStep localId=\"1\" name=\"M\"/></SFC></body></pou>");
   CompileResult r = compile_source(sfc);
   ASSERT_FALSE(r.ok());
-  EXPECT_NE(r.diags.items()[0].message.find("SFC bodies"), std::string::npos);
+  EXPECT_NE(r.diags.items()[0].message.find("<macroStep> in an SFC body is not supported yet"), std::string::npos)
+      << r.diags.items()[0].message;
   const std::string vendor = project(kNs201,
                                      "<pou name=\"main\" pouType=\"program\"><interface/><body><FBD>"
                                      "<vendorElement localId=\"1\"/></FBD></body></pou>");
