@@ -240,7 +240,14 @@ class Graph {
         d_.error(pos, "<" + e.name + "> localId " + id + " has nothing connected to its input");
       } else {
         v = negate_if(e, v);
-        if (Var* t = target(e, "expression")) L_.assign(*t, v, pos);
+        if (Var* t = target(e, "expression")) {
+          // Fed by a function whose EN is false this cycle: the assignment does not happen.
+          const XmlElement* cp = e.child("connectionPointIn");
+          const XmlElement* c = cp ? cp->child("connection") : nullptr;
+          auto en = c ? enable_.find(attr(*c, "refLocalId")) : enable_.end();
+          if (en != enable_.end()) v = L_.em().select(en->second, v, L_.read(*t, pos), pos);
+          L_.assign(*t, v, pos);
+        }
         outs[""] = v;
       }
     } else if (e.name == "connector") {
@@ -378,6 +385,8 @@ class Graph {
       }
       auto r = L_.call_function(s_, type, args, formals, pos);
       if (!r) return;
+      // EN false: the function does not run, so a variable it feeds keeps its value.
+      if (!(en.is_const && en.k != 0)) enable_[id] = en;
       for (auto& [f, v] : out_vars) {
         if (upper(f) == "ENO") continue;
         outs[upper(f)] = negate_if(*v, *r);
@@ -387,6 +396,10 @@ class Graph {
     }
     if (inst.empty()) {
       d_.error(pos, "block '" + type + "' is neither a function rtplc knows nor a function block instance (no instanceName)");
+      return;
+    }
+    if (!(en.is_const && en.k != 0)) {
+      d_.error(pos, "EN on function block instance '" + inst + "' is not supported yet (its state would advance only while EN holds)");
       return;
     }
     Var* fb = L_.lookup(s_, inst, pos);
@@ -415,6 +428,7 @@ class Graph {
   std::map<std::string, int> state_;  // 0 new, 1 being lowered, 2 done
   std::map<std::string, std::map<std::string, Value>> values_;
   std::map<std::string, bool> aliases_;  // "id|param" -> digital
+  std::map<std::string, Value> enable_;  // function block localId -> its EN, when not always true
   std::set<std::string> made_alias_;
   std::set<std::string> reported_;
 };

@@ -230,6 +230,40 @@ TEST(Plcopen, runs_an_sfc_body) {
   EXPECT_EQ(run.value("fill0.batches"), 2);
 }
 
+// LD: MOVE on a rung: EN from a contact; while EN is false the target keeps its value.
+TEST(Plcopen, a_function_with_en_false_leaves_its_target_alone) {
+  const std::string src = project(
+      kNs201,
+      "<pou name=\"main\" pouType=\"program\"><interface><inputVars>" + var("go", "BOOL", "%IX0.0") +
+          var("n", "INT", "%IW0") + "</inputVars><localVars>" + var("x", "INT", "", "3") +
+          "</localVars></interface><body><LD>"
+          "<leftPowerRail localId=\"1\"><position x=\"0\" y=\"0\"/><connectionPointOut formalParameter=\"\"/></leftPowerRail>"
+          "<contact localId=\"2\"><position x=\"0\" y=\"0\"/><connectionPointIn><connection refLocalId=\"1\"/></connectionPointIn>"
+          "<connectionPointOut/><variable>go</variable></contact>"
+          "<block localId=\"3\" typeName=\"MOVE\"><position x=\"0\" y=\"0\"/><inputVariables>"
+          "<variable formalParameter=\"EN\"><connectionPointIn><connection refLocalId=\"2\"/></connectionPointIn></variable>"
+          "<variable formalParameter=\"IN\"><connectionPointIn><connection refLocalId=\"4\"/></connectionPointIn></variable>"
+          "</inputVariables><inOutVariables/><outputVariables><variable formalParameter=\"ENO\"><connectionPointOut/></variable>"
+          "<variable formalParameter=\"OUT\"><connectionPointOut/></variable></outputVariables></block>"
+          "<inVariable localId=\"4\"><position x=\"0\" y=\"0\"/><connectionPointOut/><expression>n</expression></inVariable>"
+          "<outVariable localId=\"5\"><position x=\"0\" y=\"0\"/><connectionPointIn><connection refLocalId=\"3\" formalParameter=\"OUT\"/>"
+          "</connectionPointIn><expression>x</expression></outVariable>"
+          "</LD></body></pou>");
+  CompileResult r = compile_source(src);
+  ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
+  Machine run(std::move(*r.image));
+  run.set("n", 9);
+  run.cycles(2);
+  EXPECT_EQ(run.value("main.x"), 3);  // the initial value, EN false
+  run.set("go", 1);
+  run.cycles(1);
+  EXPECT_EQ(run.value("main.x"), 9);
+  run.set("go", 0);
+  run.set("n", 1);
+  run.cycles(1);
+  EXPECT_EQ(run.value("main.x"), 9);  // kept
+}
+
 TEST(Plcopen, if_conversion_keeps_unassigned_values_and_integers_wrap) {
   const std::string src = project(
       kNs201, st_program("<localVars>" + var("c", "INT", "", "32766") + var("x", "REAL") + var("flag", "BOOL") +
