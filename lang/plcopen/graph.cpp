@@ -15,7 +15,7 @@ namespace rtplc::lang::plcopen {
 namespace {
 
 std::string attr(const XmlElement& e, std::string_view n) {
-  const petri::XmlAttribute* a = e.attribute(n);
+  const XmlAttribute* a = e.attribute(n);
   return a ? a->value : std::string();
 }
 

@@ -1,7 +1,7 @@
 // PLCopen TC6 XML -> the language-neutral flat program (docs/plcopen.md). The
 // front end behind `rtplc check/sim/run` for a .xml file: reads the project
 // (project.h), picks the program instances of one task, lowers every POU
-// instance's body (FBD, LD, ST) into primitive blocks with instance-path names,
+// instance's body (FBD, LD, SFC, ST, IL) into primitive blocks with instance-path names,
 // for the one set of checks (lang/program_checks.h), which compile_source runs.
 #pragma once
 

@@ -1,7 +1,7 @@
 // POU instances -> blocks (docs/plcopen.md, "How a POU becomes blocks"). The
 // shared state of lowering one task: scopes of variables with their current
-// value during the cycle, function block instances, and the three body
-// lowerings (graph.cpp for FBD and LD, st_lowering.cpp for ST).
+// value during the cycle, function block instances, and the body lowerings
+// (graph.cpp for FBD and LD, st_lowering.cpp for ST, il.cpp, sfc.cpp).
 //
 // Variables. Every variable of a program or FB instance ends the cycle in a
 // copy block named by its instance path ("main.level", "main.fb1.count"); a

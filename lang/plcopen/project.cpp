@@ -44,7 +44,7 @@ const char* const kNamespaces[] = {
 };
 
 std::string attr(const XmlElement& e, std::string_view n) {
-  const petri::XmlAttribute* a = e.attribute(n);
+  const XmlAttribute* a = e.attribute(n);
   return a ? a->value : std::string();
 }
 
@@ -519,7 +519,7 @@ const Pou* Project::pou(std::string_view n) const {
 }
 
 std::optional<Project> read_project(std::string_view text, DiagnosticList& diags) {
-  std::optional<XmlElement> root = petri::parse_xml(text, diags);
+  std::optional<XmlElement> root = parse_xml(text, diags);
   if (!root) return std::nullopt;
   Project p;
   p.root = std::move(*root);

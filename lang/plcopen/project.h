@@ -14,11 +14,10 @@
 #include <vector>
 
 #include "common/diagnostic.h"
-#include "lang/petri/xml_reader.h"
+#include "common/xml_reader.h"
 
 namespace rtplc::lang::plcopen {
 
-using XmlElement = petri::XmlElement;
 
 // An elementary IEC type, or a derived one (a function block type by name).
 enum class BaseType : uint8_t {

@@ -23,7 +23,7 @@ struct Tok {
 // Offsets -> file positions, for monotonic queries (one pass over the text).
 class PosMap {
  public:
-  PosMap(std::string_view text, const petri::XmlElement& e) : s_(text), e_(e) {
+  PosMap(std::string_view text, const XmlElement& e) : s_(text), e_(e) {
     cur_ = e.text_anchors.empty() ? e.pos : e.text_anchors[0].pos;
   }
   SourcePos at(size_t off) {
@@ -45,7 +45,7 @@ class PosMap {
 
  private:
   std::string_view s_;
-  const petri::XmlElement& e_;
+  const XmlElement& e_;
   size_t a_ = 0, i_ = 0;
   SourcePos cur_;
 };
@@ -54,7 +54,7 @@ bool ident_start(char c) { return std::isalpha(static_cast<unsigned char>(c)) ||
 bool ident_char(char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; }
 
 // Tokens of s[begin, s.size()); positions count from the start of `s`.
-std::vector<Tok> lex(std::string_view s, const petri::XmlElement& origin, DiagnosticList& d, size_t begin = 0) {
+std::vector<Tok> lex(std::string_view s, const XmlElement& origin, DiagnosticList& d, size_t begin = 0) {
   std::vector<Tok> out;
   PosMap pm(s, origin);
   size_t i = begin;
@@ -553,7 +553,7 @@ class Parser {
 
 }  // namespace
 
-Block parse_st(std::string_view text, const petri::XmlElement& origin, DiagnosticList& diags) {
+Block parse_st(std::string_view text, const XmlElement& origin, DiagnosticList& diags) {
   const size_t before = diags.error_count();
   std::vector<Tok> toks = lex(text, origin, diags);
   if (diags.error_count() != before) return {};
@@ -563,7 +563,7 @@ Block parse_st(std::string_view text, const petri::XmlElement& origin, Diagnosti
   return b;
 }
 
-Block parse_st_range(std::string_view text, size_t begin, size_t end, const petri::XmlElement& origin,
+Block parse_st_range(std::string_view text, size_t begin, size_t end, const XmlElement& origin,
                      DiagnosticList& diags) {
   const size_t before = diags.error_count();
   std::vector<Tok> toks = lex(text.substr(0, end), origin, diags, begin);
@@ -573,7 +573,7 @@ Block parse_st_range(std::string_view text, size_t begin, size_t end, const petr
   return b;
 }
 
-std::unique_ptr<Expr> parse_st_expression(std::string_view text, const petri::XmlElement& origin,
+std::unique_ptr<Expr> parse_st_expression(std::string_view text, const XmlElement& origin,
                                           DiagnosticList& diags, size_t begin, size_t end) {
   const size_t before = diags.error_count();
   std::vector<Tok> toks = lex(text.substr(0, std::min(end, text.size())), origin, diags, begin);
@@ -585,7 +585,7 @@ std::unique_ptr<Expr> parse_st_expression(std::string_view text, const petri::Xm
 
 void st_written_names(std::string_view text, std::vector<std::string>& out) {
   DiagnosticList scratch;
-  petri::XmlElement none;
+  XmlElement none;
   std::vector<Tok> toks = lex(text, none, scratch);
   for (size_t i = 0; i + 1 < toks.size(); ++i) {
     if (toks[i].t == Tok::T::kIdent && toks[i + 1].t == Tok::T::kOp && toks[i + 1].text == ":=")

@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "common/diagnostic.h"
-#include "lang/petri/xml_reader.h"
+#include "common/xml_reader.h"
 #include "lang/plcopen/emitter.h"
 
 namespace rtplc::lang::plcopen {
@@ -62,16 +62,16 @@ struct Stmt {
 
 // Parses an ST statement list. `origin` is the element holding the text (for
 // file positions); `base` is added to offsets (0 for a whole body).
-Block parse_st(std::string_view text, const petri::XmlElement& origin, DiagnosticList& diags);
+Block parse_st(std::string_view text, const XmlElement& origin, DiagnosticList& diags);
 
 // Parses one expression (an FBD variable's <expression>, an SFC condition).
 // `begin`/`end` select part of `text` (an IL operand); positions stay those of
 // the whole text.
-std::unique_ptr<Expr> parse_st_expression(std::string_view text, const petri::XmlElement& origin,
+std::unique_ptr<Expr> parse_st_expression(std::string_view text, const XmlElement& origin,
                                           DiagnosticList& diags, size_t begin = 0,
                                           size_t end = std::string_view::npos);
 // Statements in text[begin, end) (an IL CAL's call), positions as above.
-Block parse_st_range(std::string_view text, size_t begin, size_t end, const petri::XmlElement& origin,
+Block parse_st_range(std::string_view text, size_t begin, size_t end, const XmlElement& origin,
                      DiagnosticList& diags);
 
 // Names an ST text assigns (`x :=`, `=> x`), upper-cased, for the importer's

@@ -1,9 +1,9 @@
-// The XML reader behind the PNML importer (see xml_reader.h).
-#include "lang/petri/xml_reader.h"
+// The XML reader behind the PNML and PLCopen importers (see xml_reader.h).
+#include "common/xml_reader.h"
 
 #include <cstdint>
 
-namespace rtplc::petri {
+namespace rtplc {
 namespace {
 
 class XmlParser {
@@ -381,4 +381,4 @@ SourcePos XmlElement::text_position(size_t offset) const {
   return p;
 }
 
-}  // namespace rtplc::petri
+}  // namespace rtplc
