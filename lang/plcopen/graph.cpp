@@ -227,6 +227,20 @@ class Graph {
   void lower(const std::string& id) {
     int& st = state_[id];
     if (st != 0) return;
+    if (depth_ >= kMaxDepth) {
+      if (!d_.has_errors())
+        d_.error(elems_[id]->pos, "the data flow runs through more than " + std::to_string(kMaxDepth) +
+                                      " elements in a row; split the network");
+      return;
+    }
+    ++depth_;
+    lower_element(id, st);
+    --depth_;
+  }
+
+  static constexpr int kMaxDepth = 2000;
+
+  void lower_element(const std::string& id, int& st) {
     st = 1;
     const XmlElement& e = *elems_[id];
     auto& outs = values_[id];
@@ -431,6 +445,7 @@ class Graph {
   std::map<std::string, Value> enable_;  // function block localId -> its EN, when not always true
   std::set<std::string> made_alias_;
   std::set<std::string> reported_;
+  int depth_ = 0;
 };
 
 }  // namespace

@@ -228,9 +228,15 @@ class Parser {
       error(t.pos, t.up + " is not supported yet in ST bodies");
       return nullptr;
     }
-    if (t.up == "IF") return if_statement();
-    if (t.up == "CASE") return case_statement();
-    if (t.up == "FOR") return for_statement();
+    if (t.up == "IF" || t.up == "CASE" || t.up == "FOR") {
+      if (++nesting_ > 100) {
+        error(t.pos, "statements nested deeper than 100");
+        return nullptr;
+      }
+      auto r = t.up == "IF" ? if_statement() : t.up == "CASE" ? case_statement() : for_statement();
+      --nesting_;
+      return r;
+    }
     auto s = std::make_unique<Stmt>();
     s->pos = t.pos;
     s->target = variable_path();
@@ -548,6 +554,7 @@ class Parser {
   DiagnosticList& d_;
   size_t i_ = 0;
   int depth_ = 0;
+  int nesting_ = 0;
   bool failed_ = false;
 };
 
