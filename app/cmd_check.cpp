@@ -214,7 +214,7 @@ void add_check_commands(CLI::App& app) {
       "Errors are shown as file:line:col with the line and a caret; every error in the file is\n"
       "listed, and the exit code is 1 if there was any. A .yaml configuration is checked the way\n"
       "`rtplc run` would: the YAML, every program, one writer per output, the plant wiring.\n"
-      "Examples:\n  rtplc check examples/seed_pid.fbd --explain\n  rtplc check examples/tank.sfc --explain\n"
+      "Examples:\n  rtplc check examples/seed_pid.fbd --explain\n  rtplc check examples/tank.sfc --explain\n  rtplc check examples/plcopen_tank.xml --explain   (PLCopen XML, docs/plcopen.md)\n"
       "  rtplc check examples/plant.yaml");
   check->add_option("file", args->file, "control algorithm file (.fbd), SFC program (.sfc), PLCopen XML project (.xml) or runtime configuration (.yaml)")
       ->required();

@@ -178,7 +178,8 @@ void add_sim_command(CLI::App& app) {
       "Examples:\n"
       "  rtplc sim examples/seed_pid.fbd --duration 30 --csv run.csv --plot run.png\n"
       "  rtplc sim examples/seed_pid.fbd --plant fopdt:K=2,T=4,L=0.5 --step Setpoint=60@20\n"
-      "  rtplc sim examples/tank.sfc --plant measuring-tank --duration 40 --csv tank.csv");
+      "  rtplc sim examples/tank.sfc --plant measuring-tank --duration 40 --csv tank.csv\n"
+      "  rtplc sim examples/plcopen_tank.xml --duration 5 --csv tank.csv   (a column per variable)");
   sim->add_option("file", a->file, "control algorithm file (.fbd), SFC program (.sfc) or PLCopen XML project (.xml)")->required();
   sim->add_option("--entry", a->entry, "PLCopen XML: the task, program instance or program to simulate (default: the project's only one)");
   sim->add_option("--duration", a->duration, "simulated seconds (default 30)")
