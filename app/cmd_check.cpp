@@ -14,6 +14,7 @@
 #include "blocks/registry.h"
 #include "config/config.h"
 #include "lang/compiler.h"
+#include "lang/iec/iec_functions.h"
 #include "sched/runtime.h"
 
 namespace rtplc::app {
@@ -27,6 +28,7 @@ struct CheckArgs {
   std::string output;
   std::string block;
   bool markdown = false;
+  bool iec = false;
   bool paths = false;
   std::string entry;
 };
@@ -171,8 +173,22 @@ void run_blocks(const CheckArgs& a) {
     std::fputs(blocks_markdown().c_str(), stdout);
     return;
   }
+  if (a.iec) {
+    std::fputs(lang::iec::iec_functions_markdown().c_str(), stdout);
+    return;
+  }
   if (!a.block.empty()) {
     const BlockSpec* b = find_block(a.block);
+    if (const lang::iec::IecFunction* f = b ? nullptr : lang::iec::find_iec(a.block)) {
+      std::string ins, outs;
+      for (const char* i : f->inputs) ins += (ins.empty() ? "" : ", ") + std::string(i);
+      if (f->extensible) ins += ", ...";
+      for (const char* o : f->outputs) outs += (outs.empty() ? "" : ", ") + std::string(o);
+      std::printf("%s — IEC 61131-3 standard %s (%s) -> (%s)\n  lowers to: %s\n", f->name.c_str(),
+                  f->function_block ? "function block" : "function", ins.c_str(), outs.c_str(),
+                  f->lowers_to);
+      return;
+    }
     if (!b) {
       std::string hint = suggest_block(a.block);
       std::fprintf(stderr, "rtplc blocks: no block named '%s'%s\n", a.block.c_str(),
@@ -242,6 +258,9 @@ void add_check_commands(CLI::App& app) {
   CLI::App* blocks = app.add_subcommand("blocks", "List the primitive blocks and their contracts.");
   blocks->add_option("name", args->block, "show one block in detail");
   blocks->add_flag("--markdown", args->markdown, "print the full reference (docs/blocks.md)");
+  blocks->add_flag(
+      "--iec", args->iec,
+      "print how the IEC 61131-3 standard functions and blocks lower to these (docs/iec.md)");
   blocks->callback([args] { run_blocks(*args); });
 }
 

@@ -101,7 +101,8 @@ std::string blocks_markdown() {
              b.summary + ": " + b.contract + " | " + (b.errors[0] ? b.errors : "-") + " |\n";
     }
   }
-  out += "\n" + std::to_string(total) + " primitive blocks: the 58 of the seed's language, `good`, and the IEC 61131-3 set\n"
+  out += "\n" + std::to_string(total) +
+         " primitive blocks: the 58 of the seed's language, `good`, and the IEC 61131-3 set\n"
          "(docs/language.md, \"IEC 61131-3 types and standard blocks\").\n";
   return out;
 }

@@ -29,6 +29,8 @@ uint32_t op_param_count(Op op) {
       return 2;
     case Op::Ldlg: case Op::Pid: case Op::Epid:
       return 3;
+    case Op::Pidc:
+      return 8;
     default:
       return 0;
   }
@@ -44,6 +46,8 @@ uint32_t op_state_size(Op op, const double* prepared) {
       return 2;
     case Op::Pid: case Op::Epid: case Op::Tp: case Op::TpEt:
       return 3;
+    case Op::Pidc:
+      return 4;
     case Op::Dely:
       // [0] = next ring index, [1..n] = ring. n was range-checked before prepare.
       return prepared == nullptr ? 1 : 1 + static_cast<uint32_t>(prepared[0]);
@@ -66,6 +70,7 @@ uint32_t op_input_count(Op op) {
     case Op::Ctu: case Op::Updn:
       return 2;
     case Op::And3: case Op::Or3: case Op::Amux: case Op::Ctd: case Op::Ctud:
+    case Op::Pidc:
       return 3;
     default:
       return 1;

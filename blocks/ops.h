@@ -47,6 +47,8 @@
 //  Ctu Ctd   counter value CV (IEC CTU / CTD)                                      pvmax | pvmin       cv edge
 //  Updn      +1 on a rising cu, -1 on a rising cd, 0 otherwise or both             -                   edges
 //  Ctud      CV of IEC CTUD from updn's step, load, pv                             pvmin pvmax         cv
+//  Pidc      commissioning PID: limits, conditional integration, tracking of the   Kp ki ad bd         I D' y' primed
+//            applied output fb, filtered derivative, set-point weights b, c        b c lo hi           (u' = own output)
 #pragma once
 
 #include <cstdint>
@@ -64,7 +66,7 @@ namespace rtplc {
   X(Mod) X(Trunc) X(Round) X(Neg) X(Expt) X(Ln) X(Log) X(Exp) X(Wrap)                       \
   X(Band) X(Bor) X(Bxor) X(Bnot) X(Shl) X(Shr) X(Rol) X(Ror)                                \
   X(Rtrig) X(Ftrig) X(Sr) X(Rs) X(Ton) X(TonEt) X(Tof) X(TofEt) X(Tp) X(TpEt)               \
-  X(Ctu) X(Ctd) X(Updn) X(Ctud)
+  X(Ctu) X(Ctd) X(Updn) X(Ctud) X(Pidc)
 
 enum class Op : uint8_t {
 #define RTPLC_OP_ENUM(name) name,

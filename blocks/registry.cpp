@@ -1,6 +1,7 @@
 // The 58 primitive blocks of the spec (fbd-language.md); `good`, which the seed
 // lacks: a program's view of its inputs' quality; and the IEC 61131-3 set
-// (add_iec_blocks). Every contract written here is what the executor implements (blocks/executor.cpp) and what docs/blocks.md says.
+// (add_iec_blocks). Every contract written here is what the executor implements
+// (blocks/executor.cpp) and what docs/blocks.md says.
 #include "blocks/registry.h"
 
 #include <algorithm>
@@ -110,8 +111,8 @@ constexpr const char* kHold = "a non-finite result: y holds its previous value, 
 // type is a double holding an integer, kept in range by `wrap` (docs/language.md,
 // "IEC 61131-3 types and standard blocks", says where this differs from a PLC).
 ParamSpec bits_param() {
-  return ParamSpec{"bits", "width in bits (8, 16, 32, 64 for the IEC types)", 16, true, 1, 64, false,
-                   true};
+  return ParamSpec{
+      "bits", "width in bits (8, 16, 32, 64 for the IEC types)", 16, true, 1, 64, false, true};
 }
 
 void add_iec_blocks(std::vector<BlockSpec>& r) {
@@ -132,15 +133,16 @@ void add_iec_blocks(std::vector<BlockSpec>& r) {
   r.push_back(compute("const", G::kIec, A, {}, {param("v", "the value")}, "", "analog constant",
                       "y = v every cycle (FBD has no literal inputs; a constant an operator may "
                       "change is an `asp`)"));
-  r.push_back(compute("dconst", G::kIec, D, {}, {param("v", "the value, 0 or 1", 0, 1, false, true)},
-                      "", "digital constant", "y = v every cycle"));
+  r.push_back(compute("dconst", G::kIec, D, {},
+                      {param("v", "the value, 0 or 1", 0, 1, false, true)}, "", "digital constant",
+                      "y = v every cycle"));
   r.push_back(compute("d2a", G::kIec, A, {{"a", D}}, {}, "", "digital to analog (BOOL_TO_*)",
                       "y = 1 if a is true, else 0"));
   r.push_back(compute("a2d", G::kIec, D, {{"a", A}}, {}, "", "analog to digital (*_TO_BOOL)",
                       "y = 1 if a != 0, else 0"));
   r.push_back(compute("mod", G::kIec, A, {{"a", A}, {"b", A}}, {}, "", "remainder (IEC MOD)",
-                      "y = a - b*trunc(a/b): the sign of the dividend a (-7 mod 2 = -1); b = 0 gives "
-                      "0, as the standard's definition of MOD says (not an error)"));
+                      "y = a - b*trunc(a/b): the sign of the dividend a (-7 mod 2 = -1); "
+                      "b = 0 gives 0, as the standard's definition of MOD says (not an error)"));
   r.push_back(compute("trunc", G::kIec, A, {{"a", A}}, {}, "", "truncation (IEC TRUNC)",
                       "y = a rounded toward zero"));
   r.push_back(compute("round", G::kIec, A, {{"a", A}}, {}, "", "rounding (REAL_TO_INT and kin)",
@@ -159,11 +161,12 @@ void add_iec_blocks(std::vector<BlockSpec>& r) {
                       kHold));
   r.push_back(compute(
       "wrap", G::kIec, A, {{"a", A}},
-      {bits_param(), ParamSpec{"signed", "1 for SINT..LINT, 0 for USINT..ULINT", 1, true, 0, 1, false, true}},
+      {bits_param(),
+       ParamSpec{"signed", "1 for SINT..LINT, 0 for USINT..ULINT", 1, true, 0, 1, false, true}},
       "", "integer overflow (the IEC integer types)",
       "y = trunc(a) reduced modulo 2^bits into the type's range: [-2^(bits-1), 2^(bits-1)) when "
-      "signed, [0, 2^bits) when not (wrap(32768, 16) = -32768); exact while |a| < 2^53, beyond that "
-      "a double cannot hold every LINT/ULINT value"));
+      "signed, [0, 2^bits) when not (wrap(32768, 16) = -32768); exact while |a| < 2^53, "
+      "beyond that a double cannot hold every LINT/ULINT value"));
   const char* bit_note =
       "; operands are trunc(x) mod 2^bits, read as unsigned bit strings (BYTE 8, WORD 16, DWORD "
       "32, LWORD 64; above 2^53 doubles lose low bits)";
@@ -180,10 +183,15 @@ void add_iec_blocks(std::vector<BlockSpec>& r) {
   r.push_back(compute("bnot", G::kIec, A, {{"a", A}}, {bits_param()}, "",
                       "bitwise NOT (IEC NOT on bit strings)", bnot_c.c_str()));
   const char* n_note = "; n = trunc(n), a negative n shifts by 0";
-  static const std::string shl_c = std::string("y = a shifted left by n within `bits` bits, zeros in; n >= bits gives 0") + n_note;
-  static const std::string shr_c = std::string("y = a shifted right by n, zeros in (logical); n >= bits gives 0") + n_note;
-  static const std::string rol_c = std::string("y = a rotated left by n mod bits within `bits` bits") + n_note;
-  static const std::string ror_c = std::string("y = a rotated right by n mod bits within `bits` bits") + n_note;
+  static const std::string shl_c =
+      std::string("y = a shifted left by n within `bits` bits, zeros in; n >= bits gives 0") +
+      n_note;
+  static const std::string shr_c =
+      std::string("y = a shifted right by n, zeros in (logical); n >= bits gives 0") + n_note;
+  static const std::string rol_c =
+      std::string("y = a rotated left by n mod bits within `bits` bits") + n_note;
+  static const std::string ror_c =
+      std::string("y = a rotated right by n mod bits within `bits` bits") + n_note;
   r.push_back(compute("shl", G::kIec, A, {{"a", A}, {"n", A}}, {bits_param()}, "",
                       "shift left (IEC SHL)", shl_c.c_str()));
   r.push_back(compute("shr", G::kIec, A, {{"a", A}, {"n", A}}, {bits_param()}, "",
@@ -203,7 +211,8 @@ void add_iec_blocks(std::vector<BlockSpec>& r) {
   r.push_back(compute("sr", G::kIec, D, {{"s1", D}, {"r", D}}, {}, "its output",
                       "set-dominant bistable (IEC SR)", "y = s1 OR (NOT r AND y_prev), starts 0"));
   r.push_back(compute("rs", G::kIec, D, {{"s", D}, {"r1", D}}, {}, "its output",
-                      "reset-dominant bistable (IEC RS)", "y = NOT r1 AND (s OR y_prev), starts 0"));
+                      "reset-dominant bistable (IEC RS)",
+                      "y = NOT r1 AND (s OR y_prev), starts 0"));
   const char* timing =
       " Time is n*dt, n the cycles since the starting edge (0 in that cycle); PT is reached when "
       "n*dt >= PT within 1e-9*dt; PT < 0 acts as 0; PT is read every cycle";
@@ -215,12 +224,13 @@ void add_iec_blocks(std::vector<BlockSpec>& r) {
                   "and y stays 1 until ET >= PT; starts 0 (in never true).") + timing;
   static const std::string tp_c =
       std::string("pulse, IEC TP's Q: a rising in (while no pulse runs) gives y = 1 for PT; not "
-                  "retriggerable; in may fall during the pulse. Edge memory starts false.") + timing;
+                  "retriggerable; in may fall during the pulse. Edge memory starts false.") +
+      timing;
   static const std::string et_c =
       "the same state machine as the block without `_et` on the same inputs, giving ET in seconds: "
-      "TON: 0 while in is false, min(elapsed, PT) while true; TOF: 0 while in is true, min(elapsed, "
-      "PT) after it fell (0 before in was ever true); TP: elapsed during the pulse, PT after it "
-      "while in stays true, else 0";
+      "TON: 0 while in is false, min(elapsed, PT) while true; TOF: 0 while in is true, "
+      "min(elapsed, PT) after it fell (0 before in was ever true); TP: elapsed during the "
+      "pulse, PT after it while in stays true, else 0";
   r.push_back(compute("ton", G::kIec, D, {{"in", D}, {"pt", A}}, {}, "cycles in has been true",
                       "on-delay timer Q (IEC TON)", ton_c.c_str()));
   r.push_back(compute("ton_et", G::kIec, A, {{"in", D}, {"pt", A}}, {}, "cycles in has been true",
@@ -414,6 +424,26 @@ std::vector<BlockSpec> build_registry() {
                        param("Td", "derivative time (s)", 0)},
                       "integral, previous error", "PID controller on an error input",
                       pid_contract, kHold));
+  r.push_back(compute(
+      "pidc", G::kControl, A, {{"sp", A}, {"pv", A}, {"fb", A}},
+      {param("Kp", "proportional gain (negative: reverse acting)"),
+       param("Ti", "integral time (s), 0 = no integral", 0), param("Td", "derivative time (s)", 0),
+       param("lo", "lowest output"), param("hi", "highest output"),
+       ParamSpec{"N", "derivative filter: Tf = Td/N", 10, true, 0, kBig, true, false},
+       ParamSpec{"b", "set-point weight of P", 1, true, -kBig, kBig, false, false},
+       ParamSpec{"c", "set-point weight of D (0: on the measurement)", 0, true, -kBig, kBig,
+                 false, false}},
+      "I, D, c*sp - pv, primed (and its output)",
+      "PID to commission: limits, anti-windup, tracking (manual/auto), filtered D, weights",
+      "u = clamp(P + I + D, lo, hi) with P = Kp*(b*sp - pv); I += Kp*dt/Ti*(sp - pv) except "
+      "when that would drive u further beyond lo or hi (conditional integration: no windup); "
+      "D = Tf/(Tf+dt)*D + Kp*Td/(Tf+dt)*(yd - yd_prev), yd = c*sp - pv, Tf = Td/N (0 in the first "
+      "cycle: no start-up kick). fb is the value the actuator got last cycle: before each step I "
+      "moves by fb - u_prev, so wiring fb to the block itself gives plain clamping, and wiring "
+      "it to a manual/auto or tracking selector after the block (read last cycle) makes "
+      "the output continue from the applied value: bumpless transfer both ways. lo <= hi is "
+      "checked at compile time",
+      kHold));
   r.push_back(compute("ramp", G::kControl, A, {{"target", A}},
                       {param("rate", "units per second", 0, kBig, true)}, "its output",
                       "rate limiter / ramp generator",
@@ -491,7 +521,7 @@ Op block_op(const BlockSpec& b, uint32_t n_inputs) {
       {"ftrig", Op::Ftrig}, {"sr", Op::Sr},   {"rs", Op::Rs},     {"ton", Op::Ton},
       {"ton_et", Op::TonEt}, {"tof", Op::Tof}, {"tof_et", Op::TofEt}, {"tp", Op::Tp},
       {"tp_et", Op::TpEt}, {"ctu", Op::Ctu},  {"ctd", Op::Ctd},   {"updn", Op::Updn},
-      {"ctud", Op::Ctud},
+      {"ctud", Op::Ctud}, {"pidc", Op::Pidc},
   };
   if (n == "and") return n_inputs == 3 ? Op::And3 : Op::And2;
   if (n == "or") return n_inputs == 3 ? Op::Or3 : Op::Or2;
@@ -584,6 +614,20 @@ void prepare_params(Op op, std::span<const double> p, double dt, double* out) {
     case Op::Ton: case Op::TonEt: case Op::Tof: case Op::TofEt: case Op::Tp: case Op::TpEt:
       out[0] = dt;
       break;
+    case Op::Pidc: {
+      // Kp, Ti, Td, lo, hi, N, b, c -> Kp, Kp*dt/Ti, Tf/(Tf+dt), Kp*Td/(Tf+dt), b, c, lo, hi.
+      const double kp = at(0), ti = at(1), td = at(2), n = p.size() > 5 ? p[5] : 10.0;
+      const double tf = n > 0 ? td / n : 0.0;
+      out[0] = kp;
+      out[1] = ti > 0 ? kp * dt / ti : 0.0;
+      out[2] = tf / (tf + dt);
+      out[3] = kp * td / (tf + dt);
+      out[4] = p.size() > 6 ? p[6] : 1.0;
+      out[5] = at(7);
+      out[6] = at(3);
+      out[7] = at(4);
+      break;
+    }
     case Op::Wrap: {
       const double m = std::ldexp(1.0, static_cast<int>(at(0)));
       out[0] = m;

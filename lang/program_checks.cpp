@@ -342,6 +342,10 @@ std::string parameter_relation_error(const BlockSpec& spec, const std::vector<do
     return "lim: lower limit " + format_number(params[0]) + " is above the upper limit " +
            format_number(params[1]);
   }
+  if (std::string_view(spec.name) == "pidc" && params.size() >= 5 && params[3] > params[4]) {
+    return "pidc: lowest output " + format_number(params[3]) + " is above the highest output " +
+           format_number(params[4]);
+  }
   return {};
 }
 

@@ -30,7 +30,8 @@ FbdHarness with(const std::string& body, double dt = 0.1) {
 // Evaluates one-input or two-input blocks on constants: "wrap(F10, 16, 1)".
 double eval(const std::string& call, double a, double b = 0) {
   char buf[160];
-  std::snprintf(buf, sizeof buf, "F10 = const(%.17g)\nF11 = const(%.17g)\nF12 = %s\n", a, b, call.c_str());
+  std::snprintf(buf, sizeof buf, "F10 = const(%.17g)\nF11 = const(%.17g)\nF12 = %s\n", a, b,
+                call.c_str());
   FbdHarness h(buf, 0.1);
   if (!h.ok()) return NAN;
   h.step();
@@ -38,15 +39,16 @@ double eval(const std::string& call, double a, double b = 0) {
 }
 
 TEST(IecCompare, gives_one_or_zero_for_each_relation) {
-  auto h = with("D10 = gt(F1, F2)\nD11 = ge(F1, F2)\nD12 = lt(F1, F2)\nD13 = le(F1, F2)\n"
-                "D14 = eq(F1, F2)\nD15 = ne(F1, F2)\n");
+  auto h = with(
+      "D10 = gt(F1, F2)\nD11 = ge(F1, F2)\nD12 = lt(F1, F2)\nD13 = le(F1, F2)\n"
+      "D14 = eq(F1, F2)\nD15 = ne(F1, F2)\n");
   ASSERT_TRUE(h.ok());
   struct Row {
     double a, b;
     int gt, ge, lt, le, eq, ne;
   };
-  for (Row r : {Row{1, 2, 0, 0, 1, 1, 0, 1}, Row{2, 2, 0, 1, 0, 1, 1, 0}, Row{3, 2, 1, 1, 0, 0, 0, 1},
-                Row{-0.0, 0.0, 0, 1, 0, 1, 1, 0}}) {
+  for (Row r : {Row{1, 2, 0, 0, 1, 1, 0, 1}, Row{2, 2, 0, 1, 0, 1, 1, 0},
+                Row{3, 2, 1, 1, 0, 0, 0, 1}, Row{-0.0, 0.0, 0, 1, 0, 1, 1, 0}}) {
     h.set("a", r.a);
     h.set("b", r.b);
     h.step();
@@ -60,7 +62,8 @@ TEST(IecCompare, gives_one_or_zero_for_each_relation) {
 }
 
 TEST(IecConst, produces_its_value_and_converts_kinds) {
-  auto h = with("F10 = const(-2.5)\nD11 = dconst(1)\nF12 = d2a(D11)\nD13 = a2d(F10)\nD14 = a2d(F1)\n");
+  auto h =
+      with("F10 = const(-2.5)\nD11 = dconst(1)\nF12 = d2a(D11)\nD13 = a2d(F10)\nD14 = a2d(F1)\n");
   ASSERT_TRUE(h.ok());
   h.step();
   EXPECT_EQ(h.value("F10"), -2.5);
@@ -99,7 +102,7 @@ TEST(IecArithmetic, expt_ln_log_exp_and_their_domain_errors) {
   h.step();
   EXPECT_EQ(h.value("F10"), 2);
   const double ln4 = h.value("F11");
-  h.set("a", -8);  // (-8)^0.5 and ln(-8): held, counted
+  h.set("a", -8);    // (-8)^0.5 and ln(-8): held, counted
   h.set("b", 1000);  // e^1000 overflows: held, counted
   h.step();
   EXPECT_EQ(h.value("F10"), 2);
@@ -112,7 +115,7 @@ TEST(IecArithmetic, expt_ln_log_exp_and_their_domain_errors) {
 
 TEST(IecIntegers, wrap_brings_a_value_into_the_types_range) {
   EXPECT_EQ(eval("wrap(F10, 16, 1)", 32767), 32767);
-  EXPECT_EQ(eval("wrap(F10, 16, 1)", 32768), -32768);   // INT overflow
+  EXPECT_EQ(eval("wrap(F10, 16, 1)", 32768), -32768);  // INT overflow
   EXPECT_EQ(eval("wrap(F10, 16, 1)", -32769), 32767);
   EXPECT_EQ(eval("wrap(F10, 16, 0)", 65536), 0);        // UINT
   EXPECT_EQ(eval("wrap(F10, 16, 0)", 65535.7), 65535);  // truncated first
@@ -121,15 +124,17 @@ TEST(IecIntegers, wrap_brings_a_value_into_the_types_range) {
   EXPECT_EQ(eval("wrap(F10, 8, 1)", -1.9), -1);
   EXPECT_EQ(eval("wrap(F10, 32, 1)", 2147483648.0), -2147483648.0);  // DINT
   EXPECT_EQ(eval("wrap(F10, 32, 0)", -1), 4294967295.0);             // UDINT
-  EXPECT_EQ(eval("wrap(F10, 64, 1)", 9007199254740993.0), 9007199254740992.0);  // 2^53+1 is not a double
-  EXPECT_EQ(eval("wrap(F10)", 40000), 40000 - 65536);   // default: 16 bits, signed
+  EXPECT_EQ(eval("wrap(F10, 64, 1)", 9007199254740993.0),
+            9007199254740992.0);                       // 2^53+1 is not a double
+  EXPECT_EQ(eval("wrap(F10)", 40000), 40000 - 65536);  // default: 16 bits, signed
 }
 
 TEST(IecIntegers, an_int_counter_wraps_like_a_plcs) {
   // x := x + 1 as an INT, from 32766: 32767, -32768, -32767.
   // Seed the loop at 32766 through a one-cycle load: F13 reads F12 from the last cycle.
-  auto g = with("F10 = const(1)\nF14 = const(32766)\nF15 = amux(F12, F14, D3)\nF11 = add(F15, F10)\n"
-                "F12 = wrap(F11, 16, 1)\n");
+  auto g = with(
+      "F10 = const(1)\nF14 = const(32766)\nF15 = amux(F12, F14, D3)\nF11 = add(F15, F10)\n"
+      "F12 = wrap(F11, 16, 1)\n");
   ASSERT_TRUE(g.ok());
   g.set("x", 1);
   g.step();
@@ -159,17 +164,18 @@ TEST(IecBits, shifts_and_rotations_stay_within_the_width) {
   EXPECT_EQ(eval("ror(F10, F11, 8)", 0x81, 1), 0xC0);
   EXPECT_EQ(eval("rol(F10, F11, 8)", 0x81, 9), 0x03);  // n mod 8
   EXPECT_EQ(eval("ror(F10, F11, 16)", 1, 0), 1);
-  EXPECT_EQ(eval("shl(F10, F11, 16)", 1, 16), 0);       // shifted out
+  EXPECT_EQ(eval("shl(F10, F11, 16)", 1, 16), 0);  // shifted out
   EXPECT_EQ(eval("shl(F10, F11, 16)", 1, 15), 32768);
   EXPECT_EQ(eval("shr(F10, F11, 16)", 0x8000, 15), 1);
-  EXPECT_EQ(eval("shl(F10, F11, 16)", 3, -2), 3);       // a negative count shifts by 0
+  EXPECT_EQ(eval("shl(F10, F11, 16)", 3, -2), 3);  // a negative count shifts by 0
   EXPECT_EQ(eval("rol(F10, F11, 32)", 2147483648.0, 1), 1);
   EXPECT_EQ(eval("shl(F10, F11, 64)", 1, 52), 4503599627370496.0);
 }
 
 // Drives x cycle by cycle and checks one digital and (optionally) one analog column.
-void expect_trace(FbdHarness& h, const std::vector<int>& x, const char* q, const std::vector<int>& want_q,
-                  const char* et = nullptr, const std::vector<double>& want_et = {}) {
+void expect_trace(FbdHarness& h, const std::vector<int>& x, const char* q,
+                  const std::vector<int>& want_q, const char* et = nullptr,
+                  const std::vector<double>& want_et = {}) {
   ASSERT_TRUE(h.ok());
   ASSERT_EQ(x.size(), want_q.size());
   for (size_t c = 0; c < x.size(); ++c) {
@@ -225,8 +231,8 @@ TEST(IecTimers, ton_with_pt_zero_passes_in_through) {
 TEST(IecTimers, tof_follows_the_standards_diagram) {
   auto h = with("D10 = tof(D3, F2)\nF11 = tof_et(D3, F2)\n");
   h.set("b", 0.3);
-  expect_trace(h, {0, 1, 1, 0, 0, 0, 0, 0, 1, 0, 1}, "D10", {0, 1, 1, 1, 1, 1, 0, 0, 1, 1, 1}, "F11",
-               {0, 0, 0, 0, 0.1, 0.2, 0.3, 0.3, 0, 0, 0});
+  expect_trace(h, {0, 1, 1, 0, 0, 0, 0, 0, 1, 0, 1}, "D10", {0, 1, 1, 1, 1, 1, 0, 0, 1, 1, 1},
+               "F11", {0, 0, 0, 0, 0.1, 0.2, 0.3, 0.3, 0, 0, 0});
 }
 
 TEST(IecTimers, tp_gives_a_pulse_of_pt_and_is_not_retriggered) {
@@ -312,10 +318,11 @@ TEST(IecCounters, ctud_counts_both_ways_and_ignores_simultaneous_edges) {
     double cv;
   };
   h.set("b", 1);  // PV
-  for (Row w : {Row{1, 0, 0, 1}, Row{0, 0, 0, 1}, Row{1, 0, 0, 2}, Row{0, 0, 0, 2}, Row{1, 0, 0, 2},
-                Row{0, 0, 0, 2}, Row{1, 1, 0, 2}, Row{0, 0, 0, 2}, Row{0, 1, 0, 1}, Row{0, 0, 0, 1},
-                Row{0, 1, 0, 0}, Row{0, 0, 0, 0}, Row{0, 1, 0, -1}, Row{0, 0, 0, -1}, Row{0, 1, 0, -2},
-                Row{0, 0, 0, -2}, Row{0, 1, 0, -2}, Row{0, 0, 1, 1}, Row{1, 0, 1, 1}}) {
+  for (Row w :
+       {Row{1, 0, 0, 1}, Row{0, 0, 0, 1}, Row{1, 0, 0, 2}, Row{0, 0, 0, 2}, Row{1, 0, 0, 2},
+        Row{0, 0, 0, 2}, Row{1, 1, 0, 2}, Row{0, 0, 0, 2}, Row{0, 1, 0, 1}, Row{0, 0, 0, 1},
+        Row{0, 1, 0, 0}, Row{0, 0, 0, 0}, Row{0, 1, 0, -1}, Row{0, 0, 0, -1}, Row{0, 1, 0, -2},
+        Row{0, 0, 0, -2}, Row{0, 1, 0, -2}, Row{0, 0, 1, 1}, Row{1, 0, 1, 1}}) {
     h.set("x", w.cu);
     h.set("y", w.cd);
     h.set("z", w.ld);

@@ -63,6 +63,8 @@ Generated random_program(std::mt19937& rng, int n) {
       params.push_back(v);
     }
     if (std::string_view(b.name) == "lim" && params[0] > params[1]) std::swap(params[0], params[1]);
+    if (std::string_view(b.name) == "pidc" && params[3] > params[4])
+      std::swap(params[3], params[4]);
     bool first = n_in == 0;  // `const` and `dconst` have parameters only
     for (double v : params) {
       char buf[32];
