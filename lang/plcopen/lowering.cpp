@@ -562,6 +562,10 @@ std::optional<Value> Lowering::call_function(Scope& s, const std::string& name, 
     }
     if (*tt == BaseType::kBool) return em_.to_digital(args[0], pos);
     Value r = em_.to_analog(args[0], pos);
+    // TIME converts to and from numbers in milliseconds (as lang/iec does);
+    // TIME values themselves are seconds.
+    if (*ft == BaseType::kTime && *tt != BaseType::kTime) r = em_.binary(BinOp::kMul, r, constant(1000, false), pos);
+    if (*tt == BaseType::kTime && *ft != BaseType::kTime) r = em_.binary(BinOp::kDiv, r, constant(1000, false), pos);
     const bool from_real = *ft == BaseType::kReal || *ft == BaseType::kLreal || *ft == BaseType::kTime;
     if (integer_type(*tt) && from_real && !r.is_const) {
       r = em_.call1("round", r, pos);  // IEC rounds REAL to an integer (halves away from 0)

@@ -384,7 +384,7 @@ TEST(Plcopen, maps_located_variables_to_channels) {
                              "</inputVars><outputVars>" + var("ao", "REAL", "%QW3") + var("dq", "BOOL", "%QX1.7") +
                              "</outputVars><localVars>" + var("sp", "REAL", "%MD4", "12.5") + var("mem", "INT", "%MW2") +
                              "</localVars>",
-                         "ao := ai + sp + DINT_TO_REAL(big); dq := di; mem := 3;"));
+                         "ao := ai + sp + DINT_TO_REAL(big); dq := di; mem := TIME_TO_INT(T#1.5s);"));
   CompileResult r = compile_source(src);
   ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
   auto find = [&](const char* label) -> const Binding* {
@@ -400,6 +400,9 @@ TEST(Plcopen, maps_located_variables_to_channels) {
   EXPECT_EQ(find("sp")->dir, BindingDir::kSetpoint);  // read-only %M: an operator set-point
   EXPECT_DOUBLE_EQ(find("sp")->init, 12.5);
   EXPECT_EQ(find("mem"), nullptr);  // written by the program: internal
+  Machine run(std::move(*r.image));
+  run.cycles(1);
+  EXPECT_EQ(run.value("main.mem"), 1500);  // TIME converts in milliseconds
 }
 
 // An FBD body imported gives the same trace as the seed-language program it stands for.
