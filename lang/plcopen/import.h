@@ -21,8 +21,7 @@ struct ImportOptions {
   std::string entry;
 };
 
-// Names of a project's runnable entries (tasks and program instances), for
-// error messages and `--help`.
+// What was imported: the flat program (for check_flat_program) and what runs.
 struct ImportResult {
   CheckedProgram program;
   std::string entry;              // what was chosen

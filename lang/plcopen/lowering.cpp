@@ -185,10 +185,6 @@ std::unique_ptr<Scope> Lowering::make_scope(const Pou& pou, const std::string& p
     if (!globals_ || !globals_->vars.count(upper(decl.name)))
       d_.error(decl.pos, "external variable '" + decl.name + "' names no global variable of the configuration");
   }
-  if (s->function && pou.return_type) {
-    Variable* rv = nullptr;
-    (void)rv;
-  }
   return s;
 }
 
