@@ -5,8 +5,8 @@
 // jumps (carried to its label with its CR) and the part that falls through,
 // and a label ORs the predicates that reach it and selects their CRs. Only
 // one path is taken in a cycle, so the selections are exact. A backward jump
-// (a loop) is refused; so is a conditional CAL (its FB state would advance
-// whichever path ran).
+// (a loop) is refused; a conditional CAL is if-converted like an ST IF (of a
+// user FB; a standard FB's timer or counter cannot be frozen, and is refused).
 #include <cctype>
 #include <map>
 #include <set>
@@ -285,10 +285,6 @@ void Lowering::lower_il(Scope& s, const Body& body) {
           : op == "RETC" ? em.binary(BinOp::kAnd, P, em.unary_not(c, pos), pos)
                          : em.binary(BinOp::kAnd, P, c, pos);
     } else if (op == "CAL" || op == "CALC" || op == "CALCN") {
-      if (op != "CAL" || !(P.is_const && P.k != 0)) {
-        d_.error(pos, "a conditional function block call (" + op + ", or CAL after a conditional jump) is not supported yet");
-        return;
-      }
       std::string call = t.substr(ob, l.end - ob);
       if (call.find('(') == std::string::npos) {
         d_.error(pos, "CAL " + call + " without arguments: give them in the call, CAL " + call + "(IN := ...)");
@@ -296,7 +292,14 @@ void Lowering::lower_il(Scope& s, const Body& body) {
       }
       Block blk = parse_st_range(src, ob, l.end, origin, d_);
       if (d_.has_errors()) return;
-      lower_st(s, blk);
+      // The call happens where P holds (CALC: and CR, CALCN: and not CR): if-converted
+      // like an ST IF, so a user FB keeps its variables when it is not called.
+      const Value c = em.to_digital(CR, pos);
+      const Value when = op == "CAL" ? P
+                         : op == "CALC" ? em.binary(BinOp::kAnd, P, c, pos)
+                                        : em.binary(BinOp::kAnd, P, em.unary_not(c, pos), pos);
+      if (when.is_const && when.k != 0) lower_st(s, blk);
+      else lower_st_guarded(s, blk, when, pos);
     } else if (paren) {
       auto inner = has_operand ? operand(ob, l.end, pos) : std::optional<Value>(CR);
       if (!inner) return;

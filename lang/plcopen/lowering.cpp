@@ -617,9 +617,12 @@ Value Lowering::fb_output(Var& v, const std::string& name, SourcePos pos) {
 }
 
 void Lowering::call_fb(Var& v, const std::vector<std::pair<std::string, Value>>& inputs, SourcePos pos) {
-  if (conditional_depth > 0) {
-    d_.error(pos, "a function block call inside IF or CASE is not supported yet (call '" + v.decl->name +
-                      "' unconditionally and use its inputs)");
+  if (conditional_depth > 0 && v.role == Var::Role::kStdFb) {
+    // A user FB's variables are if-converted with the branch (kept when it is
+    // not called); a standard FB's timer or counter state cannot be frozen.
+    d_.error(pos, "a call of standard function block " + v.std_fb.type + " '" + v.decl->name +
+                      "' inside IF, CASE or a conditional IL path is not supported yet (call it "
+                      "unconditionally and use its inputs)");
     return;
   }
   if (v.role == Var::Role::kUserFb) {

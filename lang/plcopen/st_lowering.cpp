@@ -2,8 +2,9 @@
 // executor has no control flow, so both branches of an IF are computed every
 // cycle and each variable's value after the IF is sel(cond, then, else)
 // (`amux` for numbers, and/or for BOOL). CASE is a chain of IFs; FOR with
-// constant bounds is unrolled. An FB call inside a branch is refused: its
-// state would advance whichever branch ran.
+// constant bounds is unrolled. A user FB called inside a branch has its
+// variables merged like the caller's (kept when not called); a standard FB
+// called there is refused: its timer or counter state cannot be frozen.
 #include <cmath>
 
 #include "lang/plcopen/lowering.h"

@@ -288,6 +288,42 @@ TEST(Plcopen, a_function_with_en_false_leaves_its_target_alone) {
   EXPECT_EQ(run.value("main.x"), 9);  // kept
 }
 
+// A user FB called inside IF (ST) or by CALC (IL) keeps its variables while it is not
+// called; a standard FB called there is refused.
+TEST(Plcopen, a_user_fb_called_conditionally_keeps_its_state) {
+  const std::string fb =
+      "<pou name=\"Count\" pouType=\"functionBlock\"><interface><inputVars>" + var("step", "INT", "", "1") +
+      "</inputVars><outputVars>" + var("n", "INT") +
+      "</outputVars></interface><body><ST><xhtml:p><![CDATA[n := n + step;]]></xhtml:p></ST></body></pou>\n";
+  const std::string vars = "<inputVars>" + var("go", "BOOL", "%IX0.0") + "</inputVars><localVars>" +
+                           "<variable name=\"c1\"><type><derived name=\"Count\"/></type></variable>" +
+                           "<variable name=\"c2\"><type><derived name=\"Count\"/></type></variable>" + var("a", "INT") +
+                           var("b", "INT") + "</localVars>";
+  const std::string st = project(kNs201, fb + st_program(vars, "IF go THEN c1(step := 2); END_IF;\na := c1.n;"));
+  const std::string il = project(
+      kNs201, fb + "<pou name=\"main\" pouType=\"program\"><interface>" + vars +
+                  "</interface><body><IL><xhtml:p><![CDATA[LD go\nCALC c1(step := 2)\nLD c1.n\nST a\n]]></xhtml:p></IL></body></pou>\n");
+  for (const std::string* src : {&st, &il}) {
+    CompileResult r = compile_source(*src);
+    ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", *src);
+    Machine run(std::move(*r.image));
+    run.cycles(3);
+    EXPECT_EQ(run.value("main.a"), 0);
+    run.set("go", 1);
+    run.cycles(2);
+    EXPECT_EQ(run.value("main.a"), 4);
+    run.set("go", 0);
+    run.cycles(5);
+    EXPECT_EQ(run.value("main.a"), 4);  // not called: kept
+  }
+  const std::string bad = project(kNs201, st_program("<localVars><variable name=\"t\"><type><derived name=\"TON\"/></type></variable>" +
+                                                         var("x", "BOOL") + "</localVars>",
+                                                     "IF x THEN t(IN := TRUE, PT := T#1s); END_IF;"));
+  CompileResult r = compile_source(bad);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.diags.items()[0].message.find("standard function block TON"), std::string::npos);
+}
+
 TEST(Plcopen, if_conversion_keeps_unassigned_values_and_integers_wrap) {
   const std::string src = project(
       kNs201, st_program("<localVars>" + var("c", "INT", "", "32766") + var("x", "REAL") + var("flag", "BOOL") +
