@@ -478,9 +478,13 @@ std::optional<Value> Lowering::call_function(Scope& s, const std::string& name, 
     }
     Scope& ref = *sc;
     function_scopes_.push_back(std::move(sc));
+    auto saved = before_read;  // the function's names are its own, not the caller's
+    before_read = nullptr;
     lower_body(ref);
+    Value result = read(*ref.vars[upper(user->name)], pos);
+    before_read = saved;
     --call_depth_;
-    return read(*ref.vars[upper(user->name)], pos);
+    return result;
   }
   if (up == "ADD") return chain(BinOp::kAdd);
   if (up == "MUL") return chain(BinOp::kMul);

@@ -324,6 +324,25 @@ TEST(Plcopen, a_user_fb_called_conditionally_keeps_its_state) {
   EXPECT_NE(r.diags.items()[0].message.find("standard function block TON"), std::string::npos);
 }
 
+// A user function: expanded at each call, formal and informal arguments, no memory.
+TEST(Plcopen, expands_user_functions) {
+  const std::string fn =
+      "<pou name=\"Lin\" pouType=\"function\"><interface><returnType><REAL/></returnType><inputVars>" +
+      var("x", "REAL") + var("k", "REAL", "", "2.0") + "</inputVars><localVars>" + var("tmp", "REAL") +
+      "</localVars></interface><body><ST><xhtml:p><![CDATA[tmp := tmp + x * k; Lin := tmp + 1.0;]]></xhtml:p></ST></body></pou>\n";
+  const std::string src = project(
+      kNs201, fn + st_program("<localVars>" + var("a", "REAL") + var("b", "REAL") + "</localVars>",
+                              "a := Lin(3.0, 4.0);\nb := Lin(k := 0.5, x := a);"));
+  CompileResult r = compile_source(src);
+  ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
+  Machine run(std::move(*r.image));
+  for (int i = 0; i < 3; ++i) {
+    run.cycles(1);
+    EXPECT_DOUBLE_EQ(run.value("main.a"), 13.0);  // tmp starts at 0 in every call
+    EXPECT_DOUBLE_EQ(run.value("main.b"), 7.5);
+  }
+}
+
 TEST(Plcopen, if_conversion_keeps_unassigned_values_and_integers_wrap) {
   const std::string src = project(
       kNs201, st_program("<localVars>" + var("c", "INT", "", "32766") + var("x", "REAL") + var("flag", "BOOL") +
