@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <unordered_map>
 
 #include "blocks/registry.h"
@@ -55,7 +56,13 @@ std::string Emitter::ref(const Value& v, SourcePos pos) {
   if (!v.is_const) return v.ref;
   char buf[48];
   if (v.digital) std::snprintf(buf, sizeof buf, "%s", v.k != 0 ? kTrue : kFalse);
-  else std::snprintf(buf, sizeof buf, "k:%.17g", v.k);
+  else {
+    // The shortest spelling that reads back exactly ("k:0.8", not "k:0.80000000000000004").
+    for (int prec = 6; prec <= 17; ++prec) {
+      std::snprintf(buf, sizeof buf, "k:%.*g", prec, v.k);
+      if (std::strtod(buf + 2, nullptr) == v.k) break;
+    }
+  }
   auto it = consts_.find(buf);
   if (it != consts_.end()) return it->second;
   consts_[buf] = buf;
