@@ -758,8 +758,9 @@ bool Lowering::finish() {
 
 // ---- bodies ----
 
-void Lowering::lower_body(Scope& s) {
-  const Body& b = s.pou->body;
+void Lowering::lower_body(Scope& s) { lower_body_of(s, s.pou->body); }
+
+void Lowering::lower_body_of(Scope& s, const Body& b) {
   switch (b.language) {
     case BodyLanguage::kFbd:
       lower_graph(s, *b.graph, false);
@@ -776,6 +777,10 @@ void Lowering::lower_body(Scope& s) {
       lower_il(s, b);
       break;
     case BodyLanguage::kSfc:
+      if (&b != &s.pou->body) {
+        d_.error(b.pos, "an SFC inside an SFC action is not supported");
+        break;
+      }
       lower_sfc(s, *b.graph);
       break;
     case BodyLanguage::kNone:

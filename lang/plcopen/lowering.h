@@ -92,6 +92,9 @@ class Lowering {
   bool fb_output_digital(const Var& v, const std::string& name) const;
 
   void lower_body(Scope& s);
+  void lower_body_of(Scope& s, const Body& b);  // an SFC action's body too
+  // Runs `f` as the then-branch of an if-converted IF on `cond`.
+  void guarded(const Value& cond, SourcePos pos, const std::function<void()>& f);
   void lower_graph(Scope& s, const XmlElement& body, bool ladder);
   void lower_st(Scope& s, const Block& b);
   void lower_il(Scope& s, const Body& body);

@@ -7,8 +7,8 @@
 //     entering one fired (OR the first cycle, for the initial step), a block
 //     named `instance.step.NAME.X`, so a swap keeps the active steps;
 //   - actions see this cycle's step flags: N, S, R, P, L and D on a BOOL
-//     variable or on a named action whose ST body then runs, if-converted,
-//     while the action is active.
+//     variable or on a named action whose body (ST, FBD, LD or IL) then runs,
+//     if-converted, while the action is active.
 #include <algorithm>
 #include <functional>
 #include <map>
@@ -352,12 +352,9 @@ void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
       }
       source = text->text;
     } else if (nb) {
-      if (nb->body.language != BodyLanguage::kSt) {
-        d_.error(nb->pos, "action '" + nb->name + "': only ST action bodies are supported yet");
-        return;
-      }
-      text = nb->body.text;
-      source = nb->body.source;
+      // FBD, LD, ST or IL: the body runs, if-converted, while the action is active.
+      guarded(on, pos, [&] { lower_body_of(s, nb->body); });
+      continue;
     }
     if (text) {
       Block blk = parse_st(source, *text, d_);

@@ -238,8 +238,13 @@ void Lowering::lower_st(Scope& s, const Block& b) {
 }
 
 void Lowering::lower_st_guarded(Scope& s, const Block& b, const Value& cond, SourcePos pos) {
-  StLowerer st{*this, s};
-  st.branch(cond, pos, [&] { st.block(b); }, [] {});
+  guarded(cond, pos, [&] { lower_st(s, b); });
+}
+
+void Lowering::guarded(const Value& cond, SourcePos pos, const std::function<void()>& f) {
+  Scope none;
+  StLowerer st{*this, none};
+  st.branch(cond, pos, [&] { f(); }, [] {});
 }
 
 }  // namespace rtplc::lang::plcopen

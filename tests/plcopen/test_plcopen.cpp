@@ -216,7 +216,7 @@ TEST(Plcopen, refuses_an_il_backward_jump) {
 }
 
 // SFC: steps, inline and named transitions, a simultaneous divergence and
-// convergence, N/P/L/D actions on variables and a named ST action.
+// convergence, N/P/L/D actions on variables, a named ST action and an LD one.
 TEST(Plcopen, runs_an_sfc_body) {
   CompileResult r = compile_file(data("beremiz_sfc.xml"));
   ASSERT_TRUE(r.ok()) << r.diags.render("beremiz_sfc.xml", "");
@@ -232,6 +232,7 @@ TEST(Plcopen, runs_an_sfc_body) {
   run.set("start", 0);
   run.cycles(3);
   EXPECT_EQ(run.value("fill0.batches"), 1);  // P: once per activation
+  EXPECT_EQ(run.value("fill0.lamp_out"), 0);  // its step is not active yet
   run.set("level", 85);
   run.cycles(1);
   EXPECT_EQ(run.value("fill0.step.Mixing.X"), 1);
@@ -239,6 +240,7 @@ TEST(Plcopen, runs_an_sfc_body) {
   EXPECT_EQ(run.out("inlet"), 0);
   EXPECT_EQ(run.out("mixer"), 1);  // L 1 s
   EXPECT_EQ(run.out("drain"), 0);  // D 500 ms
+  EXPECT_EQ(run.value("fill0.lamp_out"), 1);  // an LD action body ran
   run.cycles(6);
   EXPECT_EQ(run.out("drain"), 1);
   EXPECT_EQ(run.out("mixer"), 1);
