@@ -151,4 +151,12 @@ void collect_written(const Pou& p, std::vector<std::string>& out);
 
 std::optional<Location> parse_location(const std::string& address, std::string* error);
 
+// Function calls and FB instances nest at most this deep (recursion is an error).
+inline constexpr int kMaxNesting = 16;
+
+inline bool integer_type(BaseType b) {
+  return b != BaseType::kBool && b != BaseType::kReal && b != BaseType::kLreal &&
+         b != BaseType::kTime && b != BaseType::kDerived;
+}
+
 }  // namespace rtplc::lang::plcopen
