@@ -127,6 +127,51 @@ TEST(Plcopen, breaks_a_block_feedback_loop_and_reports_it) {
   EXPECT_DOUBLE_EQ(run.value("p.x"), 2.0);
 }
 
+// connector/continuation, inOutVariable, a negated block output and a rising-edge input.
+TEST(Plcopen, follows_connectors_in_out_variables_negation_and_edges) {
+  const std::string pos = "<position x=\"0\" y=\"0\"/>";
+  const std::string src = project(
+      kNs201,
+      "<pou name=\"main\" pouType=\"program\"><interface><inputVars>" + var("b", "BOOL", "%IX0.0") +
+          "</inputVars><localVars>" + var("m", "BOOL") + var("nq", "BOOL") + var("pulses", "INT") +
+          "</localVars></interface><body><FBD>"
+          "<inVariable localId=\"1\">" + pos + "<connectionPointOut/><expression>b</expression></inVariable>"
+          "<connector name=\"wire\" localId=\"2\">" + pos + "<connectionPointIn><connection refLocalId=\"1\"/></connectionPointIn></connector>"
+          "<continuation name=\"wire\" localId=\"3\">" + pos + "<connectionPointOut/></continuation>"
+          "<inOutVariable localId=\"4\">" + pos + "<connectionPointIn><connection refLocalId=\"3\"/></connectionPointIn><connectionPointOut/><expression>m</expression></inOutVariable>"
+          "<block localId=\"5\" typeName=\"AND\">" + pos + "<inputVariables>"
+          "<variable formalParameter=\"IN1\"><connectionPointIn><connection refLocalId=\"4\"/></connectionPointIn></variable>"
+          "<variable formalParameter=\"IN2\"><connectionPointIn><connection refLocalId=\"6\"/></connectionPointIn></variable>"
+          "</inputVariables><inOutVariables/><outputVariables><variable formalParameter=\"OUT\" negated=\"true\"><connectionPointOut/></variable></outputVariables></block>"
+          "<inVariable localId=\"6\">" + pos + "<connectionPointOut/><expression>TRUE</expression></inVariable>"
+          "<outVariable localId=\"7\">" + pos + "<connectionPointIn><connection refLocalId=\"5\" formalParameter=\"OUT\"/></connectionPointIn><expression>nq</expression></outVariable>"
+          "<block localId=\"8\" typeName=\"ADD\">" + pos + "<inputVariables>"
+          "<variable formalParameter=\"IN1\"><connectionPointIn><connection refLocalId=\"9\"/></connectionPointIn></variable>"
+          "<variable formalParameter=\"IN2\"><connectionPointIn><connection refLocalId=\"10\"/></connectionPointIn></variable>"
+          "</inputVariables><inOutVariables/><outputVariables><variable formalParameter=\"OUT\"><connectionPointOut/></variable></outputVariables></block>"
+          "<inVariable localId=\"9\">" + pos + "<connectionPointOut/><expression>pulses</expression></inVariable>"
+          "<block localId=\"10\" typeName=\"BOOL_TO_INT\">" + pos + "<inputVariables>"
+          "<variable formalParameter=\"IN\" edge=\"rising\"><connectionPointIn><connection refLocalId=\"3\"/></connectionPointIn></variable>"
+          "</inputVariables><inOutVariables/><outputVariables><variable formalParameter=\"OUT\"><connectionPointOut/></variable></outputVariables></block>"
+          "<outVariable localId=\"11\">" + pos + "<connectionPointIn><connection refLocalId=\"8\"/></connectionPointIn><expression>pulses</expression></outVariable>"
+          "</FBD></body></pou>");
+  CompileResult r = compile_source(src);
+  ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
+  Machine run(std::move(*r.image));
+  run.cycles(1);
+  EXPECT_EQ(run.value("main.m"), 0);
+  EXPECT_EQ(run.value("main.nq"), 1);  // NOT (m AND TRUE)
+  for (int i = 0; i < 3; ++i) {
+    run.set("b", 1);
+    run.cycles(2);
+    EXPECT_EQ(run.value("main.m"), 1);
+    EXPECT_EQ(run.value("main.nq"), 0);
+    run.set("b", 0);
+    run.cycles(2);
+  }
+  EXPECT_EQ(run.value("main.pulses"), 3);  // one per rising edge of b, through the continuation
+}
+
 TEST(Plcopen, runs_a_codesys_ladder_latch) {
   CompileOptions o;
   o.entry = "Fast";
