@@ -390,6 +390,53 @@ TEST(Plcopen, expands_user_functions) {
   }
 }
 
+// The standard FBs wired by the importer: CTUD, SR, RS, F_TRIG, TOF.
+TEST(Plcopen, wires_the_standard_function_blocks) {
+  std::string decl;
+  for (const char* fb : {"CTUD", "SR", "RS", "F_TRIG", "TOF"})
+    decl += std::string("<variable name=\"i_") + fb + "\"><type><derived name=\"" + fb + "\"/></type></variable>";
+  const std::string src = project(
+      kNs201,
+      st_program("<inputVars>" + var("up", "BOOL", "%IX0.0") + var("dn", "BOOL", "%IX0.1") + var("r", "BOOL", "%IX0.2") +
+                     "</inputVars><localVars>" + decl + var("cv", "INT") + var("qu", "BOOL") + var("q_sr", "BOOL") +
+                     var("q_rs", "BOOL") + var("fell", "BOOL") + var("off", "BOOL") + "</localVars>",
+                 "i_CTUD(CU := up, CD := dn, R := r, LD := FALSE, PV := 3);\ncv := i_CTUD.CV; qu := i_CTUD.QU;\n"
+                 "i_SR(S1 := up, R := up AND dn); q_sr := i_SR.Q1;\ni_RS(S := up, R1 := up AND dn); q_rs := i_RS.Q1;\n"
+                 "i_F_TRIG(CLK := up); fell := i_F_TRIG.Q;\ni_TOF(IN := up, PT := T#300ms); off := i_TOF.Q;"));
+  CompileResult r = compile_source(src);
+  ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
+  Machine run(std::move(*r.image));
+  run.cycles(1);
+  for (int i = 0; i < 4; ++i) {
+    run.set("up", 1);
+    run.cycles(1);
+    EXPECT_EQ(run.value("main.off"), 1);
+    run.set("up", 0);
+    run.cycles(1);
+    EXPECT_EQ(run.value("main.fell"), 1);  // the cycle up fell
+    run.cycles(1);
+    EXPECT_EQ(run.value("main.fell"), 0);
+  }
+  EXPECT_EQ(run.value("main.cv"), 4);
+  EXPECT_EQ(run.value("main.qu"), 1);
+  EXPECT_EQ(run.value("main.q_sr"), 1);
+  EXPECT_EQ(run.value("main.q_rs"), 1);
+  EXPECT_EQ(run.value("main.off"), 1);  // TOF: 200 ms after up fell
+  run.cycles(2);
+  EXPECT_EQ(run.value("main.off"), 0);
+  run.set("dn", 1);
+  run.cycles(1);
+  EXPECT_EQ(run.value("main.cv"), 3);
+  run.set("up", 1);  // up AND dn: SR keeps (set dominant), RS resets
+  run.cycles(1);
+  EXPECT_EQ(run.value("main.q_sr"), 1);
+  EXPECT_EQ(run.value("main.q_rs"), 0);
+  run.set("r", 1);
+  run.cycles(1);
+  EXPECT_EQ(run.value("main.cv"), 0);
+  EXPECT_EQ(run.value("main.qu"), 0);
+}
+
 TEST(Plcopen, if_conversion_keeps_unassigned_values_and_integers_wrap) {
   const std::string src = project(
       kNs201, st_program("<localVars>" + var("c", "INT", "", "32766") + var("x", "REAL") + var("flag", "BOOL") +
