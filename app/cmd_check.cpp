@@ -30,6 +30,7 @@ struct CheckArgs {
   bool markdown = false;
   bool iec = false;
   bool paths = false;
+  std::string entry;
 };
 
 // Prints diagnostics; returns true when the program compiled.
@@ -55,6 +56,7 @@ bool report(const std::string& file, const lang::CompileResult& r, bool werror) 
 lang::CompileOptions options_from(const CheckArgs& a) {
   lang::CompileOptions o;
   if (a.period > 0) o.period_override = a.period;
+  o.entry = a.entry;
   return o;
 }
 
@@ -228,9 +230,9 @@ void add_check_commands(CLI::App& app) {
       "Errors are shown as file:line:col with the line and a caret; every error in the file is\n"
       "listed, and the exit code is 1 if there was any. A .yaml configuration is checked the way\n"
       "`rtplc run` would: the YAML, every program, one writer per output, the plant wiring.\n"
-      "Examples:\n  rtplc check examples/seed_pid.fbd --explain\n  rtplc check examples/tank.sfc --explain\n"
+      "Examples:\n  rtplc check examples/seed_pid.fbd --explain\n  rtplc check examples/tank.sfc --explain\n  rtplc check examples/plcopen_tank.xml --explain   (PLCopen XML, docs/plcopen.md)\n"
       "  rtplc check examples/plant.yaml");
-  check->add_option("file", args->file, "control algorithm file (.fbd), SFC program (.sfc) or runtime configuration (.yaml)")
+  check->add_option("file", args->file, "control algorithm file (.fbd), SFC program (.sfc), PLCopen XML project (.xml) or runtime configuration (.yaml)")
       ->required();
   check->add_flag("--explain", args->explain,
                   "print execution order, delayed references, I/O bindings and sizes");
@@ -238,13 +240,15 @@ void add_check_commands(CLI::App& app) {
   check->add_flag("--paths", args->paths,
                   "configuration only: list the program files it names (\"program PATH\") and the\n"
                   "retain_file and socket it sets, one per line, without loading the runtime");
+  check->add_option("--entry", args->entry, "PLCopen XML: the task, program instance or program to check (default: the project's only one)");
   check->add_option("--period", args->period, "override stime: task period in seconds")
       ->check(positive_seconds());
   check->callback([args] { run_check(*args); });
 
   CLI::App* compile = app.add_subcommand(
       "compile", "Compile an FBD or SFC file to a verified task image file (.img).");
-  compile->add_option("file", args->file, "control algorithm file (.fbd) or SFC program (.sfc)")->required();
+  compile->add_option("file", args->file, "control algorithm file (.fbd), SFC program (.sfc) or PLCopen XML project (.xml)")->required();
+  compile->add_option("--entry", args->entry, "PLCopen XML: the task, program instance or program to compile (default: the project's only one)");
   compile->add_option("-o,--output", args->output, "image file (default: FILE with .img)");
   compile->add_flag("--werror", args->werror, "treat warnings as errors");
   compile->add_option("--period", args->period, "override stime: task period in seconds")

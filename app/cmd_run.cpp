@@ -303,7 +303,7 @@ void add_run_commands(CLI::App& app) {
       "boundary. The previous code is kept: --rollback TASK swaps it back.\n"
       "Examples:\n  rtplc swap loop3 new.fbd\n  rtplc swap --rollback loop3");
   swap->add_option("task", cl->task, "task name");
-  swap->add_option("file", cl->file, "new program (.fbd or .sfc)");
+  swap->add_option("file", cl->file, "new program (.fbd, .sfc or PLCopen .xml; an .xml task runs its program_instance)");
   swap->add_flag("--rollback", cl->rollback, "go back to the task's previous code");
   swap->add_option("--drop-output", cl->drop_outputs,
                    "let the new code leave out this output (its label; repeatable): it goes to its\n"

@@ -26,6 +26,7 @@ struct SimArgs {
   std::string plant_output = "p0.d0.c0";
   std::vector<std::string> steps;
   double period = 0;
+  std::string entry;
   bool realtime = false;
   bool quiet = false;
   bool allow_unstable = false;
@@ -70,6 +71,7 @@ void run_sim(const SimArgs& a) {
   require_program(a.file, "sim");
   lang::CompileOptions copt;
   if (a.period > 0) copt.period_override = a.period;
+  copt.entry = a.entry;
   lang::CompileResult r = lang::compile_file(a.file, copt);
   if (!r.diags.items().empty()) {
     std::string err;
@@ -92,6 +94,7 @@ void run_sim(const SimArgs& a) {
   opt.realtime = a.realtime;
   // Asked for a plant by name: a program that cannot take it is an error, not a logic test.
   opt.open_loop_if_unwired = !a.plant_given;
+  opt.probes = r.program.variables;  // PLCopen: every variable of the program instances
   for (const std::string& s : a.steps) opt.steps.push_back(parse_step(s, a.duration));
 
   const bool open_loop = io::runs_open_loop(*r.image, opt);
@@ -175,8 +178,10 @@ void add_sim_command(CLI::App& app) {
       "Examples:\n"
       "  rtplc sim examples/seed_pid.fbd --duration 30 --csv run.csv --plot run.png\n"
       "  rtplc sim examples/seed_pid.fbd --plant fopdt:K=2,T=4,L=0.5 --step Setpoint=60@20\n"
-      "  rtplc sim examples/tank.sfc --plant measuring-tank --duration 40 --csv tank.csv");
-  sim->add_option("file", a->file, "control algorithm file (.fbd) or SFC program (.sfc)")->required();
+      "  rtplc sim examples/tank.sfc --plant measuring-tank --duration 40 --csv tank.csv\n"
+      "  rtplc sim examples/plcopen_tank.xml --duration 5 --csv tank.csv   (a column per variable)");
+  sim->add_option("file", a->file, "control algorithm file (.fbd), SFC program (.sfc) or PLCopen XML project (.xml)")->required();
+  sim->add_option("--entry", a->entry, "PLCopen XML: the task, program instance or program to simulate (default: the project's only one)");
   sim->add_option("--duration", a->duration, "simulated seconds (default 30)")
       ->check(positive_seconds() & CLI::Range(1e-3, 1e7));
   sim->add_option("--plant", a->plant, "plant model (default second-order = 1/(s^2+s+1))")

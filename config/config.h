@@ -67,6 +67,7 @@ struct TaskConfig {
   SourcePos name_pos;   // the name's value, or program_pos when the name is the stem
   std::string program;  // resolved against the config file's folder
   SourcePos program_pos;
+  std::string program_instance;  // PLCopen XML: what of the project runs (empty: its only one)
   std::optional<double> period_s;  // overrides the program's stime() when set
   SourcePos period_pos;
   std::optional<int> priority;  // SCHED_FIFO, inside the band; unset: rate-monotonic

@@ -267,6 +267,9 @@ void parse_task(YamlReader& r, const YAML::Node& node, SourcePos list_pos, Runti
                   "' is not a valid task name (1 to 31 letters, digits, '_' or '-')");
     }
   }
+  if (const Field* x = f.get("program_instance")) {
+    if (auto v = r.name(*x)) t.program_instance = *v;
+  }
   if (const Field* x = f.get("period")) {
     t.period_pos = x->pos;
     t.period_s = r.duration(*x);

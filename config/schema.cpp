@@ -61,7 +61,12 @@ const KeySpec kTaskKeys[] = {
     {"name", ValueType::kName, false, kNoMin, kNoMax, nullptr, "the program file's stem",
      "Names the task in `stats`, `swap` and messages; unique among the tasks."},
     {"program", ValueType::kPath, true, kNoMin, kNoMax, nullptr, "",
-     "The FBD program file the task runs."},
+     "The program file the task runs: FBD (.fbd), SFC (.sfc) or a PLCopen XML project "
+     "(.xml, docs/plcopen.md)."},
+    {"program_instance", ValueType::kName, false, kNoMin, kNoMax, nullptr,
+     "the project's only task or program",
+     "For a PLCopen XML program: the task, program instance (pouInstance) or program POU "
+     "of the project this task runs."},
     {"period", ValueType::kDuration, false, kMinPeriod, kMaxPeriod, nullptr,
      "the program's `stime()`", "Overrides the program's period."},
     {"priority", ValueType::kInteger, false, kMinFifoPriority, kMaxFifoPriority, nullptr,

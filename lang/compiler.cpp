@@ -20,6 +20,7 @@
 #include "lang/lexer.h"
 #include "lang/macro_expander.h"
 #include "lang/parser.h"
+#include "lang/plcopen/import.h"
 #include "lang/program_checks.h"
 #include "lang/sfc/builder.h"
 #include "lang/sfc/lexer.h"
@@ -300,15 +301,33 @@ std::optional<std::string> read_text_file(const std::string& path, std::string* 
 
 namespace {
 
-// Both languages end in the same checks and the same image builder.
-CompileResult compile_as(std::string_view source, const CompileOptions& options, bool sfc) {
+enum class Language : uint8_t { kFbd, kSfc, kPlcopen };
+
+// Every language ends in the same checks and the same image builder.
+CompileResult compile_as(std::string_view source, const CompileOptions& options, Language language) {
+  const bool sfc = language == Language::kSfc;
   CompileResult r;
   // Guard the compiler's own memory against absurd input; real programs are KBs.
   if (source.size() > (64u << 20)) {
     r.diags.error(SourcePos{}, "source larger than 64 MiB");
     return r;
   }
-  if (sfc) {
+  if (language == Language::kPlcopen) {
+    plcopen::ImportOptions io;
+    io.entry = options.entry;
+    r.program = plcopen::import_plcopen(source, io, r.diags).program;
+    if (r.diags.has_errors()) return r;
+    // The lowering's own copies (a variable's end-of-cycle value nobody reads)
+    // are not the author's doing: "computed but never used" is for languages
+    // where every block is written by hand.
+    DiagnosticList checks;
+    check_flat_program(r.program, checks);
+    for (const Diagnostic& d : checks.items()) {
+      if (d.severity == Severity::kError) r.diags.error(d.pos, d.message, d.length);
+      else if (d.message.find("is computed but never used") == std::string::npos)
+        r.diags.warning(d.pos, d.message, d.length);
+    }
+  } else if (sfc) {
     r.program = sfc::compile_to_flat(source, r.diags);
     if (r.diags.has_errors()) return r;
     check_flat_program(r.program, r.diags);
@@ -334,7 +353,10 @@ bool is_sfc_source(std::string_view source) {
 }
 
 CompileResult compile_source(std::string_view source, const CompileOptions& options) {
-  return compile_as(source, options, is_sfc_source(source));
+  const Language l = plcopen::is_plcopen_source(source) ? Language::kPlcopen
+                     : is_sfc_source(source)            ? Language::kSfc
+                                                        : Language::kFbd;
+  return compile_as(source, options, l);
 }
 
 CompileResult compile_file(const std::string& path, const CompileOptions& options) {
@@ -352,8 +374,14 @@ CompileResult compile_file(const std::string& path, const CompileOptions& option
   }
   // A .sfc file is SFC even when its header is missing (the SFC parser then
   // says what it expected); any other file is SFC when its first word is SFC.
-  const bool sfc_name = path.size() > 4 && path.compare(path.size() - 4, 4, ".sfc") == 0;
-  return compile_as(*text, o, sfc_name || is_sfc_source(*text));
+  auto ends_with = [&](const char* ext) {
+    const size_t n = std::char_traits<char>::length(ext);
+    return path.size() > n && path.compare(path.size() - n, n, ext) == 0;
+  };
+  const Language l = ends_with(".xml") || plcopen::is_plcopen_source(*text) ? Language::kPlcopen
+                     : ends_with(".sfc") || is_sfc_source(*text)           ? Language::kSfc
+                                                                           : Language::kFbd;
+  return compile_as(*text, o, l);
 }
 
 }  // namespace rtplc::lang

@@ -22,6 +22,9 @@ struct CompileOptions {
   // appears here get that index; others follow after the last one. Empty: the
   // compiler's own order.
   std::vector<std::string> output_layout;
+  // PLCopen XML: the task, program instance or program to run (empty: the
+  // project's only one). docs/plcopen.md, "What runs".
+  std::string entry;
 };
 
 struct CompileResult {
@@ -31,14 +34,16 @@ struct CompileResult {
   bool ok() const { return image.has_value(); }
 };
 
-// FBD or SFC: a program whose first word is SFC is an SFC chart (docs/sfc.md).
+// FBD, SFC or PLCopen XML: a program whose first word is SFC is an SFC chart
+// (docs/sfc.md); an XML document whose root is <project> is PLCopen
+// (docs/plcopen.md).
 CompileResult compile_source(std::string_view source, const CompileOptions& options = {});
 
 // True when `source` is an SFC program (its first word, after comments, is SFC).
 bool is_sfc_source(std::string_view source);
 
 // Reads and compiles a file; I/O errors become diagnostics. A .sfc file is
-// always compiled as SFC.
+// always compiled as SFC, a .xml file always as PLCopen.
 CompileResult compile_file(const std::string& path, const CompileOptions& options = {});
 
 // Builds the image from an already checked program.

@@ -96,6 +96,11 @@ std::string explain(const CompileResult& r) {
   }
   line("Delayed references: " + std::to_string(delayed.size()));
   for (const std::string& d : delayed) line(d);
+  if (!p.notes.empty()) {
+    line("");
+    line("Front end notes: " + std::to_string(p.notes.size()));
+    for (const std::string& n : p.notes) line("  " + n);
+  }
 
   line("");
   line("I/O bindings: " + std::to_string(img.bindings().size()));

@@ -41,6 +41,13 @@ struct CheckedProgram {
   bool period_from_stime = false;
   SourcePos stime_pos;
   uint32_t macro_calls = 0;
+  // What a front end decided that the blocks alone do not show (a PLCopen
+  // feedback loop broken at a connection); `check --explain` lists them.
+  std::vector<std::string> notes;
+  // Blocks holding a source variable's value at the end of the cycle, named
+  // as the user knows it ("instance0.level"): `rtplc sim` traces each as a
+  // CSV column. Empty for FBD, where every block is already named.
+  std::vector<std::string> variables;
 };
 
 inline constexpr double kDefaultPeriod = 0.1;

@@ -242,6 +242,7 @@ Result<std::string> Runtime::swap(const std::string& task, const std::string& so
   o.name = task;
   o.period_override = static_cast<double>(t->params().period_ns) / 1e9;  // the task keeps its grid
   o.output_layout = task_output_keys_[t->index()];
+  if (t->index() < task_entries_.size()) o.entry = task_entries_[t->index()];
   lang::CompileResult r = lang::compile_source(source, o);
   if (!r.ok()) {
     return make_error("not swapped, the program has errors:\n" + r.diags.render(file_label, source));
@@ -295,6 +296,7 @@ Result<std::string> Runtime::rollback(const std::string& task, const std::vector
   o.name = task;
   o.period_override = static_cast<double>(t->params().period_ns) / 1e9;
   o.output_layout = task_output_keys_[t->index()];
+  if (t->index() < task_entries_.size()) o.entry = task_entries_[t->index()];
   lang::CompileResult r = lang::compile_source(source, o);
   if (!r.ok()) return make_error("not rolled back, the previous program no longer compiles:\n" + r.diags.render(label, source));
   auto next = make_program(t->index(), std::move(*r.image), source, label, &t->active(), drop_outputs);

@@ -132,6 +132,20 @@ Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const Sim
     if (b.dir == BindingDir::kSetpoint) arena.io_in[b.io_index] = b.init;
   }
   if (analog_setpoints != 1) tr.sp_column = -1;
+  std::vector<uint32_t> probe_slots;
+  for (const std::string& name : opt.probes) {
+    bool found = false;
+    for (uint32_t s = 0; s < image.blocks().size() && !found; ++s) {
+      if (image.str(image.blocks()[s].name) != name) continue;
+      const Op op = image.code()[s].op;
+      if (!op_writes_value(op)) break;
+      probe_slots.push_back(image.code()[s].out);
+      tr.columns.push_back(name);
+      tr.is_output.push_back(false);
+      found = true;
+    }
+    if (!found) return make_error("no block named '" + name + "' to trace");
+  }
   for (size_t j = 0; j < port_out.size(); ++j) {
     if (port_out_b[j]) continue;  // already traced as the program's input
     tr.columns.push_back("plant." + port_out[j]);
@@ -201,6 +215,7 @@ Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const Sim
       row.push_back(b->dir == BindingDir::kOutput ? arena.io_out[b->io_index]
                                                   : arena.io_in[b->io_index]);
     }
+    for (uint32_t slot : probe_slots) row.push_back(arena.values[slot]);
     for (size_t j = 0; j < port_out.size(); ++j) {
       if (!port_out_b[j]) row.push_back(plant.port_output(j));
     }

@@ -32,6 +32,9 @@ struct SimOptions {
   // A program with neither the dao nor the dai above (a logic test) runs open
   // loop, without the plant, instead of being refused.
   bool open_loop_if_unwired = false;
+  // Blocks whose output is traced as a column of its own name, after the
+  // I/O columns (a PLCopen program's variables, "instance0.level").
+  std::vector<std::string> probes;
 };
 
 struct SimTrace {

@@ -5,7 +5,7 @@
 #include <unordered_map>
 #include <vector>
 
-#include "lang/petri/xml_reader.h"
+#include "common/xml_reader.h"
 
 namespace rtplc::petri {
 namespace {

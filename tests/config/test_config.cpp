@@ -309,7 +309,8 @@ TEST(Examples, plant_uses_every_key_of_the_schema_and_the_sim_kind) {
   ASSERT_TRUE(r.ok()) << r.render();
   EXPECT_TRUE(r.diags.items().empty()) << r.render();
   const RuntimeConfig& c = *r.config;
-  EXPECT_EQ(c.tasks.size(), 3u);
+  EXPECT_EQ(c.tasks.size(), 4u);
+  EXPECT_EQ(c.tasks[3].program_instance, "task0");
   EXPECT_EQ(c.tasks[0].period_s, 0.01);
   EXPECT_EQ(c.tasks[1].period_s, 0.1);
   EXPECT_EQ(c.drivers.size(), 2u);

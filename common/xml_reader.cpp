@@ -1,9 +1,9 @@
-// The XML reader behind the PNML importer (see xml_reader.h).
-#include "lang/petri/xml_reader.h"
+// The XML reader behind the PNML and PLCopen importers (see xml_reader.h).
+#include "common/xml_reader.h"
 
 #include <cstdint>
 
-namespace rtplc::petri {
+namespace rtplc {
 namespace {
 
 class XmlParser {
@@ -250,6 +250,7 @@ class XmlParser {
       e.attributes.push_back(std::move(a));
     }
     // content
+    bool plain_run = false;  // the last text appended was a plain character
     for (;;) {
       if (at_end()) {
         diags_.error(e.pos, "element <" + qname + "> is never closed");
@@ -272,6 +273,7 @@ class XmlParser {
         return true;
       }
       if (starts("<!--")) {
+        plain_run = false;
         if (!comment()) return false;
       } else if (starts("<![CDATA[")) {
         advance(9);
@@ -282,18 +284,25 @@ class XmlParser {
           failed_ = true;
           return false;
         }
+        e.text_anchors.push_back({e.text.size(), start});
         e.text.append(s_.substr(i_, k - i_));
         advance(k + 3 - i_);
+        plain_run = false;
       } else if (starts("<?")) {
         if (!skip_until("?>", "processing instruction")) return false;
       } else if (starts("<!")) {
         return failb("unexpected markup declaration");
       } else if (peek() == '<') {
+        plain_run = false;
         e.children.emplace_back();
         if (!element(e.children.back(), depth + 1)) return false;
       } else if (peek() == '&') {
+        e.text_anchors.push_back({e.text.size(), here()});
         if (!reference(e.text)) return false;
+        plain_run = false;
       } else {
+        if (!plain_run) e.text_anchors.push_back({e.text.size(), here()});
+        plain_run = true;
         e.text += peek();
         advance();
       }
@@ -356,4 +365,20 @@ std::string xml_escape(std::string_view s) {
   return out;
 }
 
-}  // namespace rtplc::petri
+SourcePos XmlElement::text_position(size_t offset) const {
+  if (text_anchors.empty()) return pos;
+  size_t a = 0;
+  while (a + 1 < text_anchors.size() && text_anchors[a + 1].offset <= offset) ++a;
+  SourcePos p = text_anchors[a].pos;
+  for (size_t k = text_anchors[a].offset; k < offset && k < text.size(); ++k) {
+    if (text[k] == '\n') {
+      ++p.line;
+      p.col = 1;
+    } else if ((static_cast<unsigned char>(text[k]) & 0xC0) != 0x80) {
+      ++p.col;
+    }
+  }
+  return p;
+}
+
+}  // namespace rtplc

@@ -1,0 +1,313 @@
+// Values and primitive blocks for the PLCopen lowering (see emitter.h).
+#include "lang/plcopen/emitter.h"
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <unordered_map>
+
+#include "blocks/registry.h"
+
+namespace rtplc::lang::plcopen {
+
+Value constant(double k, bool digital) {
+  Value v;
+  v.is_const = true;
+  v.digital = digital;
+  v.k = digital ? (k != 0 ? 1.0 : 0.0) : k;
+  return v;
+}
+
+namespace {
+constexpr const char* kFalse = "plcopen.false";
+constexpr const char* kTrue = "plcopen.true";
+constexpr const char* kFirst = "plcopen.first";
+constexpr const char* kOne = "plcopen.one";
+}  // namespace
+
+size_t Emitter::emit(const std::string& written, std::string name, SourcePos pos,
+                     std::vector<std::string> ins, std::vector<double> params) {
+  FlatBlock b;
+  b.written = written;
+  b.name = std::move(name);
+  b.pos = pos;
+  b.n_in = static_cast<uint32_t>(ins.size() > 3 ? 3 : ins.size());
+  for (uint32_t k = 0; k < b.n_in; ++k) b.in_pos[k] = pos;
+  b.params = std::move(params);
+  p_.blocks.push_back(std::move(b));
+  refs_.push_back(std::move(ins));
+  return p_.blocks.size() - 1;
+}
+
+std::string Emitter::fresh(const std::string& scope) {
+  return scope + ".$" + std::to_string(++counter_);
+}
+
+bool Emitter::has_block(const char* name) const { return find_block(name) != nullptr; }
+
+void Emitter::missing_block(const char* block, const std::string& what, SourcePos pos) {
+  if (reported_missing_[block]) return;
+  reported_missing_[block] = true;
+  d_.error(pos, what + " needs the primitive block '" + block +
+                    "', which this build does not have (docs/plcopen.md, \"Not supported yet\")");
+}
+
+std::string Emitter::ref(const Value& v, SourcePos pos) {
+  if (!v.is_const) return v.ref;
+  char buf[48];
+  if (v.digital) std::snprintf(buf, sizeof buf, "%s", v.k != 0 ? kTrue : kFalse);
+  else {
+    // The shortest spelling that reads back exactly ("k:0.8", not "k:0.80000000000000004").
+    for (int prec = 6; prec <= 17; ++prec) {
+      std::snprintf(buf, sizeof buf, "k:%.*g", prec, v.k);
+      if (std::strtod(buf + 2, nullptr) == v.k) break;
+    }
+  }
+  auto it = consts_.find(buf);
+  if (it != consts_.end()) return it->second;
+  consts_[buf] = buf;
+  emit(v.digital ? "dconst" : "const", buf, pos, {}, {v.digital ? (v.k != 0 ? 1.0 : 0.0) : v.k});
+  return buf;
+}
+
+Value Emitter::to_analog(const Value& v, SourcePos pos) {
+  if (!v.digital) return v;
+  if (v.is_const) return constant(v.k, false);
+  Value r;
+  r.ref = fresh("b2a");
+  emit("d2a", r.ref, pos, {v.ref});
+  return r;
+}
+
+Value Emitter::to_digital(const Value& v, SourcePos pos) {
+  if (v.digital) return v;
+  if (v.is_const) return constant(v.k != 0 ? 1 : 0, true);
+  Value r;
+  r.digital = true;
+  r.ref = fresh("a2b");
+  emit("a2d", r.ref, pos, {v.ref});
+  return r;
+}
+
+Value Emitter::unary_not(const Value& v, SourcePos pos) {
+  if (!v.digital) {
+    Value r;
+    r.integer = true;
+    r.ref = fresh("bnot");
+    emit("bnot", r.ref, pos, {ref(v, pos)});
+    return r;
+  }
+  if (v.is_const) return constant(v.k != 0 ? 0 : 1, true);
+  Value r;
+  r.digital = true;
+  r.ref = fresh("not");
+  emit("not", r.ref, pos, {v.ref});
+  return r;
+}
+
+Value Emitter::negate(const Value& v, SourcePos pos) {
+  Value a = to_analog(v, pos);
+  if (a.is_const) {
+    Value c = constant(-a.k, false);
+    c.integer = a.integer;
+    return c;
+  }
+  Value r;
+  r.integer = a.integer;
+  r.ref = fresh("neg");
+  emit("scale", r.ref, pos, {a.ref}, {-1.0, 0.0});
+  return r;
+}
+
+Value Emitter::binary(BinOp op, const Value& a0, const Value& b0, SourcePos pos) {
+  const bool logic = op == BinOp::kAnd || op == BinOp::kOr || op == BinOp::kXor;
+  const bool compare = op >= BinOp::kEq;
+  if (a0.digital && b0.digital && (logic || op == BinOp::kEq || op == BinOp::kNe)) {
+    if (a0.is_const && b0.is_const) {
+      const bool x = a0.k != 0, y = b0.k != 0;
+      bool r = false;
+      switch (op) {
+        case BinOp::kAnd: r = x && y; break;
+        case BinOp::kOr: r = x || y; break;
+        case BinOp::kXor: case BinOp::kNe: r = x != y; break;
+        default: r = x == y; break;
+      }
+      return constant(r ? 1 : 0, true);
+    }
+    Value r;
+    r.digital = true;
+    r.ref = fresh("logic");
+    const std::string x = ref(a0, pos), y = ref(b0, pos);
+    switch (op) {
+      case BinOp::kAnd: emit("and", r.ref, pos, {x, y}); break;
+      case BinOp::kOr: emit("or", r.ref, pos, {x, y}); break;
+      case BinOp::kXor: case BinOp::kNe: emit("exor", r.ref, pos, {x, y}); break;
+      default: {
+        const std::string e = fresh("xor");
+        emit("exor", e, pos, {x, y});
+        emit("not", r.ref, pos, {e});
+        break;
+      }
+    }
+    return r;
+  }
+  if (logic) {
+    const char* blk = op == BinOp::kAnd ? "band" : op == BinOp::kOr ? "bor" : "bxor";
+    if (!has_block(blk)) {
+      missing_block(blk, "AND/OR/XOR on integers or bit strings", pos);
+      return constant(0, false);
+    }
+  }
+  const Value a = to_analog(a0, pos), b = to_analog(b0, pos);
+  const bool integer = a.integer && b.integer;
+  if (a.is_const && b.is_const && op != BinOp::kExpt && op != BinOp::kMod &&
+      !(op == BinOp::kDiv && b.k == 0) && !logic) {
+    double r = 0;
+    switch (op) {
+      case BinOp::kAdd: r = a.k + b.k; break;
+      case BinOp::kSub: r = a.k - b.k; break;
+      case BinOp::kMul: r = a.k * b.k; break;
+      case BinOp::kDiv: r = integer ? std::trunc(a.k / b.k) : a.k / b.k; break;
+      case BinOp::kEq: return constant(a.k == b.k, true);
+      case BinOp::kNe: return constant(a.k != b.k, true);
+      case BinOp::kLt: return constant(a.k < b.k, true);
+      case BinOp::kLe: return constant(a.k <= b.k, true);
+      case BinOp::kGt: return constant(a.k > b.k, true);
+      case BinOp::kGe: return constant(a.k >= b.k, true);
+      default: break;
+    }
+    Value c = constant(r, false);
+    c.integer = integer;
+    return c;
+  }
+  const char* blk = nullptr;
+  switch (op) {
+    case BinOp::kAdd: blk = "add"; break;
+    case BinOp::kSub: blk = "sub"; break;
+    case BinOp::kMul: blk = "mult"; break;
+    case BinOp::kDiv: blk = "div"; break;
+    case BinOp::kMod: blk = "mod"; break;
+    case BinOp::kExpt: blk = "expt"; break;
+    case BinOp::kAnd: blk = "band"; break;
+    case BinOp::kOr: blk = "bor"; break;
+    case BinOp::kXor: blk = "bxor"; break;
+    case BinOp::kEq: blk = "eq"; break;
+    case BinOp::kNe: blk = "ne"; break;
+    case BinOp::kLt: blk = "lt"; break;
+    case BinOp::kLe: blk = "le"; break;
+    case BinOp::kGt: blk = "gt"; break;
+    case BinOp::kGe: blk = "ge"; break;
+  }
+  if (!has_block(blk)) {
+    missing_block(blk, std::string("operator ") + blk, pos);
+    return constant(0, compare);
+  }
+  Value r;
+  r.digital = compare;
+  r.integer = integer && !compare;
+  r.ref = fresh(blk);
+  emit(blk, r.ref, pos, {ref(a, pos), ref(b, pos)});
+  if (op == BinOp::kDiv && integer && has_block("trunc")) {
+    Value t;
+    t.integer = true;
+    t.ref = fresh("trunc");
+    emit("trunc", t.ref, pos, {r.ref});
+    return t;
+  }
+  return r;
+}
+
+Value Emitter::select(const Value& cond, const Value& a, const Value& b, SourcePos pos) {
+  const Value c = to_digital(cond, pos);
+  if (c.is_const) return c.k != 0 ? a : b;
+  if (a.is_const && b.is_const && a.k == b.k && a.digital == b.digital) return a;
+  if (!a.is_const && !b.is_const && a.ref == b.ref) return a;
+  if (a.digital && b.digital) {
+    Value r;
+    r.digital = true;
+    r.ref = fresh("sel");
+    const std::string t = fresh("sel"), e = fresh("sel"), nc = fresh("sel");
+    emit("and", t, pos, {c.ref, ref(a, pos)});
+    emit("not", nc, pos, {c.ref});
+    emit("and", e, pos, {nc, ref(b, pos)});
+    emit("or", r.ref, pos, {t, e});
+    return r;
+  }
+  const Value x = to_analog(a, pos), y = to_analog(b, pos);
+  Value r;
+  r.integer = x.integer && y.integer;
+  r.ref = fresh("sel");
+  emit("amux", r.ref, pos, {ref(y, pos), ref(x, pos), c.ref});
+  return r;
+}
+
+Value Emitter::call1(const char* blk, const Value& a, SourcePos pos) {
+  if (!has_block(blk)) {
+    missing_block(blk, std::string("function ") + blk, pos);
+    return constant(0, false);
+  }
+  Value r;
+  r.ref = fresh(blk);
+  const BlockSpec* s = find_block(blk);
+  r.digital = s->out_kind == Kind::kDigital;
+  const Value x = s->input_kind[0] == Kind::kDigital ? to_digital(a, pos) : to_analog(a, pos);
+  emit(blk, r.ref, pos, {ref(x, pos)});
+  return r;
+}
+
+Value Emitter::call2(const char* blk, const Value& a, const Value& b, SourcePos pos) {
+  if (!has_block(blk)) {
+    missing_block(blk, std::string("function ") + blk, pos);
+    return constant(0, false);
+  }
+  Value r;
+  r.ref = fresh(blk);
+  r.integer = a.integer && b.integer;
+  const BlockSpec* s = find_block(blk);
+  r.digital = s->out_kind == Kind::kDigital;
+  emit(blk, r.ref, pos, {ref(to_analog(a, pos), pos), ref(to_analog(b, pos), pos)});
+  return r;
+}
+
+void Emitter::copy_as(const Value& v, const std::string& name, SourcePos pos) {
+  const std::string x = ref(v, pos);
+  if (v.digital) emit("or", name, pos, {x, x});
+  else emit("scale", name, pos, {x}, {1.0, 0.0});
+}
+
+Value Emitter::first_cycle(SourcePos pos) {
+  if (!first_made_) {
+    first_made_ = true;
+    ref(constant(0, true), pos);  // plcopen.false, which plcopen.one reads
+    emit("not", kFirst, pos, {kOne});  // `one` runs last: 0 only before the first cycle ends
+  }
+  Value r;
+  r.digital = true;
+  r.ref = kFirst;
+  return r;
+}
+
+bool Emitter::finish() {
+  if (first_made_) emit("not", kOne, SourcePos{}, {kFalse});
+  std::unordered_map<std::string, uint32_t> index;
+  for (uint32_t i = 0; i < p_.blocks.size(); ++i) {
+    if (!p_.blocks[i].name.empty()) index.emplace(p_.blocks[i].name, i);
+  }
+  bool ok = true;
+  for (size_t i = 0; i < p_.blocks.size(); ++i) {
+    FlatBlock& b = p_.blocks[i];
+    for (uint32_t k = 0; k < b.n_in; ++k) {
+      auto it = index.find(refs_[i][k]);
+      if (it == index.end()) {
+        d_.error(b.pos, "internal: block " + b.name + " reads '" + refs_[i][k] +
+                            "', which the PLCopen lowering never made");
+        ok = false;
+        continue;
+      }
+      b.in[k] = it->second;
+    }
+  }
+  return ok;
+}
+
+}  // namespace rtplc::lang::plcopen

@@ -1,0 +1,86 @@
+// The PLCopen lowering's output side (docs/plcopen.md, "How a POU becomes
+// blocks"): values, constants, and the primitive blocks that compute them,
+// appended to a CheckedProgram in execution order. Inputs are block names,
+// resolved once every block exists, so a reference to a block appended later
+// reads last cycle's value (the one-cycle rule of every front end).
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "common/diagnostic.h"
+#include "lang/flat_program.h"
+
+namespace rtplc::lang::plcopen {
+
+// A value during lowering: the block producing it, or a constant.
+struct Value {
+  std::string ref;  // producing block's name; empty for a constant
+  bool digital = false;
+  bool integer = false;  // an integer-typed value (DIV truncates)
+  bool is_const = false;
+  double k = 0;
+  bool valid() const { return is_const || !ref.empty(); }
+};
+
+Value constant(double k, bool digital);
+
+enum class BinOp : uint8_t {
+  kAdd, kSub, kMul, kDiv, kMod, kExpt, kAnd, kOr, kXor, kEq, kNe, kLt, kLe, kGt, kGe
+};
+
+class Emitter {
+ public:
+  Emitter(CheckedProgram& p, DiagnosticList& d) : p_(p), d_(d) {}
+
+  // Appends a block whose inputs are names. Returns its index.
+  size_t emit(const std::string& written, std::string name, SourcePos pos,
+              std::vector<std::string> ins, std::vector<double> params = {});
+  FlatBlock& block(size_t i) { return p_.blocks[i]; }
+
+  // A unique name under `scope` ("main" -> "main.$7").
+  std::string fresh(const std::string& scope);
+
+  // The block name holding `v` (constants become blocks, shared by value).
+  std::string ref(const Value& v, SourcePos pos);
+
+  Value to_analog(const Value& v, SourcePos pos);
+  Value to_digital(const Value& v, SourcePos pos);
+  Value unary_not(const Value& v, SourcePos pos);
+  Value negate(const Value& v, SourcePos pos);
+  Value binary(BinOp op, const Value& a, const Value& b, SourcePos pos);
+  // cond ? a : b
+  Value select(const Value& cond, const Value& a, const Value& b, SourcePos pos);
+  // One-input functions (ABS, SQRT, SIN, ...), block name as written in rtplc.
+  Value call1(const char* block, const Value& a, SourcePos pos);
+  Value call2(const char* block, const Value& a, const Value& b, SourcePos pos);
+  // A copy of `v` in a block named `name` (the variable's value at the end of
+  // the cycle; always the same opcode per kind, so hot swap keeps it).
+  void copy_as(const Value& v, const std::string& name, SourcePos pos);
+
+  // 1 in the task's first cycle only (initial values).
+  Value first_cycle(SourcePos pos);
+
+  // True when this build has the block (the IEC blocks arrive separately).
+  bool has_block(const char* name) const;
+  // Reports that `what` needs block `block`, once per block name.
+  void missing_block(const char* block, const std::string& what, SourcePos pos);
+
+  // Appends the closing blocks and resolves every reference; false on an
+  // unresolved name (a lowering bug, reported as such).
+  bool finish();
+
+  DiagnosticList& diags() { return d_; }
+
+ private:
+  CheckedProgram& p_;
+  DiagnosticList& d_;
+  std::vector<std::vector<std::string>> refs_;
+  std::map<std::string, std::string> consts_;
+  std::map<std::string, bool> reported_missing_;
+  size_t counter_ = 0;
+  bool first_made_ = false;
+};
+
+}  // namespace rtplc::lang::plcopen

@@ -1,0 +1,186 @@
+// The PLCopen front end's entry point (see import.h): choose what runs, lower
+// it, run the language-neutral checks.
+#include "lang/plcopen/import.h"
+
+#include "lang/plcopen/lowering.h"
+
+namespace rtplc::lang::plcopen {
+namespace {
+
+struct Entry {
+  std::string name;
+  std::vector<PouInstance> instances;
+  const Task* task = nullptr;
+};
+
+std::vector<Entry> entries(const Project& p) {
+  std::vector<Entry> out;
+  for (const Configuration& c : p.configurations) {
+    for (const Resource& r : c.resources) {
+      for (const Task& t : r.tasks) out.push_back(Entry{t.name, t.instances, &t});
+      for (const PouInstance& pi : r.unassigned) out.push_back(Entry{pi.name, {pi}, nullptr});
+    }
+  }
+  return out;
+}
+
+std::string choices(const Project& p) {
+  std::string s;
+  for (const Entry& e : entries(p)) {
+    s += s.empty() ? "" : ", ";
+    s += (e.task ? "task " : "instance ") + e.name;
+  }
+  for (const Pou& pou : p.pous) {
+    if (pou.type != PouType::kProgram) continue;
+    s += s.empty() ? "" : ", ";
+    s += "program " + pou.name;
+  }
+  return s.empty() ? "none: the project has no program" : s;
+}
+
+}  // namespace
+
+bool is_plcopen_source(std::string_view text) {
+  size_t i = 0;
+  if (text.substr(0, 3) == "\xEF\xBB\xBF") i = 3;
+  for (;;) {
+    while (i < text.size() && std::isspace(static_cast<unsigned char>(text[i]))) ++i;
+    if (text.substr(i, 2) == "<?" || text.substr(i, 4) == "<!--") {
+      const size_t e = text.find(text.substr(i, 2) == "<?" ? "?>" : "-->", i);
+      if (e == std::string_view::npos) return false;
+      i = e + 2;
+      continue;
+    }
+    break;
+  }
+  if (text.substr(i, 1) != "<") return false;
+  std::string_view rest = text.substr(i + 1);
+  const size_t colon = rest.find_first_of(":> \t\r\n/");
+  if (colon != std::string_view::npos && rest[colon] == ':') rest = rest.substr(colon + 1);
+  return rest.substr(0, 7) == "project";
+}
+
+ImportResult import_plcopen(std::string_view xml, const ImportOptions& opt, DiagnosticList& diags) {
+  ImportResult res;
+  std::optional<Project> proj = read_project(xml, diags);
+  if (!proj) return res;
+  const Project& p = *proj;
+
+  // What runs.
+  std::vector<Entry> es = entries(p);
+  Entry chosen;
+  bool found = false;
+  if (!opt.entry.empty()) {
+    for (const Entry& e : es) {
+      if (!found && iequals(e.name, opt.entry)) {
+        chosen = e;
+        found = true;
+      }
+    }
+    if (!found) {
+      for (const Entry& e : es) {
+        for (const PouInstance& pi : e.instances) {
+          if (!found && iequals(pi.name, opt.entry)) {
+            chosen = Entry{pi.name, {pi}, e.task};
+            found = true;
+          }
+        }
+      }
+    }
+    if (!found) {
+      if (const Pou* pou = p.pou(opt.entry); pou && pou->type == PouType::kProgram) {
+        chosen = Entry{pou->name, {PouInstance{pou->name, pou->name, pou->pos}}, nullptr};
+        found = true;
+      }
+    }
+    if (!found) {
+      diags.error(SourcePos{}, "the project has no task, program instance or program named '" + opt.entry +
+                                   "' (it has " + choices(p) + ")");
+      return res;
+    }
+  } else {
+    std::vector<Entry> runnable;
+    for (const Entry& e : es) {
+      if (!e.instances.empty()) runnable.push_back(e);
+    }
+    if (runnable.size() == 1) {
+      chosen = runnable[0];
+    } else if (runnable.empty()) {
+      const Pou* only = nullptr;
+      int programs = 0;
+      for (const Pou& pou : p.pous) {
+        if (pou.type == PouType::kProgram) {
+          only = &pou;
+          ++programs;
+        }
+      }
+      if (programs != 1) {
+        diags.error(SourcePos{}, programs == 0 ? "the project has no program POU to run"
+                                               : "the project has several programs and no task; choose one "
+                                                 "(" + choices(p) + ")");
+        return res;
+      }
+      chosen = Entry{only->name, {PouInstance{only->name, only->name, only->pos}}, nullptr};
+    } else {
+      diags.error(SourcePos{}, "the project has several tasks; choose one (" + choices(p) +
+                                   "): `program_instance:` in the runtime config, --entry on the command line");
+      return res;
+    }
+  }
+  if (chosen.task && !chosen.task->single.empty()) {
+    diags.error(chosen.task->pos, "task '" + chosen.task->name + "' is triggered by single=\"" +
+                                      chosen.task->single + "\": event tasks are not supported yet (give it an interval)");
+    return res;
+  }
+  if (chosen.instances.empty()) {
+    diags.error(chosen.task ? chosen.task->pos : SourcePos{}, "task '" + chosen.name + "' runs no program instance");
+    return res;
+  }
+  res.entry = chosen.name;
+  if (chosen.task) {
+    res.priority = chosen.task->priority;
+    std::string ins;
+    for (const PouInstance& pi : chosen.instances) ins += (ins.empty() ? "" : ", ") + pi.name;
+    res.program.notes.push_back("task " + chosen.task->name + " (line " + std::to_string(chosen.task->pos.line) +
+                                "): runs " + ins + "; interval " +
+                                (chosen.task->interval > 0 ? std::to_string(chosen.task->interval) + " s" : "none (default period)") +
+                                ", PLCopen priority " + std::to_string(chosen.task->priority) +
+                                " (the runtime config's `priority` sets the SCHED_FIFO priority)");
+    if (chosen.task->interval > 0) {
+      res.program.period = chosen.task->interval;
+      res.program.period_from_stime = true;
+      res.program.stime_pos = chosen.task->pos;
+    }
+  }
+
+  Lowering L(p, res.program, diags);
+  std::vector<const Variable*> globals;
+  for (const Configuration& c : p.configurations) {
+    for (const Variable& v : c.globals) globals.push_back(&v);
+    for (const Resource& r : c.resources) {
+      for (const Variable& v : r.globals) globals.push_back(&v);
+    }
+  }
+  L.set_globals(globals);
+  for (const PouInstance& pi : chosen.instances) {
+    const Pou* pou = p.pou(pi.type_name);
+    if (!pou) {
+      diags.error(pi.pos, "pouInstance '" + pi.name + "' names POU '" + pi.type_name + "', which the project does not define");
+      continue;
+    }
+    if (pou->type != PouType::kProgram) {
+      diags.error(pi.pos, "pouInstance '" + pi.name + "' is a " +
+                              (pou->type == PouType::kFunction ? "function" : "function block") +
+                              "; a task runs programs");
+      continue;
+    }
+    res.instances.push_back(pi.name);
+    L.program_instance(*pou, pi.name);
+    if (diags.has_errors()) return res;
+  }
+  if (diags.has_errors() || !L.finish()) return res;
+
+  return res;
+}
+
+}  // namespace rtplc::lang::plcopen

@@ -1,0 +1,444 @@
+// Scopes and variables, bodies, and the end of the cycle (see lowering.h);
+// function calls and FB instances are in calls.cpp.
+#include "lang/plcopen/lowering.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+
+#include "blocks/registry.h"
+
+namespace rtplc::lang::plcopen {
+
+namespace {
+
+const char* const kStdFbs[] = {"R_TRIG", "F_TRIG", "SR", "RS", "TON", "TOF", "TP", "CTU", "CTD", "CTUD"};
+
+bool is_std_fb(const std::string& up) {
+  for (const char* n : kStdFbs) {
+    if (up == n) return true;
+  }
+  return false;
+}
+}  // namespace
+
+std::optional<Location> parse_location(const std::string& a, std::string* error) {
+  Location l;
+  auto bad = [&](const std::string& why) -> std::optional<Location> {
+    *error = "address '" + a + "' " + why;
+    return std::nullopt;
+  };
+  if (a.size() < 3 || a[0] != '%') return bad("is not a located address such as %IX0.0");
+  l.area = static_cast<char>(std::toupper(static_cast<unsigned char>(a[1])));
+  if (l.area != 'I' && l.area != 'Q' && l.area != 'M') return bad("has an area other than I, Q or M");
+  size_t i = 2;
+  l.size = 'X';
+  if (std::isalpha(static_cast<unsigned char>(a[i]))) {
+    l.size = static_cast<char>(std::toupper(static_cast<unsigned char>(a[i])));
+    ++i;
+  }
+  if (l.size != 'X' && l.size != 'W' && l.size != 'D' && l.size != 'L')
+    return bad("has size '" + std::string(1, l.size) + "' (rtplc maps X, W, D and L)");
+  std::vector<uint32_t> parts;
+  uint64_t v = 0;
+  bool any = false;
+  for (; i <= a.size(); ++i) {
+    if (i == a.size() || a[i] == '.') {
+      if (!any) return bad("is malformed");
+      parts.push_back(static_cast<uint32_t>(v));
+      v = 0;
+      any = false;
+      continue;
+    }
+    if (!std::isdigit(static_cast<unsigned char>(a[i]))) return bad("is malformed");
+    v = v * 10 + static_cast<uint64_t>(a[i] - '0');
+    if (v > 65535) return bad("has a number above 65535");
+    any = true;
+  }
+  if (l.size == 'X') {
+    if (parts.size() != 2) return bad("needs byte.bit, e.g. %IX0.3");
+    if (parts[0] > 255) return bad("has a byte above 255");
+    if (parts[1] > 7) return bad("has a bit above 7");
+    l.p = 1;
+    l.d = parts[0];
+    l.c = parts[1];
+    if (l.area == 'M') {  // set-points: d0, channel byte*8+bit
+      l.d = 0;
+      l.c = parts[0] * 8 + parts[1];
+    }
+  } else {
+    if (parts.size() != 1) return bad("needs one number, e.g. %IW2");
+    const uint32_t group = l.size == 'W' ? 0 : l.size == 'D' ? 2 : 3;
+    l.p = group;
+    l.d = 0;
+    l.c = parts[0];
+    if (l.area == 'M') {
+      l.d = l.size == 'W' ? 1 : l.size == 'D' ? 2 : 3;
+      l.c = parts[0];
+    }
+  }
+  return l;
+}
+
+Lowering::Lowering(const Project& p, CheckedProgram& out, DiagnosticList& d)
+    : proj_(p), em_(out, d), d_(d), out_(out) {
+  for (const Pou& pou : proj_.pous) collect_written(pou, written_);
+}
+
+void Lowering::emit_channel(Var& v) {
+  // Inputs and set-points are read at the start of the cycle: emitted when
+  // the scope is made, before any body reads them.
+  const Location& l = *v.loc;
+  const SourcePos pos = v.decl->pos;
+  const size_t i = v.role == Var::Role::kInput ? em_.emit(v.digital ? "ddi" : "dai", v.path, pos, {})
+                                               : em_.emit(v.digital ? "dsp" : "asp", v.path, pos, {});
+  FlatBlock& b = em_.block(i);
+  b.p = static_cast<uint16_t>(l.p);
+  b.d = static_cast<uint16_t>(l.d);
+  b.c = l.c;
+  b.label = v.decl->name;
+  if (v.role == Var::Role::kSetpoint && !v.decl->initial.empty()) {
+    if (auto k = parse_literal(v.decl->initial)) b.init = v.digital ? (*k != 0 ? 1.0 : 0.0) : *k;
+  }
+}
+
+std::unique_ptr<Var> Lowering::make_var(const Variable& decl, const std::string& path, int depth,
+                                        bool in_function) {
+  auto v = std::make_unique<Var>();
+  v->decl = &decl;
+  v->path = path;
+  v->digital = decl.type.is_bool();
+  v->integer = integer_type(decl.type.base);
+  if (decl.type.base == BaseType::kDerived) {
+    const std::string up = upper(decl.type.derived);
+    if (in_function) {
+      d_.error(decl.pos, "variable '" + decl.name + "': a function cannot hold a function block instance");
+    } else if (is_std_fb(up)) {
+      v->role = Var::Role::kStdFb;
+      v->std_fb.type = up;
+    } else if (const Pou* fb = proj_.pou(decl.type.derived); fb && fb->type == PouType::kFunctionBlock) {
+      if (depth >= kMaxNesting) {
+        d_.error(decl.pos, "function block instances nested deeper than " + std::to_string(kMaxNesting) +
+                               " (a block containing itself?)");
+      } else {
+        v->role = Var::Role::kUserFb;
+        v->fb = make_scope(*fb, path, depth + 1);
+      }
+    } else {
+      d_.error(decl.pos, "variable '" + decl.name + "' has type '" + decl.type.derived +
+                             "', which is neither an elementary type, a standard function block "
+                             "nor a function block of this project");
+    }
+    return v;
+  }
+  if (!decl.address.empty()) {
+    std::string err;
+    v->loc = parse_location(decl.address, &err);
+    if (!v->loc) {
+      d_.error(decl.pos, "variable '" + decl.name + "': " + err);
+    } else if (v->loc->area == 'I') {
+      v->role = Var::Role::kInput;
+    } else if (v->loc->area == 'M' &&
+               std::find(written_.begin(), written_.end(), upper(decl.name)) == written_.end() &&
+               std::find(written_.begin(), written_.end(), upper(decl.address)) == written_.end()) {
+      v->role = Var::Role::kSetpoint;  // only read: the operator sets it
+    }
+    if (v->loc && (v->loc->size == 'X') != v->digital)
+      d_.error(decl.pos, "variable '" + decl.name + "' is " + type_name(decl.type) + " at " + decl.address +
+                             (v->digital ? ": a BOOL needs a bit address (%IX, %QX, %MX)"
+                                         : ": a bit address (X) needs a BOOL"));
+    else if (v->role == Var::Role::kInput || v->role == Var::Role::kSetpoint)
+      emit_channel(*v);
+  }
+  return v;
+}
+
+std::unique_ptr<Scope> Lowering::make_scope(const Pou& pou, const std::string& path, int depth) {
+  auto s = std::make_unique<Scope>();
+  s->path = path;
+  s->pou = &pou;
+  s->globals = globals_.get();
+  s->function = pou.type == PouType::kFunction;
+  for (const Variable& decl : pou.vars) {
+    if (decl.section == VarSection::kExternal) continue;  // resolved through globals
+    if (decl.section == VarSection::kInOut) {
+      d_.error(decl.pos, "variable '" + decl.name + "': VAR_IN_OUT is not supported yet");
+      continue;
+    }
+    if (decl.section == VarSection::kGlobal) {
+      d_.error(decl.pos, "variable '" + decl.name + "': globalVars inside a POU are not supported; declare it in the configuration or resource");
+      continue;
+    }
+    if (!decl.address.empty() && pou.type != PouType::kProgram)
+      d_.error(decl.pos, "variable '" + decl.name + "': only programs and the configuration may declare located variables");
+    auto v = make_var(decl, path + "." + decl.name, depth, s->function);
+    all_vars_.push_back(v.get());
+    s->vars.emplace(upper(decl.name), std::move(v));
+  }
+  for (const Variable& decl : pou.vars) {
+    if (decl.section != VarSection::kExternal) continue;
+    if (!globals_ || !globals_->vars.count(upper(decl.name)))
+      d_.error(decl.pos, "external variable '" + decl.name + "' names no global variable of the configuration");
+  }
+  return s;
+}
+
+void Lowering::set_globals(const std::vector<const Variable*>& globals) {
+  globals_ = std::make_unique<Scope>();
+  for (const Variable* g : globals) {
+    if (globals_->vars.count(upper(g->name))) {
+      d_.error(g->pos, "global variable '" + g->name + "' is declared twice");
+      continue;
+    }
+    auto v = make_var(*g, g->name, 0, false);
+    all_vars_.push_back(v.get());
+    globals_->vars.emplace(upper(g->name), std::move(v));
+  }
+}
+
+Var* Lowering::lookup(Scope& s, const std::string& name, SourcePos pos, bool report) {
+  const std::string up = upper(name);
+  if (!up.empty() && up[0] == '%') {
+    // A directly represented variable: an implicit global, labelled with its
+    // address without the '%' (IX0_0 is not needed: '.' is allowed in labels).
+    if (!globals_) globals_ = std::make_unique<Scope>();
+    auto it = globals_->vars.find(up);
+    if (it != globals_->vars.end()) return it->second.get();
+    std::string err;
+    auto loc = parse_location(up, &err);
+    if (!loc) {
+      d_.error(pos, err);
+      return nullptr;
+    }
+    auto decl = std::make_unique<Variable>();
+    decl->name = up.substr(1);
+    decl->address = up;
+    decl->type.base = loc->size == 'X' ? BaseType::kBool : loc->size == 'W' ? BaseType::kInt
+                      : loc->size == 'D' ? BaseType::kDint : BaseType::kLint;
+    decl->section = VarSection::kGlobal;
+    decl->pos = pos;
+    const Variable& d = *decl;
+    owned_decls_.push_back(std::move(decl));
+    auto v = make_var(d, d.name, 0, false);
+    Var* raw = v.get();
+    all_vars_.push_back(raw);
+    globals_->vars.emplace(up, std::move(v));
+    return raw;
+  }
+  auto it = s.vars.find(up);
+  if (it != s.vars.end()) return it->second.get();
+  if (s.globals && s.pou) {
+    const Variable* decl = s.pou->var(name);
+    if (decl && decl->section == VarSection::kExternal) {
+      auto g = s.globals->vars.find(up);
+      if (g != s.globals->vars.end()) return g->second.get();
+    }
+    // Programs see the configuration's globals without declaring them
+    // (OpenPLC and Beremiz habit); FBs and functions must declare VAR_EXTERNAL.
+    if (s.pou->type == PouType::kProgram) {
+      auto g = s.globals->vars.find(up);
+      if (g != s.globals->vars.end()) return g->second.get();
+    }
+  }
+  if (report) d_.error(pos, "'" + name + "' is not a variable of " + (s.pou ? "POU '" + s.pou->name + "'" : "the project"));
+  return nullptr;
+}
+
+Var* Lowering::resolve_path(Scope& s, const std::string& path, SourcePos pos) {
+  const size_t dot = path.empty() || path[0] == '%' ? std::string::npos : path.find('.');
+  if (dot == std::string::npos) return lookup(s, path, pos);
+  Var* base = lookup(s, path.substr(0, dot), pos);
+  if (!base) return nullptr;
+  if (base->role != Var::Role::kUserFb) {
+    d_.error(pos, "'" + path + "': '" + path.substr(0, dot) + "' is not a function block instance of this project");
+    return nullptr;
+  }
+  return resolve_path(*base->fb, path.substr(dot + 1), pos);
+}
+
+Value Lowering::start_value(Var& v, SourcePos pos) {
+  if (v.start) return *v.start;
+  Value init = constant(0, v.digital);
+  if (!v.decl->initial.empty()) {
+    bool b = false;
+    auto k = parse_literal(v.decl->initial, &b);
+    if (!k) {
+      d_.error(v.decl->pos, "variable '" + v.decl->name + "': initial value '" + v.decl->initial +
+                                "' is not a literal rtplc reads");
+    } else {
+      init = constant(*k, v.digital);
+    }
+  }
+  init.integer = v.integer;
+  if (v.role == Var::Role::kInput || v.role == Var::Role::kSetpoint) {
+    Value r;
+    r.ref = v.path;
+    r.digital = v.digital;
+    r.integer = v.integer;
+    v.start = r;
+    return r;
+  }
+  // In a function nothing is remembered: each call starts from the initial value.
+  const bool in_function = v.path.find("()") != std::string::npos;
+  if (in_function || (v.decl->constant)) {
+    v.start = init;
+    return init;
+  }
+  Value prev;
+  prev.ref = v.path;  // the end-of-cycle copy, which runs later: last cycle's value
+  prev.digital = v.digital;
+  prev.integer = v.integer;
+  if (init.k == 0) {
+    v.start = prev;
+  } else {
+    Value s = em_.select(em_.first_cycle(pos), init, prev, pos);
+    s.integer = v.integer;
+    v.start = s;
+  }
+  return *v.start;
+}
+
+Value Lowering::read(Var& v, SourcePos pos) {
+  if (v.role == Var::Role::kUserFb || v.role == Var::Role::kStdFb) {
+    d_.error(pos, "'" + v.decl->name + "' is a function block instance; read one of its outputs (" +
+                      v.decl->name + ".Q)");
+    return constant(0, false);
+  }
+  if (before_read) {
+    before_read(upper(v.decl->name));
+    if (!v.decl->address.empty()) before_read(upper(v.decl->address));  // %QX0.0 written directly
+  }
+  if (v.cur) return *v.cur;
+  return start_value(v, pos);
+}
+
+void Lowering::assign(Var& v, Value value, SourcePos pos) {
+  if (v.role == Var::Role::kInput) {
+    d_.error(pos, "'" + v.decl->name + "' is an input (" + v.decl->address + "): the program cannot write it");
+    return;
+  }
+  if (v.role == Var::Role::kUserFb || v.role == Var::Role::kStdFb) {
+    d_.error(pos, "'" + v.decl->name + "' is a function block instance and cannot be assigned");
+    return;
+  }
+  if (v.decl->constant) {
+    d_.error(pos, "'" + v.decl->name + "' is CONSTANT");
+    return;
+  }
+  if (v.role == Var::Role::kSetpoint) {
+    d_.error(pos, "internal: set-point '" + v.decl->name + "' written");
+    return;
+  }
+  value = v.digital ? em_.to_digital(value, pos) : em_.to_analog(value, pos);
+  if (v.integer && !value.is_const) {
+    // IEC integers wrap (an INT counter goes 32767 -> -32768): the value is
+    // truncated and wrapped into the variable's range.
+    const BaseType b = v.decl->type.base;
+    const bool is_signed = b == BaseType::kSint || b == BaseType::kInt || b == BaseType::kDint || b == BaseType::kLint;
+    const double bits = (b == BaseType::kSint || b == BaseType::kUsint || b == BaseType::kByte)   ? 8
+                        : (b == BaseType::kInt || b == BaseType::kUint || b == BaseType::kWord)   ? 16
+                        : (b == BaseType::kDint || b == BaseType::kUdint || b == BaseType::kDword) ? 32
+                                                                                                  : 64;
+    Value w;
+    w.ref = em_.fresh("wrap");
+    em_.emit("wrap", w.ref, pos, {value.ref}, {bits, is_signed ? 1.0 : 0.0});
+    value = w;
+  }
+  value.integer = v.integer;
+  v.cur = value;
+}
+
+Value Lowering::rising(const Value& v, const std::string& mem, SourcePos pos) {
+  edge_memories_.emplace_back(v, mem);
+  Value m;
+  m.ref = mem;
+  m.digital = true;
+  return em_.binary(BinOp::kAnd, v, em_.unary_not(m, pos), pos);
+}
+
+Value Lowering::falling(const Value& v, const std::string& mem, SourcePos pos) {
+  const Value n = em_.unary_not(v, pos);
+  return rising(n, mem, pos);
+}
+
+std::vector<std::optional<Value>> Lowering::save() const {
+  std::vector<std::optional<Value>> st;
+  st.reserve(all_vars_.size());
+  for (const Var* v : all_vars_) st.push_back(v->cur);
+  return st;
+}
+
+void Lowering::restore(const std::vector<std::optional<Value>>& st) {
+  for (size_t i = 0; i < all_vars_.size() && i < st.size(); ++i) all_vars_[i]->cur = st[i];
+  for (size_t i = st.size(); i < all_vars_.size(); ++i) all_vars_[i]->cur.reset();
+}
+
+// ---- bodies ----
+
+void Lowering::lower_body(Scope& s) { lower_body_of(s, s.pou->body); }
+
+void Lowering::lower_body_of(Scope& s, const Body& b) {
+  switch (b.language) {
+    case BodyLanguage::kFbd:
+      lower_graph(s, *b.graph, false);
+      break;
+    case BodyLanguage::kLd:
+      lower_graph(s, *b.graph, true);
+      break;
+    case BodyLanguage::kSt: {
+      Block blk = parse_st(b.source, *b.text, d_);
+      if (!d_.has_errors()) lower_st(s, blk);
+      break;
+    }
+    case BodyLanguage::kIl:
+      lower_il(s, b);
+      break;
+    case BodyLanguage::kSfc:
+      if (&b != &s.pou->body) {
+        d_.error(b.pos, "an SFC inside an SFC action is not supported");
+        break;
+      }
+      lower_sfc(s, *b.graph);
+      break;
+    case BodyLanguage::kNone:
+      break;
+  }
+}
+
+void Lowering::finalize(Scope& s) {
+  for (auto& [name, vp] : s.vars) {
+    Var& v = *vp;
+    if (v.role == Var::Role::kUserFb) {
+      finalize(*v.fb);
+      continue;
+    }
+    if (v.role == Var::Role::kStdFb) {
+      for (const std::string& n : produced_) {
+        if (n.compare(0, v.path.size() + 1, v.path + ".") == 0) out_.variables.push_back(n);
+      }
+      continue;
+    }
+    const SourcePos pos = v.decl->pos;
+    out_.variables.push_back(v.path);
+    if (v.role == Var::Role::kInput || v.role == Var::Role::kSetpoint) continue;
+    em_.copy_as(read(v, pos), v.path, pos);
+    if (v.loc && v.loc->area == 'Q') {
+      const size_t i = em_.emit(v.digital ? "ddo" : "dao", "", pos, {v.path});
+      FlatBlock& b = em_.block(i);
+      b.p = static_cast<uint16_t>(v.loc->p);
+      b.d = static_cast<uint16_t>(v.loc->d);
+      b.c = v.loc->c;
+      b.label = v.decl->name;
+    }
+  }
+}
+
+void Lowering::program_instance(const Pou& pou, const std::string& path) {
+  programs_.push_back(make_scope(pou, path, 0));
+  Scope& s = *programs_.back();
+  s.called = true;
+  lower_body(s);
+  finalize(s);
+}
+
+}  // namespace rtplc::lang::plcopen

@@ -1,0 +1,162 @@
+// POU instances -> blocks (docs/plcopen.md, "How a POU becomes blocks"). The
+// shared state of lowering one task: scopes of variables with their current
+// value during the cycle, function block instances, and the body lowerings
+// (graph.cpp for FBD and LD, st_lowering.cpp for ST, il.cpp, sfc.cpp).
+//
+// Variables. Every variable of a program or FB instance ends the cycle in a
+// copy block named by its instance path ("main.level", "main.fb1.count"); a
+// read before any assignment in the cycle reads that block, which runs later,
+// so it is last cycle's value (the one-cycle rule). Initial values enter
+// through `plcopen.first`. Stateful blocks are named by instance path too, so
+// hot swap (matching by name) keeps timers, counters and latches.
+#pragma once
+
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "lang/plcopen/emitter.h"
+#include "lang/plcopen/project.h"
+#include "lang/plcopen/st.h"
+
+namespace rtplc::lang::plcopen {
+
+struct Scope;
+
+// A located variable's place in the image (docs/plcopen.md, "Located variables").
+struct Location {
+  char area = 0;  // 'I', 'Q', 'M'
+  char size = 0;  // 'X', 'W', 'D', 'L'
+  uint32_t p = 0, d = 0, c = 0;
+};
+
+struct StdFb {
+  std::string type;  // upper-case IEC name
+  bool called = false;
+};
+
+struct Var {
+  const Variable* decl = nullptr;
+  std::string path;
+  bool digital = false;
+  bool integer = false;
+  enum class Role : uint8_t { kPlain, kInput, kSetpoint, kUserFb, kStdFb } role = Role::kPlain;
+  std::optional<Location> loc;
+  std::optional<Value> start;  // the value at the start of the cycle
+  std::optional<Value> cur;    // after the last assignment so far
+  std::unique_ptr<Scope> fb;   // kUserFb: the instance's own variables
+  StdFb std_fb;                // kStdFb
+};
+
+struct Scope {
+  std::string path;
+  const Pou* pou = nullptr;
+  std::map<std::string, std::unique_ptr<Var>> vars;  // by upper-case name
+  Scope* globals = nullptr;
+  bool function = false;  // a function call: no memory between cycles
+  bool called = false;
+};
+
+class Lowering {
+ public:
+  Lowering(const Project& p, CheckedProgram& out, DiagnosticList& d);
+
+  // Lowers program instance `path` of `pou`, then (after all) finish().
+  void program_instance(const Pou& pou, const std::string& path);
+  void set_globals(const std::vector<const Variable*>& globals);
+  bool finish();
+
+  // ---- shared by the body lowerings ----
+  Var* lookup(Scope& s, const std::string& name, SourcePos pos, bool report = true);
+  // "a" or "fb1.Q": the variable read or written.
+  Var* resolve_path(Scope& s, const std::string& path, SourcePos pos);
+  Value read(Var& v, SourcePos pos);
+  void assign(Var& v, Value value, SourcePos pos);
+  // Rising edge of `v`, remembered in a block named `mem` (last cycle's `v`).
+  Value rising(const Value& v, const std::string& mem, SourcePos pos);
+  Value falling(const Value& v, const std::string& mem, SourcePos pos);
+
+  // A call of a standard or user function with positional arguments (after
+  // formal names were put in order); nullopt when `name` is no function.
+  std::optional<Value> call_function(Scope& s, const std::string& name,
+                                     std::vector<Value> args, std::vector<std::string> formals,
+                                     SourcePos pos);
+  bool is_function(const std::string& upper_name) const;
+  // Calls FB instance `v` with named inputs; its outputs are then read with
+  // fb_output(). A second call in one cycle is refused.
+  void call_fb(Var& v, const std::vector<std::pair<std::string, Value>>& inputs, SourcePos pos);
+  Value fb_output(Var& v, const std::string& name, SourcePos pos);
+  bool fb_output_digital(const Var& v, const std::string& name) const;
+
+  void lower_body(Scope& s);
+  void lower_body_of(Scope& s, const Body& b);  // an SFC action's body too
+  // Runs `f` as the then-branch of an if-converted IF on `cond`.
+  void guarded(const Value& cond, SourcePos pos, const std::function<void()>& f);
+  void lower_graph(Scope& s, const XmlElement& body, bool ladder);
+  void lower_st(Scope& s, const Block& b);
+  void lower_il(Scope& s, const Body& body);
+  void lower_sfc(Scope& s, const XmlElement& body);
+  // `b` runs only while `cond` holds (an SFC action): if-converted.
+  void lower_st_guarded(Scope& s, const Block& b, const Value& cond, SourcePos pos);
+  Value eval(Scope& s, const Expr& e);
+
+  // Values of every variable's `cur` (if-conversion).
+  std::vector<std::optional<Value>> save() const;
+  void restore(const std::vector<std::optional<Value>>& st);
+  void note(const std::string& n) { out_.notes.push_back(n); }
+  std::vector<Var*> vars_for_merge() const { return all_vars_; }
+
+  Emitter& em() { return em_; }
+  DiagnosticList& diags() { return d_; }
+  const Project& project() const { return proj_; }
+  int conditional_depth = 0;  // > 0 inside IF / CASE branches
+  // Set by the graph lowering: before a read of variable X, lower the elements
+  // of this body that write X (data-flow order).
+  std::function<void(const std::string&)> before_read;
+
+ private:
+  std::unique_ptr<Scope> make_scope(const Pou& pou, const std::string& path, int depth);
+  std::unique_ptr<Var> make_var(const Variable& decl, const std::string& path, int depth, bool in_function);
+  void finalize(Scope& s);
+  Value start_value(Var& v, SourcePos pos);
+  void emit_channel(Var& v);
+
+  const Project& proj_;
+  Emitter em_;
+  DiagnosticList& d_;
+  CheckedProgram& out_;
+  std::unique_ptr<Scope> globals_;
+  std::vector<std::unique_ptr<Scope>> programs_;
+  std::vector<Var*> all_vars_;
+  std::vector<std::pair<Value, std::string>> edge_memories_;
+  std::vector<std::unique_ptr<Scope>> function_scopes_;
+  std::vector<std::string> written_;  // upper-case names written by the program bodies
+  int call_depth_ = 0;
+  std::vector<std::unique_ptr<Variable>> owned_decls_;  // function result variables
+  struct PendingOutput {
+    Var* fb;
+    std::string name;
+    SourcePos pos;
+  };
+  std::vector<PendingOutput> pending_outputs_;  // FB outputs read by name
+  std::vector<std::string> produced_;           // FB output blocks made
+};
+
+// Upper-case names a POU body assigns (ST `x :=`, FBD/LD outVariable and coil
+// targets): a located %M variable nobody writes is an operator set-point.
+void collect_written(const Pou& p, std::vector<std::string>& out);
+
+std::optional<Location> parse_location(const std::string& address, std::string* error);
+
+// Function calls and FB instances nest at most this deep (recursion is an error).
+inline constexpr int kMaxNesting = 16;
+
+inline bool integer_type(BaseType b) {
+  return b != BaseType::kBool && b != BaseType::kReal && b != BaseType::kLreal &&
+         b != BaseType::kTime && b != BaseType::kDerived;
+}
+
+}  // namespace rtplc::lang::plcopen

@@ -1,0 +1,531 @@
+// PLCopen XML -> project model (see project.h).
+#include "lang/plcopen/project.h"
+
+#include <cctype>
+#include <cmath>
+#include <cstdlib>
+
+namespace rtplc::lang::plcopen {
+
+bool iequals(std::string_view a, std::string_view b) {
+  if (a.size() != b.size()) return false;
+  for (size_t i = 0; i < a.size(); ++i) {
+    if (std::toupper(static_cast<unsigned char>(a[i])) != std::toupper(static_cast<unsigned char>(b[i])))
+      return false;
+  }
+  return true;
+}
+
+std::string upper(std::string_view s) {
+  std::string r(s);
+  for (char& c : r) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  return r;
+}
+
+namespace {
+
+struct TypeName {
+  const char* name;
+  BaseType type;
+};
+constexpr TypeName kTypes[] = {
+    {"BOOL", BaseType::kBool},   {"SINT", BaseType::kSint},   {"INT", BaseType::kInt},
+    {"DINT", BaseType::kDint},   {"LINT", BaseType::kLint},   {"USINT", BaseType::kUsint},
+    {"UINT", BaseType::kUint},   {"UDINT", BaseType::kUdint}, {"ULINT", BaseType::kUlint},
+    {"BYTE", BaseType::kByte},   {"WORD", BaseType::kWord},   {"DWORD", BaseType::kDword},
+    {"LWORD", BaseType::kLword}, {"REAL", BaseType::kReal},   {"LREAL", BaseType::kLreal},
+    {"TIME", BaseType::kTime},
+};
+
+const char* const kNamespaces[] = {
+    "http://www.plcopen.org/xml/tc6_0201",
+    "http://www.plcopen.org/xml/tc6_0200",
+    "http://www.plcopen.org/xml/tc6.xsd",
+};
+
+std::string attr(const XmlElement& e, std::string_view n) {
+  const XmlAttribute* a = e.attribute(n);
+  return a ? a->value : std::string();
+}
+
+class Reader {
+ public:
+  explicit Reader(DiagnosticList& d) : d_(d) {}
+
+  bool project(Project& p) {
+    const XmlElement& root = p.root;
+    if (root.name != "project") {
+      d_.error(root.pos, "expected a PLCopen <project> root element, found <" + root.name + ">");
+      return false;
+    }
+    p.ns = attr(root, "xmlns");
+    bool known = false;
+    for (const char* ns : kNamespaces) known = known || p.ns == ns;
+    if (!known) {
+      d_.error(root.pos, "<project> namespace '" + p.ns +
+                             "' is not PLCopen TC6 (expected http://www.plcopen.org/xml/tc6_0201, "
+                             "tc6_0200 or tc6.xsd)");
+      return false;
+    }
+    for (const XmlElement& c : root.children) {
+      if (c.name == "types") {
+        types(c, p);
+      } else if (c.name == "instances") {
+        for (const XmlElement& cs : c.children) {
+          if (cs.name != "configurations") continue;
+          for (const XmlElement& cf : cs.children) {
+            if (cf.name == "configuration") p.configurations.push_back(configuration(cf));
+          }
+        }
+      }
+      // fileHeader, contentHeader, addData: descriptive only.
+    }
+    return !d_.has_errors();
+  }
+
+ private:
+  void types(const XmlElement& t, Project& p) {
+    for (const XmlElement& c : t.children) {
+      if (c.name == "dataTypes") {
+        for (const XmlElement& dt : c.children) {
+          if (dt.name == "dataType")
+            d_.error(dt.pos, "<dataType name=\"" + attr(dt, "name") +
+                                 "\">: user data types (structures, enumerations, arrays, "
+                                 "subranges) are not supported yet");
+        }
+      } else if (c.name == "pous") {
+        for (const XmlElement& pe : c.children) {
+          if (pe.name == "pou") p.pous.push_back(pou(pe));
+        }
+      }
+    }
+    for (size_t i = 0; i < p.pous.size(); ++i) {
+      for (size_t j = 0; j < i; ++j) {
+        if (iequals(p.pous[i].name, p.pous[j].name))
+          d_.error(p.pous[i].pos, "POU '" + p.pous[i].name + "' is defined twice (also line " +
+                                      std::to_string(p.pous[j].pos.line) + ")");
+      }
+    }
+  }
+
+  Pou pou(const XmlElement& e) {
+    Pou p;
+    p.name = attr(e, "name");
+    p.pos = e.pos;
+    if (p.name.empty()) d_.error(e.pos, "<pou> without a name");
+    const std::string t = attr(e, "pouType");
+    if (t == "program") p.type = PouType::kProgram;
+    else if (t == "functionBlock") p.type = PouType::kFunctionBlock;
+    else if (t == "function") p.type = PouType::kFunction;
+    else d_.error(e.pos, "<pou name=\"" + p.name + "\">: pouType '" + t +
+                             "' is not program, functionBlock or function");
+    bool had_body = false;
+    for (const XmlElement& c : e.children) {
+      if (c.name == "interface") {
+        interface(c, p);
+      } else if (c.name == "body") {
+        if (had_body) {
+          d_.error(c.pos, "<pou name=\"" + p.name + "\">: a second <body> is not supported");
+          continue;
+        }
+        had_body = true;
+        body(c, p.body);
+      } else if (c.name == "actions" || c.name == "transitions") {
+        const bool act = c.name == "actions";
+        for (const XmlElement& a : c.children) {
+          if (a.name != (act ? "action" : "transition")) continue;
+          NamedBody nb;
+          nb.name = attr(a, "name");
+          nb.pos = a.pos;
+          const XmlElement* b = a.child("body");
+          if (nb.name.empty() || !b) {
+            d_.error(a.pos, "<" + a.name + "> needs a name and a <body>");
+            continue;
+          }
+          body(*b, nb.body);
+          (act ? p.actions : p.transitions).push_back(std::move(nb));
+        }
+      }
+    }
+    if (!had_body) d_.error(e.pos, "<pou name=\"" + p.name + "\"> has no <body>");
+    return p;
+  }
+
+  std::optional<TypeRef> type_of(const XmlElement& te) {
+    for (const XmlElement& c : te.children) {
+      if (c.name == "addData" || c.name == "documentation") continue;
+      if (c.name == "derived") {
+        TypeRef r;
+        r.base = BaseType::kDerived;
+        r.derived = attr(c, "name");
+        if (r.derived.empty()) {
+          d_.error(c.pos, "<derived> without a name");
+          return std::nullopt;
+        }
+        if (auto b = elementary_type(r.derived)) {
+          r.base = *b;
+          r.derived.clear();
+        }
+        return r;
+      }
+      if (auto b = elementary_type(c.name)) return TypeRef{*b, {}};
+      d_.error(c.pos, "type <" + c.name + "> is not supported (elementary types BOOL, SINT..LINT, "
+                                          "USINT..ULINT, BYTE..LWORD, REAL, LREAL, TIME and "
+                                          "function block types are)");
+      return std::nullopt;
+    }
+    d_.error(te.pos, "<type> names no type");
+    return std::nullopt;
+  }
+
+  void variables(const XmlElement& sec, VarSection s, std::vector<Variable>& out) {
+    const bool constant = attr(sec, "constant") == "true";
+    if (attr(sec, "retain") == "true" || attr(sec, "persistent") == "true") {
+      // Retention is the runtime's (docs/runtime.md); accepted, not per variable.
+    }
+    for (const XmlElement& v : sec.children) {
+      if (v.name != "variable") continue;
+      Variable var;
+      var.name = attr(v, "name");
+      var.section = s;
+      var.address = attr(v, "address");
+      var.constant = constant;
+      var.pos = v.pos;
+      if (var.name.empty()) d_.error(v.pos, "<variable> without a name");
+      bool typed = false;
+      for (const XmlElement& c : v.children) {
+        if (c.name == "type") {
+          if (auto t = type_of(c)) var.type = *t;
+          typed = true;
+        } else if (c.name == "initialValue") {
+          const XmlElement* sv = c.child("simpleValue");
+          if (!sv) {
+            d_.error(c.pos, "variable '" + var.name +
+                                "': only a <simpleValue> initial value is supported");
+          } else {
+            var.initial = attr(*sv, "value");
+          }
+        }
+      }
+      if (!typed) d_.error(v.pos, "variable '" + var.name + "' has no <type>");
+      for (const Variable& o : out) {
+        if (iequals(o.name, var.name))
+          d_.error(v.pos, "variable '" + var.name + "' is declared twice (also line " +
+                              std::to_string(o.pos.line) + ")");
+      }
+      out.push_back(std::move(var));
+    }
+  }
+
+  void interface(const XmlElement& e, Pou& p) {
+    for (const XmlElement& c : e.children) {
+      if (c.name == "returnType") {
+        p.return_type = type_of(c);
+      } else if (c.name == "inputVars") {
+        variables(c, VarSection::kInput, p.vars);
+      } else if (c.name == "outputVars") {
+        variables(c, VarSection::kOutput, p.vars);
+      } else if (c.name == "inOutVars") {
+        variables(c, VarSection::kInOut, p.vars);
+      } else if (c.name == "localVars") {
+        variables(c, VarSection::kLocal, p.vars);
+      } else if (c.name == "tempVars") {
+        variables(c, VarSection::kTemp, p.vars);
+      } else if (c.name == "externalVars") {
+        variables(c, VarSection::kExternal, p.vars);
+      } else if (c.name == "globalVars") {
+        variables(c, VarSection::kGlobal, p.vars);
+      } else if (c.name == "accessVars") {
+        if (!c.children.empty()) d_.error(c.pos, "<accessVars> are not supported");
+      }
+    }
+    if (p.type == PouType::kFunction && !p.return_type)
+      d_.error(e.pos, "function '" + p.name + "' has no <returnType>");
+  }
+
+  void body(const XmlElement& e, Body& b) {
+    b.pos = e.pos;
+    for (const XmlElement& c : e.children) {
+      if (c.name == "addData" || c.name == "documentation") continue;
+      if (c.name == "FBD") b.language = BodyLanguage::kFbd;
+      else if (c.name == "LD") b.language = BodyLanguage::kLd;
+      else if (c.name == "SFC") b.language = BodyLanguage::kSfc;
+      else if (c.name == "ST") b.language = BodyLanguage::kSt;
+      else if (c.name == "IL") b.language = BodyLanguage::kIl;
+      else {
+        d_.error(c.pos, "body language <" + c.name + "> is not PLCopen (FBD, LD, SFC, ST, IL)");
+        return;
+      }
+      b.pos = c.pos;
+      if (b.language == BodyLanguage::kSt || b.language == BodyLanguage::kIl) {
+        // <ST><xhtml:p><![CDATA[...]]></xhtml:p></ST> (OpenPLC, Beremiz),
+        // <ST><xhtml xmlns="...">...</xhtml></ST> (CODESYS), or bare text.
+        const XmlElement* holder = &c;
+        for (const XmlElement& t : c.children) {
+          if (t.name == "p" || t.name == "xhtml") holder = &t;
+        }
+        b.text = holder;
+        b.source = holder->text;
+      } else {
+        b.graph = &c;
+      }
+      return;
+    }
+    d_.error(e.pos, "<body> holds no FBD, LD, SFC, ST or IL");
+  }
+
+  Configuration configuration(const XmlElement& e) {
+    Configuration cf;
+    cf.name = attr(e, "name");
+    cf.pos = e.pos;
+    for (const XmlElement& c : e.children) {
+      if (c.name == "globalVars") variables(c, VarSection::kGlobal, cf.globals);
+      else if (c.name == "resource") cf.resources.push_back(resource(c));
+    }
+    return cf;
+  }
+
+  PouInstance instance(const XmlElement& e) {
+    PouInstance pi;
+    pi.name = attr(e, "name");
+    pi.type_name = attr(e, "typeName");
+    if (pi.type_name.empty()) pi.type_name = attr(e, "type");  // tc6.xsd drafts
+    pi.pos = e.pos;
+    if (pi.name.empty() || pi.type_name.empty())
+      d_.error(e.pos, "<pouInstance> needs a name and a typeName");
+    return pi;
+  }
+
+  Resource resource(const XmlElement& e) {
+    Resource r;
+    r.name = attr(e, "name");
+    r.pos = e.pos;
+    for (const XmlElement& c : e.children) {
+      if (c.name == "globalVars") {
+        variables(c, VarSection::kGlobal, r.globals);
+      } else if (c.name == "pouInstance") {
+        r.unassigned.push_back(instance(c));
+      } else if (c.name == "task") {
+        Task t;
+        t.name = attr(c, "name");
+        t.pos = c.pos;
+        const std::string iv = attr(c, "interval");
+        if (!iv.empty()) {
+          bool is_time = false;
+          auto v = parse_literal(iv, nullptr, &is_time);
+          if (!v || !is_time || *v <= 0) {
+            d_.error(c.pos, "task '" + t.name + "': interval '" + iv +
+                                "' is not a positive TIME literal such as T#20ms");
+          } else {
+            t.interval = *v;
+          }
+        }
+        const std::string pr = attr(c, "priority");
+        if (!pr.empty()) {
+          char* end = nullptr;
+          const long v = std::strtol(pr.c_str(), &end, 10);
+          if (*end != '\0' || v < 0 || v > 99) {
+            d_.error(c.pos, "task '" + t.name + "': priority '" + pr + "' is not 0..99");
+          } else {
+            t.priority = static_cast<int>(v);
+          }
+        }
+        t.single = attr(c, "single");
+        for (const XmlElement& pi : c.children) {
+          if (pi.name == "pouInstance") t.instances.push_back(instance(pi));
+        }
+        r.tasks.push_back(std::move(t));
+      }
+    }
+    return r;
+  }
+
+  DiagnosticList& d_;
+};
+
+// Digits of `s` in base `base`, with IEC underscores; false if none or a bad digit.
+bool parse_integer(std::string_view s, int base, double* out) {
+  double v = 0;
+  bool any = false;
+  for (char c : s) {
+    if (c == '_') continue;
+    int dgt;
+    if (c >= '0' && c <= '9') dgt = c - '0';
+    else if (c >= 'a' && c <= 'f') dgt = c - 'a' + 10;
+    else if (c >= 'A' && c <= 'F') dgt = c - 'A' + 10;
+    else return false;
+    if (dgt >= base) return false;
+    v = v * base + dgt;
+    any = true;
+  }
+  *out = v;
+  return any;
+}
+
+std::optional<double> parse_time(std::string_view s) {
+  // 1h2m3s4ms, 1.5s, 20ms, with optional underscores; units d h m s ms us ns.
+  bool neg = false;
+  if (!s.empty() && s[0] == '-') {
+    neg = true;
+    s.remove_prefix(1);
+  }
+  if (s.empty()) return std::nullopt;
+  double total = 0;
+  size_t i = 0;
+  while (i < s.size()) {
+    const size_t b = i;
+    while (i < s.size() && ((s[i] >= '0' && s[i] <= '9') || s[i] == '.' || s[i] == '_')) ++i;
+    if (i == b) return std::nullopt;
+    std::string num;
+    for (size_t k = b; k < i; ++k) {
+      if (s[k] != '_') num += s[k];
+    }
+    char* end = nullptr;
+    const double v = std::strtod(num.c_str(), &end);
+    if (*end != '\0') return std::nullopt;
+    const size_t ub = i;
+    while (i < s.size() && std::isalpha(static_cast<unsigned char>(s[i]))) ++i;
+    const std::string unit = upper(s.substr(ub, i - ub));
+    double f;
+    if (unit == "D") f = 86400;
+    else if (unit == "H") f = 3600;
+    else if (unit == "M") f = 60;
+    else if (unit == "S") f = 1;
+    else if (unit == "MS") f = 1e-3;
+    else if (unit == "US") f = 1e-6;
+    else if (unit == "NS") f = 1e-9;
+    else return std::nullopt;
+    total += v * f;
+    while (i < s.size() && s[i] == '_') ++i;
+  }
+  return neg ? -total : total;
+}
+
+}  // namespace
+
+std::optional<double> parse_literal(std::string_view text, bool* is_bool, bool* is_time) {
+  if (is_bool) *is_bool = false;
+  if (is_time) *is_time = false;
+  std::string_view s = text;
+  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front()))) s.remove_prefix(1);
+  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.remove_suffix(1);
+  if (s.empty()) return std::nullopt;
+  const size_t hash = s.find('#');
+  if (hash != std::string_view::npos) {
+    const std::string prefix = upper(s.substr(0, hash));
+    std::string_view rest = s.substr(hash + 1);
+    if (prefix == "T" || prefix == "TIME" || prefix == "LTIME" || prefix == "LT") {
+      if (is_time) *is_time = true;
+      return parse_time(rest);
+    }
+    if (prefix == "BOOL") {
+      if (rest == "1" || iequals(rest, "TRUE")) {
+        if (is_bool) *is_bool = true;
+        return 1.0;
+      }
+      if (rest == "0" || iequals(rest, "FALSE")) {
+        if (is_bool) *is_bool = true;
+        return 0.0;
+      }
+      return std::nullopt;
+    }
+    int base = 0;
+    if (prefix == "16") base = 16;
+    else if (prefix == "8") base = 8;
+    else if (prefix == "2") base = 2;
+    if (base) {
+      double v = 0;
+      if (!parse_integer(rest, base, &v)) return std::nullopt;
+      return v;
+    }
+    if (elementary_type(prefix)) return parse_literal(rest, is_bool, is_time);
+    return std::nullopt;
+  }
+  if (iequals(s, "TRUE")) {
+    if (is_bool) *is_bool = true;
+    return 1.0;
+  }
+  if (iequals(s, "FALSE")) {
+    if (is_bool) *is_bool = true;
+    return 0.0;
+  }
+  std::string num;
+  for (char c : s) {
+    if (c != '_') num += c;
+  }
+  if (num.empty() || !(std::isdigit(static_cast<unsigned char>(num[0])) || num[0] == '-' || num[0] == '+'))
+    return std::nullopt;
+  char* end = nullptr;
+  const double v = std::strtod(num.c_str(), &end);
+  if (*end != '\0' || !std::isfinite(v)) return std::nullopt;
+  for (char c : num) {  // strtod also reads hex floats and "inf": IEC has neither
+    if (c == 'x' || c == 'X' || c == 'n' || c == 'N' || c == 'i' || c == 'I') return std::nullopt;
+  }
+  return v;
+}
+
+std::optional<BaseType> elementary_type(std::string_view name) {
+  for (const TypeName& t : kTypes) {
+    if (iequals(name, t.name)) return t.type;
+  }
+  return std::nullopt;
+}
+
+std::string type_name(const TypeRef& t) {
+  if (t.base == BaseType::kDerived) return t.derived;
+  for (const TypeName& n : kTypes) {
+    if (n.type == t.base) return n.name;
+  }
+  return "?";
+}
+
+const char* section_name(VarSection s) {
+  switch (s) {
+    case VarSection::kInput: return "inputVars";
+    case VarSection::kOutput: return "outputVars";
+    case VarSection::kInOut: return "inOutVars";
+    case VarSection::kLocal: return "localVars";
+    case VarSection::kTemp: return "tempVars";
+    case VarSection::kExternal: return "externalVars";
+    case VarSection::kGlobal: return "globalVars";
+  }
+  return "?";
+}
+
+const char* language_name(BodyLanguage l) {
+  switch (l) {
+    case BodyLanguage::kNone: return "none";
+    case BodyLanguage::kFbd: return "FBD";
+    case BodyLanguage::kLd: return "LD";
+    case BodyLanguage::kSt: return "ST";
+    case BodyLanguage::kIl: return "IL";
+    case BodyLanguage::kSfc: return "SFC";
+  }
+  return "?";
+}
+
+const Variable* Pou::var(std::string_view n) const {
+  for (const Variable& v : vars) {
+    if (iequals(v.name, n)) return &v;
+  }
+  return nullptr;
+}
+
+const Pou* Project::pou(std::string_view n) const {
+  for (const Pou& p : pous) {
+    if (iequals(p.name, n)) return &p;
+  }
+  return nullptr;
+}
+
+std::optional<Project> read_project(std::string_view text, DiagnosticList& diags) {
+  std::optional<XmlElement> root = parse_xml(text, diags);
+  if (!root) return std::nullopt;
+  Project p;
+  p.root = std::move(*root);
+  Reader r(diags);
+  if (!r.project(p)) return std::nullopt;
+  return p;
+}
+
+}  // namespace rtplc::lang::plcopen

@@ -1,0 +1,135 @@
+// The PLCopen TC6 XML project model (docs/plcopen.md, "What is read"): the
+// parts of a `project` document rtplc runs — POUs with their interfaces and
+// bodies, global variables, and the configurations' resources, tasks and
+// program instances. read_project() accepts the three namespaces in use
+// (tc6_0201, tc6_0200, the legacy tc6.xsd) and the editors' habits (ST in
+// `xhtml:p` CDATA or an `xhtml` element, `addData` anywhere, every position at
+// 0,0, executionOrderId="0"). Anything it cannot represent is an error naming
+// the element and its line:col: a project is read whole or not at all.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "common/diagnostic.h"
+#include "common/xml_reader.h"
+
+namespace rtplc::lang::plcopen {
+
+
+// An elementary IEC type, or a derived one (a function block type by name).
+enum class BaseType : uint8_t {
+  kBool, kSint, kInt, kDint, kLint, kUsint, kUint, kUdint, kUlint,
+  kByte, kWord, kDword, kLword, kReal, kLreal, kTime, kDerived
+};
+
+struct TypeRef {
+  BaseType base = BaseType::kReal;
+  std::string derived;  // the FB (or alias) name when base == kDerived
+  bool is_bool() const { return base == BaseType::kBool; }
+};
+
+// "BOOL", "INT", ... or the derived name.
+std::string type_name(const TypeRef& t);
+// Parses "INT", "T#..." aside: an elementary type name, case-insensitive.
+std::optional<BaseType> elementary_type(std::string_view name);
+
+enum class VarSection : uint8_t { kInput, kOutput, kInOut, kLocal, kTemp, kExternal, kGlobal };
+const char* section_name(VarSection s);
+
+struct Variable {
+  std::string name;
+  TypeRef type;
+  VarSection section = VarSection::kLocal;
+  std::string address;        // "%IX0.0", empty when not located
+  std::string initial;        // the initial value's text, empty when none
+  bool constant = false;      // CONSTANT section
+  SourcePos pos;
+};
+
+enum class BodyLanguage : uint8_t { kNone, kFbd, kLd, kSt, kIl, kSfc };
+const char* language_name(BodyLanguage l);
+
+struct Body {
+  BodyLanguage language = BodyLanguage::kNone;
+  const XmlElement* graph = nullptr;  // FBD / LD / SFC: the language element
+  const XmlElement* text = nullptr;   // ST / IL: the element holding the text
+  std::string source;                 // ST / IL text
+  SourcePos pos;
+};
+
+enum class PouType : uint8_t { kProgram, kFunctionBlock, kFunction };
+
+// An SFC action or transition declared beside the body (<actions>, <transitions>).
+struct NamedBody {
+  std::string name;
+  Body body;
+  SourcePos pos;
+};
+
+struct Pou {
+  std::string name;
+  PouType type = PouType::kProgram;
+  std::optional<TypeRef> return_type;  // functions
+  std::vector<Variable> vars;
+  Body body;
+  std::vector<NamedBody> actions, transitions;  // SFC
+  SourcePos pos;
+
+  const Variable* var(std::string_view n) const;  // case-insensitive
+};
+
+struct PouInstance {
+  std::string name;
+  std::string type_name;
+  SourcePos pos;
+};
+
+struct Task {
+  std::string name;
+  double interval = 0;         // seconds; 0 when the task has none
+  int priority = 0;
+  std::string single;          // the triggering variable of a `single` task
+  std::vector<PouInstance> instances;
+  SourcePos pos;
+};
+
+struct Resource {
+  std::string name;
+  std::vector<Task> tasks;
+  std::vector<PouInstance> unassigned;  // pouInstance directly under the resource
+  std::vector<Variable> globals;
+  SourcePos pos;
+};
+
+struct Configuration {
+  std::string name;
+  std::vector<Resource> resources;
+  std::vector<Variable> globals;
+  SourcePos pos;
+};
+
+struct Project {
+  XmlElement root;  // owns every element the bodies point into
+  std::string ns;   // the namespace the root declared
+  std::vector<Pou> pous;
+  std::vector<Configuration> configurations;
+
+  const Pou* pou(std::string_view name) const;  // case-insensitive
+};
+
+// Parses `text` as a PLCopen project. Errors name the element and its position.
+std::optional<Project> read_project(std::string_view text, DiagnosticList& diags);
+
+// IEC literal values: TRUE/FALSE, integers (with 16#, 8#, 2#, underscores and a
+// type prefix INT#), reals, TIME (T#1h2m3s4ms, TIME#..., negative), as a double
+// (TIME in seconds). nullopt when `text` is not a literal.
+std::optional<double> parse_literal(std::string_view text, bool* is_bool = nullptr,
+                                    bool* is_time = nullptr);
+
+bool iequals(std::string_view a, std::string_view b);
+std::string upper(std::string_view s);
+
+}  // namespace rtplc::lang::plcopen

@@ -1,0 +1,605 @@
+// ST lexer and recursive-descent parser (see st.h). Each parse function sits
+// under its grammar rule; precedence from IEC 61131-3 table 71, loosest first:
+// OR, XOR, AND/&, = <>, < > <= >=, + -, * / MOD, **, unary - NOT, primary.
+#include "lang/plcopen/st.h"
+
+#include <algorithm>
+#include <cctype>
+
+#include "lang/plcopen/project.h"
+
+namespace rtplc::lang::plcopen {
+namespace {
+
+struct Tok {
+  enum class T : uint8_t { kIdent, kNumber, kOp, kString, kEnd };
+  T t = T::kEnd;
+  std::string text;  // identifiers upper-cased in `up`
+  std::string up;
+  size_t offset = 0;
+  SourcePos pos;
+};
+
+// Offsets -> file positions, for monotonic queries (one pass over the text).
+class PosMap {
+ public:
+  PosMap(std::string_view text, const XmlElement& e) : s_(text), e_(e) {
+    cur_ = e.text_anchors.empty() ? e.pos : e.text_anchors[0].pos;
+  }
+  SourcePos at(size_t off) {
+    while (a_ + 1 < e_.text_anchors.size() && e_.text_anchors[a_ + 1].offset <= off) {
+      ++a_;
+      i_ = e_.text_anchors[a_].offset;
+      cur_ = e_.text_anchors[a_].pos;
+    }
+    for (; i_ < off && i_ < s_.size(); ++i_) {
+      if (s_[i_] == '\n') {
+        ++cur_.line;
+        cur_.col = 1;
+      } else if ((static_cast<unsigned char>(s_[i_]) & 0xC0) != 0x80) {
+        ++cur_.col;
+      }
+    }
+    return cur_;
+  }
+
+ private:
+  std::string_view s_;
+  const XmlElement& e_;
+  size_t a_ = 0, i_ = 0;
+  SourcePos cur_;
+};
+
+bool ident_start(char c) { return std::isalpha(static_cast<unsigned char>(c)) || c == '_'; }
+bool ident_char(char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; }
+
+// Tokens of s[begin, s.size()); positions count from the start of `s`.
+std::vector<Tok> lex(std::string_view s, const XmlElement& origin, DiagnosticList& d, size_t begin = 0) {
+  std::vector<Tok> out;
+  PosMap pm(s, origin);
+  size_t i = begin;
+  while (i < s.size()) {
+    const char c = s[i];
+    if (std::isspace(static_cast<unsigned char>(c))) {
+      ++i;
+      continue;
+    }
+    if (s.substr(i, 2) == "(*" || s.substr(i, 2) == "/*") {
+      const char* close = s[i] == '(' ? "*)" : "*/";
+      const size_t e = s.find(close, i + 2);
+      if (e == std::string_view::npos) {
+        d.error(pm.at(i), "unterminated comment");
+        break;
+      }
+      i = e + 2;
+      continue;
+    }
+    if (s.substr(i, 2) == "//") {
+      while (i < s.size() && s[i] != '\n') ++i;
+      continue;
+    }
+    Tok t;
+    t.offset = i;
+    t.pos = pm.at(i);
+    const size_t b = i;
+    if (c == '%' && i + 1 < s.size() && std::isalpha(static_cast<unsigned char>(s[i + 1]))) {
+      // A directly represented variable: %IX0.0, %QW3, %MD10.
+      ++i;
+      while (i < s.size() && (ident_char(s[i]) || (s[i] == '.' && i + 1 < s.size() &&
+                                                   std::isdigit(static_cast<unsigned char>(s[i + 1])))))
+        ++i;
+      t.t = Tok::T::kIdent;
+    } else if (ident_start(c)) {
+      while (i < s.size() && ident_char(s[i])) ++i;
+      if (i < s.size() && s[i] == '#') {  // T#1s, INT#5, BOOL#TRUE
+        ++i;
+        while (i < s.size() && (ident_char(s[i]) || s[i] == '.' || s[i] == '-' || s[i] == '+')) {
+          if ((s[i] == '-' || s[i] == '+') && !(s[i - 1] == 'e' || s[i - 1] == 'E' || s[i - 1] == '#'))
+            break;
+          ++i;
+        }
+        t.t = Tok::T::kNumber;
+      } else {
+        t.t = Tok::T::kIdent;
+      }
+    } else if (std::isdigit(static_cast<unsigned char>(c))) {
+      while (i < s.size() && (ident_char(s[i]) || s[i] == '#' || s[i] == '.')) {
+        if (s[i] == '.' && i + 1 < s.size() && s[i + 1] == '.') break;  // 1..5
+        if ((s[i] == 'e' || s[i] == 'E') && i + 1 < s.size() && (s[i + 1] == '-' || s[i + 1] == '+'))
+          ++i;
+        ++i;
+      }
+      t.t = Tok::T::kNumber;
+    } else if (c == '\'' || c == '"') {
+      const size_t e = s.find(c, i + 1);
+      i = e == std::string_view::npos ? s.size() : e + 1;
+      t.t = Tok::T::kString;
+    } else {
+      static const char* const two[] = {":=", "=>", "<=", ">=", "<>", "**", ".."};
+      t.t = Tok::T::kOp;
+      i += 1;
+      for (const char* op : two) {
+        if (s.substr(b, 2) == op) i = b + 2;
+      }
+    }
+    t.text.assign(s.substr(b, i - b));
+    t.up = upper(t.text);
+    out.push_back(std::move(t));
+  }
+  Tok end;
+  end.offset = s.size();
+  end.pos = pm.at(s.size());
+  out.push_back(end);
+  return out;
+}
+
+class Parser {
+ public:
+  Parser(std::vector<Tok> toks, DiagnosticList& d) : t_(std::move(toks)), d_(d) {}
+
+  // statement_list ::= { statement ';' }
+  Block statements(std::initializer_list<const char*> enders) {
+    Block out;
+    while (!failed_ && !at_end()) {
+      for (const char* e : enders) {
+        if (peek().t == Tok::T::kIdent && peek().up == e) return out;
+      }
+      if (accept_op(";")) continue;
+      auto s = statement();
+      if (failed_) break;
+      if (s) out.push_back(std::move(s));
+      if (!at_end() && !(peek().t == Tok::T::kOp && peek().text == ";")) {
+        bool ender = false;
+        for (const char* e : enders) ender = ender || (peek().t == Tok::T::kIdent && peek().up == e);
+        if (!ender) {
+          error(peek().pos, "expected ';' after the statement, found '" + peek().text + "'");
+          break;
+        }
+      }
+    }
+    return out;
+  }
+
+  std::unique_ptr<Expr> whole_expression() {
+    auto e = expression();
+    if (!failed_ && !at_end()) error(peek().pos, "unexpected '" + peek().text + "' after the expression");
+    return e;
+  }
+
+  bool at_end() const { return t_[i_].t == Tok::T::kEnd; }
+  bool failed() const { return failed_; }
+
+ private:
+  const Tok& peek(size_t k = 0) const { return t_[i_ + k < t_.size() ? i_ + k : t_.size() - 1]; }
+  const Tok& next() { return t_[i_ < t_.size() - 1 ? i_++ : i_]; }
+  void error(SourcePos p, const std::string& m) {
+    if (!failed_) d_.error(p, m);
+    failed_ = true;
+  }
+  bool is_kw(const char* k) const { return peek().t == Tok::T::kIdent && peek().up == k; }
+  bool accept_kw(const char* k) {
+    if (!is_kw(k)) return false;
+    ++i_;
+    return true;
+  }
+  bool accept_op(const char* o) {
+    if (peek().t != Tok::T::kOp || peek().text != o) return false;
+    ++i_;
+    return true;
+  }
+  void expect_kw(const char* k, const char* where) {
+    if (!accept_kw(k))
+      error(peek().pos, std::string("expected ") + k + " " + where + ", found '" + peek().text + "'");
+  }
+  void expect_op(const char* o, const char* where) {
+    if (!accept_op(o))
+      error(peek().pos, std::string("expected '") + o + "' " + where + ", found '" + peek().text + "'");
+  }
+
+  // variable ::= ident { '.' ident }
+  std::string variable_path() {
+    std::string p = next().text;
+    while (peek().t == Tok::T::kOp && peek().text == "." && peek(1).t == Tok::T::kIdent) {
+      ++i_;
+      p += "." + next().text;
+    }
+    if (peek().t == Tok::T::kOp && peek().text == "[")
+      error(peek().pos, "arrays are not supported yet");
+    return p;
+  }
+
+  // statement ::= assignment | fb_call | if | case | for | (refused: while, repeat, exit, ...)
+  std::unique_ptr<Stmt> statement() {
+    const Tok& t = peek();
+    if (t.t != Tok::T::kIdent) {
+      error(t.pos, "expected a statement, found '" + t.text + "'");
+      return nullptr;
+    }
+    if (t.up == "WHILE" || t.up == "REPEAT") {
+      error(t.pos, t.up + " loops are refused: rtplc runs a fixed data flow every cycle, so a "
+                          "loop must have constant bounds (use FOR with constant bounds)");
+      return nullptr;
+    }
+    if (t.up == "EXIT" || t.up == "CONTINUE") {
+      error(t.pos, t.up + " is refused: loops are unrolled, so a loop cannot be left early");
+      return nullptr;
+    }
+    if (t.up == "RETURN" || t.up == "JMP" || t.up == "GOTO") {
+      error(t.pos, t.up + " is not supported yet in ST bodies");
+      return nullptr;
+    }
+    if (t.up == "IF" || t.up == "CASE" || t.up == "FOR") {
+      if (++nesting_ > 100) {
+        error(t.pos, "statements nested deeper than 100");
+        return nullptr;
+      }
+      auto r = t.up == "IF" ? if_statement() : t.up == "CASE" ? case_statement() : for_statement();
+      --nesting_;
+      return r;
+    }
+    auto s = std::make_unique<Stmt>();
+    s->pos = t.pos;
+    s->target = variable_path();
+    if (failed_) return nullptr;
+    if (accept_op(":=")) {
+      s->kind = Stmt::Kind::kAssign;
+      s->value = expression();
+      return s;
+    }
+    if (peek().t == Tok::T::kOp && peek().text == "(") {
+      s->kind = Stmt::Kind::kCall;
+      ++i_;
+      call_arguments(s->call_args);
+      return s;
+    }
+    error(peek().pos, "expected ':=' or '(' after '" + s->target + "', found '" + peek().text + "'");
+    return nullptr;
+  }
+
+  // call_args ::= [ arg { ',' arg } ] ')' ;  arg ::= [ident ':='] expr | ident '=>' variable
+  void call_arguments(std::vector<CallArg>& out) {
+    if (accept_op(")")) return;
+    for (;;) {
+      CallArg a;
+      a.pos = peek().pos;
+      if (peek().t == Tok::T::kIdent && peek(1).t == Tok::T::kOp &&
+          (peek(1).text == ":=" || peek(1).text == "=>")) {
+        a.formal = next().text;
+        if (next().text == "=>") {
+          a.output = true;
+          if (peek().t != Tok::T::kIdent) {
+            error(peek().pos, "expected a variable after '=>'");
+            return;
+          }
+          a.target = variable_path();
+        }
+      } else if (is_kw("NOT") && peek(1).t == Tok::T::kIdent && peek(2).t == Tok::T::kOp &&
+                 peek(2).text == "=>") {
+        error(peek().pos, "negated output assignment (NOT x =>) is not supported");
+        return;
+      }
+      if (!a.output) a.value = expression();
+      if (failed_) return;
+      out.push_back(std::move(a));
+      if (accept_op(")")) return;
+      expect_op(",", "between arguments");
+      if (failed_) return;
+    }
+  }
+
+  // if ::= IF expr THEN stmts { ELSIF expr THEN stmts } [ ELSE stmts ] END_IF
+  std::unique_ptr<Stmt> if_statement() {
+    auto s = std::make_unique<Stmt>();
+    s->kind = Stmt::Kind::kIf;
+    s->pos = next().pos;
+    for (;;) {
+      auto cond = expression();
+      expect_kw("THEN", "after the IF condition");
+      if (failed_) return nullptr;
+      Block body = statements({"ELSIF", "ELSE", "END_IF"});
+      s->branches.emplace_back(std::move(cond), std::move(body));
+      if (failed_) return nullptr;
+      if (!accept_kw("ELSIF")) break;
+    }
+    if (accept_kw("ELSE")) {
+      s->has_else = true;
+      s->else_body = statements({"END_IF"});
+    }
+    expect_kw("END_IF", "to close IF");
+    return failed_ ? nullptr : std::move(s);
+  }
+
+  // case ::= CASE expr OF { labels ':' stmts } [ ELSE stmts ] END_CASE
+  std::unique_ptr<Stmt> case_statement() {
+    auto s = std::make_unique<Stmt>();
+    s->kind = Stmt::Kind::kCase;
+    s->pos = next().pos;
+    s->value = expression();
+    expect_kw("OF", "after the CASE selector");
+    while (!failed_ && !is_kw("ELSE") && !is_kw("END_CASE") && !at_end()) {
+      CaseBranch br;
+      for (;;) {
+        auto lo = expression();
+        std::unique_ptr<Expr> hi;
+        if (accept_op("..")) hi = expression();
+        br.labels.emplace_back(std::move(lo), std::move(hi));
+        if (failed_ || !accept_op(",")) break;
+      }
+      expect_op(":", "after the CASE labels");
+      if (failed_) return nullptr;
+      br.body = case_body();
+      s->cases.push_back(std::move(br));
+    }
+    if (accept_kw("ELSE")) {
+      s->has_else = true;
+      s->else_body = statements({"END_CASE"});
+    }
+    expect_kw("END_CASE", "to close CASE");
+    return failed_ ? nullptr : std::move(s);
+  }
+
+  // A CASE branch ends where the next label list (`expr [.. expr] {, ...} :`) starts.
+  Block case_body() {
+    Block out;
+    while (!failed_ && !at_end() && !is_kw("ELSE") && !is_kw("END_CASE")) {
+      if (accept_op(";")) continue;
+      if (starts_label()) break;
+      auto st = statement();
+      if (st) out.push_back(std::move(st));
+    }
+    return out;
+  }
+  bool starts_label() const {
+    size_t k = i_;
+    for (; k < t_.size() && t_[k].t != Tok::T::kEnd; ++k) {
+      const Tok& x = t_[k];
+      if (x.t == Tok::T::kOp && x.text == ":") return true;
+      if (x.t == Tok::T::kOp && (x.text == ";" || x.text == ":=" || x.text == "(")) return false;
+      if (x.t == Tok::T::kIdent && k > i_ && t_[k - 1].t != Tok::T::kOp) return false;
+    }
+    return false;
+  }
+
+  // for ::= FOR ident ':=' expr TO expr [ BY expr ] DO stmts END_FOR
+  std::unique_ptr<Stmt> for_statement() {
+    auto s = std::make_unique<Stmt>();
+    s->kind = Stmt::Kind::kFor;
+    s->pos = next().pos;
+    if (peek().t != Tok::T::kIdent) {
+      error(peek().pos, "expected the FOR variable");
+      return nullptr;
+    }
+    s->target = next().text;
+    expect_op(":=", "after the FOR variable");
+    if (failed_) return nullptr;
+    s->from = expression();
+    expect_kw("TO", "in FOR");
+    if (failed_) return nullptr;
+    s->to = expression();
+    if (accept_kw("BY")) s->by = expression();
+    expect_kw("DO", "in FOR");
+    if (failed_) return nullptr;
+    s->body = statements({"END_FOR"});
+    expect_kw("END_FOR", "to close FOR");
+    return failed_ ? nullptr : std::move(s);
+  }
+
+  std::unique_ptr<Expr> binary(std::unique_ptr<Expr> a, BinOp op, std::unique_ptr<Expr> b, SourcePos p) {
+    auto e = std::make_unique<Expr>();
+    e->kind = Expr::Kind::kBinary;
+    e->op = op;
+    e->pos = p;
+    e->args.push_back(std::move(a));
+    e->args.push_back(std::move(b));
+    return e;
+  }
+
+  // expression ::= xor_expr { OR xor_expr }
+  std::unique_ptr<Expr> expression() {
+    if (++depth_ > 200) {
+      error(peek().pos, "expression nested too deeply");
+      return nullptr;
+    }
+    auto a = xor_expr();
+    while (!failed_ && is_kw("OR")) {
+      const SourcePos p = next().pos;
+      a = binary(std::move(a), BinOp::kOr, xor_expr(), p);
+    }
+    --depth_;
+    return a;
+  }
+  // xor_expr ::= and_expr { XOR and_expr }
+  std::unique_ptr<Expr> xor_expr() {
+    auto a = and_expr();
+    while (!failed_ && is_kw("XOR")) {
+      const SourcePos p = next().pos;
+      a = binary(std::move(a), BinOp::kXor, and_expr(), p);
+    }
+    return a;
+  }
+  // and_expr ::= cmp_expr { (AND | '&') cmp_expr }
+  std::unique_ptr<Expr> and_expr() {
+    auto a = eq_expr();
+    while (!failed_ && (is_kw("AND") || (peek().t == Tok::T::kOp && peek().text == "&"))) {
+      const SourcePos p = next().pos;
+      a = binary(std::move(a), BinOp::kAnd, eq_expr(), p);
+    }
+    return a;
+  }
+  // eq_expr ::= rel_expr { ('=' | '<>') rel_expr }
+  std::unique_ptr<Expr> eq_expr() {
+    auto a = rel_expr();
+    while (!failed_ && peek().t == Tok::T::kOp && (peek().text == "=" || peek().text == "<>")) {
+      const Tok& t = next();
+      a = binary(std::move(a), t.text == "=" ? BinOp::kEq : BinOp::kNe, rel_expr(), t.pos);
+    }
+    return a;
+  }
+  // rel_expr ::= add_expr { ('<' | '>' | '<=' | '>=') add_expr }
+  std::unique_ptr<Expr> rel_expr() {
+    auto a = add_expr();
+    while (!failed_ && peek().t == Tok::T::kOp &&
+           (peek().text == "<" || peek().text == ">" || peek().text == "<=" || peek().text == ">=")) {
+      const Tok& t = next();
+      const BinOp op = t.text == "<" ? BinOp::kLt : t.text == ">" ? BinOp::kGt
+                       : t.text == "<=" ? BinOp::kLe : BinOp::kGe;
+      a = binary(std::move(a), op, add_expr(), t.pos);
+    }
+    return a;
+  }
+  // add_expr ::= mul_expr { ('+' | '-') mul_expr }
+  std::unique_ptr<Expr> add_expr() {
+    auto a = mul_expr();
+    while (!failed_ && peek().t == Tok::T::kOp && (peek().text == "+" || peek().text == "-")) {
+      const Tok& t = next();
+      a = binary(std::move(a), t.text == "+" ? BinOp::kAdd : BinOp::kSub, mul_expr(), t.pos);
+    }
+    return a;
+  }
+  // mul_expr ::= pow_expr { ('*' | '/' | MOD) pow_expr }
+  std::unique_ptr<Expr> mul_expr() {
+    auto a = pow_expr();
+    while (!failed_ && ((peek().t == Tok::T::kOp && (peek().text == "*" || peek().text == "/")) || is_kw("MOD"))) {
+      const Tok& t = next();
+      const BinOp op = t.text == "*" ? BinOp::kMul : t.text == "/" ? BinOp::kDiv : BinOp::kMod;
+      a = binary(std::move(a), op, pow_expr(), t.pos);
+    }
+    return a;
+  }
+  // pow_expr ::= unary { '**' unary }
+  std::unique_ptr<Expr> pow_expr() {
+    auto a = unary();
+    while (!failed_ && accept_op("**")) {
+      a = binary(std::move(a), BinOp::kExpt, unary(), t_[i_ - 1].pos);
+    }
+    return a;
+  }
+  // unary ::= ('-' | NOT) unary | primary
+  std::unique_ptr<Expr> unary() {
+    if (++depth_ > 200) {
+      error(peek().pos, "expression nested too deeply");
+      return nullptr;
+    }
+    std::unique_ptr<Expr> r;
+    if (is_kw("NOT") || (peek().t == Tok::T::kOp && peek().text == "-")) {
+      auto e = std::make_unique<Expr>();
+      e->kind = peek().text == "-" ? Expr::Kind::kNeg : Expr::Kind::kNot;
+      e->pos = next().pos;
+      e->args.push_back(unary());
+      r = std::move(e);
+    } else if (accept_op("+")) {
+      r = unary();
+    } else {
+      r = primary();
+    }
+    --depth_;
+    return r;
+  }
+  // primary ::= literal | '(' expression ')' | ident '(' args ')' | variable
+  std::unique_ptr<Expr> primary() {
+    const Tok& t = peek();
+    auto e = std::make_unique<Expr>();
+    e->pos = t.pos;
+    if (t.t == Tok::T::kNumber || (t.t == Tok::T::kIdent && (t.up == "TRUE" || t.up == "FALSE"))) {
+      bool b = false, tm = false;
+      auto v = parse_literal(t.text, &b, &tm);
+      if (!v) {
+        error(t.pos, "'" + t.text + "' is not a literal rtplc reads (integers, reals, TRUE/FALSE, T#...)");
+        return nullptr;
+      }
+      ++i_;
+      e->kind = Expr::Kind::kLiteral;
+      e->k = *v;
+      e->is_bool = b;
+      e->is_time = tm;
+      e->is_real = !b && !tm && t.text.find_first_of(".eE") != std::string::npos &&
+                   t.text.find('#') == std::string::npos;
+      return e;
+    }
+    if (t.t == Tok::T::kString) {
+      error(t.pos, "strings are not supported");
+      return nullptr;
+    }
+    if (accept_op("(")) {
+      auto in = expression();
+      expect_op(")", "to close '('");
+      return in;
+    }
+    if (t.t == Tok::T::kIdent) {
+      if (peek(1).t == Tok::T::kOp && peek(1).text == "(") {
+        e->kind = Expr::Kind::kCall;
+        e->name = next().up;
+        ++i_;
+        std::vector<CallArg> args;
+        call_arguments(args);
+        for (CallArg& a : args) {
+          if (a.output) {
+            error(a.pos, "output assignments (=>) are not allowed in a function call inside an expression");
+            return nullptr;
+          }
+          e->arg_names.push_back(upper(a.formal));
+          e->args.push_back(std::move(a.value));
+        }
+        return e;
+      }
+      e->kind = Expr::Kind::kName;
+      e->name = variable_path();
+      return e;
+    }
+    error(t.pos, "expected an expression, found '" + (t.t == Tok::T::kEnd ? std::string("end of text") : t.text) + "'");
+    return nullptr;
+  }
+
+  std::vector<Tok> t_;
+  DiagnosticList& d_;
+  size_t i_ = 0;
+  int depth_ = 0;
+  int nesting_ = 0;
+  bool failed_ = false;
+};
+
+}  // namespace
+
+Block parse_st(std::string_view text, const XmlElement& origin, DiagnosticList& diags) {
+  const size_t before = diags.error_count();
+  std::vector<Tok> toks = lex(text, origin, diags);
+  if (diags.error_count() != before) return {};
+  Parser p(std::move(toks), diags);
+  Block b = p.statements({});
+  if (!p.failed() && !p.at_end()) diags.error(SourcePos{}, "unexpected text after the statements");
+  return b;
+}
+
+Block parse_st_range(std::string_view text, size_t begin, size_t end, const XmlElement& origin,
+                     DiagnosticList& diags) {
+  const size_t before = diags.error_count();
+  std::vector<Tok> toks = lex(text.substr(0, end), origin, diags, begin);
+  if (diags.error_count() != before) return {};
+  Parser p(std::move(toks), diags);
+  Block b = p.statements({});
+  return b;
+}
+
+std::unique_ptr<Expr> parse_st_expression(std::string_view text, const XmlElement& origin,
+                                          DiagnosticList& diags, size_t begin, size_t end) {
+  const size_t before = diags.error_count();
+  std::vector<Tok> toks = lex(text.substr(0, std::min(end, text.size())), origin, diags, begin);
+  if (diags.error_count() != before) return nullptr;
+  Parser p(std::move(toks), diags);
+  auto e = p.whole_expression();
+  return p.failed() ? nullptr : std::move(e);
+}
+
+void st_written_names(std::string_view text, std::vector<std::string>& out) {
+  DiagnosticList scratch;
+  XmlElement none;
+  std::vector<Tok> toks = lex(text, none, scratch);
+  for (size_t i = 0; i + 1 < toks.size(); ++i) {
+    if (toks[i].t == Tok::T::kIdent && toks[i + 1].t == Tok::T::kOp && toks[i + 1].text == ":=")
+      out.push_back(toks[i].up);
+    if (toks[i].t == Tok::T::kOp && toks[i].text == "=>" && toks[i + 1].t == Tok::T::kIdent)
+      out.push_back(toks[i + 1].up);
+  }
+}
+
+}  // namespace rtplc::lang::plcopen

@@ -1,0 +1,81 @@
+// Structured Text (IEC 61131-3) as found in PLCopen bodies: lexer and parser to
+// a small tree (docs/plcopen.md, "ST"). Expressions with IEC precedence,
+// assignments, IF/ELSIF/ELSE, CASE, FOR, function and FB calls (formal and
+// informal). WHILE, REPEAT, EXIT, RETURN and jumps are parsed only to be
+// refused with their position. Positions are file positions: the text sits in
+// an XML element, and `origin` maps its offsets back to the file.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "common/diagnostic.h"
+#include "common/xml_reader.h"
+#include "lang/plcopen/emitter.h"
+
+namespace rtplc::lang::plcopen {
+
+struct Expr {
+  enum class Kind : uint8_t { kLiteral, kName, kNot, kNeg, kBinary, kCall };
+  Kind kind = Kind::kLiteral;
+  SourcePos pos;
+  double k = 0;
+  bool is_bool = false, is_time = false, is_real = false;
+  std::string name;  // kName: "a" or "fb1.Q"; kCall: the function
+  BinOp op = BinOp::kAdd;
+  std::vector<std::unique_ptr<Expr>> args;
+  std::vector<std::string> arg_names;  // formal names ("" when informal), per arg
+};
+
+struct CallArg {
+  std::string formal;  // "" for an informal argument
+  bool output = false; // `Q => x`
+  std::unique_ptr<Expr> value;  // input
+  std::string target;           // output: the variable written
+  SourcePos pos;
+};
+
+struct Stmt;
+using Block = std::vector<std::unique_ptr<Stmt>>;
+
+struct CaseBranch {
+  std::vector<std::pair<std::unique_ptr<Expr>, std::unique_ptr<Expr>>> labels;  // lo, hi (hi null)
+  Block body;
+};
+
+struct Stmt {
+  enum class Kind : uint8_t { kAssign, kIf, kCase, kFor, kCall };
+  Kind kind = Kind::kAssign;
+  SourcePos pos;
+  std::string target;                // assign: variable path; for: loop variable; call: instance
+  std::unique_ptr<Expr> value;       // assign: value; case: selector
+  std::vector<std::pair<std::unique_ptr<Expr>, Block>> branches;  // if / elsif
+  Block else_body;
+  bool has_else = false;
+  std::vector<CaseBranch> cases;
+  std::unique_ptr<Expr> from, to, by;  // for
+  Block body;                          // for
+  std::vector<CallArg> call_args;      // call
+};
+
+// Parses an ST statement list. `origin` is the element holding the text (for
+// file positions); `base` is added to offsets (0 for a whole body).
+Block parse_st(std::string_view text, const XmlElement& origin, DiagnosticList& diags);
+
+// Parses one expression (an FBD variable's <expression>, an SFC condition).
+// `begin`/`end` select part of `text` (an IL operand); positions stay those of
+// the whole text.
+std::unique_ptr<Expr> parse_st_expression(std::string_view text, const XmlElement& origin,
+                                          DiagnosticList& diags, size_t begin = 0,
+                                          size_t end = std::string_view::npos);
+// Statements in text[begin, end) (an IL CAL's call), positions as above.
+Block parse_st_range(std::string_view text, size_t begin, size_t end, const XmlElement& origin,
+                     DiagnosticList& diags);
+
+// Names an ST text assigns (`x :=`, `=> x`), upper-cased, for the importer's
+// "written anywhere" pre-pass.
+void st_written_names(std::string_view text, std::vector<std::string>& out);
+
+}  // namespace rtplc::lang::plcopen

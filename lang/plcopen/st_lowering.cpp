@@ -1,0 +1,250 @@
+// ST statements -> blocks by if-conversion (docs/plcopen.md, "ST"): the
+// executor has no control flow, so both branches of an IF are computed every
+// cycle and each variable's value after the IF is sel(cond, then, else)
+// (`amux` for numbers, and/or for BOOL). CASE is a chain of IFs; FOR with
+// constant bounds is unrolled. A user FB called inside a branch has its
+// variables merged like the caller's (kept when not called); a standard FB
+// called there is refused: its timer or counter state cannot be frozen.
+#include <cmath>
+
+#include "lang/plcopen/lowering.h"
+
+namespace rtplc::lang::plcopen {
+namespace {
+constexpr int kMaxUnroll = 1000;
+}
+
+Value Lowering::eval(Scope& s, const Expr& e) {
+  switch (e.kind) {
+    case Expr::Kind::kLiteral: {
+      Value v = constant(e.k, e.is_bool);
+      v.integer = !e.is_bool && !e.is_time && !e.is_real && e.k == std::floor(e.k);
+      return v;
+    }
+    case Expr::Kind::kName: {
+      const size_t dot = e.name[0] == '%' ? std::string::npos : e.name.find('.');
+      if (dot != std::string::npos) {
+        // fb1.Q: an output of an FB instance (or a nested variable of a user FB).
+        Var* base = lookup(s, e.name.substr(0, dot), e.pos);
+        if (!base) return constant(0, false);
+        if (base->role == Var::Role::kStdFb || base->role == Var::Role::kUserFb) {
+          const std::string rest = e.name.substr(dot + 1);
+          if (base->role == Var::Role::kUserFb && rest.find('.') != std::string::npos) {
+            Var* v = resolve_path(s, e.name, e.pos);
+            return v ? read(*v, e.pos) : constant(0, false);
+          }
+          return fb_output(*base, rest, e.pos);
+        }
+        d_.error(e.pos, "'" + e.name + "': '" + e.name.substr(0, dot) + "' is not a function block instance");
+        return constant(0, false);
+      }
+      Var* v = lookup(s, e.name, e.pos);
+      return v ? read(*v, e.pos) : constant(0, false);
+    }
+    case Expr::Kind::kNot: {
+      Value a = eval(s, *e.args[0]);
+      return em_.unary_not(a, e.pos);
+    }
+    case Expr::Kind::kNeg:
+      return em_.negate(eval(s, *e.args[0]), e.pos);
+    case Expr::Kind::kBinary: {
+      Value a = eval(s, *e.args[0]);
+      Value b = eval(s, *e.args[1]);
+      return em_.binary(e.op, a, b, e.pos);
+    }
+    case Expr::Kind::kCall: {
+      std::vector<Value> args;
+      for (const auto& a : e.args) args.push_back(eval(s, *a));
+      auto r = call_function(s, e.name, args, e.arg_names, e.pos);
+      if (!r) {
+        Var* v = lookup(s, e.name, e.pos, false);
+        if (v && (v->role == Var::Role::kStdFb || v->role == Var::Role::kUserFb))
+          d_.error(e.pos, "'" + e.name + "' is a function block instance: call it as a statement, then read its outputs");
+        else
+          d_.error(e.pos, "'" + e.name + "' is not a function rtplc knows");
+        return constant(0, false);
+      }
+      return *r;
+    }
+  }
+  return constant(0, false);
+}
+
+namespace {
+
+struct StLowerer {
+  Lowering& L;
+  Scope& s;
+
+  void block(const Block& b) {
+    for (const auto& st : b) {
+      if (L.diags().has_errors()) return;
+      statement(*st);
+    }
+  }
+
+  // Runs `then` or `otherwise` by if-conversion; `cond` is already evaluated.
+  template <class Then, class Else>
+  void branch(const Value& cond, SourcePos pos, Then then, Else otherwise) {
+    Emitter& em = L.em();
+    const Value c = em.to_digital(cond, pos);
+    if (c.is_const) {  // constant condition: only the live branch
+      if (c.k != 0) then();
+      else otherwise();
+      return;
+    }
+    const auto before = L.save();
+    ++L.conditional_depth;
+    then();
+    const auto after_then = L.save();
+    L.restore(before);
+    otherwise();
+    --L.conditional_depth;
+    const auto after_else = L.save();
+    // Merge: every variable either branch assigned.
+    std::vector<std::optional<Value>> merged = after_else;
+    L.restore(before);
+    std::vector<Var*> vars = all_vars();
+    for (size_t i = 0; i < vars.size(); ++i) {
+      const std::optional<Value>& t = i < after_then.size() ? after_then[i] : std::nullopt;
+      const std::optional<Value>& e = i < after_else.size() ? after_else[i] : std::nullopt;
+      if (!t && !e) continue;
+      const bool same = t && e && t->is_const == e->is_const &&
+                        (t->is_const ? t->k == e->k : t->ref == e->ref);
+      if (same) continue;
+      Var& v = *vars[i];
+      // A branch that left it alone keeps the value from before the IF.
+      const Value tv = t ? *t : L.read(v, pos);
+      const Value ev = e ? *e : L.read(v, pos);
+      Value m = em.select(c, tv, ev, pos);
+      m.integer = v.integer;
+      merged[i] = m;
+    }
+    L.restore(merged);
+  }
+
+  std::vector<Var*> all_vars() { return L.vars_for_merge(); }
+
+  void statement(const Stmt& st) {
+    Emitter& em = L.em();
+    switch (st.kind) {
+      case Stmt::Kind::kAssign: {
+        Value v = L.eval(s, *st.value);
+        if (Var* t = L.resolve_path(s, st.target, st.pos)) L.assign(*t, v, st.pos);
+        break;
+      }
+      case Stmt::Kind::kIf:
+        if_chain(st, 0);
+        break;
+      case Stmt::Kind::kCase: {
+        const Value sel = L.eval(s, *st.value);
+        case_chain(st, sel, 0);
+        break;
+      }
+      case Stmt::Kind::kFor: {
+        const Value from = L.eval(s, *st.from), to = L.eval(s, *st.to);
+        const Value by = st.by ? L.eval(s, *st.by) : constant(1, false);
+        if (!from.is_const || !to.is_const || !by.is_const) {
+          L.diags().error(st.pos, "FOR with bounds that are not constant is refused: rtplc unrolls FOR "
+                                  "loops, so FROM, TO and BY must be constants");
+          return;
+        }
+        if (by.k == 0) {
+          L.diags().error(st.pos, "FOR with BY 0 never ends");
+          return;
+        }
+        const double n = std::floor((to.k - from.k) / by.k) + 1;
+        if (n > kMaxUnroll) {
+          L.diags().error(st.pos, "FOR runs " + std::to_string(static_cast<long long>(n)) +
+                                      " times; rtplc unrolls at most " + std::to_string(kMaxUnroll));
+          return;
+        }
+        Var* iv = L.resolve_path(s, st.target, st.pos);
+        if (!iv) return;
+        for (double i = from.k; by.k > 0 ? i <= to.k : i >= to.k; i += by.k) {
+          Value k = constant(i, false);
+          k.integer = true;
+          L.assign(*iv, k, st.pos);
+          block(st.body);
+          if (L.diags().has_errors()) return;
+        }
+        break;
+      }
+      case Stmt::Kind::kCall: {
+        Var* fb = L.lookup(s, st.target, st.pos);
+        if (!fb) return;
+        if (fb->role != Var::Role::kStdFb && fb->role != Var::Role::kUserFb) {
+          // A function called as a statement: its result is dropped.
+          std::vector<Value> args;
+          std::vector<std::string> formals;
+          for (const CallArg& a : st.call_args) {
+            if (a.output) continue;
+            args.push_back(L.eval(s, *a.value));
+            formals.push_back(upper(a.formal));
+          }
+          if (!L.call_function(s, st.target, args, formals, st.pos))
+            L.diags().error(st.pos, "'" + st.target + "' is neither a function block instance nor a function");
+          return;
+        }
+        std::vector<std::pair<std::string, Value>> ins;
+        for (const CallArg& a : st.call_args) {
+          if (!a.output) ins.emplace_back(a.formal, L.eval(s, *a.value));
+        }
+        L.call_fb(*fb, ins, st.pos);
+        for (const CallArg& a : st.call_args) {
+          if (!a.output) continue;
+          const Value v = L.fb_output(*fb, a.formal, a.pos);
+          if (Var* t = L.resolve_path(s, a.target, a.pos)) L.assign(*t, v, a.pos);
+        }
+        (void)em;
+        break;
+      }
+    }
+  }
+
+  void if_chain(const Stmt& st, size_t i) {
+    if (i >= st.branches.size()) {
+      block(st.else_body);
+      return;
+    }
+    const Value c = L.eval(s, *st.branches[i].first);
+    branch(c, st.branches[i].first->pos, [&] { block(st.branches[i].second); },
+           [&] { if_chain(st, i + 1); });
+  }
+
+  void case_chain(const Stmt& st, const Value& sel, size_t i) {
+    Emitter& em = L.em();
+    if (i >= st.cases.size()) {
+      block(st.else_body);
+      return;
+    }
+    Value cond = constant(0, true);
+    for (const auto& [lo, hi] : st.cases[i].labels) {
+      const Value a = L.eval(s, *lo);
+      Value m = hi ? em.binary(BinOp::kAnd, em.binary(BinOp::kGe, sel, a, lo->pos),
+                               em.binary(BinOp::kLe, sel, L.eval(s, *hi), hi->pos), lo->pos)
+                   : em.binary(BinOp::kEq, sel, a, lo->pos);
+      cond = em.binary(BinOp::kOr, cond, m, lo->pos);
+    }
+    branch(cond, st.pos, [&] { block(st.cases[i].body); }, [&] { case_chain(st, sel, i + 1); });
+  }
+};
+
+}  // namespace
+
+void Lowering::lower_st(Scope& s, const Block& b) {
+  StLowerer st{*this, s};
+  st.block(b);
+}
+
+void Lowering::lower_st_guarded(Scope& s, const Block& b, const Value& cond, SourcePos pos) {
+  guarded(cond, pos, [&] { lower_st(s, b); });
+}
+
+void Lowering::guarded(const Value& cond, SourcePos pos, const std::function<void()>& f) {
+  Scope none;
+  StLowerer st{*this, none};
+  st.branch(cond, pos, [&] { f(); }, [] {});
+}
+
+}  // namespace rtplc::lang::plcopen

@@ -1,0 +1,629 @@
+// The PLCopen XML importer (docs/plcopen.md): projects written for these tests
+// in the habits of OpenPLC Editor / Beremiz (tc6_0201, xhtml:p CDATA) and
+// CODESYS (tc6_0200, xhtml element, positions 0,0), run cycle by cycle.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <string>
+
+#include "blocks/executor.h"
+#include "lang/compiler.h"
+#include "sched/program.h"
+
+namespace rtplc::lang {
+namespace {
+
+std::string data(const char* f) { return std::string(RTPLC_PLCOPEN_DATA) + "/" + f; }
+
+// A running image with access to its channels by label and blocks by name.
+struct Machine {
+  TaskImage img;
+  TaskArena arena;
+  explicit Machine(TaskImage i) : img(std::move(i)), arena(img) {}
+  void set(const std::string& label, double v) {
+    for (const Binding& b : img.bindings()) {
+      if (b.dir != BindingDir::kOutput && img.str(b.label) == label) {
+        arena.io_in[b.io_index] = v;
+        return;
+      }
+    }
+    ADD_FAILURE() << "no input " << label;
+  }
+  double out(const std::string& label) const {
+    for (const Binding& b : img.bindings()) {
+      if (b.dir == BindingDir::kOutput && img.str(b.label) == label) return arena.io_out[b.io_index];
+    }
+    ADD_FAILURE() << "no output " << label;
+    return -1;
+  }
+  double value(const std::string& block) const {
+    for (size_t s = 0; s < img.blocks().size(); ++s) {
+      if (img.str(img.blocks()[s].name) == block) return arena.values[img.code()[s].out];
+    }
+    ADD_FAILURE() << "no block " << block;
+    return -1;
+  }
+  void cycles(int n) {
+    for (int i = 0; i < n; ++i) execute_cycle(img, arena);
+  }
+};
+
+std::string project(const std::string& ns, const std::string& pous, const std::string& instances = "") {
+  return "<?xml version=\"1.0\"?>\n<project xmlns=\"" + ns +
+         "\" xmlns:xhtml=\"http://www.w3.org/1999/xhtml\">\n<fileHeader companyName=\"t\"/>\n"
+         "<types><dataTypes/><pous>\n" + pous + "</pous></types>\n" + instances + "</project>\n";
+}
+
+std::string st_program(const std::string& vars, const std::string& body) {
+  return "<pou name=\"main\" pouType=\"program\"><interface>" + vars +
+         "</interface><body><ST><xhtml:p><![CDATA[" + body + "]]></xhtml:p></ST></body></pou>\n";
+}
+
+std::string var(const std::string& name, const std::string& type, const std::string& addr = "",
+                const std::string& init = "") {
+  return "<variable name=\"" + name + "\"" + (addr.empty() ? "" : " address=\"" + addr + "\"") + "><type><" +
+         type + "/></type>" + (init.empty() ? "" : "<initialValue><simpleValue value=\"" + init + "\"/></initialValue>") +
+         "</variable>";
+}
+
+const char* kNs201 = "http://www.plcopen.org/xml/tc6_0201";
+
+TEST(Plcopen, runs_the_openplc_style_fbd_project) {
+  CompileResult r = compile_file(data("openplc_mixed.xml"));
+  ASSERT_TRUE(r.ok()) << r.diags.render("openplc_mixed.xml", "");
+  EXPECT_DOUBLE_EQ(r.image->period_s(), 0.02);  // the task's interval
+  Machine run(std::move(*r.image));
+  run.cycles(5);
+  EXPECT_EQ(run.value("instance0.cycles"), 5);  // cycles := cycles + 1 through a feedback loop
+  EXPECT_EQ(run.out("pump"), 0);
+  run.set("level", 90);  // above the hysteresis FB's HI (its initial value 80)
+  run.cycles(1);
+  EXPECT_EQ(run.value("instance0.hys.Q"), 1);
+  EXPECT_EQ(run.out("pump"), 0);  // TON 500 ms not elapsed
+  run.cycles(30);                 // 0.6 s at 20 ms
+  EXPECT_EQ(run.value("instance0.t1.Q"), 1);
+  EXPECT_EQ(run.out("pump"), 1);
+  EXPECT_DOUBLE_EQ(run.out("valve"), 75.5);
+  run.set("start", 1);  // negated input of the AND
+  run.cycles(1);
+  EXPECT_EQ(run.out("pump"), 0);
+  run.set("level", 50);  // between LO and HI: the FB keeps Q
+  run.cycles(1);
+  EXPECT_EQ(run.value("instance0.hys.Q"), 1);
+  run.set("level", 10);
+  run.cycles(1);
+  EXPECT_EQ(run.value("instance0.hys.Q"), 0);
+}
+
+TEST(Plcopen, explains_the_feedback_loop) {
+  CompileResult r = compile_file(data("openplc_mixed.xml"));
+  ASSERT_TRUE(r.ok());
+  const std::string e = explain(r);
+  EXPECT_NE(e.find("feedback loop"), std::string::npos) << e;
+  EXPECT_NE(e.find("CYCLES"), std::string::npos) << e;
+}
+
+// A loop drawn through blocks only (ADD feeding itself): the later reference
+// reads last cycle's value, and --explain says where the loop was broken.
+TEST(Plcopen, breaks_a_block_feedback_loop_and_reports_it) {
+  const std::string src = project(
+      "http://www.plcopen.org/xml/tc6_0200",
+      "<pou name=\"p\" pouType=\"program\"><interface><localVars>" + var("x", "REAL") +
+          "</localVars></interface><body><FBD>"
+          "<block localId=\"1\" typeName=\"ADD\" executionOrderId=\"0\"><position x=\"0\" y=\"0\"/><inputVariables>"
+          "<variable formalParameter=\"IN1\"><connectionPointIn><connection refLocalId=\"1\" formalParameter=\"OUT\"/></connectionPointIn></variable>"
+          "<variable formalParameter=\"IN2\"><connectionPointIn><connection refLocalId=\"2\"/></connectionPointIn></variable>"
+          "</inputVariables><inOutVariables/><outputVariables><variable formalParameter=\"OUT\"><connectionPointOut/></variable></outputVariables>"
+          "<addData><data name=\"vendor\" handleUnknown=\"discard\"/></addData></block>"
+          "<inVariable localId=\"2\" executionOrderId=\"0\"><position x=\"0\" y=\"0\"/><connectionPointOut/><expression>0.5</expression></inVariable>"
+          "<outVariable localId=\"3\" executionOrderId=\"0\"><position x=\"0\" y=\"0\"/><connectionPointIn><connection refLocalId=\"1\" formalParameter=\"OUT\"/></connectionPointIn><expression>x</expression></outVariable>"
+          "</FBD></body></pou>");
+  CompileResult r = compile_source(src);
+  ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
+  const std::string e = explain(r);
+  EXPECT_NE(e.find("feedback loop through localId 1 (block ADD)"), std::string::npos) << e;
+  Machine run(std::move(*r.image));
+  run.cycles(4);
+  EXPECT_DOUBLE_EQ(run.value("p.x"), 2.0);
+}
+
+// connector/continuation, inOutVariable, a negated block output and a rising-edge input.
+TEST(Plcopen, follows_connectors_in_out_variables_negation_and_edges) {
+  const std::string pos = "<position x=\"0\" y=\"0\"/>";
+  const std::string src = project(
+      kNs201,
+      "<pou name=\"main\" pouType=\"program\"><interface><inputVars>" + var("b", "BOOL", "%IX0.0") +
+          "</inputVars><localVars>" + var("m", "BOOL") + var("nq", "BOOL") + var("pulses", "INT") +
+          "</localVars></interface><body><FBD>"
+          "<inVariable localId=\"1\">" + pos + "<connectionPointOut/><expression>b</expression></inVariable>"
+          "<connector name=\"wire\" localId=\"2\">" + pos + "<connectionPointIn><connection refLocalId=\"1\"/></connectionPointIn></connector>"
+          "<continuation name=\"wire\" localId=\"3\">" + pos + "<connectionPointOut/></continuation>"
+          "<inOutVariable localId=\"4\">" + pos + "<connectionPointIn><connection refLocalId=\"3\"/></connectionPointIn><connectionPointOut/><expression>m</expression></inOutVariable>"
+          "<block localId=\"5\" typeName=\"AND\">" + pos + "<inputVariables>"
+          "<variable formalParameter=\"IN1\"><connectionPointIn><connection refLocalId=\"4\"/></connectionPointIn></variable>"
+          "<variable formalParameter=\"IN2\"><connectionPointIn><connection refLocalId=\"6\"/></connectionPointIn></variable>"
+          "</inputVariables><inOutVariables/><outputVariables><variable formalParameter=\"OUT\" negated=\"true\"><connectionPointOut/></variable></outputVariables></block>"
+          "<inVariable localId=\"6\">" + pos + "<connectionPointOut/><expression>TRUE</expression></inVariable>"
+          "<outVariable localId=\"7\">" + pos + "<connectionPointIn><connection refLocalId=\"5\" formalParameter=\"OUT\"/></connectionPointIn><expression>nq</expression></outVariable>"
+          "<block localId=\"8\" typeName=\"ADD\">" + pos + "<inputVariables>"
+          "<variable formalParameter=\"IN1\"><connectionPointIn><connection refLocalId=\"9\"/></connectionPointIn></variable>"
+          "<variable formalParameter=\"IN2\"><connectionPointIn><connection refLocalId=\"10\"/></connectionPointIn></variable>"
+          "</inputVariables><inOutVariables/><outputVariables><variable formalParameter=\"OUT\"><connectionPointOut/></variable></outputVariables></block>"
+          "<inVariable localId=\"9\">" + pos + "<connectionPointOut/><expression>pulses</expression></inVariable>"
+          "<block localId=\"10\" typeName=\"BOOL_TO_INT\">" + pos + "<inputVariables>"
+          "<variable formalParameter=\"IN\" edge=\"rising\"><connectionPointIn><connection refLocalId=\"3\"/></connectionPointIn></variable>"
+          "</inputVariables><inOutVariables/><outputVariables><variable formalParameter=\"OUT\"><connectionPointOut/></variable></outputVariables></block>"
+          "<outVariable localId=\"11\">" + pos + "<connectionPointIn><connection refLocalId=\"8\"/></connectionPointIn><expression>pulses</expression></outVariable>"
+          "</FBD></body></pou>");
+  CompileResult r = compile_source(src);
+  ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
+  Machine run(std::move(*r.image));
+  run.cycles(1);
+  EXPECT_EQ(run.value("main.m"), 0);
+  EXPECT_EQ(run.value("main.nq"), 1);  // NOT (m AND TRUE)
+  for (int i = 0; i < 3; ++i) {
+    run.set("b", 1);
+    run.cycles(2);
+    EXPECT_EQ(run.value("main.m"), 1);
+    EXPECT_EQ(run.value("main.nq"), 0);
+    run.set("b", 0);
+    run.cycles(2);
+  }
+  EXPECT_EQ(run.value("main.pulses"), 3);  // one per rising edge of b, through the continuation
+}
+
+TEST(Plcopen, runs_a_codesys_ladder_latch) {
+  CompileOptions o;
+  o.entry = "Fast";
+  CompileResult r = compile_file(data("codesys_ld_st.xml"), o);
+  ASSERT_TRUE(r.ok()) << r.diags.render("codesys_ld_st.xml", "");
+  EXPECT_DOUBLE_EQ(r.image->period_s(), 0.01);
+  Machine run(std::move(*r.image));
+  run.cycles(2);
+  EXPECT_EQ(run.out("motor"), 0);
+  run.set("start_btn", 1);
+  run.cycles(1);
+  EXPECT_EQ(run.out("motor"), 1);
+  run.set("start_btn", 0);
+  run.cycles(3);
+  EXPECT_EQ(run.out("motor"), 1);  // seal-in contact on motor
+  EXPECT_EQ(run.out("alarm"), 0);
+  run.set("stop_btn", 1);
+  run.cycles(1);
+  EXPECT_EQ(run.out("motor"), 0);
+  EXPECT_EQ(run.out("alarm"), 1);  // rising contact sets the alarm coil
+  run.set("stop_btn", 0);
+  run.cycles(3);
+  EXPECT_EQ(run.out("alarm"), 1);  // set coil holds
+  run.set("start_btn", 1);
+  run.cycles(1);
+  EXPECT_EQ(run.out("alarm"), 0);  // reset coil
+}
+
+TEST(Plcopen, runs_st_with_for_case_globals_and_fb_calls) {
+  CompileOptions o;
+  o.entry = "scale1";
+  CompileResult r = compile_file(data("codesys_ld_st.xml"), o);
+  ASSERT_TRUE(r.ok()) << r.diags.render("codesys_ld_st.xml", "");
+  Machine run(std::move(*r.image));
+  run.set("raw", 40);
+  run.cycles(1);
+  EXPECT_DOUBLE_EQ(run.out("out"), 80);  // 4 x 40 x 0.25 x g_gain 2
+  run.set("raw", 0);
+  run.cycles(1);
+  EXPECT_DOUBLE_EQ(run.out("out"), 0);
+  run.set("raw", 500);
+  run.cycles(1);
+  EXPECT_DOUBLE_EQ(run.out("out"), 100);  // CASE ELSE
+  for (int i = 0; i < 3; ++i) {
+    run.set("raw", 0);
+    run.cycles(1);
+    run.set("raw", 60);
+    run.cycles(1);
+  }
+  EXPECT_EQ(run.value("scale1.n"), 4);  // the 500 edge and three more
+  EXPECT_EQ(run.value("scale1.pulses.Q"), 1);
+}
+
+// IL with forward jumps, S/R, a parenthesised operand and CAL (legacy tc6.xsd namespace).
+TEST(Plcopen, runs_il_with_forward_jumps) {
+  CompileResult r = compile_file(data("legacy_il.xml"));
+  ASSERT_TRUE(r.ok()) << r.diags.render("legacy_il.xml", "");
+  Machine run(std::move(*r.image));
+  run.set("a", 1);
+  run.set("n", 21);
+  run.cycles(1);
+  EXPECT_EQ(run.out("q"), 1);
+  EXPECT_EQ(run.out("m"), 42);  // the path that falls through JMPCN
+  run.set("a", 0);
+  run.cycles(1);
+  EXPECT_EQ(run.out("q"), 0);
+  EXPECT_EQ(run.out("m"), 7);  // the path through the label
+  run.set("b", 1);
+  run.cycles(1);
+  EXPECT_EQ(run.value("main.lat"), 1);  // S
+  run.set("a", 1);
+  run.cycles(1);
+  EXPECT_EQ(run.value("main.lat"), 0);  // R wins: a AND (b OR a)
+  EXPECT_EQ(run.out("q"), 0);           // a ANDN b
+  run.cycles(10);
+  EXPECT_EQ(run.value("main.t1.Q"), 1);  // CAL t1 after the jumps joined: 1 s at 0.1 s
+}
+
+TEST(Plcopen, refuses_an_il_backward_jump) {
+  const std::string src = project(kNs201,
+                                  "<pou name=\"main\" pouType=\"program\"><interface><localVars>" + var("x", "INT") +
+                                      "</localVars></interface><body><IL><xhtml:p><![CDATA[top: LD x\n ADD 1\n ST x\n LT 10\n JMPC top\n]]></xhtml:p></IL></body></pou>");
+  CompileResult r = compile_source(src);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.diags.items()[0].message.find("backward jump"), std::string::npos) << r.diags.items()[0].message;
+  EXPECT_EQ(r.diags.items()[0].pos.line, 9u);
+}
+
+// SFC: steps, inline and named transitions, a simultaneous divergence and
+// convergence, N/P/L/D actions on variables, a named ST action and an LD one.
+TEST(Plcopen, runs_an_sfc_body) {
+  CompileResult r = compile_file(data("beremiz_sfc.xml"));
+  ASSERT_TRUE(r.ok()) << r.diags.render("beremiz_sfc.xml", "");
+  Machine run(std::move(*r.image));
+  run.cycles(2);
+  EXPECT_EQ(run.value("fill0.step.Idle.X"), 1);
+  EXPECT_EQ(run.out("inlet"), 0);
+  run.set("start", 1);
+  run.cycles(1);
+  EXPECT_EQ(run.value("fill0.step.Filling.X"), 1);
+  EXPECT_EQ(run.value("fill0.step.Idle.X"), 0);
+  EXPECT_EQ(run.out("inlet"), 1);  // N
+  run.set("start", 0);
+  run.cycles(3);
+  EXPECT_EQ(run.value("fill0.batches"), 1);  // P: once per activation
+  EXPECT_EQ(run.value("fill0.lamp_out"), 0);  // its step is not active yet
+  run.set("level", 85);
+  run.cycles(1);
+  EXPECT_EQ(run.value("fill0.step.Mixing.X"), 1);
+  EXPECT_EQ(run.value("fill0.step.Draining.X"), 1);
+  EXPECT_EQ(run.out("inlet"), 0);
+  EXPECT_EQ(run.out("mixer"), 1);  // L 1 s
+  EXPECT_EQ(run.out("drain"), 0);  // D 500 ms
+  EXPECT_EQ(run.value("fill0.lamp_out"), 1);  // an LD action body ran
+  run.cycles(6);
+  EXPECT_EQ(run.out("drain"), 1);
+  EXPECT_EQ(run.out("mixer"), 1);
+  run.cycles(5);
+  EXPECT_EQ(run.out("mixer"), 0);
+  run.set("level", 2);
+  run.cycles(1);
+  EXPECT_EQ(run.value("fill0.step.Idle.X"), 1);  // the convergence fired
+  EXPECT_EQ(run.value("fill0.step.Mixing.X"), 0);
+  EXPECT_EQ(run.out("drain"), 0);
+  run.set("start", 1);
+  run.cycles(2);
+  EXPECT_EQ(run.value("fill0.batches"), 2);
+}
+
+// LD: MOVE on a rung: EN from a contact; while EN is false the target keeps its value.
+TEST(Plcopen, a_function_with_en_false_leaves_its_target_alone) {
+  const std::string src = project(
+      kNs201,
+      "<pou name=\"main\" pouType=\"program\"><interface><inputVars>" + var("go", "BOOL", "%IX0.0") +
+          var("n", "INT", "%IW0") + "</inputVars><localVars>" + var("x", "INT", "", "3") +
+          "</localVars></interface><body><LD>"
+          "<leftPowerRail localId=\"1\"><position x=\"0\" y=\"0\"/><connectionPointOut formalParameter=\"\"/></leftPowerRail>"
+          "<contact localId=\"2\"><position x=\"0\" y=\"0\"/><connectionPointIn><connection refLocalId=\"1\"/></connectionPointIn>"
+          "<connectionPointOut/><variable>go</variable></contact>"
+          "<block localId=\"3\" typeName=\"MOVE\"><position x=\"0\" y=\"0\"/><inputVariables>"
+          "<variable formalParameter=\"EN\"><connectionPointIn><connection refLocalId=\"2\"/></connectionPointIn></variable>"
+          "<variable formalParameter=\"IN\"><connectionPointIn><connection refLocalId=\"4\"/></connectionPointIn></variable>"
+          "</inputVariables><inOutVariables/><outputVariables><variable formalParameter=\"ENO\"><connectionPointOut/></variable>"
+          "<variable formalParameter=\"OUT\"><connectionPointOut/></variable></outputVariables></block>"
+          "<inVariable localId=\"4\"><position x=\"0\" y=\"0\"/><connectionPointOut/><expression>n</expression></inVariable>"
+          "<outVariable localId=\"5\"><position x=\"0\" y=\"0\"/><connectionPointIn><connection refLocalId=\"3\" formalParameter=\"OUT\"/>"
+          "</connectionPointIn><expression>x</expression></outVariable>"
+          "</LD></body></pou>");
+  CompileResult r = compile_source(src);
+  ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
+  Machine run(std::move(*r.image));
+  run.set("n", 9);
+  run.cycles(2);
+  EXPECT_EQ(run.value("main.x"), 3);  // the initial value, EN false
+  run.set("go", 1);
+  run.cycles(1);
+  EXPECT_EQ(run.value("main.x"), 9);
+  run.set("go", 0);
+  run.set("n", 1);
+  run.cycles(1);
+  EXPECT_EQ(run.value("main.x"), 9);  // kept
+}
+
+// A user FB called inside IF (ST) or by CALC (IL) keeps its variables while it is not
+// called; a standard FB called there is refused.
+TEST(Plcopen, a_user_fb_called_conditionally_keeps_its_state) {
+  const std::string fb =
+      "<pou name=\"Count\" pouType=\"functionBlock\"><interface><inputVars>" + var("step", "INT", "", "1") +
+      "</inputVars><outputVars>" + var("n", "INT") +
+      "</outputVars></interface><body><ST><xhtml:p><![CDATA[n := n + step;]]></xhtml:p></ST></body></pou>\n";
+  const std::string vars = "<inputVars>" + var("go", "BOOL", "%IX0.0") + "</inputVars><localVars>" +
+                           "<variable name=\"c1\"><type><derived name=\"Count\"/></type></variable>" +
+                           "<variable name=\"c2\"><type><derived name=\"Count\"/></type></variable>" + var("a", "INT") +
+                           var("b", "INT") + "</localVars>";
+  const std::string st = project(kNs201, fb + st_program(vars, "IF go THEN c1(step := 2); END_IF;\na := c1.n;"));
+  const std::string il = project(
+      kNs201, fb + "<pou name=\"main\" pouType=\"program\"><interface>" + vars +
+                  "</interface><body><IL><xhtml:p><![CDATA[LD go\nCALC c1(step := 2)\nLD c1.n\nST a\n]]></xhtml:p></IL></body></pou>\n");
+  for (const std::string* src : {&st, &il}) {
+    CompileResult r = compile_source(*src);
+    ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", *src);
+    Machine run(std::move(*r.image));
+    run.cycles(3);
+    EXPECT_EQ(run.value("main.a"), 0);
+    run.set("go", 1);
+    run.cycles(2);
+    EXPECT_EQ(run.value("main.a"), 4);
+    run.set("go", 0);
+    run.cycles(5);
+    EXPECT_EQ(run.value("main.a"), 4);  // not called: kept
+  }
+  const std::string bad = project(kNs201, st_program("<localVars><variable name=\"t\"><type><derived name=\"TON\"/></type></variable>" +
+                                                         var("x", "BOOL") + "</localVars>",
+                                                     "IF x THEN t(IN := TRUE, PT := T#1s); END_IF;"));
+  CompileResult r = compile_source(bad);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.diags.items()[0].message.find("standard function block TON"), std::string::npos);
+}
+
+// A user function: expanded at each call, formal and informal arguments, no memory.
+TEST(Plcopen, expands_user_functions) {
+  const std::string fn =
+      "<pou name=\"Lin\" pouType=\"function\"><interface><returnType><REAL/></returnType><inputVars>" +
+      var("x", "REAL") + var("k", "REAL", "", "2.0") + "</inputVars><localVars>" + var("tmp", "REAL") +
+      "</localVars></interface><body><ST><xhtml:p><![CDATA[tmp := tmp + x * k; Lin := tmp + 1.0;]]></xhtml:p></ST></body></pou>\n";
+  const std::string src = project(
+      kNs201, fn + st_program("<localVars>" + var("a", "REAL") + var("b", "REAL") + "</localVars>",
+                              "a := Lin(3.0, 4.0);\nb := Lin(k := 0.5, x := a);"));
+  CompileResult r = compile_source(src);
+  ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
+  Machine run(std::move(*r.image));
+  for (int i = 0; i < 3; ++i) {
+    run.cycles(1);
+    EXPECT_DOUBLE_EQ(run.value("main.a"), 13.0);  // tmp starts at 0 in every call
+    EXPECT_DOUBLE_EQ(run.value("main.b"), 7.5);
+  }
+}
+
+// The standard FBs wired by the importer: CTUD, SR, RS, F_TRIG, TOF.
+TEST(Plcopen, wires_the_standard_function_blocks) {
+  std::string decl;
+  for (const char* fb : {"CTUD", "SR", "RS", "F_TRIG", "TOF"})
+    decl += std::string("<variable name=\"i_") + fb + "\"><type><derived name=\"" + fb + "\"/></type></variable>";
+  const std::string src = project(
+      kNs201,
+      st_program("<inputVars>" + var("up", "BOOL", "%IX0.0") + var("dn", "BOOL", "%IX0.1") + var("r", "BOOL", "%IX0.2") +
+                     "</inputVars><localVars>" + decl + var("cv", "INT") + var("qu", "BOOL") + var("q_sr", "BOOL") +
+                     var("q_rs", "BOOL") + var("fell", "BOOL") + var("off", "BOOL") + "</localVars>",
+                 "i_CTUD(CU := up, CD := dn, R := r, LD := FALSE, PV := 3);\ncv := i_CTUD.CV; qu := i_CTUD.QU;\n"
+                 "i_SR(S1 := up, R := up AND dn); q_sr := i_SR.Q1;\ni_RS(S := up, R1 := up AND dn); q_rs := i_RS.Q1;\n"
+                 "i_F_TRIG(CLK := up); fell := i_F_TRIG.Q;\ni_TOF(IN := up, PT := T#300ms); off := i_TOF.Q;"));
+  CompileResult r = compile_source(src);
+  ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
+  Machine run(std::move(*r.image));
+  run.cycles(1);
+  for (int i = 0; i < 4; ++i) {
+    run.set("up", 1);
+    run.cycles(1);
+    EXPECT_EQ(run.value("main.off"), 1);
+    run.set("up", 0);
+    run.cycles(1);
+    EXPECT_EQ(run.value("main.fell"), 1);  // the cycle up fell
+    run.cycles(1);
+    EXPECT_EQ(run.value("main.fell"), 0);
+  }
+  EXPECT_EQ(run.value("main.cv"), 4);
+  EXPECT_EQ(run.value("main.qu"), 1);
+  EXPECT_EQ(run.value("main.q_sr"), 1);
+  EXPECT_EQ(run.value("main.q_rs"), 1);
+  EXPECT_EQ(run.value("main.off"), 1);  // TOF: 200 ms after up fell
+  run.cycles(2);
+  EXPECT_EQ(run.value("main.off"), 0);
+  run.set("dn", 1);
+  run.cycles(1);
+  EXPECT_EQ(run.value("main.cv"), 3);
+  run.set("up", 1);  // up AND dn: SR keeps (set dominant), RS resets
+  run.cycles(1);
+  EXPECT_EQ(run.value("main.q_sr"), 1);
+  EXPECT_EQ(run.value("main.q_rs"), 0);
+  run.set("r", 1);
+  run.cycles(1);
+  EXPECT_EQ(run.value("main.cv"), 0);
+  EXPECT_EQ(run.value("main.qu"), 0);
+}
+
+TEST(Plcopen, if_conversion_keeps_unassigned_values_and_integers_wrap) {
+  const std::string src = project(
+      kNs201, st_program("<localVars>" + var("c", "INT", "", "32766") + var("x", "REAL") + var("flag", "BOOL") +
+                             "</localVars>",
+                         "c := c + 1;\nIF c < 0 THEN flag := TRUE; ELSIF c > 100 THEN x := 1.5; ELSE x := -2.0; END_IF;"));
+  CompileResult r = compile_source(src);
+  ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
+  Machine run(std::move(*r.image));
+  run.cycles(1);
+  EXPECT_EQ(run.value("main.c"), 32767);
+  EXPECT_EQ(run.value("main.x"), 1.5);
+  EXPECT_EQ(run.value("main.flag"), 0);
+  run.cycles(1);
+  EXPECT_EQ(run.value("main.c"), -32768);  // INT wraps
+  EXPECT_EQ(run.value("main.flag"), 1);
+  EXPECT_EQ(run.value("main.x"), 1.5);  // not assigned in the taken branch: kept
+}
+
+// Directly represented variables (%IX0.0 in an expression, without a declaration).
+TEST(Plcopen, reads_and_writes_directly_represented_variables) {
+  const std::string src = project(
+      kNs201, st_program("<localVars>" + var("k", "INT") + "</localVars>",
+                         "%QX0.1 := %IX0.0 AND NOT %IX0.1;\nk := %MW4 * 2;\n%QW2 := k;"));
+  CompileResult r = compile_source(src);
+  ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
+  Machine run(std::move(*r.image));
+  run.set("IX0.0", 1);
+  run.set("MW4", 21);  // read only: an operator set-point
+  run.cycles(1);
+  EXPECT_EQ(run.out("QX0.1"), 1);
+  EXPECT_EQ(run.out("QW2"), 42);
+}
+
+TEST(Plcopen, refuses_while_with_its_position) {
+  const std::string src =
+      project(kNs201, st_program("<localVars>" + var("i", "INT") + "</localVars>", "i := 0;\nWHILE i < 3 DO i := i + 1; END_WHILE;"));
+  CompileResult r = compile_source(src);
+  ASSERT_FALSE(r.ok());
+  const std::string msg = r.diags.render("t.xml", src);
+  EXPECT_NE(msg.find("WHILE loops are refused"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("t.xml:6:1"), std::string::npos) << msg;  // the line after i := 0;
+}
+
+TEST(Plcopen, refuses_for_with_variable_bounds_and_repeat) {
+  for (const char* body : {"FOR i := 0 TO n DO x := x + 1.0; END_FOR;", "REPEAT x := 1.0; UNTIL TRUE END_REPEAT;"}) {
+    const std::string src = project(
+        kNs201, st_program("<localVars>" + var("i", "INT") + var("n", "INT") + var("x", "REAL") + "</localVars>", body));
+    CompileResult r = compile_source(src);
+    EXPECT_FALSE(r.ok()) << body;
+    EXPECT_TRUE(r.diags.has_errors());
+  }
+}
+
+TEST(Plcopen, accepts_three_namespaces_and_refuses_others) {
+  const std::string pou = st_program("<localVars>" + var("x", "REAL") + "</localVars>", "x := x + 1.0;");
+  for (const char* ns : {"http://www.plcopen.org/xml/tc6_0201", "http://www.plcopen.org/xml/tc6_0200",
+                         "http://www.plcopen.org/xml/tc6.xsd"}) {
+    CompileResult r = compile_source(project(ns, pou));
+    EXPECT_TRUE(r.ok()) << ns << "\n" << r.diags.render("t.xml", "");
+  }
+  CompileResult bad = compile_source(project("http://example.org/other", pou));
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.diags.items()[0].message.find("not PLCopen TC6"), std::string::npos);
+}
+
+TEST(Plcopen, refuses_macro_steps_and_vendor_elements_by_name) {
+  const std::string sfc = project(kNs201,
+                                  "<pou name=\"main\" pouType=\"program\"><interface/><body><SFC>"
+                                  "<macroStep localId=\"1\" name=\"M\"/></SFC></body></pou>");
+  CompileResult r = compile_source(sfc);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.diags.items()[0].message.find("<macroStep> in an SFC body is not supported yet"), std::string::npos)
+      << r.diags.items()[0].message;
+  const std::string vendor = project(kNs201,
+                                     "<pou name=\"main\" pouType=\"program\"><interface/><body><FBD>"
+                                     "<vendorElement localId=\"1\"/></FBD></body></pou>");
+  CompileResult v = compile_source(vendor);
+  ASSERT_FALSE(v.ok());
+  EXPECT_NE(v.diags.items()[0].message.find("vendorElement"), std::string::npos);
+  EXPECT_EQ(v.diags.items()[0].pos.line, 5u);  // the line of the <pou>
+}
+
+TEST(Plcopen, refuses_writing_an_input) {
+  const std::string src =
+      project(kNs201, st_program("<inputVars>" + var("b", "BOOL", "%IX0.0") + "</inputVars>", "b := TRUE;"));
+  CompileResult r = compile_source(src);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.diags.items()[0].message.find("cannot write"), std::string::npos);
+}
+
+TEST(Plcopen, maps_located_variables_to_channels) {
+  const std::string src = project(
+      kNs201, st_program("<inputVars>" + var("ai", "REAL", "%IW3") + var("di", "BOOL", "%IX2.5") + var("big", "DINT", "%ID1") +
+                             "</inputVars><outputVars>" + var("ao", "REAL", "%QW3") + var("dq", "BOOL", "%QX1.7") +
+                             "</outputVars><localVars>" + var("sp", "REAL", "%MD4", "12.5") + var("mem", "INT", "%MW2") +
+                             "</localVars>",
+                         "ao := ai + sp + DINT_TO_REAL(big); dq := di; mem := TIME_TO_INT(T#1.5s);"));
+  CompileResult r = compile_source(src);
+  ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
+  auto find = [&](const char* label) -> const Binding* {
+    for (const Binding& b : r.image->bindings())
+      if (std::string_view(r.image->str(b.label)) == label) return &b;
+    return nullptr;
+  };
+  for (const char* l : {"ai", "di", "ao", "dq", "sp", "big"}) ASSERT_NE(find(l), nullptr) << l;
+  EXPECT_EQ(1000u * find("ai")->p + 100u * find("ai")->d + find("ai")->c, 3u);     // p0.d0.c3
+  EXPECT_EQ(1000u * find("di")->p + 100u * find("di")->d + find("di")->c, 1205u);  // p1.d2.c5
+  EXPECT_EQ(find("big")->p, 2u);
+  EXPECT_EQ(1000u * find("dq")->p + 100u * find("dq")->d + find("dq")->c, 1107u);
+  EXPECT_EQ(find("sp")->dir, BindingDir::kSetpoint);  // read-only %M: an operator set-point
+  EXPECT_DOUBLE_EQ(find("sp")->init, 12.5);
+  EXPECT_EQ(find("mem"), nullptr);  // written by the program: internal
+  Machine run(std::move(*r.image));
+  run.cycles(1);
+  EXPECT_EQ(run.value("main.mem"), 1500);  // TIME converts in milliseconds
+}
+
+// An FBD body imported gives the same trace as the seed-language program it stands for.
+TEST(Plcopen, fbd_body_matches_the_equivalent_seed_program) {
+  const std::string fbd =
+      project(kNs201,
+              "<pou name=\"p\" pouType=\"program\"><interface><inputVars>" + var("pv", "REAL", "%IW0") +
+                  "</inputVars><outputVars>" + var("mv", "REAL", "%QW0") +
+                  "</outputVars></interface><body><FBD>"
+                  "<inVariable localId=\"1\"><position x=\"0\" y=\"0\"/><connectionPointOut/><expression>pv</expression></inVariable>"
+                  "<inVariable localId=\"2\"><position x=\"0\" y=\"0\"/><connectionPointOut/><expression>2.5</expression></inVariable>"
+                  "<block localId=\"3\" typeName=\"MUL\" executionOrderId=\"0\"><position x=\"0\" y=\"0\"/><inputVariables>"
+                  "<variable formalParameter=\"IN1\"><connectionPointIn><connection refLocalId=\"1\"/></connectionPointIn></variable>"
+                  "<variable formalParameter=\"IN2\"><connectionPointIn><connection refLocalId=\"2\"/></connectionPointIn></variable>"
+                  "</inputVariables><inOutVariables/><outputVariables><variable formalParameter=\"OUT\"><connectionPointOut/></variable></outputVariables></block>"
+                  "<block localId=\"4\" typeName=\"LIMIT\" executionOrderId=\"0\"><position x=\"0\" y=\"0\"/><inputVariables>"
+                  "<variable formalParameter=\"MN\"><connectionPointIn><connection refLocalId=\"5\"/></connectionPointIn></variable>"
+                  "<variable formalParameter=\"IN\"><connectionPointIn><connection refLocalId=\"3\"/></connectionPointIn></variable>"
+                  "<variable formalParameter=\"MX\"><connectionPointIn><connection refLocalId=\"6\"/></connectionPointIn></variable>"
+                  "</inputVariables><inOutVariables/><outputVariables><variable formalParameter=\"OUT\"><connectionPointOut/></variable></outputVariables></block>"
+                  "<inVariable localId=\"5\"><position x=\"0\" y=\"0\"/><connectionPointOut/><expression>0.0</expression></inVariable>"
+                  "<inVariable localId=\"6\"><position x=\"0\" y=\"0\"/><connectionPointOut/><expression>100.0</expression></inVariable>"
+                  "<outVariable localId=\"7\"><position x=\"0\" y=\"0\"/><connectionPointIn><connection refLocalId=\"4\"/></connectionPointIn><expression>mv</expression></outVariable>"
+                  "</FBD></body></pou>");
+  const std::string seed =
+      "%%\nstime(0.1)\nF1 = dai(p0, d0, c0, \"pv\")\nF2 = mult(F1, F1, 0)\nF3 = scale(F2, 0, 2.5)\n"
+      "F4 = mult(F1, F3)\nF5 = lim(F4, 0, 100)\ndao(F5, p0, d0, c0, \"mv\")\nEND\n%%\n";
+  CompileResult a = compile_source(fbd), b = compile_source(seed);
+  ASSERT_TRUE(a.ok()) << a.diags.render("t.xml", fbd);
+  ASSERT_TRUE(b.ok()) << b.diags.render("t.fbd", seed);
+  Machine ra(std::move(*a.image)), rb(std::move(*b.image));
+  for (int i = 0; i < 60; ++i) {
+    const double pv = -10 + i * 1.5;
+    ra.set("pv", pv);
+    rb.set("pv", pv);
+    ra.cycles(1);
+    rb.cycles(1);
+    EXPECT_DOUBLE_EQ(ra.out("mv"), rb.out("mv")) << "cycle " << i;
+  }
+}
+
+TEST(Plcopen, names_stateful_blocks_by_instance_path) {
+  CompileResult r = compile_file(data("openplc_mixed.xml"));
+  ASSERT_TRUE(r.ok());
+  bool ton = false;
+  for (const FlatBlock& b : r.program.blocks) ton = ton || (b.name == "instance0.t1.Q" && b.written == "ton");
+  EXPECT_TRUE(ton);
+  EXPECT_NE(std::find(r.program.variables.begin(), r.program.variables.end(), "instance0.hys.Q"),
+            r.program.variables.end());
+}
+
+// Hot swap matches blocks by name and opcode: an edited project (another PT, one
+// more rung) keeps the timer, the FB instance's latch and the counter variable.
+TEST(Plcopen, hot_swap_keeps_state_by_instance_path) {
+  std::string err;
+  auto text = read_text_file(data("openplc_mixed.xml"), &err);
+  ASSERT_TRUE(text) << err;
+  std::string edited = *text;
+  edited.replace(edited.find("T#500ms"), 7, "T#800ms");
+  CompileResult a = compile_source(*text), b = compile_source(edited);
+  ASSERT_TRUE(a.ok() && b.ok());
+  const sched::Migration m = sched::plan_migration(*a.image, *b.image);
+  for (const char* kept : {"instance0.t1.Q", "instance0.t1.ET", "instance0.hys.Q", "instance0.cycles"})
+    EXPECT_NE(std::find(m.kept.begin(), m.kept.end(), kept), m.kept.end()) << kept;
+
+}
+
+TEST(Plcopen, asks_which_task_when_there_are_several) {
+  CompileResult r = compile_file(data("codesys_ld_st.xml"));
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.diags.items()[0].message.find("task Fast, task Slow"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace rtplc::lang
