@@ -50,7 +50,16 @@ uint32_t Emitter::constant(double v, Kind kind) {
   return i;
 }
 
+uint32_t Emitter::external(Kind kind) {
+  externals_.push_back(kind);
+  return kExternalBase + static_cast<uint32_t>(externals_.size() - 1);
+}
+
 Kind Emitter::kind_of(uint32_t producer) const {
+  if (is_external(producer)) {
+    const size_t slot = external_slot(producer);
+    return slot < externals_.size() ? externals_[slot] : Kind::kAnalog;
+  }
   if (producer >= program_.blocks.size()) return Kind::kAnalog;
   const FlatBlock& b = program_.blocks[producer];
   const BlockSpec* s = b.spec != nullptr ? b.spec : find_block(b.written);

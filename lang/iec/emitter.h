@@ -9,6 +9,7 @@
 #include <map>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "lang/flat_program.h"
 #include "lang/iec/iec_types.h"
@@ -19,6 +20,8 @@ namespace rtplc::lang::iec {
 inline constexpr uint32_t kUnconnected = UINT32_MAX;
 
 class Emitter {
+  static constexpr uint32_t kExternalBase = 0x80000000u;
+
  public:
   // Blocks are named `prefix + "." + role` ("main.T1.Q"), which hot swap matches
   // state by, so a stable prefix (the instance path) keeps state across edits.
@@ -46,6 +49,17 @@ class Emitter {
   // A `*_TO_*` conversion (docs/language.md says which rounding and scaling).
   uint32_t convert(uint32_t producer, IecType from, IecType to);
 
+  // An operand the front end has not made as a block yet: the PLCopen importer
+  // names its producers and resolves the names once every block exists, so a
+  // value may come from a block appended later (last cycle's value). Returns a
+  // stand-in index past every block; the front end rewrites the inputs that
+  // hold it after the lowering (is_external, external_slot).
+  uint32_t external(Kind kind);
+  static bool is_external(uint32_t producer) {
+    return producer >= kExternalBase && producer != kUnconnected;
+  }
+  static size_t external_slot(uint32_t producer) { return producer - kExternalBase; }
+
   Kind kind_of(uint32_t producer) const;
   CheckedProgram& program() { return program_; }
 
@@ -58,6 +72,7 @@ class Emitter {
   uint32_t call_line_;
   std::map<std::string, uint32_t, std::less<>> used_roles_;
   std::map<std::pair<double, int>, uint32_t> constants_;
+  std::vector<Kind> externals_;
 };
 
 }  // namespace rtplc::lang::iec

@@ -466,6 +466,18 @@ int iec_output_index(const IecFunction& f, std::string_view formal) {
   return -1;
 }
 
+Kind iec_output_kind(const IecFunction& f, size_t k, IecType type) {
+  // Lowered into a scratch program with every input unconnected: the kinds
+  // come from the lowering itself, so there is no second list to keep in step.
+  CheckedProgram scratch;
+  Emitter e(scratch, "", SourcePos{});
+  IecCall call;
+  call.type = type;
+  const auto outs = f.lower(f, e, call);
+  if (!outs || k >= outs->size() || (*outs)[k] == kUnconnected) return Kind::kAnalog;
+  return e.kind_of((*outs)[k]);
+}
+
 std::string iec_functions_markdown() {
   std::string s =
       "# IEC 61131-3 standard functions and blocks\n\n"

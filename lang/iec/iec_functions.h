@@ -60,6 +60,10 @@ std::span<const IecFunction> all_iec_functions();
 int iec_input_index(const IecFunction& f, std::string_view formal);
 int iec_output_index(const IecFunction& f, std::string_view formal);
 
+// The kind of formal output `k` of `f` called on operand type `type`, as the
+// lowering makes it (a front end typing a read of an FB output before the call).
+Kind iec_output_kind(const IecFunction& f, size_t k, IecType type = IecType::kReal);
+
 // The markdown table of docs/language.md's IEC section (generated, tested).
 std::string iec_functions_markdown();
 

@@ -5,6 +5,7 @@
 #include <cctype>
 #include <cmath>
 
+#include "lang/iec/iec_functions.h"
 #include "lang/plcopen/lowering.h"
 
 namespace rtplc::lang::plcopen {
@@ -12,64 +13,117 @@ namespace rtplc::lang::plcopen {
 // ---- functions ----
 
 bool Lowering::is_function(const std::string& up) const {
-  static const char* const kStd[] = {
-      "ADD", "SUB", "MUL", "DIV", "MOD", "EXPT", "AND", "OR", "XOR", "NOT", "GT", "GE", "EQ", "NE",
-      "LT", "LE", "MOVE", "ABS", "SQRT", "SIN", "COS", "TAN", "ASIN", "ACOS", "ATAN", "MAX", "MIN",
-      "LIMIT", "SEL", "MUX", "TRUNC", "LN", "LOG", "EXP"};
-  for (const char* n : kStd) {
-    if (up == n) return true;
-  }
-  if (up.find("_TO_") != std::string::npos) return true;
+  if (const iec::IecFunction* f = iec::find_iec(up)) return !f->function_block;
   const Pou* p = proj_.pou(up);
   return p && p->type == PouType::kFunction;
 }
 
 namespace {
-// Orders formal arguments the way the standard function takes them.
-int formal_rank(const std::string& f) {
-  if (f == "G" || f == "K" || f == "MN") return 0;
-  if (f == "IN" || f == "IN0" || f == "IN1") return f == "IN1" ? 2 : 1;
-  if (f == "MX") return 1000;
-  if (f.size() > 2 && f.compare(0, 2, "IN") == 0) {
-    int n = 0;
-    for (size_t i = 2; i < f.size() && std::isdigit(static_cast<unsigned char>(f[i])); ++i) n = n * 10 + (f[i] - '0');
-    return n + 1;
+// The operand type of an overloaded standard function, from what the importer
+// knows of its arguments (BOOL, an integer, else REAL). A selector (SEL's G,
+// MUX's K, a shift's N) does not decide it. An integer is LINT: the variable an
+// integer result is assigned to wraps it into its own type (Lowering::assign).
+iec::IecType operand_type(const iec::IecFunction& f, const std::vector<std::optional<Value>>& args) {
+  bool any = false, all_digital = true, all_integer = true;
+  for (size_t k = 0; k < args.size(); ++k) {
+    const std::string formal = k < f.inputs.size() ? f.inputs[k] : "";
+    if (!args[k] || formal == "G" || formal == "K" || formal == "N") continue;
+    any = true;
+    all_digital = all_digital && args[k]->digital;
+    all_integer = all_integer && !args[k]->digital && args[k]->integer;
   }
-  return 500;
+  if (!any) return iec::IecType::kReal;
+  if (all_digital) return iec::IecType::kBool;
+  return all_integer ? iec::IecType::kLint : iec::IecType::kReal;
+}
+
+// Puts arguments at their formal input's position (a positional one at the
+// next free place); false after an error about `what`.
+bool place_args(const iec::IecFunction& f, const std::vector<Value>& args,
+                const std::vector<std::string>& formals, std::vector<std::optional<Value>>& placed,
+                const std::string& what, DiagnosticList& d, SourcePos pos) {
+  size_t positional = 0;
+  for (size_t i = 0; i < args.size(); ++i) {
+    const std::string formal = i < formals.size() ? formals[i] : "";
+    int k = -1;
+    if (formal.empty()) {
+      while (positional < placed.size() && placed[positional]) ++positional;
+      k = static_cast<int>(positional);
+    } else {
+      k = iec::iec_input_index(f, formal);
+    }
+    const auto at = static_cast<size_t>(k);
+    if (k < 0 || (!f.extensible && at >= f.inputs.size())) {
+      if (formal.empty()) {
+        d.error(pos, what + " takes " + std::to_string(f.inputs.size()) + " argument" +
+                         (f.inputs.size() == 1 ? "" : "s") + ", found " +
+                         std::to_string(args.size()));
+      } else {
+        d.error(pos, what + " has no input '" + formal + "'");
+      }
+      return false;
+    }
+    if (placed.size() <= at) placed.resize(at + 1);
+    placed[at] = args[i];
+  }
+  return true;
 }
 }  // namespace
+
+std::vector<Value> Lowering::lower_iec(const iec::IecFunction& f, const std::string& prefix,
+                                       const std::vector<std::optional<Value>>& args,
+                                       SourcePos pos) {
+  // The importer's values are block names, resolved at the end (a value may
+  // come from a block made later); lang/iec works by index. Each argument
+  // enters as an external operand and the blocks it appended are handed to
+  // our emitter by name.
+  std::vector<std::string> arg_names;
+  for (const auto& a : args) arg_names.push_back(a ? em_.ref(*a, pos) : std::string());
+  const size_t first = out_.blocks.size();
+  iec::Emitter ie(out_, prefix, pos);
+  iec::IecCall call;
+  call.type = operand_type(f, args);
+  std::vector<size_t> slot_arg;
+  for (size_t k = 0; k < args.size(); ++k) {
+    if (!args[k]) {
+      call.inputs.push_back(iec::kUnconnected);
+      continue;
+    }
+    call.inputs.push_back(ie.external(args[k]->digital ? Kind::kDigital : Kind::kAnalog));
+    slot_arg.push_back(k);
+  }
+  const auto outs = f.lower(f, ie, call);
+  auto name_of = [&](uint32_t producer) {
+    if (iec::Emitter::is_external(producer)) return arg_names[slot_arg[iec::Emitter::external_slot(producer)]];
+    return out_.blocks[producer].name;
+  };
+  em_.adopt(first, name_of);
+  if (!outs) {
+    d_.error(pos, outs.error());
+    return {};
+  }
+  std::vector<Value> r;
+  for (uint32_t o : *outs) {
+    if (iec::Emitter::is_external(o)) {
+      r.push_back(*args[slot_arg[iec::Emitter::external_slot(o)]]);
+      continue;
+    }
+    Value v;
+    if (o != iec::kUnconnected) {
+      v.ref = out_.blocks[o].name;
+      v.digital = ie.kind_of(o) == Kind::kDigital;
+    }
+    const iec::IecType t = f.typed || f.name.rfind("TO_", 0) == 0 ? f.to : call.type;
+    v.integer = !v.digital && (f.name == "TRUNC" || iec::type_info(t).integer);
+    r.push_back(v);
+  }
+  return r;
+}
 
 std::optional<Value> Lowering::call_function(Scope& s, const std::string& name, std::vector<Value> args,
                                              std::vector<std::string> formals, SourcePos pos) {
   const std::string up = upper(name);
-  // Put formal arguments in the standard's order (IN1, IN2... / G, IN0, IN1 / MN, IN, MX).
-  bool all_formal = !formals.empty();
-  for (const std::string& f : formals) all_formal = all_formal && !f.empty();
   const Pou* user = proj_.pou(up);
-  if (all_formal && !(user && user->type == PouType::kFunction)) {
-    std::vector<size_t> idx(args.size());
-    for (size_t i = 0; i < idx.size(); ++i) idx[i] = i;
-    std::stable_sort(idx.begin(), idx.end(),
-                     [&](size_t a, size_t b) { return formal_rank(formals[a]) < formal_rank(formals[b]); });
-    std::vector<Value> sorted;
-    for (size_t i : idx) sorted.push_back(args[i]);
-    args = std::move(sorted);
-  }
-  auto want = [&](size_t n) {
-    if (args.size() == n) return true;
-    d_.error(pos, name + " takes " + std::to_string(n) + " argument" + (n == 1 ? "" : "s") + ", found " +
-                      std::to_string(args.size()));
-    return false;
-  };
-  auto chain = [&](BinOp op) -> Value {
-    if (args.size() < 2) {
-      d_.error(pos, name + " takes at least 2 arguments");
-      return constant(0, false);
-    }
-    Value r = em_.binary(op, args[0], args[1], pos);
-    for (size_t i = 2; i < args.size(); ++i) r = em_.binary(op, r, args[i], pos);
-    return r;
-  };
   if (user && user->type == PouType::kFunction) {
     if (++call_depth_ > kMaxNesting) {
       d_.error(pos, "function calls nested deeper than " + std::to_string(kMaxNesting) + " (recursion?)");
@@ -117,96 +171,21 @@ std::optional<Value> Lowering::call_function(Scope& s, const std::string& name, 
     --call_depth_;
     return result;
   }
-  if (up == "ADD") return chain(BinOp::kAdd);
-  if (up == "MUL") return chain(BinOp::kMul);
-  if (up == "AND") return chain(BinOp::kAnd);
-  if (up == "OR") return chain(BinOp::kOr);
-  if (up == "XOR") return chain(BinOp::kXor);
-  if (up == "SUB") return want(2) ? em_.binary(BinOp::kSub, args[0], args[1], pos) : constant(0, false);
-  if (up == "DIV") return want(2) ? em_.binary(BinOp::kDiv, args[0], args[1], pos) : constant(0, false);
-  if (up == "MOD") return want(2) ? em_.binary(BinOp::kMod, args[0], args[1], pos) : constant(0, false);
-  if (up == "EXPT") return want(2) ? em_.binary(BinOp::kExpt, args[0], args[1], pos) : constant(0, false);
-  if (up == "NOT") return want(1) ? em_.unary_not(args[0], pos) : constant(0, true);
-  if (up == "MOVE") return want(1) ? args[0] : constant(0, false);
-  static const std::pair<const char*, BinOp> kCompare[] = {
-      {"GT", BinOp::kGt}, {"GE", BinOp::kGe}, {"EQ", BinOp::kEq},
-      {"NE", BinOp::kNe}, {"LT", BinOp::kLt}, {"LE", BinOp::kLe}};
-  for (const auto& [n, op] : kCompare) {
-    if (up != n) continue;
-    if (args.size() < 2 || (op == BinOp::kNe && args.size() != 2)) {
-      want(2);
-      return constant(0, true);
-    }
-    Value r = em_.binary(op, args[0], args[1], pos);  // GT(a, b, c) = a > b AND b > c
-    for (size_t i = 2; i < args.size(); ++i)
-      r = em_.binary(BinOp::kAnd, r, em_.binary(op, args[i - 1], args[i], pos), pos);
-    return r;
+  const iec::IecFunction* f = iec::find_iec(up);
+  if (!f || f->function_block) return std::nullopt;
+  std::vector<std::optional<Value>> placed;
+  if (!place_args(*f, args, formals, placed, name, d_, pos)) return constant(0, false);
+  size_t given = 0;
+  for (const auto& a : placed) given += a ? 1u : 0u;
+  if (given < f->min_inputs || given != placed.size()) {
+    d_.error(pos, name + " takes " + (f->extensible ? "at least " : "") +
+                      std::to_string(f->min_inputs) + " argument" +
+                      (f->min_inputs == 1 ? "" : "s") + ", found " + std::to_string(given));
+    return constant(0, false);
   }
-  static const std::pair<const char*, const char*> kMath[] = {
-      {"ABS", "abs"}, {"SQRT", "sqrt"}, {"SIN", "sin"}, {"COS", "cos"}, {"TAN", "tan"},
-      {"ASIN", "asin"}, {"ACOS", "acos"}, {"ATAN", "atan"}, {"TRUNC", "trunc"},
-      {"LN", "ln"}, {"LOG", "log"}, {"EXP", "exp"}};
-  for (const auto& [n, blk] : kMath) {
-    if (up != n) continue;
-    if (!want(1)) return constant(0, false);
-    Value r = em_.call1(blk, args[0], pos);
-    r.integer = up == "ABS" ? args[0].integer : up == "TRUNC";
-    return r;
-  }
-  if (up == "MAX" || up == "MIN") {
-    if (args.size() < 2) {
-      want(2);
-      return constant(0, false);
-    }
-    const char* blk = up == "MAX" ? "max" : "min";
-    Value r = em_.call2(blk, args[0], args[1], pos);
-    for (size_t i = 2; i < args.size(); ++i) r = em_.call2(blk, r, args[i], pos);
-    return r;
-  }
-  if (up == "LIMIT") {
-    if (!want(3)) return constant(0, false);
-    return em_.call2("max", args[0], em_.call2("min", args[1], args[2], pos), pos);
-  }
-  if (up == "SEL") {
-    if (!want(3)) return constant(0, false);
-    return em_.select(args[0], args[2], args[1], pos);
-  }
-  if (up == "MUX") {
-    if (args.size() < 3) {
-      d_.error(pos, "MUX takes K and at least 2 inputs");
-      return constant(0, false);
-    }
-    Value r = args.back();  // K out of range: the last input (MatIEC keeps the last too)
-    for (size_t i = args.size() - 1; i-- > 1;) {
-      r = em_.select(em_.binary(BinOp::kEq, args[0], constant(static_cast<double>(i - 1), false), pos), args[i], r, pos);
-    }
-    return r;
-  }
-  const size_t to = up.find("_TO_");
-  if (to != std::string::npos) {
-    if (!want(1)) return constant(0, false);
-    const std::string from_t = up.substr(0, to), to_t = up.substr(to + 4);
-    const auto ft = elementary_type(from_t), tt = elementary_type(to_t);
-    if (!tt || !ft) {
-      d_.error(pos, "conversion " + name + " names a type rtplc does not have");
-      return constant(0, false);
-    }
-    if (*tt == BaseType::kBool) return em_.to_digital(args[0], pos);
-    Value r = em_.to_analog(args[0], pos);
-    // TIME converts to and from numbers in milliseconds (as lang/iec does);
-    // TIME values themselves are seconds.
-    if (*ft == BaseType::kTime && *tt != BaseType::kTime) r = em_.binary(BinOp::kMul, r, constant(1000, false), pos);
-    if (*tt == BaseType::kTime && *ft != BaseType::kTime) r = em_.binary(BinOp::kDiv, r, constant(1000, false), pos);
-    const bool from_real = *ft == BaseType::kReal || *ft == BaseType::kLreal || *ft == BaseType::kTime;
-    if (integer_type(*tt) && from_real && !r.is_const) {
-      r = em_.call1("round", r, pos);  // IEC rounds REAL to an integer (halves away from 0)
-    } else if (integer_type(*tt) && from_real && r.is_const) {
-      r = constant(std::round(r.k), false);
-    }
-    r.integer = integer_type(*tt);
-    return r;
-  }
-  return std::nullopt;
+  const std::vector<Value> outs = lower_iec(*f, em_.fresh(s.path), placed, pos);
+  if (outs.empty()) return constant(0, false);
+  return outs[0];
 }
 
 // ---- function block instances ----
@@ -217,7 +196,8 @@ bool Lowering::fb_output_digital(const Var& v, const std::string& name) const {
     auto it = v.fb->vars.find(up);
     return it != v.fb->vars.end() && it->second->digital;
   }
-  return up == "Q" || up == "Q1" || up == "QU" || up == "QD";
+  const int k = iec::iec_output_index(*v.std_fb.iec, up);
+  return k >= 0 && iec::iec_output_kind(*v.std_fb.iec, static_cast<size_t>(k)) == Kind::kDigital;
 }
 
 Value Lowering::fb_output(Var& v, const std::string& name, SourcePos pos) {
@@ -230,18 +210,12 @@ Value Lowering::fb_output(Var& v, const std::string& name, SourcePos pos) {
     }
     return read(*it->second, pos);
   }
-  static const std::pair<const char*, const char*> kOutputs[] = {
-      {"R_TRIG", "Q"}, {"F_TRIG", "Q"}, {"SR", "Q1"}, {"RS", "Q1"}, {"TON", "Q ET"}, {"TOF", "Q ET"},
-      {"TP", "Q ET"},  {"CTU", "Q CV"}, {"CTD", "Q CV"}, {"CTUD", "QU QD CV"}};
-  bool known = false;
-  for (const auto& [t, outs] : kOutputs) {
-    if (v.std_fb.type != t) continue;
-    std::string list = std::string(" ") + outs + " ";
-    known = list.find(" " + up + " ") != std::string::npos;
-    if (!known) {
-      d_.error(pos, v.std_fb.type + " has no output '" + name + "' (it has " + outs + ")");
-      return constant(0, false);
-    }
+  const iec::IecFunction& f = *v.std_fb.iec;
+  if (iec::iec_output_index(f, up) < 0) {
+    std::string outs;
+    for (const char* o : f.outputs) outs += (outs.empty() ? "" : " ") + std::string(o);
+    d_.error(pos, v.std_fb.type + " has no output '" + name + "' (it has " + outs + ")");
+    return constant(0, false);
   }
   Value r;
   r.ref = v.path + "." + up;  // made by the call; read before it: last cycle's
@@ -301,76 +275,18 @@ void Lowering::call_fb(Var& v, const std::vector<std::pair<std::string, Value>>&
     return;
   }
   f.called = true;
-  std::map<std::string, Value> in;
-  size_t positional = 0;
-  static const std::pair<const char*, const char*> kInputs[] = {
-      {"R_TRIG", "CLK"}, {"F_TRIG", "CLK"}, {"SR", "S1 R"}, {"RS", "S R1"}, {"TON", "IN PT"},
-      {"TOF", "IN PT"}, {"TP", "IN PT"}, {"CTU", "CU R PV"}, {"CTD", "CD LD PV"},
-      {"CTUD", "CU CD R LD PV"}};
-  std::vector<std::string> names;
-  for (const auto& [t, list] : kInputs) {
-    if (f.type != t) continue;
-    std::string l = list, w;
-    for (char c : l + " ") {
-      if (c == ' ') {
-        names.push_back(w);
-        w.clear();
-      } else {
-        w += c;
-      }
-    }
-  }
+  std::vector<Value> args;
+  std::vector<std::string> formals;
   for (const auto& [formal, value] : inputs) {
-    std::string n = upper(formal);
-    if (n.empty()) n = positional < names.size() ? names[positional++] : "";
-    if (std::find(names.begin(), names.end(), n) == names.end()) {
-      d_.error(pos, f.type + " has no input '" + formal + "'");
-      continue;
-    }
-    in[n] = value;
+    formals.push_back(upper(formal));
+    args.push_back(value);
   }
-  const std::string& p = v.path;
-  auto input = [&](const char* n, bool digital) {
-    auto it = in.find(n);
-    if (it == in.end()) return constant(0, digital);
-    return digital ? em_.to_digital(it->second, pos) : em_.to_analog(it->second, pos);
-  };
-  auto ref = [&](const char* n, bool digital) { return em_.ref(input(n, digital), pos); };
+  std::vector<std::optional<Value>> placed;
+  if (!place_args(*f.iec, args, formals, placed, f.type, d_, pos)) return;
   // Each output is a block named `instance.OUTPUT`: reads before the call find
   // it later in the cycle (last cycle's value), and hot swap keeps its state.
-  auto out = [&](const char* n, const char* blk, std::vector<std::string> ins, std::vector<double> prm = {}) {
-    em_.emit(blk, p + "." + n, pos, std::move(ins), std::move(prm));
-    produced_.push_back(p + "." + n);
-  };
-  const std::string& t = f.type;
-  if (t == "R_TRIG" || t == "F_TRIG") {
-    out("Q", t == "R_TRIG" ? "rtrig" : "ftrig", {ref("CLK", true)});
-  } else if (t == "SR") {
-    out("Q1", "sr", {ref("S1", true), ref("R", true)});
-  } else if (t == "RS") {
-    out("Q1", "rs", {ref("S", true), ref("R1", true)});
-  } else if (t == "TON" || t == "TOF" || t == "TP") {
-    std::string blk = t == "TON" ? "ton" : t == "TOF" ? "tof" : "tp";
-    const std::string x = ref("IN", true), pt = ref("PT", false);
-    out("Q", blk.c_str(), {x, pt});
-    out("ET", (blk + "_et").c_str(), {x, pt});
-  } else if (t == "CTU") {
-    const std::string pv = ref("PV", false);
-    out("CV", "ctu", {ref("CU", true), ref("R", true)});
-    out("Q", "ge", {p + ".CV", pv});
-  } else if (t == "CTD") {
-    out("CV", "ctd", {ref("CD", true), ref("LD", true), ref("PV", false)});
-    out("Q", "le", {p + ".CV", em_.ref(constant(0, false), pos)});
-  } else if (t == "CTUD") {
-    const Value r = input("R", true);
-    const std::string pv = ref("PV", false);
-    em_.emit("updn", p + ".step", pos, {ref("CU", true), ref("CD", true)});
-    const Value load = em_.binary(BinOp::kOr, r, input("LD", true), pos);
-    const Value pv_or_0 = em_.select(r, constant(0, false), input("PV", false), pos);
-    out("CV", "ctud", {p + ".step", em_.ref(load, pos), em_.ref(pv_or_0, pos)});
-    out("QU", "ge", {p + ".CV", pv});
-    out("QD", "le", {p + ".CV", em_.ref(constant(0, false), pos)});
-  }
+  const std::vector<Value> outs = lower_iec(*f.iec, v.path, placed, pos);
+  for (const Value& o : outs) produced_.push_back(o.ref);
 }
 
 bool Lowering::finish() {

@@ -39,6 +39,16 @@ size_t Emitter::emit(const std::string& written, std::string name, SourcePos pos
   return p_.blocks.size() - 1;
 }
 
+void Emitter::adopt(size_t first, const std::function<std::string(uint32_t)>& input_name) {
+  for (size_t i = first; i < p_.blocks.size(); ++i) {
+    FlatBlock& b = p_.blocks[i];
+    b.call_line = 0;  // a PLCopen block is the user's own, not inside a macro call
+    std::vector<std::string> ins;
+    for (uint32_t k = 0; k < b.n_in; ++k) ins.push_back(k < 3 ? input_name(b.in[k]) : "");
+    refs_.push_back(std::move(ins));
+  }
+}
+
 std::string Emitter::fresh(const std::string& scope) {
   return scope + ".$" + std::to_string(++counter_);
 }

@@ -5,6 +5,7 @@
 // reads last cycle's value (the one-cycle rule of every front end).
 #pragma once
 
+#include <functional>
 #include <map>
 #include <string>
 #include <vector>
@@ -38,6 +39,10 @@ class Emitter {
   size_t emit(const std::string& written, std::string name, SourcePos pos,
               std::vector<std::string> ins, std::vector<double> params = {});
   FlatBlock& block(size_t i) { return p_.blocks[i]; }
+  // Takes over blocks from `first` on that someone else appended with input
+  // indices (lang/iec's lowering): `input_name` names each input's producer,
+  // resolved by finish() like every other reference.
+  void adopt(size_t first, const std::function<std::string(uint32_t)>& input_name);
 
   // A unique name under `scope` ("main" -> "main.$7").
   std::string fresh(const std::string& scope);

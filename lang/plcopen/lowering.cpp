@@ -10,18 +10,6 @@
 
 namespace rtplc::lang::plcopen {
 
-namespace {
-
-const char* const kStdFbs[] = {"R_TRIG", "F_TRIG", "SR", "RS", "TON", "TOF", "TP", "CTU", "CTD", "CTUD"};
-
-bool is_std_fb(const std::string& up) {
-  for (const char* n : kStdFbs) {
-    if (up == n) return true;
-  }
-  return false;
-}
-}  // namespace
-
 std::optional<Location> parse_location(const std::string& a, std::string* error) {
   Location l;
   auto bad = [&](const std::string& why) -> std::optional<Location> {
@@ -113,9 +101,10 @@ std::unique_ptr<Var> Lowering::make_var(const Variable& decl, const std::string&
     const std::string up = upper(decl.type.derived);
     if (in_function) {
       d_.error(decl.pos, "variable '" + decl.name + "': a function cannot hold a function block instance");
-    } else if (is_std_fb(up)) {
+    } else if (const iec::IecFunction* f = iec::find_iec(up); f && f->function_block) {
       v->role = Var::Role::kStdFb;
-      v->std_fb.type = up;
+      v->std_fb.type = f->name;
+      v->std_fb.iec = f;
     } else if (const Pou* fb = proj_.pou(decl.type.derived); fb && fb->type == PouType::kFunctionBlock) {
       if (depth >= kMaxNesting) {
         d_.error(decl.pos, "function block instances nested deeper than " + std::to_string(kMaxNesting) +

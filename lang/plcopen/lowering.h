@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "lang/iec/iec_functions.h"
 #include "lang/plcopen/emitter.h"
 #include "lang/plcopen/project.h"
 #include "lang/plcopen/st.h"
@@ -35,6 +36,7 @@ struct Location {
 
 struct StdFb {
   std::string type;  // upper-case IEC name
+  const iec::IecFunction* iec = nullptr;  // its row in lang/iec's table
   bool called = false;
 };
 
@@ -85,6 +87,11 @@ class Lowering {
                                      std::vector<Value> args, std::vector<std::string> formals,
                                      SourcePos pos);
   bool is_function(const std::string& upper_name) const;
+  // Lowers standard function or block `f` through lang/iec's table, arguments
+  // by formal position (nullopt: unconnected, the IEC default), its blocks named
+  // under `prefix`. The value of each formal output; empty after an error.
+  std::vector<Value> lower_iec(const iec::IecFunction& f, const std::string& prefix,
+                               const std::vector<std::optional<Value>>& args, SourcePos pos);
   // Calls FB instance `v` with named inputs; its outputs are then read with
   // fb_output(). A second call in one cycle is refused.
   void call_fb(Var& v, const std::vector<std::pair<std::string, Value>>& inputs, SourcePos pos);
