@@ -20,21 +20,26 @@ bool Lowering::is_function(const std::string& up) const {
 
 namespace {
 // The operand type of an overloaded standard function, from what the importer
-// knows of its arguments (BOOL, an integer, else REAL). A selector (SEL's G,
-// MUX's K, a shift's N) does not decide it. An integer is LINT: the variable an
-// integer result is assigned to wraps it into its own type (Lowering::assign).
+// knows of its arguments: BOOL, an integer variable's type (the widest when
+// they differ; LINT when only literals say it), else REAL. A selector (SEL's
+// G, MUX's K, a shift's N) does not decide it.
 iec::IecType operand_type(const iec::IecFunction& f, const std::vector<std::optional<Value>>& args) {
   bool any = false, all_digital = true, all_integer = true;
+  std::optional<iec::IecType> known;
   for (size_t k = 0; k < args.size(); ++k) {
     const std::string formal = k < f.inputs.size() ? f.inputs[k] : "";
     if (!args[k] || formal == "G" || formal == "K" || formal == "N") continue;
     any = true;
     all_digital = all_digital && args[k]->digital;
     all_integer = all_integer && !args[k]->digital && args[k]->integer;
+    if (const auto t = args[k]->int_type;
+        t && (!known || iec::type_info(*t).bits > iec::type_info(*known).bits))
+      known = t;
   }
   if (!any) return iec::IecType::kReal;
   if (all_digital) return iec::IecType::kBool;
-  return all_integer ? iec::IecType::kLint : iec::IecType::kReal;
+  if (!all_integer) return iec::IecType::kReal;
+  return known ? *known : iec::IecType::kLint;
 }
 
 // Puts arguments at their formal input's position (a positional one at the
@@ -115,6 +120,7 @@ std::vector<Value> Lowering::lower_iec(const iec::IecFunction& f, const std::str
     }
     const iec::IecType t = f.typed || f.name.rfind("TO_", 0) == 0 ? f.to : call.type;
     v.integer = !v.digital && (f.name == "TRUNC" || iec::type_info(t).integer);
+    if (v.integer && iec::type_info(t).integer) v.int_type = t;
     r.push_back(v);
   }
   return r;

@@ -7,11 +7,13 @@
 
 #include <functional>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "common/diagnostic.h"
 #include "lang/flat_program.h"
+#include "lang/iec/iec_types.h"
 
 namespace rtplc::lang::plcopen {
 
@@ -20,6 +22,10 @@ struct Value {
   std::string ref;  // producing block's name; empty for a constant
   bool digital = false;
   bool integer = false;  // an integer-typed value (DIV truncates)
+  // An integer value's IEC type when it is known (a variable's; a literal
+  // has none and takes the other operand's): the operand type of a standard
+  // function (lang/iec), so AND on INT works on 16 bits.
+  std::optional<iec::IecType> int_type;
   bool is_const = false;
   double k = 0;
   bool valid() const { return is_const || !ref.empty(); }

@@ -297,8 +297,9 @@ Value Lowering::read(Var& v, SourcePos pos) {
     before_read(upper(v.decl->name));
     if (!v.decl->address.empty()) before_read(upper(v.decl->address));  // %QX0.0 written directly
   }
-  if (v.cur) return *v.cur;
-  return start_value(v, pos);
+  Value r = v.cur ? *v.cur : start_value(v, pos);
+  if (v.integer) r.int_type = iec_type(v.decl->type.base);
+  return r;
 }
 
 void Lowering::assign(Var& v, Value value, SourcePos pos) {
@@ -322,12 +323,9 @@ void Lowering::assign(Var& v, Value value, SourcePos pos) {
   if (v.integer && !value.is_const) {
     // IEC integers wrap (an INT counter goes 32767 -> -32768): the value is
     // truncated and wrapped into the variable's range.
-    const BaseType b = v.decl->type.base;
-    const bool is_signed = b == BaseType::kSint || b == BaseType::kInt || b == BaseType::kDint || b == BaseType::kLint;
-    const double bits = (b == BaseType::kSint || b == BaseType::kUsint || b == BaseType::kByte)   ? 8
-                        : (b == BaseType::kInt || b == BaseType::kUint || b == BaseType::kWord)   ? 16
-                        : (b == BaseType::kDint || b == BaseType::kUdint || b == BaseType::kDword) ? 32
-                                                                                                  : 64;
+    const iec::IecTypeInfo& t = iec::type_info(iec_type(v.decl->type.base));
+    const auto bits = static_cast<double>(t.bits);
+    const bool is_signed = t.is_signed;
     Value w;
     w.ref = em_.fresh("wrap");
     em_.emit("wrap", w.ref, pos, {value.ref}, {bits, is_signed ? 1.0 : 0.0});

@@ -593,6 +593,26 @@ TEST(Plcopen, fbd_body_matches_the_equivalent_seed_program) {
   }
 }
 
+// Standard functions come from lang/iec's table (docs/iec.md), so the importer
+// has every one of them with the table's typing: SHL and NEG, which it never
+// listed itself, and OR on an INT that works on 16 bits.
+TEST(Plcopen, lowers_standard_functions_through_the_iec_table) {
+  const std::string src = project(
+      kNs201, st_program("<localVars>" + var("w", "WORD", "", "3855") + var("i", "INT", "", "-1") +
+                             var("s", "WORD") + var("n", "INT") + var("o", "INT") + var("m", "REAL") +
+                             "</localVars>",
+                         "s := SHL(IN := w, N := 4); n := NEG(i); o := OR(i, 0);"
+                         " m := MUX(1, 1.5, 2.5, 3.5);"));
+  CompileResult r = compile_source(src);
+  ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
+  Machine run(std::move(*r.image));
+  run.cycles(1);
+  EXPECT_EQ(run.value("main.s"), 0xF0F0);  // 16#0F0F shifted left by 4 within a WORD
+  EXPECT_EQ(run.value("main.n"), 1);
+  EXPECT_EQ(run.value("main.o"), -1);
+  EXPECT_EQ(run.value("main.m"), 2.5);
+}
+
 TEST(Plcopen, names_stateful_blocks_by_instance_path) {
   CompileResult r = compile_file(data("openplc_mixed.xml"));
   ASSERT_TRUE(r.ok());
