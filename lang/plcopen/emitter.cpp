@@ -251,34 +251,6 @@ Value Emitter::select(const Value& cond, const Value& a, const Value& b, SourceP
   return r;
 }
 
-Value Emitter::call1(const char* blk, const Value& a, SourcePos pos) {
-  if (!has_block(blk)) {
-    missing_block(blk, std::string("function ") + blk, pos);
-    return constant(0, false);
-  }
-  Value r;
-  r.ref = fresh(blk);
-  const BlockSpec* s = find_block(blk);
-  r.digital = s->out_kind == Kind::kDigital;
-  const Value x = s->input_kind[0] == Kind::kDigital ? to_digital(a, pos) : to_analog(a, pos);
-  emit(blk, r.ref, pos, {ref(x, pos)});
-  return r;
-}
-
-Value Emitter::call2(const char* blk, const Value& a, const Value& b, SourcePos pos) {
-  if (!has_block(blk)) {
-    missing_block(blk, std::string("function ") + blk, pos);
-    return constant(0, false);
-  }
-  Value r;
-  r.ref = fresh(blk);
-  r.integer = a.integer && b.integer;
-  const BlockSpec* s = find_block(blk);
-  r.digital = s->out_kind == Kind::kDigital;
-  emit(blk, r.ref, pos, {ref(to_analog(a, pos), pos), ref(to_analog(b, pos), pos)});
-  return r;
-}
-
 void Emitter::copy_as(const Value& v, const std::string& name, SourcePos pos) {
   const std::string x = ref(v, pos);
   if (v.digital) emit("or", name, pos, {x, x});

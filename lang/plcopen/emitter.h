@@ -63,9 +63,6 @@ class Emitter {
   Value binary(BinOp op, const Value& a, const Value& b, SourcePos pos);
   // cond ? a : b
   Value select(const Value& cond, const Value& a, const Value& b, SourcePos pos);
-  // One-input functions (ABS, SQRT, SIN, ...), block name as written in rtplc.
-  Value call1(const char* block, const Value& a, SourcePos pos);
-  Value call2(const char* block, const Value& a, const Value& b, SourcePos pos);
   // A copy of `v` in a block named `name` (the variable's value at the end of
   // the cycle; always the same opcode per kind, so hot swap keeps it).
   void copy_as(const Value& v, const std::string& name, SourcePos pos);

@@ -161,15 +161,8 @@ std::optional<Location> parse_location(const std::string& address, std::string* 
 // Function calls and FB instances nest at most this deep (recursion is an error).
 inline constexpr int kMaxNesting = 16;
 
-// BaseType lists the elementary types in lang/iec's order.
-inline iec::IecType iec_type(BaseType b) {
-  static_assert(static_cast<int>(BaseType::kTime) == static_cast<int>(iec::IecType::kTime));
-  return b == BaseType::kDerived ? iec::IecType::kReal : static_cast<iec::IecType>(b);
-}
-
 inline bool integer_type(BaseType b) {
-  return b != BaseType::kBool && b != BaseType::kReal && b != BaseType::kLreal &&
-         b != BaseType::kTime && b != BaseType::kDerived;
+  return b != BaseType::kDerived && iec::type_info(iec_type(b)).integer;
 }
 
 }  // namespace rtplc::lang::plcopen

@@ -24,19 +24,6 @@ std::string upper(std::string_view s) {
 
 namespace {
 
-struct TypeName {
-  const char* name;
-  BaseType type;
-};
-constexpr TypeName kTypes[] = {
-    {"BOOL", BaseType::kBool},   {"SINT", BaseType::kSint},   {"INT", BaseType::kInt},
-    {"DINT", BaseType::kDint},   {"LINT", BaseType::kLint},   {"USINT", BaseType::kUsint},
-    {"UINT", BaseType::kUint},   {"UDINT", BaseType::kUdint}, {"ULINT", BaseType::kUlint},
-    {"BYTE", BaseType::kByte},   {"WORD", BaseType::kWord},   {"DWORD", BaseType::kDword},
-    {"LWORD", BaseType::kLword}, {"REAL", BaseType::kReal},   {"LREAL", BaseType::kLreal},
-    {"TIME", BaseType::kTime},
-};
-
 const char* const kNamespaces[] = {
     "http://www.plcopen.org/xml/tc6_0201",
     "http://www.plcopen.org/xml/tc6_0200",
@@ -465,18 +452,14 @@ std::optional<double> parse_literal(std::string_view text, bool* is_bool, bool* 
 }
 
 std::optional<BaseType> elementary_type(std::string_view name) {
-  for (const TypeName& t : kTypes) {
-    if (iequals(name, t.name)) return t.type;
-  }
-  return std::nullopt;
+  const iec::IecTypeInfo* t = iec::find_iec_type(name);
+  if (t == nullptr) return std::nullopt;
+  return static_cast<BaseType>(t->type);  // the same order (project.h)
 }
 
 std::string type_name(const TypeRef& t) {
   if (t.base == BaseType::kDerived) return t.derived;
-  for (const TypeName& n : kTypes) {
-    if (n.type == t.base) return n.name;
-  }
-  return "?";
+  return iec::type_info(iec_type(t.base)).name;
 }
 
 const char* section_name(VarSection s) {

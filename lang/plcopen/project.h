@@ -15,15 +15,22 @@
 
 #include "common/diagnostic.h"
 #include "common/xml_reader.h"
+#include "lang/iec/iec_types.h"
 
 namespace rtplc::lang::plcopen {
 
 
 // An elementary IEC type, or a derived one (a function block type by name).
+// The elementary ones are lang/iec's, in its order (iec_type()).
 enum class BaseType : uint8_t {
   kBool, kSint, kInt, kDint, kLint, kUsint, kUint, kUdint, kUlint,
   kByte, kWord, kDword, kLword, kReal, kLreal, kTime, kDerived
 };
+
+inline iec::IecType iec_type(BaseType b) {
+  static_assert(static_cast<int>(BaseType::kTime) == static_cast<int>(iec::IecType::kTime));
+  return b == BaseType::kDerived ? iec::IecType::kReal : static_cast<iec::IecType>(b);
+}
 
 struct TypeRef {
   BaseType base = BaseType::kReal;
