@@ -291,8 +291,18 @@ void Lowering::call_fb(Var& v, const std::vector<std::pair<std::string, Value>>&
   if (!place_args(*f.iec, args, formals, placed, f.type, d_, pos)) return;
   // Each output is a block named `instance.OUTPUT`: reads before the call find
   // it later in the cycle (last cycle's value), and hot swap keeps its state.
+  const size_t first = out_.blocks.size();
   const std::vector<Value> outs = lower_iec(*f.iec, v.path, placed, pos);
-  for (const Value& o : outs) produced_.push_back(o.ref);
+  // In the order the blocks run (CTU's CV before its Q): `rtplc sim` traces them so.
+  for (size_t i = first; i < out_.blocks.size(); ++i) {
+    const std::string& n = out_.blocks[i].name;
+    for (const Value& o : outs) {
+      if (o.ref == n) {
+        produced_.push_back(n);
+        break;
+      }
+    }
+  }
 }
 
 bool Lowering::finish() {
