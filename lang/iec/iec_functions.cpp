@@ -466,6 +466,18 @@ int iec_output_index(const IecFunction& f, std::string_view formal) {
   return -1;
 }
 
+bool iec_input_sets_type(const IecFunction& f, size_t k) {
+  if (k >= f.inputs.size()) return true;  // IN3.. of an extensible function
+  const std::string_view formal = f.inputs[k];
+  return formal != "G" && formal != "K" && formal != "N";
+}
+
+IecType iec_result_type(const IecFunction& f, IecType type) {
+  if (f.lower == lower_convert) return f.to;
+  if (f.lower == lower_trunc && !type_info(type).integer) return IecType::kLint;
+  return type;
+}
+
 Kind iec_output_kind(const IecFunction& f, size_t k, IecType type) {
   // Lowered into a scratch program with every input unconnected: the kinds
   // come from the lowering itself, so there is no second list to keep in step.

@@ -60,6 +60,14 @@ std::span<const IecFunction> all_iec_functions();
 int iec_input_index(const IecFunction& f, std::string_view formal);
 int iec_output_index(const IecFunction& f, std::string_view formal);
 
+// Whether formal input `k` decides the operand type of an overloaded call:
+// not SEL's G, MUX's K or a shift's N (a selector or a count).
+bool iec_input_sets_type(const IecFunction& f, size_t k);
+
+// The type of `f`'s result called on operand type `type`: a conversion's
+// target, TRUNC's integer (LINT on a REAL operand), else the operand type.
+IecType iec_result_type(const IecFunction& f, IecType type);
+
 // The kind of formal output `k` of `f` called on operand type `type`, as the
 // lowering makes it (a front end typing a read of an FB output before the call).
 Kind iec_output_kind(const IecFunction& f, size_t k, IecType type = IecType::kReal);

@@ -1,9 +1,8 @@
-// Function calls and function block instances (see lowering.h): the standard
-// functions as IEC blocks, user functions expanded at each call, standard FBs
-// as stateful blocks named by instance path, user FBs lowered in their scope.
+// Function calls and function block instances (see lowering.h): standard
+// functions and FBs resolved and lowered by lang/iec's table (docs/iec.md), a
+// standard FB's blocks named by instance path; user functions expanded at each
+// call, user FBs lowered in their scope.
 #include <algorithm>
-#include <cctype>
-#include <cmath>
 
 #include "lang/iec/iec_functions.h"
 #include "lang/plcopen/lowering.h"
@@ -21,14 +20,12 @@ bool Lowering::is_function(const std::string& up) const {
 namespace {
 // The operand type of an overloaded standard function, from what the importer
 // knows of its arguments: BOOL, an integer variable's type (the widest when
-// they differ; LINT when only literals say it), else REAL. A selector (SEL's
-// G, MUX's K, a shift's N) does not decide it.
+// they differ; LINT when only literals say it), else REAL.
 iec::IecType operand_type(const iec::IecFunction& f, const std::vector<std::optional<Value>>& args) {
   bool any = false, all_digital = true, all_integer = true;
   std::optional<iec::IecType> known;
   for (size_t k = 0; k < args.size(); ++k) {
-    const std::string formal = k < f.inputs.size() ? f.inputs[k] : "";
-    if (!args[k] || formal == "G" || formal == "K" || formal == "N") continue;
+    if (!args[k] || !iec::iec_input_sets_type(f, k)) continue;
     any = true;
     all_digital = all_digital && args[k]->digital;
     all_integer = all_integer && !args[k]->digital && args[k]->integer;
@@ -99,29 +96,29 @@ std::vector<Value> Lowering::lower_iec(const iec::IecFunction& f, const std::str
   }
   const auto outs = f.lower(f, ie, call);
   auto name_of = [&](uint32_t producer) {
-    if (iec::Emitter::is_external(producer)) return arg_names[slot_arg[iec::Emitter::external_slot(producer)]];
-    return out_.blocks[producer].name;
+    if (!iec::Emitter::is_external(producer)) return out_.blocks[producer].name;
+    return arg_names[slot_arg[iec::Emitter::external_slot(producer)]];
   };
   em_.adopt(first, name_of);
   if (!outs) {
     d_.error(pos, outs.error());
     return {};
   }
+  const iec::IecType t = iec::iec_result_type(f, call.type);
   std::vector<Value> r;
   for (uint32_t o : *outs) {
-    if (iec::Emitter::is_external(o)) {
+    if (o == iec::kUnconnected) {  // an output left out (none is: every one is wanted)
+      r.push_back(constant(0, false));
+    } else if (iec::Emitter::is_external(o)) {  // MOVE: the argument itself
       r.push_back(*args[slot_arg[iec::Emitter::external_slot(o)]]);
-      continue;
-    }
-    Value v;
-    if (o != iec::kUnconnected) {
+    } else {
+      Value v;
       v.ref = out_.blocks[o].name;
       v.digital = ie.kind_of(o) == Kind::kDigital;
+      v.integer = !v.digital && iec::type_info(t).integer;
+      if (v.integer) v.int_type = t;
+      r.push_back(v);
     }
-    const iec::IecType t = f.typed || f.name.rfind("TO_", 0) == 0 ? f.to : call.type;
-    v.integer = !v.digital && (f.name == "TRUNC" || iec::type_info(t).integer);
-    if (v.integer && iec::type_info(t).integer) v.int_type = t;
-    r.push_back(v);
   }
   return r;
 }
