@@ -304,6 +304,48 @@ TEST(IecLowering, refuses_a_bitwise_operation_on_a_real) {
   EXPECT_NE(r.error().find("bit string"), std::string::npos) << r.error();
 }
 
+// A front end that names its producers (the PLCopen importer) passes external
+// operands: stand-ins of a kind, which the lowering converts like any producer
+// and leaves in the inputs for the front end to rewrite.
+TEST(IecLowering, takes_external_operands_by_kind) {
+  CheckedProgram prog;
+  Emitter e(prog, "x", SourcePos{1, 1});
+  IecCall c;
+  const uint32_t in = e.external(Kind::kDigital), pt = e.external(Kind::kAnalog);
+  c.inputs = {in, pt};
+  const IecFunction& ton = *find_iec("TON");
+  auto r = ton.lower(ton, e, c);
+  ASSERT_TRUE(r.ok());
+  ASSERT_EQ(prog.blocks.size(), 2u);  // ton, ton_et: no d2a/a2d, the kinds already fit
+  EXPECT_EQ(prog.blocks[0].name, "x.Q");
+  EXPECT_EQ(prog.blocks[0].in[0], in);
+  EXPECT_EQ(prog.blocks[0].in[1], pt);
+  EXPECT_TRUE(Emitter::is_external(in));
+  EXPECT_EQ(Emitter::external_slot(pt), 1u);
+  EXPECT_FALSE(Emitter::is_external((*r)[0]));
+  // A digital operand where an analog one is read gets a d2a, reading the stand-in.
+  const uint32_t a = e.analog(in);
+  EXPECT_EQ(prog.blocks[a].written, "d2a");
+  EXPECT_EQ(prog.blocks[a].in[0], in);
+}
+
+TEST(IecTable, says_output_kinds_operand_inputs_and_result_types) {
+  const IecFunction& ton = *find_iec("TON");
+  EXPECT_EQ(iec_output_kind(ton, 0), Kind::kDigital);  // Q
+  EXPECT_EQ(iec_output_kind(ton, 1), Kind::kAnalog);   // ET
+  const IecFunction& ctud = *find_iec("CTUD");
+  EXPECT_EQ(iec_output_kind(ctud, 1), Kind::kDigital);  // QD
+  EXPECT_EQ(iec_output_kind(ctud, 2), Kind::kAnalog);   // CV
+  EXPECT_FALSE(iec_input_sets_type(*find_iec("SEL"), 0));
+  EXPECT_TRUE(iec_input_sets_type(*find_iec("SEL"), 1));
+  EXPECT_FALSE(iec_input_sets_type(*find_iec("SHL"), 1));
+  EXPECT_TRUE(iec_input_sets_type(*find_iec("ADD"), 5));
+  EXPECT_EQ(iec_result_type(*find_iec("REAL_TO_INT"), IecType::kReal), IecType::kInt);
+  EXPECT_EQ(iec_result_type(*find_iec("TO_DINT"), IecType::kReal), IecType::kDint);
+  EXPECT_EQ(iec_result_type(*find_iec("TRUNC"), IecType::kReal), IecType::kLint);
+  EXPECT_EQ(iec_result_type(*find_iec("ADD"), IecType::kInt), IecType::kInt);
+}
+
 TEST(IecTable, generated_docs_match_the_committed_reference) {
   std::ifstream f(std::string(RTPLC_SOURCE_DIR) + "/docs/iec.md");
   ASSERT_TRUE(f) << "docs/iec.md is missing; run: rtplc blocks --iec > docs/iec.md";
