@@ -340,8 +340,9 @@ TEST(SfcFrontEnd, the_same_chart_compiles_to_the_same_image) {
 }
 
 // The hook the PLCopen importer uses (builder.h, HostLink): a chart built into
-// another front end's program.
-TEST(SfcHost, a_hosted_chart_reads_host_blocks_and_names_its_own_under_the_prefix) {
+// another front end's program. Steps A -> B on the host's condition `$go`; B
+// drives the output `$Q`.
+lang::sfc::Chart hosted_chart() {
   using namespace lang::sfc;
   Chart c;
   c.name = "p";
@@ -368,10 +369,19 @@ TEST(SfcHost, a_hosted_chart_reads_host_blocks_and_names_its_own_under_the_prefi
   t.condition.op = Expr::Op::kName;
   t.condition.name = "$go";
   c.transitions = {t};
+  return c;
+}
 
-  DiagnosticList d;
-  const ChartIndex ix = check_chart(c, d);
-  ASSERT_FALSE(d.has_errors());
+// hosted_chart() built through `host`; `d` gets the diagnostics.
+lang::CheckedProgram build_hosted(const lang::sfc::HostLink& host, DiagnosticList& d) {
+  const lang::sfc::Chart c = hosted_chart();
+  const lang::sfc::ChartIndex ix = lang::sfc::check_chart(c, d);
+  EXPECT_FALSE(d.has_errors());
+  return lang::sfc::build_flat_program(c, ix, d, &host);
+}
+
+TEST(SfcHost, a_hosted_chart_reads_host_blocks_and_names_its_own_under_the_prefix) {
+  using namespace lang::sfc;
   HostLink host;
   host.prefix = "main.$sfc.";
   host.first_index = 7;
@@ -381,7 +391,8 @@ TEST(SfcHost, a_hosted_chart_reads_host_blocks_and_names_its_own_under_the_prefi
     if (name == "$go") return 3;
     return std::nullopt;
   };
-  const lang::CheckedProgram p = build_flat_program(c, ix, d, &host);
+  DiagnosticList d;
+  const lang::CheckedProgram p = build_hosted(host, d);
   ASSERT_FALSE(d.has_errors());
   EXPECT_EQ(asked, std::vector<std::string>{"$go"});
   bool reads_host = false, has_flag = false, has_action = false;
@@ -403,29 +414,10 @@ TEST(SfcHost, a_hosted_chart_reads_host_blocks_and_names_its_own_under_the_prefi
 }
 
 TEST(SfcHost, a_host_name_the_resolver_does_not_know_is_reported) {
-  using namespace lang::sfc;
-  Chart c;
-  Signal cond;
-  cond.role = Signal::Role::kHost;
-  cond.name = "$go";
-  c.signals = {cond};
-  Step a;
-  a.name = "A";
-  a.initial = true;
-  c.steps = {a};
-  Transition t;
-  t.name = "$t1";
-  t.from = {NameRef{"A", {}}};
-  t.to = {NameRef{"A", {}}};
-  t.condition.op = Expr::Op::kName;
-  t.condition.name = "$go";
-  c.transitions = {t};
-  DiagnosticList d;
-  const ChartIndex ix = check_chart(c, d);
-  ASSERT_FALSE(d.has_errors());
-  HostLink host;
+  lang::sfc::HostLink host;
   host.resolve = [](const std::string&) -> std::optional<uint32_t> { return std::nullopt; };
-  build_flat_program(c, ix, d, &host);
+  DiagnosticList d;
+  build_hosted(host, d);
   EXPECT_TRUE(d.has_errors());
 }
 
