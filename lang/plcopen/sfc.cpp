@@ -19,6 +19,7 @@
 #include <set>
 
 #include "lang/plcopen/lowering.h"
+#include "lang/plcopen/sfc_chart.h"
 #include "lang/sfc/builder.h"
 #include "lang/sfc/semantics.h"
 
@@ -42,18 +43,14 @@ std::vector<std::string> inputs_of(const XmlElement& e) {
   return out;
 }
 
-struct ActionUse {
-  std::string qualifier;
-  double duration = 0;
-  std::string target;  // a variable or an action name
-  const XmlElement* inline_body = nullptr;
-  SourcePos pos;
-  std::string step;
-};
-
 }  // namespace
 
-void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
+std::string sfc_output_name(std::string target) {
+  std::replace(target.begin(), target.end(), '.', '$');
+  return "$" + upper(target);
+}
+
+bool read_sfc_graph(const XmlElement& body, const std::string& name, DiagnosticList& diags, SfcGraph* g) {
   std::map<std::string, const XmlElement*> el;
   std::vector<std::string> order;
   std::map<std::string, std::vector<std::string>> consumers;  // id -> ids reading it
@@ -66,21 +63,21 @@ void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
     bool known = false;
     for (const char* k : kKnown) known = known || e.name == k;
     if (!known) {
-      d_.error(e.pos, "<" + e.name + "> in an SFC body is not supported yet" +
+      diags.error(e.pos, "<" + e.name + "> in an SFC body is not supported yet" +
                           (e.name == "macroStep" ? std::string(" (macro steps)") : std::string()));
-      return;
+      return false;
     }
     const std::string id = attr(e, "localId");
     if (id.empty() || !el.emplace(id, &e).second) {
-      d_.error(e.pos, "<" + e.name + "> needs a localId of its own");
-      return;
+      diags.error(e.pos, "<" + e.name + "> needs a localId of its own");
+      return false;
     }
     order.push_back(id);
     if (e.name == "step") {
       const std::string n = upper(attr(e, "name"));
       if (n.empty() || !step_by_name.emplace(n, id).second) {
-        d_.error(e.pos, "step '" + attr(e, "name") + "' needs a name of its own");
-        return;
+        diags.error(e.pos, "step '" + attr(e, "name") + "' needs a name of its own");
+        return false;
       }
     }
   }
@@ -101,9 +98,9 @@ void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
         } else if (k == "selectionDivergence" || k == "simultaneousConvergence") {
           for (const std::string& i : inputs_of(*el[id])) sources(i, out, depth + 1);
         } else if (!k.empty()) {
-          d_.error(el[id]->pos, "<" + k + "> cannot lead into a transition");
+          diags.error(el[id]->pos, "<" + k + "> cannot lead into a transition");
         } else {
-          d_.error(body.pos, "connection to localId " + id + ", which is no element of this SFC");
+          diags.error(body.pos, "connection to localId " + id + ", which is no element of this SFC");
         }
       };
   // Steps a transition enters: forward through divergences, convergences and jumps.
@@ -117,7 +114,7 @@ void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
           } else if (k == "jumpStep") {
             auto st = step_by_name.find(upper(attr(*el[c], "targetName")));
             if (st == step_by_name.end()) {
-              d_.error(el[c]->pos, "<jumpStep> to '" + attr(*el[c], "targetName") + "', which is no step of this SFC");
+              diags.error(el[c]->pos, "<jumpStep> to '" + attr(*el[c], "targetName") + "', which is no step of this SFC");
             } else {
               out.insert(st->second);
             }
@@ -129,9 +126,8 @@ void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
 
   // The chart in lang/sfc's terms; its builder owns the evolution rules.
   // Names the importer invents start with '$', which no IEC identifier holds.
-  Emitter& em = em_;
-  sfc::Chart chart;
-  chart.name = s.path;
+  sfc::Chart& chart = g->chart;
+  chart.name = name;
   chart.pos = body.pos;
   std::map<std::string, size_t> step_at;  // step id -> chart.steps index
   for (const std::string& id : order) {
@@ -149,20 +145,132 @@ void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
   };
 
   // Transitions, in document order (the order that decides a selection
-  // divergence). Each condition is lowered here and held in a block the chart
-  // reads as a host signal.
-  std::map<std::string, uint32_t> host_blocks;  // host signal -> block index
+  // divergence). Each condition is a host signal `$c<localId>`: the lowering
+  // holds it in a block, the analysis takes it as free.
   for (const std::string& id : order) {
-    if (d_.has_errors()) return;
+    if (diags.has_errors()) return false;
     const XmlElement& t = *el[id];
     if (t.name != "transition") continue;
     std::set<std::string> from, to;
     for (const std::string& i : inputs_of(t)) sources(i, from, 0);
     targets(id, to, 0);
     if (from.empty() || to.empty()) {
-      if (!d_.has_errors()) d_.error(t.pos, "this transition is not between steps");
-      return;
+      if (!diags.has_errors()) diags.error(t.pos, "this transition is not between steps");
+      return false;
     }
+    const std::string held = "$c" + id;
+    sfc::Signal sig;
+    sig.role = sfc::Signal::Role::kHost;
+    sig.name = held;
+    sig.pos = t.pos;
+    chart.signals.push_back(std::move(sig));
+    sfc::Transition ct;
+    ct.name = "$t" + id;
+    ct.pos = t.pos;
+    for (const std::string& f : from) ct.from.push_back(step_ref(f, t.pos));
+    for (const std::string& e : to) ct.to.push_back(step_ref(e, t.pos));
+    ct.condition.op = sfc::Expr::Op::kName;
+    ct.condition.name = held;
+    ct.condition.pos = t.pos;
+    chart.transitions.push_back(std::move(ct));
+    g->transitions.push_back(&t);
+  }
+  if (diags.has_errors()) return false;
+  if (std::none_of(chart.steps.begin(), chart.steps.end(), [](const sfc::Step& st) { return st.initial; })) {
+    diags.error(body.pos, "this SFC has no initial step (initialStep=\"true\")");
+    return false;
+  }
+
+  // Actions: every (qualifier, target) use, grouped by target.
+  std::vector<SfcActionUse>& uses = g->uses;
+  for (const std::string& id : order) {
+    const XmlElement& ab = *el[id];
+    if (ab.name != "actionBlock") continue;
+    std::set<std::string> steps;
+    for (const std::string& i : inputs_of(ab)) {
+      if (kind(i) == "step") steps.insert(i);
+    }
+    if (steps.size() != 1) {
+      diags.error(ab.pos, "an <actionBlock> must be connected to one step");
+      return false;
+    }
+    for (const XmlElement& a : ab.children) {
+      if (a.name != "action") continue;
+      SfcActionUse u;
+      u.qualifier = upper(attr(a, "qualifier"));
+      if (u.qualifier.empty()) u.qualifier = "N";
+      u.pos = a.pos;
+      u.step = step_at[*steps.begin()];
+      const std::string dur = attr(a, "duration");
+      if (!dur.empty()) {
+        auto k = parse_literal(dur);
+        if (!k || *k < 0) {
+          diags.error(a.pos, "action duration '" + dur + "' is not a TIME literal");
+          return false;
+        }
+        u.duration = *k;
+      }
+      if (const XmlElement* r = a.child("reference")) {
+        u.target = attr(*r, "name");
+      } else if (const XmlElement* in = a.child("inline")) {
+        u.inline_body = in;
+        u.target = "inline" + attr(a, "localId") + "@" + id;
+      } else {
+        diags.error(a.pos, "an <action> needs a <reference> or an <inline> body");
+        return false;
+      }
+      static const char* const kQual[] = {"N", "S", "R", "P", "L", "D"};
+      bool ok = false;
+      for (const char* q : kQual) ok = ok || u.qualifier == q;
+      if (!ok) {
+        diags.error(a.pos, "action qualifier " + u.qualifier + " is not supported yet (N, S, R, P, L and D are)");
+        return false;
+      }
+      if ((u.qualifier == "L" || u.qualifier == "D") && dur.empty()) {
+        diags.error(a.pos, "qualifier " + u.qualifier + " needs a duration");
+        return false;
+      }
+      uses.push_back(u);
+    }
+  }
+  // One chart OUTPUT per action target (a variable or an action, named
+  // without case, as IEC names are); the builder ORs its N, P, L, D terms and
+  // its reset-dominant S/R latch into the output's action flag.
+  std::vector<std::string>& targets_in_order = g->targets;
+  for (const SfcActionUse& u : uses) {
+    if (std::find(targets_in_order.begin(), targets_in_order.end(), upper(u.target)) == targets_in_order.end()) {
+      targets_in_order.push_back(upper(u.target));
+      sfc::Signal out;
+      out.role = sfc::Signal::Role::kOutput;
+      out.name = sfc_output_name(u.target);
+      out.pos = u.pos;
+      chart.signals.push_back(std::move(out));
+    }
+    sfc::Action ca;
+    ca.qualifier = u.qualifier;
+    ca.pos = u.pos;
+    ca.target = sfc_output_name(u.target);
+    ca.target_pos = u.pos;
+    if (u.qualifier == "L" || u.qualifier == "D") ca.seconds = u.duration;
+    ca.time_pos = u.pos;
+    chart.steps[u.step].actions.push_back(std::move(ca));
+  }
+
+  return !diags.has_errors();
+}
+
+void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
+  SfcGraph g;
+  if (!read_sfc_graph(body, s.path, d_, &g)) return;
+  const sfc::Chart& chart = g.chart;
+  const std::vector<SfcActionUse>& uses = g.uses;
+  Emitter& em = em_;
+  // Each condition, lowered in the importer's blocks, is held in a block the
+  // chart reads as a host signal.
+  std::map<std::string, uint32_t> host_blocks;  // host signal -> block index
+  for (size_t i = 0; i < g.transitions.size(); ++i) {
+    const XmlElement& t = *g.transitions[i];
+    const std::string id = attr(t, "localId");
     Value cond = constant(0, true);
     const XmlElement* c = t.child("condition");
     const XmlElement* inl = c ? c->child("inline") : nullptr;
@@ -212,107 +320,9 @@ void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
       d_.error(t.pos, "a transition condition connected to FBD or LD elements is not supported yet (write it inline in ST)");
       return;
     }
-    const std::string held = "$c" + id;
     const std::string x = em.ref(cond, t.pos);
-    host_blocks[held] = static_cast<uint32_t>(em.emit("or", s.path + ".$sfc.cond." + id, t.pos, {x, x}));
-    sfc::Signal sig;
-    sig.role = sfc::Signal::Role::kHost;
-    sig.name = held;
-    sig.pos = t.pos;
-    chart.signals.push_back(std::move(sig));
-    sfc::Transition ct;
-    ct.name = "$t" + id;
-    ct.pos = t.pos;
-    for (const std::string& f : from) ct.from.push_back(step_ref(f, t.pos));
-    for (const std::string& g : to) ct.to.push_back(step_ref(g, t.pos));
-    ct.condition.op = sfc::Expr::Op::kName;
-    ct.condition.name = held;
-    ct.condition.pos = t.pos;
-    chart.transitions.push_back(std::move(ct));
-  }
-  if (d_.has_errors()) return;
-  if (std::none_of(chart.steps.begin(), chart.steps.end(), [](const sfc::Step& st) { return st.initial; })) {
-    d_.error(body.pos, "this SFC has no initial step (initialStep=\"true\")");
-    return;
-  }
-
-  // Actions: every (qualifier, target) use, grouped by target.
-  std::vector<ActionUse> uses;
-  for (const std::string& id : order) {
-    const XmlElement& ab = *el[id];
-    if (ab.name != "actionBlock") continue;
-    std::set<std::string> steps;
-    for (const std::string& i : inputs_of(ab)) {
-      if (kind(i) == "step") steps.insert(i);
-    }
-    if (steps.size() != 1) {
-      d_.error(ab.pos, "an <actionBlock> must be connected to one step");
-      return;
-    }
-    for (const XmlElement& a : ab.children) {
-      if (a.name != "action") continue;
-      ActionUse u;
-      u.qualifier = upper(attr(a, "qualifier"));
-      if (u.qualifier.empty()) u.qualifier = "N";
-      u.pos = a.pos;
-      u.step = *steps.begin();
-      const std::string dur = attr(a, "duration");
-      if (!dur.empty()) {
-        auto k = parse_literal(dur);
-        if (!k || *k < 0) {
-          d_.error(a.pos, "action duration '" + dur + "' is not a TIME literal");
-          return;
-        }
-        u.duration = *k;
-      }
-      if (const XmlElement* r = a.child("reference")) {
-        u.target = attr(*r, "name");
-      } else if (const XmlElement* in = a.child("inline")) {
-        u.inline_body = in;
-        u.target = "inline" + attr(a, "localId") + "@" + id;
-      } else {
-        d_.error(a.pos, "an <action> needs a <reference> or an <inline> body");
-        return;
-      }
-      static const char* const kQual[] = {"N", "S", "R", "P", "L", "D"};
-      bool ok = false;
-      for (const char* q : kQual) ok = ok || u.qualifier == q;
-      if (!ok) {
-        d_.error(a.pos, "action qualifier " + u.qualifier + " is not supported yet (N, S, R, P, L and D are)");
-        return;
-      }
-      if ((u.qualifier == "L" || u.qualifier == "D") && dur.empty()) {
-        d_.error(a.pos, "qualifier " + u.qualifier + " needs a duration");
-        return;
-      }
-      uses.push_back(u);
-    }
-  }
-  // One chart OUTPUT per action target (a variable or an action, named
-  // without case, as IEC names are); the builder ORs its N, P, L, D terms and
-  // its reset-dominant S/R latch into the output's action flag.
-  auto output_name = [](std::string target) {
-    std::replace(target.begin(), target.end(), '.', '$');
-    return "$" + upper(target);
-  };
-  std::vector<std::string> targets_in_order;
-  for (const ActionUse& u : uses) {
-    if (std::find(targets_in_order.begin(), targets_in_order.end(), upper(u.target)) == targets_in_order.end()) {
-      targets_in_order.push_back(upper(u.target));
-      sfc::Signal out;
-      out.role = sfc::Signal::Role::kOutput;
-      out.name = output_name(u.target);
-      out.pos = u.pos;
-      chart.signals.push_back(std::move(out));
-    }
-    sfc::Action ca;
-    ca.qualifier = u.qualifier;
-    ca.pos = u.pos;
-    ca.target = output_name(u.target);
-    ca.target_pos = u.pos;
-    if (u.qualifier == "L" || u.qualifier == "D") ca.seconds = u.duration;
-    ca.time_pos = u.pos;
-    chart.steps[step_at[u.step]].actions.push_back(std::move(ca));
+    host_blocks[chart.transitions[i].condition.name] =
+        static_cast<uint32_t>(em.emit("or", s.path + ".$sfc.cond." + id, t.pos, {x, x}));
   }
 
   const sfc::ChartIndex index = sfc::check_chart(chart, d_);
@@ -339,16 +349,16 @@ void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
     out_.variables.push_back(name);
   }
 
-  for (const std::string& tgt : targets_in_order) {
+  for (const std::string& tgt : g.targets) {
     SourcePos pos;
-    const ActionUse* first = nullptr;
-    for (const ActionUse& u : uses) {
+    const SfcActionUse* first = nullptr;
+    for (const SfcActionUse& u : uses) {
       if (upper(u.target) != tgt) continue;
       if (!first) first = &u;
       pos = u.pos;
     }
     Value on;
-    on.ref = sfc::action_flag_block(host, output_name(first->target));
+    on.ref = sfc::action_flag_block(host, sfc_output_name(first->target));
     on.digital = true;
     // A named action with a body, an inline body, or a BOOL variable.
     const NamedBody* nb = nullptr;
