@@ -259,6 +259,30 @@ bool read_sfc_graph(const XmlElement& body, const std::string& name, DiagnosticL
   return !diags.has_errors();
 }
 
+std::optional<sfc::Chart> read_sfc_pou(std::string_view xml, const std::string& pou,
+                                       DiagnosticList& diags) {
+  std::optional<Project> project = read_project(xml, diags);
+  if (!project || diags.has_errors()) return std::nullopt;
+  std::vector<const Pou*> charts;
+  std::string names;
+  for (const Pou& p : project->pous) {
+    if (p.body.language != BodyLanguage::kSfc || p.body.graph == nullptr) continue;
+    if (pou.empty() || iequals(p.name, pou)) charts.push_back(&p);
+    names += (names.empty() ? "" : ", ") + p.name;
+  }
+  if (charts.size() != 1) {
+    diags.error(project->root.pos,
+                names.empty() ? std::string("the project has no POU with an SFC body")
+                : charts.empty() ? "no POU '" + pou + "' with an SFC body; the project has " + names
+                                 : "the project has several POUs with an SFC body (" + names +
+                                       "); choose one with --pou");
+    return std::nullopt;
+  }
+  SfcGraph g;
+  if (!read_sfc_graph(*charts[0]->body.graph, charts[0]->name, diags, &g)) return std::nullopt;
+  return std::move(g.chart);
+}
+
 void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
   SfcGraph g;
   if (!read_sfc_graph(body, s.path, d_, &g)) return;

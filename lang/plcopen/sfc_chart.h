@@ -6,7 +6,9 @@
 #pragma once
 
 #include <cstddef>
+#include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "common/diagnostic.h"
@@ -37,6 +39,13 @@ struct SfcGraph {
 // False, with the reasons in `diags`, on a graph the chart cannot express.
 bool read_sfc_graph(const XmlElement& body, const std::string& name, DiagnosticList& diags,
                     SfcGraph* g);
+
+// `rtplc analyze FILE.xml`: the SFC body of POU `pou` of a PLCopen project
+// (empty: the project's only POU with an SFC body) as a chart whose
+// conditions, host signals without a plant MODEL, the net builder takes as
+// free. nullopt, with the reasons in `diags`, when there is no such chart.
+std::optional<sfc::Chart> read_sfc_pou(std::string_view xml, const std::string& pou,
+                                       DiagnosticList& diags);
 
 // The chart OUTPUT an action target becomes ("$" + upper-case name).
 std::string sfc_output_name(std::string target);
