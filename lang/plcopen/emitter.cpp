@@ -36,7 +36,14 @@ size_t Emitter::emit(const std::string& written, std::string name, SourcePos pos
   b.params = std::move(params);
   p_.blocks.push_back(std::move(b));
   refs_.push_back(std::move(ins));
+  resolved_.push_back(false);
   return p_.blocks.size() - 1;
+}
+
+void Emitter::append_resolved(FlatBlock b) {
+  p_.blocks.push_back(std::move(b));
+  refs_.emplace_back();
+  resolved_.push_back(true);
 }
 
 std::string Emitter::fresh(const std::string& scope) {
@@ -296,6 +303,7 @@ bool Emitter::finish() {
   bool ok = true;
   for (size_t i = 0; i < p_.blocks.size(); ++i) {
     FlatBlock& b = p_.blocks[i];
+    if (resolved_[i]) continue;
     for (uint32_t k = 0; k < b.n_in; ++k) {
       auto it = index.find(refs_[i][k]);
       if (it == index.end()) {
