@@ -19,6 +19,8 @@
 #include "lang/petri/generators.h"
 #include "lang/petri/pnml.h"
 #include "lang/petri/report.h"
+#include "lang/plcopen/import.h"
+#include "lang/plcopen/sfc_chart.h"
 #include "lang/sfc/lexer.h"
 #include "lang/sfc/net_builder.h"
 
@@ -39,6 +41,7 @@ struct AnalyzeArgs {
   uint64_t limit = 50'000'000;
   unsigned threads = 0;  // 0 = every CPU this process may use
   bool quiet = false;
+  std::string pou;      // PLCopen: the POU whose SFC body is analysed
   std::string preface;  // an SFC's main loop and sub-PNs, printed before the report
 };
 
@@ -87,13 +90,28 @@ petri::Net load_net(AnalyzeArgs& a) {
   }
   const size_t first = text.find_first_not_of(" \t\r\n\xEF\xBB\xBF");
   const bool color = isatty(STDERR_FILENO) != 0;
-  if (ends_with(a.file, ".sfc") || lang::sfc::starts_with_sfc_keyword(text)) {
+  if (!a.pou.empty() && !lang::plcopen::is_plcopen_source(text)) {
+    std::fprintf(stderr, "rtplc analyze: --pou is for a PLCopen project; %s is none\n",
+                 a.file.c_str());
+    throw CLI::RuntimeError(kExitUsage);
+  }
+  const bool sfc_file = ends_with(a.file, ".sfc") || lang::sfc::starts_with_sfc_keyword(text);
+  if (sfc_file || lang::plcopen::is_plcopen_source(text)) {
     DiagnosticList diags;
-    std::optional<lang::sfc::SfcNet> sfc = lang::sfc::sfc_source_to_net(text, diags);
+    std::optional<lang::sfc::SfcNet> sfc;
+    if (sfc_file) {
+      sfc = lang::sfc::sfc_source_to_net(text, diags);
+    } else if (std::optional<lang::sfc::Chart> chart =
+                   lang::plcopen::read_sfc_pou(text, a.pou, diags)) {
+      // The chart the PLCopen importer compiles, through the same net builder.
+      const lang::sfc::ChartIndex index = lang::sfc::check_chart(*chart, diags);
+      if (!diags.has_errors()) sfc = lang::sfc::build_net(*chart, index, diags);
+    }
     const std::string rendered = diags.render(a.file, text, color);
     if (!rendered.empty()) std::fputs(rendered.c_str(), stderr);
     if (!sfc) {
-      std::fprintf(stderr, "%s: the SFC program has errors; nothing analysed\n", a.file.c_str());
+      std::fprintf(stderr, "%s: %s; nothing analysed\n", a.file.c_str(),
+                   sfc_file ? "the SFC program has errors" : "no SFC chart to analyse");
       throw CLI::RuntimeError(kExitFailure);
     }
     if (!a.json) a.preface = lang::sfc::render_hierarchy(*sfc);
@@ -203,11 +221,18 @@ void add_analyze_command(CLI::App& app) {
       "Exit code: 0 analysed, 1 unreadable input, 2 bad command line, 3 stopped by --limit.\n"
       "An SFC program (.sfc) is first built into a hierarchical net (steps = main loop, plant\n"
       "modules = sub-PNs; docs/sfc.md) and its sub-PN matrices are printed before the report.\n"
+      "A PLCopen project (.xml) is analysed the same way: the SFC body of its POU (--pou when\n"
+      "it has several), as the importer compiles it; its ST conditions count as always able\n"
+      "to fire (docs/plcopen.md, \"SFC\").\n"
       "Examples:\n  rtplc analyze examples/petri/mutex.pnml\n  rtplc analyze examples/tank.sfc\n"
+      "  rtplc analyze tests/plcopen/data/beremiz_sfc.xml\n"
       "  rtplc analyze examples/petri/deadlock.pnml --json --dot deadlock.dot\n"
       "  rtplc analyze --generate philosophers-10 --write-pnml phil10.pnml\n"
       "  rtplc analyze --generate kanban-5 --threads 1   (the sequential search, to compare)");
-  cmd->add_option("file", args->file, "P/T net in PNML (ISO/IEC 15909-2) or an SFC program (.sfc)");
+  cmd->add_option("file", args->file,
+                  "P/T net in PNML (ISO/IEC 15909-2), an SFC program (.sfc) or a PLCopen project "
+                  "with an SFC POU (.xml)");
+  cmd->add_option("--pou", args->pou, "PLCopen: the POU whose SFC body is analysed");
   cmd->add_option("--generate", args->generate,
                   "analyse a generated MCC model instead: philosophers-N, kanban-N");
   cmd->add_flag("--json", args->json, "print the results as JSON");

@@ -1,6 +1,7 @@
 // `rtplc check --explain`: what the compiler made of a program, for the engineer
 // who wrote it — textual execution order, delayed (last-cycle) references, I/O
 // bindings, sizes, and how the executor will batch the blocks.
+#include <algorithm>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -45,11 +46,18 @@ std::string explain(const CompileResult& r) {
                             (p.macro_calls == 1 ? "" : "s") + " expanded)"
                       : "") +
        ", period " + format_number(img.period_s()) + " s" +
-       (p.period_from_stime ? " (stime, line " + std::to_string(p.stime_pos.line) + ")"
-                            : " (default)"));
+       (p.period_from_stime ? std::string(" (") + p.period_source + ", line " +
+                                  std::to_string(p.stime_pos.line) + ")"
+                            : std::string(" (default)")));
   line("");
   line("Execution order (textual; a reference to a later block or to itself reads last cycle's value):");
-  line("     #  " + pad("id", 14) + pad("block", 7) + pad("inputs", 28) + "params / device          line");
+  // Columns as wide as their longest entry (at least the seed language's
+  // widths): imported programs have long instance paths as names.
+  struct Row {
+    std::string id, block, ins, prm, where;
+  };
+  std::vector<Row> rows;
+  rows.reserve(p.blocks.size());
   for (size_t i = 0; i < p.blocks.size(); ++i) {
     const FlatBlock& b = p.blocks[i];
     std::string ins;
@@ -74,10 +82,23 @@ std::string explain(const CompileResult& r) {
     std::string where = std::to_string(b.pos.line);
     if (b.call_line) where += " (macro, called at line " + std::to_string(b.call_line) + ")";
     std::string id = b.spec->has_output ? b.name : "-";
+    rows.push_back({std::move(id), b.written, std::move(ins), std::move(prm), std::move(where)});
+  }
+  size_t w_id = 14, w_block = 7, w_ins = 28, w_prm = 25;
+  for (const Row& row : rows) {
+    w_id = std::max(w_id, row.id.size() + 2);
+    w_block = std::max(w_block, row.block.size() + 1);
+    w_ins = std::max(w_ins, row.ins.size() + 2);
+    w_prm = std::max(w_prm, row.prm.size() + 2);
+  }
+  line("     #  " + pad("id", w_id) + pad("block", w_block) + pad("inputs", w_ins) +
+       pad("params / device", w_prm) + "line");
+  for (size_t i = 0; i < rows.size(); ++i) {
+    const Row& row = rows[i];
     char idx[24];
     std::snprintf(idx, sizeof idx, "%6zu", i);
-    line(std::string(idx) + "  " + pad(id, 14) + pad(b.written, 7) + pad(ins, 28) + pad(prm, 25) +
-         where);
+    line(std::string(idx) + "  " + pad(row.id, w_id) + pad(row.block, w_block) +
+         pad(row.ins, w_ins) + pad(row.prm, w_prm) + row.where);
   }
   line("  (' = delayed: reads the value from the previous cycle, 0 in the first cycle)");
 

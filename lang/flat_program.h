@@ -38,8 +38,9 @@ struct FlatBlock {
 struct CheckedProgram {
   std::vector<FlatBlock> blocks;  // textual order = semantic execution order
   double period = 0.1;            // seconds
-  bool period_from_stime = false;
+  bool period_from_stime = false;  // the program set its period (at stime_pos)
   SourcePos stime_pos;
+  const char* period_source = "stime";  // what set it, for --explain ("task interval")
   uint32_t macro_calls = 0;
   // What a front end decided that the blocks alone do not show (a PLCopen
   // feedback loop broken at a connection); `check --explain` lists them.

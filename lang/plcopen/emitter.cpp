@@ -36,6 +36,7 @@ size_t Emitter::emit(const std::string& written, std::string name, SourcePos pos
   b.params = std::move(params);
   p_.blocks.push_back(std::move(b));
   refs_.push_back(std::move(ins));
+  resolved_.push_back(false);
   return p_.blocks.size() - 1;
 }
 
@@ -46,7 +47,14 @@ void Emitter::adopt(size_t first, const std::function<std::string(uint32_t)>& in
     std::vector<std::string> ins;
     for (uint32_t k = 0; k < b.n_in; ++k) ins.push_back(k < 3 ? input_name(b.in[k]) : "");
     refs_.push_back(std::move(ins));
+    resolved_.push_back(false);  // an input may name a block made later
   }
+}
+
+void Emitter::append_resolved(FlatBlock b) {
+  p_.blocks.push_back(std::move(b));
+  refs_.emplace_back();
+  resolved_.push_back(true);
 }
 
 std::string Emitter::fresh(const std::string& scope) {
@@ -278,6 +286,7 @@ bool Emitter::finish() {
   bool ok = true;
   for (size_t i = 0; i < p_.blocks.size(); ++i) {
     FlatBlock& b = p_.blocks[i];
+    if (resolved_[i]) continue;
     for (uint32_t k = 0; k < b.n_in; ++k) {
       auto it = index.find(refs_[i][k]);
       if (it == index.end()) {

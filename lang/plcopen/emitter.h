@@ -49,6 +49,10 @@ class Emitter {
   // indices (lang/iec's lowering): `input_name` names each input's producer,
   // resolved by finish() like every other reference.
   void adopt(size_t first, const std::function<std::string(uint32_t)>& input_name);
+  // Appends a block whose inputs are already indices (one another front end
+  // built, lang/sfc for an SFC body); later blocks may read it by name.
+  void append_resolved(FlatBlock b);
+  size_t size() const { return p_.blocks.size(); }
 
   // A unique name under `scope` ("main" -> "main.$7").
   std::string fresh(const std::string& scope);
@@ -84,7 +88,8 @@ class Emitter {
  private:
   CheckedProgram& p_;
   DiagnosticList& d_;
-  std::vector<std::vector<std::string>> refs_;
+  std::vector<std::vector<std::string>> refs_;  // per block its input names
+  std::vector<bool> resolved_;                  // per block: in[] set by append_resolved
   std::map<std::string, std::string> consts_;
   std::map<std::string, bool> reported_missing_;
   size_t counter_ = 0;

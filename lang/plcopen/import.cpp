@@ -150,6 +150,7 @@ ImportResult import_plcopen(std::string_view xml, const ImportOptions& opt, Diag
       res.program.period = chosen.task->interval;
       res.program.period_from_stime = true;
       res.program.stime_pos = chosen.task->pos;
+      res.program.period_source = "task interval";
     }
   }
 

@@ -1,20 +1,27 @@
-// PLCopen SFC bodies -> blocks (docs/plcopen.md, "SFC"), with the evolution
-// rules of rtplc's own SFC (docs/sfc.md, "How an SFC runs"; lang/sfc/builder.cpp):
-//   - a transition fires when all its source steps were active at the end of
-//     the last cycle and its condition holds; of the transitions leaving one
-//     step through a selection divergence, the first in the document wins;
-//   - step X = (last cycle's X AND NOT a leaving transition fired) OR an
-//     entering one fired (OR the first cycle, for the initial step), a block
-//     named `instance.step.NAME.X`, so a swap keeps the active steps;
-//   - actions see this cycle's step flags: N, S, R, P, L and D on a BOOL
-//     variable or on a named action whose body (ST, FBD, LD or IL) then runs,
-//     if-converted, while the action is active.
+// PLCopen SFC bodies -> blocks (docs/plcopen.md, "SFC"). This file reads the
+// XML graph: steps, transitions, divergences, convergences, jumps and action
+// blocks become a lang/sfc chart, whose builder (lang/sfc/builder.h) applies
+// the evolution rules and action qualifiers (docs/sfc.md, "How an SFC runs"),
+// so a PLCopen chart and a .sfc file evolve by one definition. What stays here
+// is what only PLCopen has:
+//   - transition conditions in ST (inline or a named <transition>), lowered to
+//     importer blocks the chart reads as host signals;
+//   - step flags copied to blocks named `instance.step.NAME.X` (traced by
+//     `rtplc sim`; the chart's own flag keeps its name, so a swap keeps the
+//     active steps);
+//   - each action target's flag then drives a BOOL variable, or guards a
+//     named action's body (ST, FBD, LD or IL) or an inline ST body, which runs
+//     if-converted while the action is active.
 #include <algorithm>
 #include <functional>
 #include <map>
+#include <optional>
 #include <set>
 
 #include "lang/plcopen/lowering.h"
+#include "lang/plcopen/sfc_chart.h"
+#include "lang/sfc/builder.h"
+#include "lang/sfc/semantics.h"
 
 namespace rtplc::lang::plcopen {
 namespace {
@@ -36,18 +43,14 @@ std::vector<std::string> inputs_of(const XmlElement& e) {
   return out;
 }
 
-struct ActionUse {
-  std::string qualifier;
-  double duration = 0;
-  std::string target;  // a variable or an action name
-  const XmlElement* inline_body = nullptr;
-  SourcePos pos;
-  std::string step;
-};
-
 }  // namespace
 
-void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
+std::string sfc_output_name(std::string target) {
+  std::replace(target.begin(), target.end(), '.', '$');
+  return "$" + upper(target);
+}
+
+bool read_sfc_graph(const XmlElement& body, const std::string& name, DiagnosticList& diags, SfcGraph* g) {
   std::map<std::string, const XmlElement*> el;
   std::vector<std::string> order;
   std::map<std::string, std::vector<std::string>> consumers;  // id -> ids reading it
@@ -60,21 +63,21 @@ void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
     bool known = false;
     for (const char* k : kKnown) known = known || e.name == k;
     if (!known) {
-      d_.error(e.pos, "<" + e.name + "> in an SFC body is not supported yet" +
+      diags.error(e.pos, "<" + e.name + "> in an SFC body is not supported yet" +
                           (e.name == "macroStep" ? std::string(" (macro steps)") : std::string()));
-      return;
+      return false;
     }
     const std::string id = attr(e, "localId");
     if (id.empty() || !el.emplace(id, &e).second) {
-      d_.error(e.pos, "<" + e.name + "> needs a localId of its own");
-      return;
+      diags.error(e.pos, "<" + e.name + "> needs a localId of its own");
+      return false;
     }
     order.push_back(id);
     if (e.name == "step") {
       const std::string n = upper(attr(e, "name"));
       if (n.empty() || !step_by_name.emplace(n, id).second) {
-        d_.error(e.pos, "step '" + attr(e, "name") + "' needs a name of its own");
-        return;
+        diags.error(e.pos, "step '" + attr(e, "name") + "' needs a name of its own");
+        return false;
       }
     }
   }
@@ -95,9 +98,9 @@ void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
         } else if (k == "selectionDivergence" || k == "simultaneousConvergence") {
           for (const std::string& i : inputs_of(*el[id])) sources(i, out, depth + 1);
         } else if (!k.empty()) {
-          d_.error(el[id]->pos, "<" + k + "> cannot lead into a transition");
+          diags.error(el[id]->pos, "<" + k + "> cannot lead into a transition");
         } else {
-          d_.error(body.pos, "connection to localId " + id + ", which is no element of this SFC");
+          diags.error(body.pos, "connection to localId " + id + ", which is no element of this SFC");
         }
       };
   // Steps a transition enters: forward through divergences, convergences and jumps.
@@ -111,7 +114,7 @@ void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
           } else if (k == "jumpStep") {
             auto st = step_by_name.find(upper(attr(*el[c], "targetName")));
             if (st == step_by_name.end()) {
-              d_.error(el[c]->pos, "<jumpStep> to '" + attr(*el[c], "targetName") + "', which is no step of this SFC");
+              diags.error(el[c]->pos, "<jumpStep> to '" + attr(*el[c], "targetName") + "', which is no step of this SFC");
             } else {
               out.insert(st->second);
             }
@@ -121,29 +124,177 @@ void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
         }
       };
 
-  Emitter& em = em_;
-  auto flag = [&](const std::string& step_id) { return s.path + ".step." + attr(*el[step_id], "name") + ".X"; };
-  auto prev = [&](const std::string& step_id) {
-    Value v;
-    v.ref = flag(step_id);  // made below: read here, it is last cycle's flag
-    v.digital = true;
-    return v;
+  // The chart in lang/sfc's terms; its builder owns the evolution rules.
+  // Names the importer invents start with '$', which no IEC identifier holds.
+  sfc::Chart& chart = g->chart;
+  chart.name = name;
+  chart.pos = body.pos;
+  std::map<std::string, size_t> step_at;  // step id -> chart.steps index
+  for (const std::string& id : order) {
+    const XmlElement& st = *el[id];
+    if (st.name != "step") continue;
+    sfc::Step cs;
+    cs.name = attr(st, "name");
+    cs.pos = st.pos;
+    cs.initial = attr(st, "initialStep") == "true";
+    step_at[id] = chart.steps.size();
+    chart.steps.push_back(std::move(cs));
+  }
+  auto step_ref = [&](const std::string& step_id, SourcePos pos) {
+    return sfc::NameRef{chart.steps[step_at[step_id]].name, pos};
   };
 
-  // Transitions, in document order.
-  std::map<std::string, Value> leaving, entering;  // step id -> OR of fired transitions
-  std::map<std::string, Value> earlier;            // step id -> OR of earlier transitions from it (priority)
+  // Transitions, in document order (the order that decides a selection
+  // divergence). Each condition is a host signal `$c<localId>`: the lowering
+  // holds it in a block, the analysis takes it as free.
   for (const std::string& id : order) {
-    if (d_.has_errors()) return;
+    if (diags.has_errors()) return false;
     const XmlElement& t = *el[id];
     if (t.name != "transition") continue;
     std::set<std::string> from, to;
     for (const std::string& i : inputs_of(t)) sources(i, from, 0);
     targets(id, to, 0);
     if (from.empty() || to.empty()) {
-      if (!d_.has_errors()) d_.error(t.pos, "this transition is not between steps");
-      return;
+      if (!diags.has_errors()) diags.error(t.pos, "this transition is not between steps");
+      return false;
     }
+    const std::string held = "$c" + id;
+    sfc::Signal sig;
+    sig.role = sfc::Signal::Role::kHost;
+    sig.name = held;
+    sig.pos = t.pos;
+    chart.signals.push_back(std::move(sig));
+    sfc::Transition ct;
+    ct.name = "$t" + id;
+    ct.pos = t.pos;
+    for (const std::string& f : from) ct.from.push_back(step_ref(f, t.pos));
+    for (const std::string& e : to) ct.to.push_back(step_ref(e, t.pos));
+    ct.condition.op = sfc::Expr::Op::kName;
+    ct.condition.name = held;
+    ct.condition.pos = t.pos;
+    chart.transitions.push_back(std::move(ct));
+    g->transitions.push_back(&t);
+  }
+  if (diags.has_errors()) return false;
+  if (std::none_of(chart.steps.begin(), chart.steps.end(), [](const sfc::Step& st) { return st.initial; })) {
+    diags.error(body.pos, "this SFC has no initial step (initialStep=\"true\")");
+    return false;
+  }
+
+  // Actions: every (qualifier, target) use, grouped by target.
+  std::vector<SfcActionUse>& uses = g->uses;
+  for (const std::string& id : order) {
+    const XmlElement& ab = *el[id];
+    if (ab.name != "actionBlock") continue;
+    std::set<std::string> steps;
+    for (const std::string& i : inputs_of(ab)) {
+      if (kind(i) == "step") steps.insert(i);
+    }
+    if (steps.size() != 1) {
+      diags.error(ab.pos, "an <actionBlock> must be connected to one step");
+      return false;
+    }
+    for (const XmlElement& a : ab.children) {
+      if (a.name != "action") continue;
+      SfcActionUse u;
+      u.qualifier = upper(attr(a, "qualifier"));
+      if (u.qualifier.empty()) u.qualifier = "N";
+      u.pos = a.pos;
+      u.step = step_at[*steps.begin()];
+      const std::string dur = attr(a, "duration");
+      if (!dur.empty()) {
+        auto k = parse_literal(dur);
+        if (!k || *k < 0) {
+          diags.error(a.pos, "action duration '" + dur + "' is not a TIME literal");
+          return false;
+        }
+        u.duration = *k;
+      }
+      if (const XmlElement* r = a.child("reference")) {
+        u.target = attr(*r, "name");
+      } else if (const XmlElement* in = a.child("inline")) {
+        u.inline_body = in;
+        u.target = "inline" + attr(a, "localId") + "@" + id;
+      } else {
+        diags.error(a.pos, "an <action> needs a <reference> or an <inline> body");
+        return false;
+      }
+      static const char* const kQual[] = {"N", "S", "R", "P", "L", "D"};
+      bool ok = false;
+      for (const char* q : kQual) ok = ok || u.qualifier == q;
+      if (!ok) {
+        diags.error(a.pos, "action qualifier " + u.qualifier + " is not supported yet (N, S, R, P, L and D are)");
+        return false;
+      }
+      if ((u.qualifier == "L" || u.qualifier == "D") && dur.empty()) {
+        diags.error(a.pos, "qualifier " + u.qualifier + " needs a duration");
+        return false;
+      }
+      uses.push_back(u);
+    }
+  }
+  // One chart OUTPUT per action target (a variable or an action, named
+  // without case, as IEC names are); the builder ORs its N, P, L, D terms and
+  // its reset-dominant S/R latch into the output's action flag.
+  std::vector<std::string>& targets_in_order = g->targets;
+  for (const SfcActionUse& u : uses) {
+    if (std::find(targets_in_order.begin(), targets_in_order.end(), upper(u.target)) == targets_in_order.end()) {
+      targets_in_order.push_back(upper(u.target));
+      sfc::Signal out;
+      out.role = sfc::Signal::Role::kOutput;
+      out.name = sfc_output_name(u.target);
+      out.pos = u.pos;
+      chart.signals.push_back(std::move(out));
+    }
+    sfc::Action ca;
+    ca.qualifier = u.qualifier;
+    ca.pos = u.pos;
+    ca.target = sfc_output_name(u.target);
+    ca.target_pos = u.pos;
+    if (u.qualifier == "L" || u.qualifier == "D") ca.seconds = u.duration;
+    ca.time_pos = u.pos;
+    chart.steps[u.step].actions.push_back(std::move(ca));
+  }
+
+  return !diags.has_errors();
+}
+
+std::optional<sfc::Chart> read_sfc_pou(std::string_view xml, const std::string& pou,
+                                       DiagnosticList& diags) {
+  std::optional<Project> project = read_project(xml, diags);
+  if (!project || diags.has_errors()) return std::nullopt;
+  std::vector<const Pou*> charts;
+  std::string names;
+  for (const Pou& p : project->pous) {
+    if (p.body.language != BodyLanguage::kSfc || p.body.graph == nullptr) continue;
+    if (pou.empty() || iequals(p.name, pou)) charts.push_back(&p);
+    names += (names.empty() ? "" : ", ") + p.name;
+  }
+  if (charts.size() != 1) {
+    diags.error(project->root.pos,
+                names.empty() ? std::string("the project has no POU with an SFC body")
+                : charts.empty() ? "no POU '" + pou + "' with an SFC body; the project has " + names
+                                 : "the project has several POUs with an SFC body (" + names +
+                                       "); choose one with --pou");
+    return std::nullopt;
+  }
+  SfcGraph g;
+  if (!read_sfc_graph(*charts[0]->body.graph, charts[0]->name, diags, &g)) return std::nullopt;
+  return std::move(g.chart);
+}
+
+void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
+  SfcGraph g;
+  if (!read_sfc_graph(body, s.path, d_, &g)) return;
+  const sfc::Chart& chart = g.chart;
+  const std::vector<SfcActionUse>& uses = g.uses;
+  Emitter& em = em_;
+  // Each condition, lowered in the importer's blocks, is held in a block the
+  // chart reads as a host signal.
+  std::map<std::string, uint32_t> host_blocks;  // host signal -> block index
+  for (size_t i = 0; i < g.transitions.size(); ++i) {
+    const XmlElement& t = *g.transitions[i];
+    const std::string id = attr(t, "localId");
     Value cond = constant(0, true);
     const XmlElement* c = t.child("condition");
     const XmlElement* inl = c ? c->child("inline") : nullptr;
@@ -193,146 +344,46 @@ void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
       d_.error(t.pos, "a transition condition connected to FBD or LD elements is not supported yet (write it inline in ST)");
       return;
     }
-    Value fire = cond;
-    for (const std::string& f : from) fire = em.binary(BinOp::kAnd, fire, prev(f), t.pos);
-    if (from.size() == 1) {  // selection divergence: the first transition in the document wins
-      const std::string f = *from.begin();
-      if (earlier.count(f)) fire = em.binary(BinOp::kAnd, fire, em.unary_not(earlier[f], t.pos), t.pos);
-      earlier[f] = earlier.count(f) ? em.binary(BinOp::kOr, earlier[f], fire, t.pos) : fire;
-    }
-    for (const std::string& f : from)
-      leaving[f] = leaving.count(f) ? em.binary(BinOp::kOr, leaving[f], fire, t.pos) : fire;
-    for (const std::string& g : to)
-      entering[g] = entering.count(g) ? em.binary(BinOp::kOr, entering[g], fire, t.pos) : fire;
+    const std::string x = em.ref(cond, t.pos);
+    host_blocks[chart.transitions[i].condition.name] =
+        static_cast<uint32_t>(em.emit("or", s.path + ".$sfc.cond." + id, t.pos, {x, x}));
   }
 
-  // Steps.
-  std::map<std::string, Value> active;  // this cycle's flags
-  int initial = 0;
-  for (const std::string& id : order) {
-    const XmlElement& st = *el[id];
-    if (st.name != "step") continue;
-    Value x = prev(id);
-    if (leaving.count(id)) x = em.binary(BinOp::kAnd, x, em.unary_not(leaving[id], st.pos), st.pos);
-    if (entering.count(id)) x = em.binary(BinOp::kOr, x, entering[id], st.pos);
-    if (attr(st, "initialStep") == "true") {
-      ++initial;
-      x = em.binary(BinOp::kOr, x, em.first_cycle(st.pos), st.pos);
-    }
-    em.copy_as(x, flag(id), st.pos);
-    Value v;
-    v.ref = flag(id);
-    v.digital = true;
-    active[id] = v;
-    out_.variables.push_back(flag(id));
-  }
-  if (initial == 0) {
-    d_.error(body.pos, "this SFC has no initial step (initialStep=\"true\")");
-    return;
+  const sfc::ChartIndex index = sfc::check_chart(chart, d_);
+  if (d_.has_errors()) return;
+  sfc::HostLink host;
+  host.prefix = s.path + ".$sfc.";
+  host.first_index = static_cast<uint32_t>(em.size());
+  host.resolve = [&](const std::string& name) -> std::optional<uint32_t> {
+    auto it = host_blocks.find(name);
+    if (it == host_blocks.end()) return std::nullopt;
+    return it->second;
+  };
+  CheckedProgram built = sfc::build_flat_program(chart, index, d_, &host);
+  if (d_.has_errors()) return;
+  for (FlatBlock& b : built.blocks) em.append_resolved(std::move(b));
+
+  // Step flags under the names a PLCopen user knows (and `rtplc sim` traces).
+  for (const sfc::Step& st : chart.steps) {
+    Value x;
+    x.ref = sfc::step_flag_block(host, st.name);
+    x.digital = true;
+    const std::string name = s.path + ".step." + st.name + ".X";
+    em.copy_as(x, name, st.pos);
+    out_.variables.push_back(name);
   }
 
-  // Actions: every (qualifier, target) use, grouped by target.
-  std::vector<ActionUse> uses;
-  for (const std::string& id : order) {
-    const XmlElement& ab = *el[id];
-    if (ab.name != "actionBlock") continue;
-    std::set<std::string> steps;
-    for (const std::string& i : inputs_of(ab)) {
-      if (kind(i) == "step") steps.insert(i);
-    }
-    if (steps.size() != 1) {
-      d_.error(ab.pos, "an <actionBlock> must be connected to one step");
-      return;
-    }
-    for (const XmlElement& a : ab.children) {
-      if (a.name != "action") continue;
-      ActionUse u;
-      u.qualifier = upper(attr(a, "qualifier"));
-      if (u.qualifier.empty()) u.qualifier = "N";
-      u.pos = a.pos;
-      u.step = *steps.begin();
-      const std::string dur = attr(a, "duration");
-      if (!dur.empty()) {
-        auto k = parse_literal(dur);
-        if (!k || *k < 0) {
-          d_.error(a.pos, "action duration '" + dur + "' is not a TIME literal");
-          return;
-        }
-        u.duration = *k;
-      }
-      if (const XmlElement* r = a.child("reference")) {
-        u.target = attr(*r, "name");
-      } else if (const XmlElement* in = a.child("inline")) {
-        u.inline_body = in;
-        u.target = "inline" + attr(a, "localId") + "@" + id;
-      } else {
-        d_.error(a.pos, "an <action> needs a <reference> or an <inline> body");
-        return;
-      }
-      static const char* const kQual[] = {"N", "S", "R", "P", "L", "D"};
-      bool ok = false;
-      for (const char* q : kQual) ok = ok || u.qualifier == q;
-      if (!ok) {
-        d_.error(a.pos, "action qualifier " + u.qualifier + " is not supported yet (N, S, R, P, L and D are)");
-        return;
-      }
-      if ((u.qualifier == "L" || u.qualifier == "D") && dur.empty()) {
-        d_.error(a.pos, "qualifier " + u.qualifier + " needs a duration");
-        return;
-      }
-      uses.push_back(u);
-    }
-  }
-  std::vector<std::string> targets_in_order;
-  for (const ActionUse& u : uses) {
-    if (std::find(targets_in_order.begin(), targets_in_order.end(), upper(u.target)) == targets_in_order.end())
-      targets_in_order.push_back(upper(u.target));
-  }
-  int timer = 0;
-  for (const std::string& tgt : targets_in_order) {
-    Value on = constant(0, true), set = constant(0, true), reset = constant(0, true);
+  for (const std::string& tgt : g.targets) {
     SourcePos pos;
-    const ActionUse* first = nullptr;
-    for (const ActionUse& u : uses) {
+    const SfcActionUse* first = nullptr;
+    for (const SfcActionUse& u : uses) {
       if (upper(u.target) != tgt) continue;
       if (!first) first = &u;
       pos = u.pos;
-      const Value x = active[u.step];
-      const std::string name = s.path + ".action." + u.target + "." + u.qualifier + std::to_string(++timer);
-      Value term;
-      if (u.qualifier == "N") {
-        term = x;
-      } else if (u.qualifier == "S") {
-        set = em.binary(BinOp::kOr, set, x, u.pos);
-        continue;
-      } else if (u.qualifier == "R") {
-        reset = em.binary(BinOp::kOr, reset, x, u.pos);
-        continue;
-      } else if (u.qualifier == "P") {
-        term = rising(x, name, u.pos);
-      } else {
-        // D: on after the duration; L: on for the duration (the IEC TON of the step flag).
-        em.emit("ton", name, u.pos, {em.ref(x, u.pos), em.ref(constant(u.duration, false), u.pos)});
-        Value q;
-        q.ref = name;
-        q.digital = true;
-        term = u.qualifier == "D" ? q : em.binary(BinOp::kAnd, x, em.unary_not(q, u.pos), u.pos);
-      }
-      on = em.binary(BinOp::kOr, on, term, u.pos);
     }
-    // The stored (S/R) part is a latch of its own, reset dominant.
-    const std::string latch = s.path + ".action." + first->target + ".stored";
-    if (!(set.is_const && set.k == 0)) {
-      Value l;
-      l.ref = latch;
-      l.digital = true;
-      const Value stored = em.binary(BinOp::kAnd, em.binary(BinOp::kOr, l, set, pos), em.unary_not(reset, pos), pos);
-      em.copy_as(stored, latch, pos);
-      Value st;
-      st.ref = latch;
-      st.digital = true;
-      on = em.binary(BinOp::kOr, on, st, pos);
-    }
+    Value on;
+    on.ref = sfc::action_flag_block(host, sfc_output_name(first->target));
+    on.digital = true;
     // A named action with a body, an inline body, or a BOOL variable.
     const NamedBody* nb = nullptr;
     for (const NamedBody& b : s.pou->actions) {

@@ -33,9 +33,12 @@ struct Call {
 
 // INPUT name = ddi(...), OUTPUT name = ddo(...) / OUTPUT name (an internal flag),
 // SIGNAL name = and(...). MODEL names the places of the plant model that stand
-// for the signal being true and false (for `rtplc analyze`).
+// for the signal being true and false (for `rtplc analyze`). kHost is never
+// written in a .sfc file: a value a host front end computes in its own blocks
+// (a PLCopen transition condition), which the builder finds through
+// HostLink::resolve (builder.h).
 struct Signal {
-  enum class Role : uint8_t { kInput, kOutput, kSignal };
+  enum class Role : uint8_t { kInput, kOutput, kSignal, kHost };
   Role role = Role::kInput;
   std::string name;
   SourcePos pos;

@@ -32,7 +32,8 @@ namespace {
 
 class Builder {
  public:
-  Builder(const Chart& c, const ChartIndex& ix, DiagnosticList& d) : c_(c), ix_(ix), d_(d) {}
+  Builder(const Chart& c, const ChartIndex& ix, DiagnosticList& d, const HostLink* host)
+      : c_(c), ix_(ix), d_(d), host_(host) {}
 
   CheckedProgram run() {
     p_.period = c_.has_stime ? c_.period : kDefaultPeriod;
@@ -41,23 +42,31 @@ class Builder {
     emit("and", "sfc.zero", c_.pos, {"sfc.zero", "sfc.zero"});
     emit("not", "sfc.first", c_.pos, {"sfc.one"});
     for (const Signal& s : c_.signals) {
-      if (s.role != Signal::Role::kOutput) signal_block(s);
+      if (s.role != Signal::Role::kOutput && s.role != Signal::Role::kHost) signal_block(s);
     }
     for (const Step& st : c_.steps)
       emit("or", prev(st.name), st.pos, {flag(st.name), flag(st.name)});
     for (size_t i = 0; i < c_.transitions.size(); ++i) transition(i);
     for (size_t s = 0; s < c_.steps.size(); ++s) step(s);
-    for (size_t s = 0; s < c_.steps.size(); ++s) step_output(s);
+    if (host_ == nullptr) {
+      for (size_t s = 0; s < c_.steps.size(); ++s) step_output(s);
+    }
     for (const Signal& s : c_.signals) {
       if (s.role == Signal::Role::kOutput) output(s);
     }
     emit("not", "sfc.one", c_.pos, {"sfc.zero"});
     resolve();
+    if (host_ != nullptr) {
+      for (FlatBlock& b : p_.blocks) {
+        if (!b.name.empty()) b.name = host_->prefix + b.name;
+      }
+    }
     return std::move(p_);
   }
 
- private:
   static std::string flag(const std::string& step) { return "step." + step; }
+
+ private:
   static std::string prev(const std::string& step) { return "step." + step + ".prev"; }
 
   // Appends a block; its inputs are names, resolved once every block exists
@@ -371,7 +380,10 @@ class Builder {
 
   // Names -> indices. Every generated name exists by construction; user names
   // were checked by check_chart, so a miss here is reported, never dereferenced.
+  // In a host's program a chart block's index moves by first_index, and a
+  // name the chart does not make is a host block (a kHost signal).
   void resolve() {
+    const uint32_t base = host_ != nullptr ? host_->first_index : 0;
     std::unordered_map<std::string, uint32_t> by_name;
     for (uint32_t i = 0; i < p_.blocks.size(); ++i) {
       if (!p_.blocks[i].name.empty()) by_name.emplace(p_.blocks[i].name, i);
@@ -380,11 +392,17 @@ class Builder {
       FlatBlock& b = p_.blocks[i];
       for (uint32_t k = 0; k < b.n_in && k < 3; ++k) {
         auto it = by_name.find(refs_[i][k]);
-        if (it == by_name.end()) {
+        if (it != by_name.end()) {
+          b.in[k] = base + it->second;
+          continue;
+        }
+        std::optional<uint32_t> outside;
+        if (host_ != nullptr && host_->resolve) outside = host_->resolve(refs_[i][k]);
+        if (outside) {
+          b.in[k] = *outside;
+        } else {
           d_.error(b.in_pos[k], "'" + refs_[i][k] + "' is not defined");
           b.in[k] = 0;
-        } else {
-          b.in[k] = it->second;
         }
       }
     }
@@ -393,15 +411,24 @@ class Builder {
   const Chart& c_;
   const ChartIndex& ix_;
   DiagnosticList& d_;
+  const HostLink* host_;
   CheckedProgram p_;
   std::vector<std::vector<std::string>> refs_;
 };
 
 }  // namespace
 
+std::string step_flag_block(const HostLink& host, const std::string& step) {
+  return host.prefix + Builder::flag(step);
+}
+
+std::string action_flag_block(const HostLink& host, const std::string& output) {
+  return host.prefix + "out." + output;
+}
+
 CheckedProgram build_flat_program(const Chart& chart, const ChartIndex& index,
-                                  DiagnosticList& diags) {
-  return Builder(chart, index, diags).run();
+                                  DiagnosticList& diags, const HostLink* host) {
+  return Builder(chart, index, diags, host).run();
 }
 
 Chart parse_chart(std::string_view source, DiagnosticList& diags, ChartIndex* index, bool* ok) {

@@ -8,6 +8,10 @@
 // need nothing new.
 #pragma once
 
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
 #include <string_view>
 
 #include "common/diagnostic.h"
@@ -21,9 +25,28 @@ namespace rtplc::lang::sfc {
 // `STEPS d<m>` is the ddo channel p255.d<m>.c<i>, labelled "<chart>.<step>".
 inline constexpr uint16_t kStepFlagProcessor = 255;
 
-// Translates a chart that passed check_chart() without errors.
+// A chart built into another front end's program (the PLCopen importer,
+// docs/plcopen.md "SFC"): the chart's blocks are appended to the host's
+// program at `first_index`, its kHost signals are blocks of the host, and the
+// host reads each OUTPUT's action flag (action_flag_block) to drive its own
+// variables and action bodies. Step flags get no ddo channel: the host shows
+// them its own way.
+struct HostLink {
+  std::string prefix;        // before every block name the chart makes: "fill0.sfc."
+  uint32_t first_index = 0;  // the host program's size when the chart's blocks are appended
+  // The host block holding a kHost signal's value; nullopt is reported as undefined.
+  std::function<std::optional<uint32_t>(const std::string& name)> resolve;
+};
+
+// The block holding step `step`'s flag (this cycle's) and the OR of the
+// actions driving OUTPUT `output`, as a host program names them.
+std::string step_flag_block(const HostLink& host, const std::string& step);
+std::string action_flag_block(const HostLink& host, const std::string& output);
+
+// Translates a chart that passed check_chart() without errors. With `host`,
+// block names carry its prefix and inputs are indices in the host's program.
 CheckedProgram build_flat_program(const Chart& chart, const ChartIndex& index,
-                                  DiagnosticList& diags);
+                                  DiagnosticList& diags, const HostLink* host = nullptr);
 
 // The whole SFC front end: text -> tokens -> chart -> name rules -> flat
 // program. The caller runs check_flat_program() and build_image() when `diags`

@@ -99,6 +99,25 @@ TEST(AnalyzeCli, a_broken_sfc_program_gets_positioned_errors) {
       << r.out;
 }
 
+TEST(AnalyzeCli, a_plcopen_sfc_pou_is_analysed_as_the_importer_reads_it) {
+  const std::string f = std::string(RTPLC_SOURCE_DIR) + "/tests/plcopen/data/beremiz_sfc.xml";
+  const CliRun r = run(f);
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("SFC fill as a hierarchical Petri net"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("places: Idle(1) Filling Mixing Draining\n"), std::string::npos) << r.out;
+  // The simultaneous branch: Mixing and Draining are active together, never deadlocked.
+  EXPECT_NE(r.out.find("markings:   3\n"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("dead markings (deadlocks): 0\n"), std::string::npos) << r.out;
+
+  const CliRun no_pou = run(f + " --pou nope");
+  EXPECT_EQ(no_pou.code, 1);
+  EXPECT_NE(no_pou.out.find("no POU 'nope' with an SFC body; the project has fill"),
+            std::string::npos)
+      << no_pou.out;
+  const CliRun not_plcopen = run(kExamples + "mutex.pnml --pou fill");
+  EXPECT_EQ(not_plcopen.code, 2) << not_plcopen.out;
+}
+
 TEST(AnalyzeCli, bad_pnml_shows_file_line_col) {
   const std::string f = std::string(RTPLC_BINARY_DIR) + "/broken.pnml";
   std::ofstream(f) << "<pnml>\n<net id=\"n\" "

@@ -4,10 +4,13 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <optional>
 #include <string>
 
 #include "blocks/executor.h"
 #include "lang/compiler.h"
+#include "lang/plcopen/sfc_chart.h"
+#include "lang/sfc/semantics.h"
 #include "sched/program.h"
 
 namespace rtplc::lang {
@@ -643,6 +646,36 @@ TEST(Plcopen, asks_which_task_when_there_are_several) {
   CompileResult r = compile_file(data("codesys_ld_st.xml"));
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.diags.items()[0].message.find("task Fast, task Slow"), std::string::npos);
+}
+
+// `rtplc analyze FILE.xml`: the chart the importer compiles, read on its own.
+TEST(PlcopenSfc, the_beremiz_chart_reads_as_an_sfc_chart_for_the_net_builder) {
+  std::string err;
+  auto text = read_text_file(data("beremiz_sfc.xml"), &err);
+  ASSERT_TRUE(text) << err;
+  DiagnosticList d;
+  std::optional<sfc::Chart> c = plcopen::read_sfc_pou(*text, "", d);
+  ASSERT_TRUE(c) << d.render("beremiz_sfc.xml", *text);
+  ASSERT_EQ(c->steps.size(), 4u);
+  EXPECT_TRUE(c->steps[0].initial);
+  ASSERT_EQ(c->transitions.size(), 3u);
+  // The simultaneous convergence: one transition leaves both branches.
+  ASSERT_EQ(c->transitions[2].from.size(), 2u);
+  EXPECT_EQ(c->transitions[2].from[0].name, "Mixing");
+  EXPECT_EQ(c->transitions[2].from[1].name, "Draining");
+  ASSERT_EQ(c->transitions[2].to.size(), 1u);
+  EXPECT_EQ(c->transitions[2].to[0].name, "Idle");
+  sfc::check_chart(*c, d);
+  EXPECT_FALSE(d.has_errors()) << d.render("beremiz_sfc.xml", *text);
+
+  DiagnosticList none;
+  EXPECT_FALSE(plcopen::read_sfc_pou(*text, "nope", none));
+  EXPECT_TRUE(none.has_errors());
+  auto mixed = read_text_file(data("openplc_mixed.xml"), &err);
+  ASSERT_TRUE(mixed) << err;
+  DiagnosticList no_sfc;
+  EXPECT_FALSE(plcopen::read_sfc_pou(*mixed, "", no_sfc));
+  EXPECT_TRUE(no_sfc.has_errors());
 }
 
 }  // namespace

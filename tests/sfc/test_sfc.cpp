@@ -4,8 +4,10 @@
 
 #include <algorithm>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "lang/compiler.h"
 #include "lang/sfc/builder.h"
@@ -335,6 +337,88 @@ TEST(SfcFrontEnd, the_same_chart_compiles_to_the_same_image) {
   ASSERT_EQ(a.image->bytes().size(), b.image->bytes().size());
   EXPECT_TRUE(
       std::equal(a.image->bytes().begin(), a.image->bytes().end(), b.image->bytes().begin()));
+}
+
+// The hook the PLCopen importer uses (builder.h, HostLink): a chart built into
+// another front end's program. Steps A -> B on the host's condition `$go`; B
+// drives the output `$Q`.
+lang::sfc::Chart hosted_chart() {
+  using namespace lang::sfc;
+  Chart c;
+  c.name = "p";
+  Signal cond;
+  cond.role = Signal::Role::kHost;
+  cond.name = "$go";
+  Signal out;
+  out.role = Signal::Role::kOutput;
+  out.name = "$Q";
+  c.signals = {cond, out};
+  Step a, b;
+  a.name = "A";
+  a.initial = true;
+  b.name = "B";
+  Action n;
+  n.qualifier = "N";
+  n.target = "$Q";
+  b.actions.push_back(n);
+  c.steps = {a, b};
+  Transition t;
+  t.name = "$t1";
+  t.from = {NameRef{"A", {}}};
+  t.to = {NameRef{"B", {}}};
+  t.condition.op = Expr::Op::kName;
+  t.condition.name = "$go";
+  c.transitions = {t};
+  return c;
+}
+
+// hosted_chart() built through `host`; `d` gets the diagnostics.
+lang::CheckedProgram build_hosted(const lang::sfc::HostLink& host, DiagnosticList& d) {
+  const lang::sfc::Chart c = hosted_chart();
+  const lang::sfc::ChartIndex ix = lang::sfc::check_chart(c, d);
+  EXPECT_FALSE(d.has_errors());
+  return lang::sfc::build_flat_program(c, ix, d, &host);
+}
+
+TEST(SfcHost, a_hosted_chart_reads_host_blocks_and_names_its_own_under_the_prefix) {
+  using namespace lang::sfc;
+  HostLink host;
+  host.prefix = "main.$sfc.";
+  host.first_index = 7;
+  std::vector<std::string> asked;
+  host.resolve = [&](const std::string& name) -> std::optional<uint32_t> {
+    asked.push_back(name);
+    if (name == "$go") return 3;
+    return std::nullopt;
+  };
+  DiagnosticList d;
+  const lang::CheckedProgram p = build_hosted(host, d);
+  ASSERT_FALSE(d.has_errors());
+  EXPECT_EQ(asked, std::vector<std::string>{"$go"});
+  bool reads_host = false, has_flag = false, has_action = false;
+  for (const lang::FlatBlock& blk : p.blocks) {
+    EXPECT_NE(blk.written, "ddo") << "a hosted chart's step flags get no channel";
+    if (!blk.name.empty()) {
+      EXPECT_EQ(blk.name.rfind(host.prefix, 0), 0u) << blk.name;
+    }
+    has_flag = has_flag || blk.name == step_flag_block(host, "B");
+    has_action = has_action || blk.name == action_flag_block(host, "$Q");
+    for (uint32_t k = 0; k < blk.n_in; ++k) {
+      EXPECT_TRUE(blk.in[k] == 3 || (blk.in[k] >= 7 && blk.in[k] < 7 + p.blocks.size()));
+      if (blk.name == "main.$sfc.tr.$t1" && blk.in[k] == 3) reads_host = true;
+    }
+  }
+  EXPECT_TRUE(reads_host);
+  EXPECT_TRUE(has_flag);
+  EXPECT_TRUE(has_action);
+}
+
+TEST(SfcHost, a_host_name_the_resolver_does_not_know_is_reported) {
+  lang::sfc::HostLink host;
+  host.resolve = [](const std::string&) -> std::optional<uint32_t> { return std::nullopt; };
+  DiagnosticList d;
+  build_hosted(host, d);
+  EXPECT_TRUE(d.has_errors());
 }
 
 }  // namespace
