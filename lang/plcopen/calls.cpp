@@ -13,6 +13,8 @@ namespace rtplc::lang::plcopen {
 
 bool Lowering::is_function(const std::string& up) const {
   if (const iec::IecFunction* f = iec::find_iec(up)) return !f->function_block;
+  // A conversion lang/iec does not have (STRING_TO_INT): call_function says so.
+  if (up.find("_TO_") != std::string::npos) return true;
   const Pou* p = proj_.pou(up);
   return p && p->type == PouType::kFunction;
 }
@@ -175,6 +177,10 @@ std::optional<Value> Lowering::call_function(Scope& s, const std::string& name, 
     return result;
   }
   const iec::IecFunction* f = iec::find_iec(up);
+  if (!f && up.find("_TO_") != std::string::npos) {
+    d_.error(pos, "conversion " + name + " names a type rtplc does not have");
+    return constant(0, false);
+  }
   if (!f || f->function_block) return std::nullopt;
   std::vector<std::optional<Value>> placed;
   if (!place_args(*f, args, formals, placed, name, d_, pos)) return constant(0, false);
