@@ -101,9 +101,12 @@ void run_sim(const SimArgs& a) {
   if (!a.quiet && open_loop) {
     std::printf("rtplc sim: %s, period %g s, no plant (open loop), %g s%s\n", a.file.c_str(),
                 r.image->period_s(), a.duration, a.realtime ? ", real time" : " of simulated time");
-    std::printf("open loop: the program has no dao at %s and no dai at %s, so no plant is attached;\n"
+    const bool has_dao = io::has_plant_input(*r.image, opt);
+    const std::string why = has_dao ? "no dai at " + a.plant_output + " to measure the plant"
+                                    : "no dao at " + a.plant_input + " to drive a plant";
+    std::printf("open loop: the program has %s, so no plant is attached;\n"
                 "  inputs stay at 0, set-points follow --step (--plant-input/--plant-output wire a plant)\n",
-                a.plant_input.c_str(), a.plant_output.c_str());
+                why.c_str());
   } else if (!a.quiet) {
     std::printf("rtplc sim: %s, period %g s, plant %s (RK4, step %g s), %g s%s\n", a.file.c_str(),
                 r.image->period_s(), (*plant)->describe().c_str(),
@@ -170,7 +173,7 @@ void add_sim_command(CLI::App& app) {
   sim->footer(std::string(
       "The plant's input is the program's dao at --plant-input and its measurement goes to the\n"
       "dai at --plant-output (both p0.d0.c0 by default, as in the seed's example). A program\n"
-      "with neither runs open loop, without a plant (a logic test), and says so. A loop whose\n"
+      "without either runs open loop, without a plant (a logic test), and says so. A loop whose\n"
       "measurement diverges is reported UNSTABLE with exit code 1 (--allow-unstable: 0). Set-points\n"
       "start at their init value; --step changes one during the run. The CSV has a column t and\n"
       "one per input, set-point and output block (its label), one row per task cycle.\n"

@@ -55,9 +55,14 @@ std::pair<const Binding*, const Binding*> plant_bindings(const TaskImage& image,
   return {pv, mv};
 }
 
+bool has_plant_input(const TaskImage& image, const SimOptions& opt) {
+  return plant_bindings(image, opt).second != nullptr;
+}
+
 bool runs_open_loop(const TaskImage& image, const SimOptions& opt) {
   const auto [pv, mv] = plant_bindings(image, opt);
-  return opt.open_loop_if_unwired && pv == nullptr && mv == nullptr;
+  // Nothing drives the plant, or nothing measures it: no loop to close.
+  return opt.open_loop_if_unwired && (pv == nullptr || mv == nullptr);
 }
 
 Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const SimOptions& opt) {
@@ -96,7 +101,7 @@ Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const Sim
   auto [pv, mv] = plant_bindings(image, opt);
   if (ports) {
     pv = mv = nullptr;
-  } else if (!mv && !pv && opt.open_loop_if_unwired) {
+  } else if ((!mv || !pv) && opt.open_loop_if_unwired) {
     tr.open_loop = true;
     tr.plant = "none (open loop)";
   }
@@ -280,7 +285,7 @@ StepMetrics step_metrics(const SimTrace& tr) {
 }
 
 std::string format_metrics(const SimTrace& tr, const StepMetrics& m) {
-  if (tr.pv_column < 0) return "";
+  if (tr.pv_column < 0 || tr.open_loop) return "";  // no loop: no step response
   const std::string pv = tr.columns[static_cast<size_t>(tr.pv_column)];
   char buf[512];
   std::string out;

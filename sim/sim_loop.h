@@ -64,6 +64,9 @@ std::pair<const Binding*, const Binding*> plant_bindings(const TaskImage& image,
 // Whether run_closed_loop will run `image` open loop (nothing wired to the plant).
 bool runs_open_loop(const TaskImage& image, const SimOptions& opt);
 
+// True when the program has the dao that drives the plant (--plant-input).
+bool has_plant_input(const TaskImage& image, const SimOptions& opt);
+
 // Step-response figures of the measurement against its set-point, from the last
 // set-point change (or t = 0) to the end of the run.
 struct StepMetrics {

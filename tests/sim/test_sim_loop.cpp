@@ -99,6 +99,27 @@ TEST(SimLoop, the_seed_pid_on_an_unstable_tf_plant_is_flagged_as_diverged) {
   EXPECT_LT(run_seed(30).diverged_at, 0);
 }
 
+// A sequence that reads a level but drives no valve (a PLCopen SFC, say):
+// nothing drives a plant, so it runs open loop with the level at 0.
+TEST(SimLoop, a_program_that_reads_a_dai_but_drives_no_dao_runs_open_loop) {
+  auto r = lang::compile_source(
+      "%%\nstime(0.1)\nF1 = dai(p0, d0, c0, \"Level\")\nF2 = const(50)\nD3 = gt(F1, F2)\n"
+      "ddo(D3, p0, d0, c1, \"High\")\nEND\n%%\n");
+  ASSERT_TRUE(r.ok()) << r.diags.render("level", "");
+  auto p = make_plant(kDefaultPlant);
+  SimOptions o;
+  o.duration = 1;
+  EXPECT_FALSE(runs_open_loop(*r.image, o));  // a plant asked for by name: refused
+  EXPECT_FALSE(run_closed_loop(*r.image, **p, o).ok());
+  o.open_loop_if_unwired = true;
+  EXPECT_FALSE(has_plant_input(*r.image, o));
+  EXPECT_TRUE(runs_open_loop(*r.image, o));
+  auto t = run_closed_loop(*r.image, **p, o);
+  ASSERT_TRUE(t.ok()) << t.error();
+  EXPECT_TRUE(t->open_loop);
+  EXPECT_EQ(t->rows.back().back(), 0);  // Level stays 0: High never set
+}
+
 TEST(SimLoop, a_program_without_plant_channels_runs_open_loop_only_when_allowed) {
   auto r = lang::compile_source(
       "%%\nstime(0.1)\nD1 = dsp(d0, c0, 0, \"Start\")\nD2 = time(D1, 1)\n"
