@@ -153,6 +153,38 @@ void print_stream_row(const char* label, const StreamRow& a, const StreamRow* b)
   std::fflush(stdout);
 }
 
+void prepare_driver_bench(DriverBench& b, const char* what, const char* yaml, const std::string& region,
+                          uint32_t provides, uint32_t channel_capacity, int64_t period_ns,
+                          const Options& o) {
+  b.cfg = config::parse_config(yaml, "bench.yaml", "", config::LoadOptions{false});
+  if (!b.cfg.ok()) {
+    std::fprintf(stderr, "bench_drive: the %s map does not load:\n%s\n", what, b.cfg.render().c_str());
+    std::exit(1);
+  }
+  io::ImageLayout l;
+  l.name = "bench-" + region + "-" + std::to_string(::getpid());
+  l.channel_capacity = channel_capacity;
+  l.regions.push_back({"task:t", io::RegionKind::kTask, 0, 1});
+  l.regions.push_back({"driver:" + region, io::RegionKind::kDriver, 0, provides});
+  l.n_tasks = 1;
+  l.task_stats_bytes = 64;
+  l.n_links = 1;
+  auto img = io::ProcessImage::create(l);
+  if (!img) {
+    std::fprintf(stderr, "bench_drive: %s\n", img.error().c_str());
+    std::exit(1);
+  }
+  b.image = std::move(img).value();
+  b.setup.config = &b.cfg.config->drivers[0];
+  b.setup.image = &b.image;
+  b.setup.region = 1;
+  b.setup.n_provides = provides;
+  b.setup.period_ns = period_ns;
+  b.setup.priority = o.bridge_priority;
+  b.setup.helper_priority = o.helper_priority;
+  b.setup.events = &b.events;
+}
+
 }  // namespace rtplc::bench
 
 namespace {

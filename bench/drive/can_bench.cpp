@@ -178,42 +178,13 @@ inline uint16_t be_u16(const uint8_t* p) { return static_cast<uint16_t>(p[0] << 
 // ---- the driver as the runtime lays it out ----------------------------------------
 
 struct CanRig {
-  config::LoadResult cfg;
-  io::ProcessImage image;
+  DriverBench base;
   can::FakeBus bus;
-  io::LinkEventQueue events{4096};
   std::unique_ptr<can::CanDriver> driver;
 
   CanRig(const Options& o, int64_t period_ns) {
-    cfg = config::parse_config(kCanConfig, "bench.yaml", "", config::LoadOptions{false});
-    if (!cfg.ok()) {
-      std::fprintf(stderr, "bench_drive: the CAN map does not load:\n%s\n", cfg.render().c_str());
-      std::exit(1);
-    }
-    io::ImageLayout l;
-    l.name = "bench-can-" + std::to_string(::getpid());
-    l.channel_capacity = 64;
-    l.regions.push_back({"task:t", io::RegionKind::kTask, 0, 1});
-    l.regions.push_back({"driver:epc", io::RegionKind::kDriver, 0, kSignals});
-    l.n_tasks = 1;
-    l.task_stats_bytes = 64;
-    l.n_links = 1;
-    auto img = io::ProcessImage::create(l);
-    if (!img) {
-      std::fprintf(stderr, "bench_drive: %s\n", img.error().c_str());
-      std::exit(1);
-    }
-    image = std::move(img).value();
-    io::DriverSetup setup;
-    setup.config = &cfg.config->drivers[0];
-    setup.image = &image;
-    setup.region = 1;
-    setup.n_provides = kSignals;
-    setup.period_ns = period_ns;
-    setup.priority = o.bridge_priority;
-    setup.helper_priority = o.helper_priority;
-    setup.events = &events;
-    driver = std::make_unique<can::CanDriver>(setup, bus.transport());
+    prepare_driver_bench(base, "CAN", kCanConfig, "epc", kSignals, 64, period_ns, o);
+    driver = std::make_unique<can::CanDriver>(base.setup, bus.transport());
   }
   bool wait_received(uint64_t n) {
     for (int i = 0; i < 20000 && driver->counters().frames_rx < n; ++i) {
@@ -269,7 +240,7 @@ int decode(const Options& o) {
   Quality q[kSignals];
   for (uint32_t i = 0; i < kSignals; ++i) idx[i] = i;
   int mismatches = 0;
-  if (!rig.image.read_values(1, idx, kSignals, got, 8, nullptr, q)) {
+  if (!rig.base.image.read_values(1, idx, kSignals, got, 8, nullptr, q)) {
     std::printf("  FAILED: no consistent snapshot of the driver's region\n");
     ++failed;
   } else {

@@ -12,6 +12,10 @@
 #include <string_view>
 #include <vector>
 
+#include "config/config.h"
+#include "io/drivers/driver.h"
+#include "io/process_image.h"
+
 namespace rtplc::bench {
 
 struct Options {
@@ -75,5 +79,20 @@ std::string rate_text(double items_per_s);
 // Both halves return how many correctness checks failed (0: all counts right).
 int run_can(const Options& o);
 int run_gpio(const Options& o);
+
+// One driver as the runtime starts it: its config parsed from `yaml` (one
+// task, one driver), an image with one task output and a driver region
+// "driver:`region`" of `provides` inputs, and the driver's setup on it. Exits
+// with the error when the config or the image cannot be made (`what` names
+// the map in the message).
+struct DriverBench {
+  config::LoadResult cfg;
+  io::ProcessImage image;
+  io::LinkEventQueue events{4096};
+  io::DriverSetup setup;
+};
+void prepare_driver_bench(DriverBench& b, const char* what, const char* yaml, const std::string& region,
+                          uint32_t provides, uint32_t channel_capacity, int64_t period_ns,
+                          const Options& o);
 
 }  // namespace rtplc::bench

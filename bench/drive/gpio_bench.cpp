@@ -44,46 +44,17 @@ const char* kGpioConfig =
 constexpr unsigned kLine = 1;
 
 struct GpioRig {
-  config::LoadResult cfg;
-  io::ProcessImage image;
-  io::LinkEventQueue events{4096};
+  DriverBench base;
   std::unique_ptr<gpio::GpioDriver> driver;
 
   GpioRig(const Options& o, gpio::FakeChips& chips) {
-    cfg = config::parse_config(kGpioConfig, "bench.yaml", "", config::LoadOptions{false});
-    if (!cfg.ok()) {
-      std::fprintf(stderr, "bench_drive: the GPIO map does not load:\n%s\n", cfg.render().c_str());
-      std::exit(1);
-    }
-    io::ImageLayout l;
-    l.name = "bench-gpio-" + std::to_string(::getpid());
-    l.channel_capacity = 8;
-    l.regions.push_back({"task:t", io::RegionKind::kTask, 0, 1});
-    l.regions.push_back({"driver:dio", io::RegionKind::kDriver, 0, 1});
-    l.n_tasks = 1;
-    l.task_stats_bytes = 64;
-    l.n_links = 1;
-    auto img = io::ProcessImage::create(l);
-    if (!img) {
-      std::fprintf(stderr, "bench_drive: %s\n", img.error().c_str());
-      std::exit(1);
-    }
-    image = std::move(img).value();
-    io::DriverSetup setup;
-    setup.config = &cfg.config->drivers[0];
-    setup.image = &image;
-    setup.region = 1;
-    setup.n_provides = 1;
-    setup.period_ns = kernel_rt::kNsPerMs;
-    setup.priority = o.bridge_priority;
-    setup.helper_priority = o.helper_priority;
-    setup.events = &events;
-    driver = std::make_unique<gpio::GpioDriver>(setup, chips.ops());
+    prepare_driver_bench(base, "GPIO", kGpioConfig, "dio", 1, 8, kernel_rt::kNsPerMs, o);
+    driver = std::make_unique<gpio::GpioDriver>(base.setup, chips.ops());
   }
   double image_count() {
     uint32_t idx = 0;
     double v = -1;
-    (void)image.read_values(1, &idx, 1, &v, 8);
+    (void)base.image.read_values(1, &idx, 1, &v, 8);
     return v;
   }
 };

@@ -13,17 +13,9 @@ namespace {
 
 using testing::FbdHarness;
 
-// Two analog inputs a, b and one digital x, y, z as set-points the test drives.
-const char* kInputs =
-    "F1 = asp(d0, c0, 0, \"a\")\n"
-    "F2 = asp(d0, c1, 0, \"b\")\n"
-    "D3 = dsp(d0, c2, 0, \"x\")\n"
-    "D4 = dsp(d0, c3, 0, \"y\")\n"
-    "D5 = dsp(d0, c4, 0, \"z\")\n";
-
-FbdHarness with(const std::string& body, double dt = 0.1) {
-  return FbdHarness(std::string(kInputs) + body, dt);
-}
+// F1, F2 (a, b) and D3, D4, D5 (x, y, z): set-points the tests drive.
+using testing::kSetpointInputs;
+FbdHarness with(const std::string& body, double dt = 0.1) { return testing::with_inputs(body, dt); }
 
 TEST(Arithmetic, computes_with_the_optional_gain) {
   auto h = with(

@@ -15,17 +15,9 @@ namespace {
 
 using testing::FbdHarness;
 
-// Two analog set-points a, b and three digital ones x, y, z the test drives.
-const char* kInputs =
-    "F1 = asp(d0, c0, 0, \"a\")\n"
-    "F2 = asp(d0, c1, 0, \"b\")\n"
-    "D3 = dsp(d0, c2, 0, \"x\")\n"
-    "D4 = dsp(d0, c3, 0, \"y\")\n"
-    "D5 = dsp(d0, c4, 0, \"z\")\n";
-
-FbdHarness with(const std::string& body, double dt = 0.1) {
-  return FbdHarness(std::string(kInputs) + body, dt);
-}
+// F1, F2 (a, b) and D3, D4, D5 (x, y, z): set-points the tests drive.
+using testing::kSetpointInputs;
+FbdHarness with(const std::string& body, double dt = 0.1) { return testing::with_inputs(body, dt); }
 
 // Evaluates one-input or two-input blocks on constants: "wrap(F10, 16, 1)".
 double eval(const std::string& call, double a, double b = 0) {
@@ -333,7 +325,7 @@ TEST(IecCounters, ctud_counts_both_ways_and_ignores_simultaneous_edges) {
 
 TEST(IecBlocks, refuse_a_width_outside_one_to_64_bits) {
   lang::CompileResult r = lang::compile_source(
-      std::string("%%\n") + kInputs + "F10 = wrap(F1, 65, 1)\nF11 = band(F1, F2, 0)\nEND\n");
+      std::string("%%\n") + kSetpointInputs + "F10 = wrap(F1, 65, 1)\nF11 = band(F1, F2, 0)\nEND\n");
   EXPECT_FALSE(r.ok());
   EXPECT_EQ(r.diags.error_count(), 2u);
 }

@@ -88,4 +88,18 @@ inline std::string diagnostics_of(const std::string& source, bool* ok = nullptr)
   return r.diags.render("t.fbd", source);
 }
 
+// Two analog set-points a, b and three digital ones x, y, z (F1, F2, D3, D4,
+// D5) that a block test drives with set_point(); with_inputs() puts them before
+// the blocks under test.
+inline constexpr const char* kSetpointInputs =
+    "F1 = asp(d0, c0, 0, \"a\")\n"
+    "F2 = asp(d0, c1, 0, \"b\")\n"
+    "D3 = dsp(d0, c2, 0, \"x\")\n"
+    "D4 = dsp(d0, c3, 0, \"y\")\n"
+    "D5 = dsp(d0, c4, 0, \"z\")\n";
+
+inline FbdHarness with_inputs(const std::string& body, double dt = 0.1) {
+  return FbdHarness(std::string(kSetpointInputs) + body, dt);
+}
+
 }  // namespace rtplc::testing
