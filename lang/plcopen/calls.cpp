@@ -235,14 +235,6 @@ Value Lowering::fb_output(Var& v, const std::string& name, SourcePos pos) {
 }
 
 void Lowering::call_fb(Var& v, const std::vector<std::pair<std::string, Value>>& inputs, SourcePos pos) {
-  if (conditional_depth > 0 && v.role == Var::Role::kStdFb) {
-    // A user FB's variables are if-converted with the branch (kept when it is
-    // not called); a standard FB's timer or counter state cannot be frozen.
-    d_.error(pos, "a call of standard function block " + v.std_fb.type + " '" + v.decl->name +
-                      "' inside IF, CASE or a conditional IL path is not supported yet (call it "
-                      "unconditionally and use its inputs)");
-    return;
-  }
   if (v.role == Var::Role::kUserFb) {
     Scope& fb = *v.fb;
     if (fb.called) {
@@ -292,20 +284,71 @@ void Lowering::call_fb(Var& v, const std::vector<std::pair<std::string, Value>>&
   }
   std::vector<std::optional<Value>> placed;
   if (!place_args(*f.iec, args, formals, placed, f.type, d_, pos)) return;
-  // Each output is a block named `instance.OUTPUT`: reads before the call find
-  // it later in the cycle (last cycle's value), and hot swap keeps its state.
-  const size_t first = out_.blocks.size();
-  const std::vector<Value> outs = lower_iec(*f.iec, v.path, placed, pos);
-  // In the order the blocks run (CTU's CV before its Q): `rtplc sim` traces them so.
-  for (size_t i = first; i < out_.blocks.size(); ++i) {
-    const std::string& n = out_.blocks[i].name;
-    for (const Value& o : outs) {
-      if (o.ref == n) {
-        produced_.push_back(n);
-        break;
+  const Value run = active(pos);
+  if (run.is_const && run.k != 0) {
+    // Called every cycle. Each output is a block named `instance.OUTPUT`:
+    // reads before the call find it later in the cycle (last cycle's value),
+    // and hot swap keeps its state.
+    const size_t first = out_.blocks.size();
+    const std::vector<Value> outs = lower_iec(*f.iec, v.path, placed, pos);
+    // In the order the blocks run (CTU's CV before its Q): `rtplc sim` traces them so.
+    for (size_t i = first; i < out_.blocks.size(); ++i) {
+      const std::string& n = out_.blocks[i].name;
+      for (const Value& o : outs) {
+        if (o.ref == n) {
+          produced_.push_back(n);
+          break;
+        }
       }
     }
+    return;
   }
+  // Called only in the cycles `run` holds (under IF, CASE, a conditional IL
+  // path, EN, an SFC action, an event task). An FB that is not called keeps
+  // its variables: its inputs are held at their last call's values, so its
+  // machine sees no edge and no new preset meanwhile, and each output shows
+  // its value from the last call. A timer's elapsed time still runs on while
+  // it is not called, as in MatIEC and CODESYS, where TON compares the
+  // current time with the time its IN rose.
+  for (size_t k = 0; k < placed.size(); ++k) {
+    // A constant too: TON(IN := TRUE) must see IN rise at its first call.
+    if (!placed[k]) continue;
+    const std::string formal = k < f.iec->inputs.size() ? f.iec->inputs[k] : "IN" + std::to_string(k + 1);
+    placed[k] = hold(run, *placed[k], v.path + ".$in." + formal, pos);
+  }
+  const std::vector<Value> raw = lower_iec(*f.iec, v.path + ".$call", placed, pos);
+  for (size_t i = 0; i < raw.size() && i < f.iec->outputs.size(); ++i) {
+    const std::string n = v.path + "." + f.iec->outputs[i];
+    hold(run, raw[i], n, pos);
+    produced_.push_back(n);
+  }
+}
+
+Value Lowering::hold(const Value& run, const Value& x, const std::string& name, SourcePos pos) {
+  Value self;
+  self.ref = name;  // appended below: read here, it is last cycle's value
+  self.digital = x.digital;
+  self.integer = x.integer;
+  self.int_type = x.int_type;
+  em_.copy_as(em_.select(run, x, self, pos), name, pos);
+  return self;
+}
+
+void Lowering::push_path(const Value& cond, bool negated) {
+  path_.push_back(PathCond{em_.to_digital(cond, SourcePos{}), negated, std::nullopt});
+}
+
+void Lowering::pop_path() { path_.pop_back(); }
+
+Value Lowering::active(SourcePos pos) {
+  if (path_.empty()) return constant(1, true);
+  for (size_t i = 0; i < path_.size(); ++i) {
+    PathCond& p = path_[i];
+    if (p.conj) continue;
+    const Value c = p.negated ? em_.unary_not(p.cond, pos) : p.cond;
+    p.conj = i == 0 ? c : em_.binary(BinOp::kAnd, *path_[i - 1].conj, c, pos);
+  }
+  return *path_.back().conj;
 }
 
 bool Lowering::finish() {

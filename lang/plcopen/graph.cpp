@@ -412,17 +412,16 @@ class Graph {
       d_.error(pos, "block '" + type + "' is neither a function rtplc knows nor a function block instance (no instanceName)");
       return;
     }
-    if (!(en.is_const && en.k != 0)) {
-      d_.error(pos, "EN on function block instance '" + inst + "' is not supported yet (its state would advance only while EN holds)");
-      return;
-    }
     Var* fb = L_.lookup(s_, inst, pos);
     if (!fb) return;
     if (fb->role != Var::Role::kUserFb && fb->role != Var::Role::kStdFb) {
       d_.error(pos, "block instance '" + inst + "' is not declared as a function block");
       return;
     }
-    L_.call_fb(*fb, inputs, pos);
+    // EN false: the instance is not called, so it keeps its state and shows
+    // its last outputs (if-converted like a call under IF; ENO = EN).
+    if (en.is_const && en.k != 0) L_.call_fb(*fb, inputs, pos);
+    else L_.guarded(en, pos, [&] { L_.call_fb(*fb, inputs, pos); });
     for (auto& [f, v] : out_vars) {
       if (upper(f) == "ENO") continue;
       outs[upper(f)] = negate_if(*v, L_.fb_output(*fb, f, pos));

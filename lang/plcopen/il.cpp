@@ -5,8 +5,8 @@
 // jumps (carried to its label with its CR) and the part that falls through,
 // and a label ORs the predicates that reach it and selects their CRs. Only
 // one path is taken in a cycle, so the selections are exact. A backward jump
-// (a loop) is refused; a conditional CAL is if-converted like an ST IF (of a
-// user FB; a standard FB's timer or counter cannot be frozen, and is refused).
+// (a loop) is refused; a conditional CAL is if-converted like an ST IF (a
+// user FB keeps its variables, a standard FB its state, when not called).
 #include <cctype>
 #include <map>
 #include <set>

@@ -127,11 +127,6 @@ ImportResult import_plcopen(std::string_view xml, const ImportOptions& opt, Diag
       return res;
     }
   }
-  if (chosen.task && !chosen.task->single.empty()) {
-    diags.error(chosen.task->pos, "task '" + chosen.task->name + "' is triggered by single=\"" +
-                                      chosen.task->single + "\": event tasks are not supported yet (give it an interval)");
-    return res;
-  }
   if (chosen.instances.empty()) {
     diags.error(chosen.task ? chosen.task->pos : SourcePos{}, "task '" + chosen.name + "' runs no program instance");
     return res;
@@ -144,6 +139,9 @@ ImportResult import_plcopen(std::string_view xml, const ImportOptions& opt, Diag
     res.program.notes.push_back("task " + chosen.task->name + " (line " + std::to_string(chosen.task->pos.line) +
                                 "): runs " + ins + "; interval " +
                                 (chosen.task->interval > 0 ? std::to_string(chosen.task->interval) + " s" : "none (default period)") +
+                                (chosen.task->single.empty() ? std::string()
+                                                             : "; event task: the body runs in the cycles " +
+                                                                   chosen.task->single + " rises (checked every period)") +
                                 ", PLCopen priority " + std::to_string(chosen.task->priority) +
                                 " (the runtime config's `priority` sets the SCHED_FIFO priority)");
     if (chosen.task->interval > 0) {
@@ -163,6 +161,7 @@ ImportResult import_plcopen(std::string_view xml, const ImportOptions& opt, Diag
     }
   }
   L.set_globals(globals);
+  if (chosen.task && !chosen.task->single.empty()) L.set_trigger(chosen.task->single, chosen.task->pos);
   for (const PouInstance& pi : chosen.instances) {
     const Pou* pou = p.pou(pi.type_name);
     if (!pou) {

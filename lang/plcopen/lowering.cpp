@@ -381,6 +381,12 @@ void Lowering::lower_body_of(Scope& s, const Body& b) {
       lower_il(s, b);
       break;
     case BodyLanguage::kSfc:
+      if (conditional()) {
+        // The chart's steps and timers move every cycle; they cannot be held.
+        d_.error(b.pos, "an SFC body (" + s.pou->name + ") cannot run only some cycles: it is called under "
+                        "IF, CASE, EN, a conditional IL path or by an event task; call it every cycle");
+        break;
+      }
       if (&b != &s.pou->body) {
         d_.error(b.pos, "an SFC inside an SFC action is not supported");
         break;
@@ -424,8 +430,26 @@ void Lowering::program_instance(const Pou& pou, const std::string& path) {
   programs_.push_back(make_scope(pou, path, 0));
   Scope& s = *programs_.back();
   s.called = true;
-  lower_body(s);
+  if (trigger_.empty()) {
+    lower_body(s);
+  } else {
+    // An event task: the body runs in the cycles its single="..." variable
+    // rises (R_TRIG, memory FALSE at start), and keeps everything otherwise.
+    Var* t = lookup(s, trigger_, trigger_pos_);
+    if (!t) return;
+    if (!t->digital) {
+      d_.error(trigger_pos_, "single=\"" + trigger_ + "\" names a variable that is not BOOL");
+      return;
+    }
+    const Value fire = rising(read(*t, trigger_pos_), s.path + ".$single", trigger_pos_);
+    guarded(fire, trigger_pos_, [&] { lower_body(s); });
+  }
   finalize(s);
+}
+
+void Lowering::set_trigger(const std::string& variable, SourcePos pos) {
+  trigger_ = variable;
+  trigger_pos_ = pos;
 }
 
 }  // namespace rtplc::lang::plcopen

@@ -102,6 +102,17 @@ class Lowering {
   void lower_body_of(Scope& s, const Body& b);  // an SFC action's body too
   // Runs `f` as the then-branch of an if-converted IF on `cond`.
   void guarded(const Value& cond, SourcePos pos, const std::function<void()>& f);
+  // The if-conversion's path: the branch conditions around the code being
+  // lowered (pushed by the ST/IL branch, an FB's EN, an SFC action, an event
+  // task). active() is 1 exactly in the cycles that code runs: a standard FB
+  // called there advances only then (call_fb).
+  void push_path(const Value& cond, bool negated);
+  void pop_path();
+  Value active(SourcePos pos);
+  bool conditional() const { return !path_.empty(); }
+  // Programs lowered after this run only in cycles where `trigger` rises
+  // (a task with single="..."); SourcePos for its messages.
+  void set_trigger(const std::string& variable, SourcePos pos);
   void lower_graph(Scope& s, const XmlElement& body, bool ladder);
   void lower_st(Scope& s, const Block& b);
   void lower_il(Scope& s, const Body& body);
@@ -119,7 +130,6 @@ class Lowering {
   Emitter& em() { return em_; }
   DiagnosticList& diags() { return d_; }
   const Project& project() const { return proj_; }
-  int conditional_depth = 0;  // > 0 inside IF / CASE branches
   // Set by the graph lowering: before a read of variable X, lower the elements
   // of this body that write X (data-flow order).
   std::function<void(const std::string&)> before_read;
@@ -130,6 +140,9 @@ class Lowering {
   void finalize(Scope& s);
   Value start_value(Var& v, SourcePos pos);
   void emit_channel(Var& v);
+  // `x` as it was at the last cycle `run` held (a block named `name` that
+  // reads itself): what a standard FB that is not called keeps.
+  Value hold(const Value& run, const Value& x, const std::string& name, SourcePos pos);
 
   const Project& proj_;
   Emitter em_;
@@ -150,6 +163,14 @@ class Lowering {
   };
   std::vector<PendingOutput> pending_outputs_;  // FB outputs read by name
   std::vector<std::string> produced_;           // FB output blocks made
+  struct PathCond {
+    Value cond;
+    bool negated = false;
+    std::optional<Value> conj;  // this and every outer condition, made when first asked
+  };
+  std::vector<PathCond> path_;
+  std::string trigger_;
+  SourcePos trigger_pos_;
 };
 
 // Upper-case names a POU body assigns (ST `x :=`, FBD/LD outVariable and coil

@@ -208,7 +208,8 @@ class Parser {
     return p;
   }
 
-  // statement ::= assignment | fb_call | if | case | for | (refused: while, repeat, exit, ...)
+  // statement ::= assignment | fb_call | if | case | for | RETURN | EXIT | CONTINUE
+  //               (refused: while, repeat, jmp)
   std::unique_ptr<Stmt> statement() {
     const Tok& t = peek();
     if (t.t != Tok::T::kIdent) {
@@ -220,12 +221,18 @@ class Parser {
                           "loop must have constant bounds (use FOR with constant bounds)");
       return nullptr;
     }
-    if (t.up == "EXIT" || t.up == "CONTINUE") {
-      error(t.pos, t.up + " is refused: loops are unrolled, so a loop cannot be left early");
-      return nullptr;
+    if (t.up == "RETURN" || t.up == "EXIT" || t.up == "CONTINUE") {
+      if (t.up != "RETURN" && loops_ == 0) {
+        error(t.pos, t.up + " outside a FOR loop");
+        return nullptr;
+      }
+      auto s = std::make_unique<Stmt>();
+      s->kind = t.up == "RETURN" ? Stmt::Kind::kReturn : t.up == "EXIT" ? Stmt::Kind::kExit : Stmt::Kind::kContinue;
+      s->pos = next().pos;
+      return s;
     }
-    if (t.up == "RETURN" || t.up == "JMP" || t.up == "GOTO") {
-      error(t.pos, t.up + " is not supported yet in ST bodies");
+    if (t.up == "JMP" || t.up == "GOTO") {
+      error(t.pos, t.up + " is not ST (IEC 61131-3 has jumps in IL only); use IF");
       return nullptr;
     }
     if (t.up == "IF" || t.up == "CASE" || t.up == "FOR") {
@@ -379,7 +386,9 @@ class Parser {
     if (accept_kw("BY")) s->by = expression();
     expect_kw("DO", "in FOR");
     if (failed_) return nullptr;
+    ++loops_;
     s->body = statements({"END_FOR"});
+    --loops_;
     expect_kw("END_FOR", "to close FOR");
     return failed_ ? nullptr : std::move(s);
   }
@@ -555,6 +564,7 @@ class Parser {
   size_t i_ = 0;
   int depth_ = 0;
   int nesting_ = 0;
+  int loops_ = 0;  // FOR loops around the statement being parsed
   bool failed_ = false;
 };
 

@@ -1,8 +1,8 @@
 // Structured Text (IEC 61131-3) as found in PLCopen bodies: lexer and parser to
 // a small tree (docs/plcopen.md, "ST"). Expressions with IEC precedence,
-// assignments, IF/ELSIF/ELSE, CASE, FOR, function and FB calls (formal and
-// informal). WHILE, REPEAT, EXIT, RETURN and jumps are parsed only to be
-// refused with their position. Positions are file positions: the text sits in
+// assignments, IF/ELSIF/ELSE, CASE, FOR, RETURN, EXIT and CONTINUE, function
+// and FB calls (formal and informal). WHILE, REPEAT and jumps are parsed only
+// to be refused with their position. Positions are file positions: the text sits in
 // an XML element, and `origin` maps its offsets back to the file.
 #pragma once
 
@@ -46,7 +46,7 @@ struct CaseBranch {
 };
 
 struct Stmt {
-  enum class Kind : uint8_t { kAssign, kIf, kCase, kFor, kCall };
+  enum class Kind : uint8_t { kAssign, kIf, kCase, kFor, kCall, kReturn, kExit, kContinue };
   Kind kind = Kind::kAssign;
   SourcePos pos;
   std::string target;                // assign: variable path; for: loop variable; call: instance

@@ -2,9 +2,11 @@
 // executor has no control flow, so both branches of an IF are computed every
 // cycle and each variable's value after the IF is sel(cond, then, else)
 // (`amux` for numbers, and/or for BOOL). CASE is a chain of IFs; FOR with
-// constant bounds is unrolled. A user FB called inside a branch has its
-// variables merged like the caller's (kept when not called); a standard FB
-// called there is refused: its timer or counter state cannot be frozen.
+// constant bounds is unrolled. RETURN, EXIT and CONTINUE become conditions:
+// what follows them runs under NOT the condition that they ran. A user FB
+// called inside a branch has its variables merged like the caller's (kept
+// when not called); a standard FB called there sees its inputs, and shows
+// its outputs, as they were at its last call (Lowering::call_fb).
 #include <cmath>
 
 #include "lang/plcopen/lowering.h"
@@ -76,11 +78,40 @@ struct StLowerer {
   Lowering& L;
   Scope& s;
 
-  void block(const Block& b) {
-    for (const auto& st : b) {
-      if (L.diags().has_errors()) return;
-      statement(*st);
+  // How control left a statement list: the conditions (this cycle) under
+  // which it ran RETURN, EXIT or CONTINUE. Constant FALSE when it cannot.
+  struct Flow {
+    Value ret = constant(0, true), exit = constant(0, true), cont = constant(0, true);
+  };
+  static bool never(const Value& v) { return v.is_const && v.k == 0; }
+  Value either(const Value& a, const Value& b, SourcePos pos) {
+    if (never(a)) return b;
+    if (never(b)) return a;
+    return L.em().binary(BinOp::kOr, a, b, pos);
+  }
+
+  // The statements from `from` on. After one that may leave (RETURN, EXIT,
+  // CONTINUE under some condition), the rest runs by if-conversion under
+  // NOT that condition.
+  Flow block(const Block& b, size_t from = 0) {
+    for (size_t i = from; i < b.size(); ++i) {
+      if (L.diags().has_errors()) return {};
+      const Flow f = statement(*b[i]);
+      const SourcePos pos = b[i]->pos;
+      const Value leave = either(either(f.ret, f.exit, pos), f.cont, pos);
+      if (never(leave)) continue;
+      if (leave.is_const || i + 1 == b.size()) return f;  // always leaves, or nothing follows
+      Flow rest;
+      branch(L.em().unary_not(leave, pos), pos, [&] { rest = block(b, i + 1); }, [] {});
+      return Flow{either(f.ret, rest.ret, pos), either(f.exit, rest.exit, pos), either(f.cont, rest.cont, pos)};
     }
+    return {};
+  }
+
+  Flow pick(const Value& c, const Flow& t, const Flow& e, SourcePos pos) {
+    Emitter& em = L.em();
+    const Value d = em.to_digital(c, pos);
+    return Flow{em.select(d, t.ret, e.ret, pos), em.select(d, t.exit, e.exit, pos), em.select(d, t.cont, e.cont, pos)};
   }
 
   // Runs `then` or `otherwise` by if-conversion; `cond` is already evaluated.
@@ -94,12 +125,14 @@ struct StLowerer {
       return;
     }
     const auto before = L.save();
-    ++L.conditional_depth;
+    L.push_path(c, false);
     then();
+    L.pop_path();
     const auto after_then = L.save();
     L.restore(before);
+    L.push_path(c, true);
     otherwise();
-    --L.conditional_depth;
+    L.pop_path();
     const auto after_else = L.save();
     // Merge: every variable either branch assigned.
     std::vector<std::optional<Value>> merged = after_else;
@@ -125,7 +158,7 @@ struct StLowerer {
 
   std::vector<Var*> all_vars() { return L.vars_for_merge(); }
 
-  void statement(const Stmt& st) {
+  Flow statement(const Stmt& st) {
     Emitter& em = L.em();
     switch (st.kind) {
       case Stmt::Kind::kAssign: {
@@ -133,13 +166,26 @@ struct StLowerer {
         if (Var* t = L.resolve_path(s, st.target, st.pos)) L.assign(*t, v, st.pos);
         break;
       }
+      case Stmt::Kind::kReturn: {
+        Flow f;
+        f.ret = constant(1, true);
+        return f;
+      }
+      case Stmt::Kind::kExit: {
+        Flow f;
+        f.exit = constant(1, true);
+        return f;
+      }
+      case Stmt::Kind::kContinue: {
+        Flow f;
+        f.cont = constant(1, true);
+        return f;
+      }
       case Stmt::Kind::kIf:
-        if_chain(st, 0);
-        break;
+        return if_chain(st, 0);
       case Stmt::Kind::kCase: {
         const Value sel = L.eval(s, *st.value);
-        case_chain(st, sel, 0);
-        break;
+        return case_chain(st, sel, 0);
       }
       case Stmt::Kind::kFor: {
         const Value from = L.eval(s, *st.from), to = L.eval(s, *st.to);
@@ -147,32 +193,27 @@ struct StLowerer {
         if (!from.is_const || !to.is_const || !by.is_const) {
           L.diags().error(st.pos, "FOR with bounds that are not constant is refused: rtplc unrolls FOR "
                                   "loops, so FROM, TO and BY must be constants");
-          return;
+          return {};
         }
         if (by.k == 0) {
           L.diags().error(st.pos, "FOR with BY 0 never ends");
-          return;
+          return {};
         }
         const double n = std::floor((to.k - from.k) / by.k) + 1;
         if (n > kMaxUnroll) {
           L.diags().error(st.pos, "FOR runs " + std::to_string(static_cast<long long>(n)) +
                                       " times; rtplc unrolls at most " + std::to_string(kMaxUnroll));
-          return;
+          return {};
         }
         Var* iv = L.resolve_path(s, st.target, st.pos);
-        if (!iv) return;
-        for (double i = from.k; by.k > 0 ? i <= to.k : i >= to.k; i += by.k) {
-          Value k = constant(i, false);
-          k.integer = true;
-          L.assign(*iv, k, st.pos);
-          block(st.body);
-          if (L.diags().has_errors()) return;
-        }
-        break;
+        if (!iv) return {};
+        Flow f;
+        f.ret = iterations(st, *iv, from.k, to.k, by.k);
+        return f;  // EXIT and CONTINUE end with the loop
       }
       case Stmt::Kind::kCall: {
         Var* fb = L.lookup(s, st.target, st.pos);
-        if (!fb) return;
+        if (!fb) return {};
         if (fb->role != Var::Role::kStdFb && fb->role != Var::Role::kUserFb) {
           // A function called as a statement: its result is dropped.
           std::vector<Value> args;
@@ -184,7 +225,7 @@ struct StLowerer {
           }
           if (!L.call_function(s, st.target, args, formals, st.pos))
             L.diags().error(st.pos, "'" + st.target + "' is neither a function block instance nor a function");
-          return;
+          return {};
         }
         std::vector<std::pair<std::string, Value>> ins;
         for (const CallArg& a : st.call_args) {
@@ -200,24 +241,42 @@ struct StLowerer {
         break;
       }
     }
+    return {};
   }
 
-  void if_chain(const Stmt& st, size_t i) {
-    if (i >= st.branches.size()) {
-      block(st.else_body);
-      return;
+  // The unrolled iterations of a FOR from `i` on; the condition under which
+  // one of them ran RETURN. After an iteration that may EXIT (or RETURN), the
+  // rest run under NOT that condition; CONTINUE ends only its own iteration.
+  Value iterations(const Stmt& st, Var& iv, double i, double to, double by) {
+    for (; by > 0 ? i <= to : i >= to; i += by) {
+      Value k = constant(i, false);
+      k.integer = true;
+      L.assign(iv, k, st.pos);
+      const Flow f = block(st.body);
+      if (L.diags().has_errors()) return constant(0, true);
+      const Value stop = either(f.ret, f.exit, st.pos);
+      if (never(stop)) continue;
+      if (stop.is_const) return f.ret;
+      Value rest = constant(0, true);
+      const double next = i + by;
+      branch(L.em().unary_not(stop, st.pos), st.pos, [&] { rest = iterations(st, iv, next, to, by); }, [] {});
+      return either(f.ret, rest, st.pos);
     }
+    return constant(0, true);
+  }
+
+  Flow if_chain(const Stmt& st, size_t i) {
+    if (i >= st.branches.size()) return block(st.else_body);
     const Value c = L.eval(s, *st.branches[i].first);
-    branch(c, st.branches[i].first->pos, [&] { block(st.branches[i].second); },
-           [&] { if_chain(st, i + 1); });
+    const SourcePos pos = st.branches[i].first->pos;
+    Flow t, e;
+    branch(c, pos, [&] { t = block(st.branches[i].second); }, [&] { e = if_chain(st, i + 1); });
+    return pick(c, t, e, pos);
   }
 
-  void case_chain(const Stmt& st, const Value& sel, size_t i) {
+  Flow case_chain(const Stmt& st, const Value& sel, size_t i) {
     Emitter& em = L.em();
-    if (i >= st.cases.size()) {
-      block(st.else_body);
-      return;
-    }
+    if (i >= st.cases.size()) return block(st.else_body);
     Value cond = constant(0, true);
     for (const auto& [lo, hi] : st.cases[i].labels) {
       const Value a = L.eval(s, *lo);
@@ -226,7 +285,9 @@ struct StLowerer {
                    : em.binary(BinOp::kEq, sel, a, lo->pos);
       cond = em.binary(BinOp::kOr, cond, m, lo->pos);
     }
-    branch(cond, st.pos, [&] { block(st.cases[i].body); }, [&] { case_chain(st, sel, i + 1); });
+    Flow t, e;
+    branch(cond, st.pos, [&] { t = block(st.cases[i].body); }, [&] { e = case_chain(st, sel, i + 1); });
+    return pick(cond, t, e, st.pos);
   }
 };
 

@@ -7,69 +7,14 @@
 #include <optional>
 #include <string>
 
-#include "blocks/executor.h"
 #include "lang/compiler.h"
 #include "lang/plcopen/sfc_chart.h"
 #include "lang/sfc/semantics.h"
 #include "sched/program.h"
+#include "tests/plcopen/plcopen_harness.h"
 
 namespace rtplc::lang {
 namespace {
-
-std::string data(const char* f) { return std::string(RTPLC_PLCOPEN_DATA) + "/" + f; }
-
-// A running image with access to its channels by label and blocks by name.
-struct Machine {
-  TaskImage img;
-  TaskArena arena;
-  explicit Machine(TaskImage i) : img(std::move(i)), arena(img) {}
-  void set(const std::string& label, double v) {
-    for (const Binding& b : img.bindings()) {
-      if (b.dir != BindingDir::kOutput && img.str(b.label) == label) {
-        arena.io_in[b.io_index] = v;
-        return;
-      }
-    }
-    ADD_FAILURE() << "no input " << label;
-  }
-  double out(const std::string& label) const {
-    for (const Binding& b : img.bindings()) {
-      if (b.dir == BindingDir::kOutput && img.str(b.label) == label) return arena.io_out[b.io_index];
-    }
-    ADD_FAILURE() << "no output " << label;
-    return -1;
-  }
-  double value(const std::string& block) const {
-    for (size_t s = 0; s < img.blocks().size(); ++s) {
-      if (img.str(img.blocks()[s].name) == block) return arena.values[img.code()[s].out];
-    }
-    ADD_FAILURE() << "no block " << block;
-    return -1;
-  }
-  void cycles(int n) {
-    for (int i = 0; i < n; ++i) execute_cycle(img, arena);
-  }
-};
-
-std::string project(const std::string& ns, const std::string& pous, const std::string& instances = "") {
-  return "<?xml version=\"1.0\"?>\n<project xmlns=\"" + ns +
-         "\" xmlns:xhtml=\"http://www.w3.org/1999/xhtml\">\n<fileHeader companyName=\"t\"/>\n"
-         "<types><dataTypes/><pous>\n" + pous + "</pous></types>\n" + instances + "</project>\n";
-}
-
-std::string st_program(const std::string& vars, const std::string& body) {
-  return "<pou name=\"main\" pouType=\"program\"><interface>" + vars +
-         "</interface><body><ST><xhtml:p><![CDATA[" + body + "]]></xhtml:p></ST></body></pou>\n";
-}
-
-std::string var(const std::string& name, const std::string& type, const std::string& addr = "",
-                const std::string& init = "") {
-  return "<variable name=\"" + name + "\"" + (addr.empty() ? "" : " address=\"" + addr + "\"") + "><type><" +
-         type + "/></type>" + (init.empty() ? "" : "<initialValue><simpleValue value=\"" + init + "\"/></initialValue>") +
-         "</variable>";
-}
-
-const char* kNs201 = "http://www.plcopen.org/xml/tc6_0201";
 
 TEST(Plcopen, runs_the_openplc_style_fbd_project) {
   CompileResult r = compile_file(data("openplc_mixed.xml"));
@@ -338,8 +283,8 @@ TEST(Plcopen, a_function_with_en_false_leaves_its_target_alone) {
   EXPECT_EQ(run.value("main.x"), 9);  // kept
 }
 
-// A user FB called inside IF (ST) or by CALC (IL) keeps its variables while it is not
-// called; a standard FB called there is refused.
+// A user FB called inside IF (ST) or by CALC (IL) keeps its variables while it is
+// not called (standard FBs: test_plcopen_conditional.cpp).
 TEST(Plcopen, a_user_fb_called_conditionally_keeps_its_state) {
   const std::string fb =
       "<pou name=\"Count\" pouType=\"functionBlock\"><interface><inputVars>" + var("step", "INT", "", "1") +
@@ -366,12 +311,6 @@ TEST(Plcopen, a_user_fb_called_conditionally_keeps_its_state) {
     run.cycles(5);
     EXPECT_EQ(run.value("main.a"), 4);  // not called: kept
   }
-  const std::string bad = project(kNs201, st_program("<localVars><variable name=\"t\"><type><derived name=\"TON\"/></type></variable>" +
-                                                         var("x", "BOOL") + "</localVars>",
-                                                     "IF x THEN t(IN := TRUE, PT := T#1s); END_IF;"));
-  CompileResult r = compile_source(bad);
-  ASSERT_FALSE(r.ok());
-  EXPECT_NE(r.diags.items()[0].message.find("standard function block TON"), std::string::npos);
 }
 
 // A user function: expanded at each call, formal and informal arguments, no memory.
