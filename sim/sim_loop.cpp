@@ -139,6 +139,8 @@ Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const Sim
   if (analog_setpoints != 1) tr.sp_column = -1;
   std::vector<uint32_t> probe_slots;
   for (const std::string& name : opt.probes) {
+    // A located variable is already traced as its channel, under the same label.
+    if (std::find(tr.columns.begin(), tr.columns.end(), name) != tr.columns.end()) continue;
     bool found = false;
     for (uint32_t s = 0; s < image.blocks().size() && !found; ++s) {
       if (image.str(image.blocks()[s].name) != name) continue;

@@ -127,6 +127,36 @@ TEST(Cli, sim_runs_a_program_without_plant_channels_open_loop_and_says_so) {
   EXPECT_TRUE(has(named, "no dao at")) << named.out;
 }
 
+// A PLCopen project's variables get a column each; a located global is its
+// channel's column, once (here a set-point, so --step can raise it).
+TEST(Cli, sim_of_a_plcopen_event_task_traces_each_variable_once) {
+  Scratch s;
+  const std::string f = s.write(
+      "ev.xml",
+      "<?xml version=\"1.0\"?>\n<project xmlns=\"http://www.plcopen.org/xml/tc6_0201\" "
+      "xmlns:xhtml=\"http://www.w3.org/1999/xhtml\"><fileHeader companyName=\"t\"/><types><dataTypes/><pous>\n"
+      "<pou name=\"main\" pouType=\"program\"><interface><localVars>"
+      "<variable name=\"n\"><type><INT/></type></variable></localVars></interface>\n"
+      "<body><ST><xhtml:p><![CDATA[n := n + 1;]]></xhtml:p></ST></body></pou></pous></types>\n"
+      "<instances><configurations><configuration name=\"c\"><resource name=\"r\"><globalVars>"
+      "<variable name=\"trig\" address=\"%MX0.0\"><type><BOOL/></type></variable></globalVars>\n"
+      "<task name=\"ev\" priority=\"1\" single=\"trig\" interval=\"T#10ms\">"
+      "<pouInstance name=\"inst\" typeName=\"main\"/></task></resource></configuration></configurations>"
+      "</instances></project>\n");
+  const ToolRun check = run_tool("check " + f + " --explain");
+  EXPECT_EQ(check.status, 0) << check.out;
+  EXPECT_TRUE(has(check, "event task: the body runs in the cycles trig rises")) << check.out;
+  const std::string csv = s.dir() + "/t.csv";
+  const ToolRun r = run_tool("sim -q " + f + " --duration 0.2 --step trig=1@0.05 --csv " + csv);
+  ASSERT_EQ(r.status, 0) << r.out;
+  std::ifstream in(csv);
+  std::string header, line, last;
+  std::getline(in, header);
+  while (std::getline(in, line)) last = line;
+  EXPECT_EQ(header, "t,trig,inst.n");
+  EXPECT_EQ(last.substr(last.rfind(',') + 1), "1") << "one rising edge, one run: " << last;
+}
+
 TEST(Cli, sim_reports_a_diverging_loop_as_unstable_and_fails) {
   // The README's own example plant with the seed's PID diverges.
   ToolRun r = run_tool("sim " + kPid + " --plant tf:2,1/1,3,1");
