@@ -19,7 +19,7 @@
 #include "io/drivers/modbus/config.h"
 #include "io/drivers/modbus/fake_slave.h"
 #include "io/drivers/modbus/line.h"
-#include "io/drivers/modbus/tests/pty_pair.h"
+#include "io/drivers/modbus/tests/fake_rtu_line.h"
 
 namespace rtplc::modbus {
 namespace {
@@ -64,20 +64,17 @@ config::LoadResult load(const Dir& d, const std::string& plan, const std::string
 }
 
 TEST(ModbusPlan, reads_each_loop_in_its_frames_cuts_nonrt_to_ln_and_sends_urgent_writes) {
-  testing::PtyPair pty;
-  if (!pty.available()) GTEST_SKIP() << pty.why();
+  testing::FakeRtuLine rtu({7});
+  if (!rtu.available()) GTEST_SKIP() << rtu.why();
   Dir dir;
-  auto cfg = load(dir, kPlan, driver_yaml(pty.b()));
+  auto cfg = load(dir, kPlan, driver_yaml(rtu.device()));
   ASSERT_TRUE(cfg.ok()) << cfg.render();
   const ModbusSettings& s = settings_of(cfg.config->drivers[0]);
   ASSERT_TRUE(s.slaves[0].plan);
   const fieldbus::Plan& plan = s.slaves[0].plan->plan;
   ASSERT_EQ(plan.t1, 100'000'000);
-  FakeSlaveOptions o;
-  o.serial = {pty.a(), 19200, 'N', 8, 1};
-  o.units = {7};
-  FakeSlave slave(o);
-  ASSERT_TRUE(slave.start().ok());
+  ASSERT_TRUE(rtu.start().ok());
+  FakeSlave& slave = rtu.slave();
   Exchange x(s.reads.size(), s.writes.size(), s.slaves.size());
   LineOptions opt;
   opt.wake_ns = 10'000'000;
