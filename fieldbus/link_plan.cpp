@@ -38,4 +38,12 @@ Result<LinkPlan> load_link_plan(const std::string& path) {
   return make_error(why);
 }
 
+const LinkPlanCache::Loaded& LinkPlanCache::get(const std::string& path) {
+  auto it = plans_.find(path);
+  if (it != plans_.end()) return it->second;
+  Result<LinkPlan> lp = load_(path);
+  Loaded p = lp ? Loaded(std::make_shared<const LinkPlan>(std::move(*lp))) : Loaded(make_error(lp.error()));
+  return plans_.emplace(path, std::move(p)).first->second;
+}
+
 }  // namespace rtplc::fieldbus

@@ -17,7 +17,10 @@
 fail() { echo "FAILED: $*"; exit 1; }
 shipped() { find / -name "$1" -type f -not -path '/proc/*' -not -path '/sys/*' 2>/dev/null | head -n1; }
 for t in cangen candump; do command -v $t >/dev/null || fail "$t missing (package can-utils, --add it)"; done
+# shellcheck source=tests/rt_vm/gpio-sim-lib.sh
 . "$(shipped gpio-sim-lib.sh)"
+# shellcheck source=tests/rt_vm/rtplc-run-lib.sh
+. "$(shipped rtplc-run-lib.sh)"
 gpio_sim_up IN0
 pull 1 down
 modprobe vcan
@@ -58,11 +61,7 @@ END
 %%
 EOF
 rtplc run counts.yaml > run.log 2>&1 &
-i=0
-until rtplc status >/dev/null 2>&1; do
-  i=$((i + 1)); [ $i -le 150 ] || { cat run.log; fail "the runtime did not come up"; }
-  sleep 0.2
-done
+rtplc_up run.log "the runtime"
 # A counter read until it holds still (the drivers publish theirs every 100 ms).
 steady() {
   a="$($1)"

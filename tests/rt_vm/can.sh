@@ -19,7 +19,10 @@ modprobe can-raw
 ip link add dev vcan0 type vcan
 ip link set vcan0 up
 shipped() { find / -name "$1" -type f -not -path '/proc/*' -not -path '/sys/*' 2>/dev/null | head -n1; }
+# shellcheck source=tests/rt_vm/gpio-sim-lib.sh
 . "$(shipped gpio-sim-lib.sh)"
+# shellcheck source=tests/rt_vm/rtplc-run-lib.sh
+. "$(shipped rtplc-run-lib.sh)"
 gpio_sim_up RUN
 pull 0 up  # the run switch is on
 # A watchdog that never fires (as in gpio.sh): under emulation on a loaded host
@@ -39,15 +42,10 @@ candump -L vcan0,201:7FF > tx.log &
 DUMP=$!
 rtplc run drive.yaml > run.log 2>&1 &
 RUN=$!
-i=0
-until rtplc status >/dev/null 2>&1; do
-  i=$((i + 1))
-  [ $i -le 150 ] || { cat run.log; fail "the runtime did not come up"; }
-  sleep 0.2
-done
+rtplc_up run.log "the runtime"
 # (replaces gpio-sim-lib.sh's value(): here a label's value in the monitor)
-value() { rtplc monitor --once | awk -v l="$1" '$1 == l {print $4; exit}'; }
-quality() { rtplc monitor --once | awk -v l="$1" '$1 == l {print $5; exit}'; }
+value() { mon "$1" 4; }
+quality() { mon "$1" 5; }
 [ "$(quality Speed)" = "bad" ] || fail "Speed is $(quality Speed) before any frame came"
 
 # The drive reports 300.0 rpm (3000 = 0x0BB8, little-endian, 0.1 rpm) and ready.
@@ -128,12 +126,7 @@ candump -L vcan0 > plan.log &
 DUMP=$!
 rtplc run drive_plan.yaml > planrun.log 2>&1 &
 RUN=$!
-i=0
-until rtplc status >/dev/null 2>&1; do
-  i=$((i + 1))
-  [ $i -le 150 ] || { cat planrun.log; fail "the planned runtime did not come up"; }
-  sleep 0.2
-done
+rtplc_up planrun.log "the planned runtime"
 cansend vcan0 181#B80B01   # the drive is ready for 100 ms: Enable goes 1, then 0 (urgent both times)
 sleep 3
 rtplc stats > planstats.txt || { cat planrun.log; fail "rtplc stats failed during the planned run"; }

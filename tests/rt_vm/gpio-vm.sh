@@ -1,7 +1,7 @@
 #!/bin/sh
 # Runs a VM step script (gpio.sh, can.sh) in the PREEMPT_RT VM with a gpio-sim
-# module built for the guest kernel and gpio-sim-lib.sh beside it (ctest -R
-# 'rt_vm_(gpio|can)' does this); the other options go to scripts/rt-vm after the script:
+# module built for the guest kernel and gpio-sim-lib.sh and rtplc-run-lib.sh beside
+# it (ctest -R 'rt_vm_(gpio|can)' does this); the other options go to scripts/rt-vm after the script:
 #   tests/rt_vm/gpio-vm.sh CACHE RTPLC SCRIPT [--add FILE | --run CMD ...]
 # Exit: scripts/rt-vm's (0 passed, 1 a check failed, 77 skipped: the kernel or
 # module sources cannot be downloaded and nothing is cached).
@@ -21,4 +21,4 @@ status=0
 ko="$("$repo/scripts/lib/rt-vm/gpio-sim-build.sh" "$cache")" || status=$?
 [ $status -eq 0 ] || exit $status
 exec "$repo/scripts/rt-vm" --cache "$cache" --timeout 300 --module configfs --add "$ko" \
-  --add "$here/gpio-sim-lib.sh" --script "$script" "$@" "$rtplc"
+  --add "$here/gpio-sim-lib.sh" --add "$here/rtplc-run-lib.sh" --script "$script" "$@" "$rtplc"

@@ -13,7 +13,10 @@ fail() { echo "FAILED: $*"; exit 1; }
 # --add ships files at their host paths: find the module and the unit test there.
 shipped() { find / -name "$1" -type f -not -path '/proc/*' -not -path '/sys/*' 2>/dev/null | head -n1; }
 GPIO_UNIT_TEST="${GPIO_UNIT_TEST:-$(shipped test_gpio)}"
+# shellcheck source=tests/rt_vm/gpio-sim-lib.sh
 . "$(shipped gpio-sim-lib.sh)"
+# shellcheck source=tests/rt_vm/rtplc-run-lib.sh
+. "$(shipped rtplc-run-lib.sh)"
 gpio_sim_up BTN
 # A watchdog that never fires: under emulation a 10 ms task overruns now and
 # then, and 3 in a row would stop it (driving the safe values) mid-test.
@@ -42,13 +45,7 @@ echo "ok: gpio get/set work on $chip"
 
 # 2. Run: the button drives the lamp and the idle light.
 rtplc run gpio.yaml > run.log 2>&1 &
-i=0
-until rtplc status >/dev/null 2>&1; do
-  i=$((i + 1))
-  [ $i -le 150 ] || { cat run.log; fail "the runtime did not come up"; }
-  sleep 0.2
-done
-mon() { rtplc monitor --once | awk -v l="$1" -v c="$2" '$1 == l {print $c; exit}'; }
+rtplc_up run.log "the runtime"
 settle 2 0 || fail "lamp reads $(value 2) with the button up"
 settle 3 1 || fail "idle reads $(value 3) with the button up"
 pull 0 up
@@ -85,8 +82,7 @@ rtplc status
 
 # 4. Stop: the safe values (lamp 0, idle 1) with the button still pressed.
 rtplc stop
-i=0
-while rtplc status >/dev/null 2>&1; do i=$((i + 1)); [ $i -le 50 ] || fail "the runtime did not stop"; sleep 0.2; done
+rtplc_down
 [ "$(value 2)" = "0" ] || fail "lamp is $(value 2) after stop"
 [ "$(value 3)" = "1" ] || fail "idle is $(value 3) after stop"
 echo "ok: after rtplc stop: lamp $(value 2), idle $(value 3)"

@@ -109,7 +109,10 @@ const SectionSpec kMapSection{"modbus-map", "a channel map", "`read:` and `write
                               "", kMapKeys};
 const SectionSpec* const kSubsections[] = {&kSlaveSection, &kMapSection};
 
-void parse_slave(YamlReader& r, const YAML::Node& node, SourcePos where, ModbusSettings& out) {
+// `plans` holds the plan files the driver's slaves named so far: the slaves of
+// one line all name its plan, which is read and planned once for them all.
+void parse_slave(YamlReader& r, const YAML::Node& node, SourcePos where, fieldbus::LinkPlanCache& plans,
+                 ModbusSettings& out) {
   SlaveConfig sc;
   sc.pos = YamlReader::pos(node).line ? YamlReader::pos(node) : where;
   sc.name_pos = sc.address_pos = sc.pos;
@@ -195,20 +198,20 @@ void parse_slave(YamlReader& r, const YAML::Node& node, SourcePos where, ModbusS
       ok = false;
     } else if (auto path = r.path(*p)) {
       sc.plan_file = *path;
-      auto lp = fieldbus::load_link_plan(*path);
+      const fieldbus::LinkPlanCache::Loaded& lp = plans.get(*path);
       if (!lp) {
         r.error(*p, lp.error());
         ok = false;
-      } else if (!lp->design.timing || lp->design.timing->layout != fieldbus::FrameLayout::kModbusRtu) {
+      } else if (!(*lp)->design.timing || (*lp)->design.timing->layout != fieldbus::FrameLayout::kModbusRtu) {
         r.error(*p, "the plan " + *path + " gives no Modbus RTU layout: an RTU line's plan needs 'bit_rate' and "
                     "'layout: modbus-rtu' in its link, so the requests' wire times are known");
         ok = false;
-      } else if (std::llround(lp->design.timing->bit_rate) != static_cast<long long>(sc.baud)) {
+      } else if (std::llround((*lp)->design.timing->bit_rate) != static_cast<long long>(sc.baud)) {
         r.error(*p, fmt::format("the plan {} is for {} bit/s, the line runs at {} baud", *path,
-                                std::llround(lp->design.timing->bit_rate), sc.baud));
+                                std::llround((*lp)->design.timing->bit_rate), sc.baud));
         ok = false;
       } else {
-        sc.plan = std::make_shared<const fieldbus::LinkPlan>(std::move(*lp));
+        sc.plan = *lp;
       }
     } else {
       ok = false;
@@ -425,7 +428,8 @@ void parse_modbus(YamlReader& r, const Fields& f, DriverConfig& out) {
   ModbusSettings s;
   if (const Field* slaves = f.get("slaves")) {
     if (auto items = r.list(*slaves)) {
-      for (const YAML::Node& n : *items) parse_slave(r, n, slaves->pos, s);
+      fieldbus::LinkPlanCache plans;
+      for (const YAML::Node& n : *items) parse_slave(r, n, slaves->pos, plans, s);
     }
   }
   for_each_map_entry(r, f, [&](const YAML::Node& n, SourcePos at, bool write) {

@@ -47,6 +47,7 @@ struct SlaveConfig {
   SourcePos pos, name_pos, address_pos;
   // RTU: the fieldbus plan its line runs on (docs/fieldbus.md, "Running a link
   // on a plan"); every slave on one device names the same one. Null: unplanned.
+  // Slaves naming one file share one LinkPlan: the file is read and planned once.
   std::shared_ptr<const fieldbus::LinkPlan> plan;
   std::string plan_file;
   SourcePos plan_pos;

@@ -1,7 +1,8 @@
 // A pair of connected ptys from socat, the serial line of the RTU tests: what
 // one end writes the other reads. Links `a` and `b` in a fresh directory;
 // socat is stopped when the pair goes. available() is false (and why() says
-// why) when socat is not installed, so a test can skip.
+// why) when socat is not installed, so a test can skip. fake_rtu_line.h puts
+// our fake slave on one end.
 #pragma once
 
 #include <signal.h>

@@ -19,7 +19,7 @@
 #include "io/drivers/modbus/config.h"
 #include "io/drivers/modbus/fake_slave.h"
 #include "io/drivers/modbus/line.h"
-#include "io/drivers/modbus/tests/pty_pair.h"
+#include "io/drivers/modbus/tests/fake_rtu_line.h"
 
 namespace rtplc::modbus {
 namespace {
@@ -64,20 +64,17 @@ config::LoadResult load(const Dir& d, const std::string& plan, const std::string
 }
 
 TEST(ModbusPlan, reads_each_loop_in_its_frames_cuts_nonrt_to_ln_and_sends_urgent_writes) {
-  testing::PtyPair pty;
-  if (!pty.available()) GTEST_SKIP() << pty.why();
+  testing::FakeRtuLine rtu({7});
+  if (!rtu.available()) GTEST_SKIP() << rtu.why();
   Dir dir;
-  auto cfg = load(dir, kPlan, driver_yaml(pty.b()));
+  auto cfg = load(dir, kPlan, driver_yaml(rtu.device()));
   ASSERT_TRUE(cfg.ok()) << cfg.render();
   const ModbusSettings& s = settings_of(cfg.config->drivers[0]);
   ASSERT_TRUE(s.slaves[0].plan);
   const fieldbus::Plan& plan = s.slaves[0].plan->plan;
   ASSERT_EQ(plan.t1, 100'000'000);
-  FakeSlaveOptions o;
-  o.serial = {pty.a(), 19200, 'N', 8, 1};
-  o.units = {7};
-  FakeSlave slave(o);
-  ASSERT_TRUE(slave.start().ok());
+  ASSERT_TRUE(rtu.start().ok());
+  FakeSlave& slave = rtu.slave();
   Exchange x(s.reads.size(), s.writes.size(), s.slaves.size());
   LineOptions opt;
   opt.wake_ns = 10'000'000;
@@ -203,6 +200,65 @@ TEST(ModbusPlan, refuses_what_the_plan_does_not_describe) {
       "      - {name: pump, address: 10.0.0.2, plan: plan.yaml}\n",
       "c.yaml", dir.path.string(), config::LoadOptions{false});
   EXPECT_NE(r.render().find("'plan' applies to RTU slaves"), std::string::npos) << r.render();
+}
+
+// Two lines of slaves, all naming plan.yaml; `second_baud` is the line settings of
+// /dev/ttyY's slave.
+std::string shared_plan_yaml(const std::string& second_baud = "19200") {
+  return "tasks:\n  - {name: t, program: p.fbd}\n"
+         "drivers:\n  - kind: modbus\n    name: field\n    period: 10ms\n    slaves:\n"
+         "      - {name: a, device: /dev/ttyX, baud: 19200, parity: N, unit: 7, plan: plan.yaml}\n"
+         "      - {name: b, device: /dev/ttyX, baud: 19200, parity: N, unit: 8, plan: plan.yaml}\n"
+         "      - {name: c, device: /dev/ttyY, baud: " + second_baud + ", parity: N, unit: 7, plan: plan.yaml}\n"
+         "    read:\n"
+         "      - {device: R, channel: p0.d0.c0, slave: a, address: 0, loop: L1}\n"
+         "      - {device: R, channel: p0.d0.c1, slave: b, address: 0, loop: L2}\n"
+         "      - {device: R, channel: p0.d0.c2, slave: c, address: 0, class: nonrt}\n";
+}
+
+TEST(ModbusPlan, shares_one_plan_between_the_slaves_naming_its_file) {
+  Dir dir;
+  auto r = load(dir, kPlan, shared_plan_yaml());
+  ASSERT_TRUE(r.ok()) << r.render();
+  const ModbusSettings& s = settings_of(r.config->drivers[0]);
+  ASSERT_EQ(s.slaves.size(), 3u);
+  ASSERT_TRUE(s.slaves[0].plan);
+  // One object for all three: the file was read and planned once (a second
+  // load would have made a second LinkPlan).
+  EXPECT_EQ(s.slaves[0].plan.get(), s.slaves[1].plan.get());
+  EXPECT_EQ(s.slaves[0].plan.get(), s.slaves[2].plan.get());
+  EXPECT_EQ(s.slaves[0].plan.use_count(), 3);
+  EXPECT_EQ(s.slaves[0].plan->plan.t1, 100'000'000);
+  EXPECT_EQ(s.slaves[2].plan_file, s.slaves[0].plan->file);
+}
+
+TEST(ModbusPlan, checks_each_slave_against_the_shared_plan) {
+  // The plan is shared, the line settings are not: the 9600 baud line is refused
+  // at its own slave's plan key, the others load.
+  Dir dir;
+  auto r = load(dir, kPlan, shared_plan_yaml("9600"));
+  ASSERT_FALSE(r.ok());
+  const std::string out = r.render();
+  EXPECT_NE(out.find("c.yaml:10:76: error: the plan " + (dir.path / "plan.yaml").string() +
+                     " is for 19200 bit/s, the line runs at 9600 baud"),
+            std::string::npos)
+      << out;
+  EXPECT_EQ(out.find("c.yaml:8:"), std::string::npos) << out;
+  EXPECT_EQ(out.find("c.yaml:9:"), std::string::npos) << out;
+}
+
+TEST(ModbusPlan, reports_a_bad_plan_at_every_slave_naming_it) {
+  Dir dir;
+  auto r = load(dir, "link: {nodes: 4, bit_rate: 19200, layout: modbus-rtu}\nperiodic: {bytes: many}\n",
+                shared_plan_yaml());
+  ASSERT_FALSE(r.ok());
+  const std::string out = r.render();
+  // The plan file's own diagnostic, once at each `plan:` that names it.
+  for (const char* at : {"c.yaml:8:77: error: ", "c.yaml:9:77: error: ", "c.yaml:10:77: error: "}) {
+    const size_t here = out.find(at);
+    ASSERT_NE(here, std::string::npos) << at << " in\n" << out;
+    EXPECT_NE(out.find("plan.yaml:2:19: error: 'bytes' expects a whole number", here), std::string::npos) << out;
+  }
 }
 
 TEST(ModbusPlan, loads_the_example_and_its_plan) {

@@ -17,6 +17,7 @@
 #include <thread>
 
 #include "io/drivers/modbus/fake_slave.h"
+#include "io/drivers/modbus/tests/fake_rtu_line.h"
 #include "io/drivers/modbus/tests/pty_pair.h"
 #include "sched/stats_source.h"
 #include "tests/support/runtime_fixture.h"
@@ -26,6 +27,7 @@ namespace rtplc::sched {
 namespace {
 
 using modbus::FakeSlave;
+using modbus::testing::FakeRtuLine;
 using modbus::parse_address;
 using rtplc::testing::RuntimeFixture;
 
@@ -182,13 +184,10 @@ TEST(ModbusPymodbus, our_master_reads_and_writes_a_pymodbus_server) {
 // read and good, the urgent write arrives, and its first slave's link row
 // carries the plan and the per-class figures `rtplc stats` prints.
 TEST(ModbusRtuRuntime, a_line_on_a_plan_shows_its_classes_in_its_link_row) {
-  modbus::testing::PtyPair pty;
-  if (!pty.available()) GTEST_SKIP() << pty.why();
-  modbus::FakeSlaveOptions o;
-  o.serial = {pty.a(), 19200, 'N', 8, 1};
-  o.units = {1};
-  FakeSlave slave(o);
-  ASSERT_TRUE(slave.start().ok());
+  FakeRtuLine rtu({1});
+  if (!rtu.available()) GTEST_SKIP() << rtu.why();
+  ASSERT_TRUE(rtu.start().ok());
+  FakeSlave& slave = rtu.slave();
   slave.put(*parse_address("hr:0:f32"), 2.5);
   RuntimeFixture fx;
   fx.write("p.fbd", "%%\nstime(0.02)\nF1 = prr(p1, d0, c0, \"Level\")\nF2 = scale(F1, 2, 1)\n"
@@ -198,7 +197,7 @@ TEST(ModbusRtuRuntime, a_line_on_a_plan_shows_its_classes_in_its_link_row) {
            "realtime: {queues: 1, bytes: 4}\nloops:\n  - {name: level, period: 100ms}\n");
   auto rt = fx.start("tasks:\n  - {name: t, program: p.fbd}\n"
                      "drivers:\n  - kind: modbus\n    name: mb\n    slaves:\n"
-                     "      - {name: meter, unit: 1, timeout: 150ms, device: " + pty.b() +
+                     "      - {name: meter, unit: 1, timeout: 150ms, device: " + rtu.device() +
                      ", parity: N, plan: plan.yaml}\n"
                      "    read:\n"
                      "      - {device: R, channel: p1.d0.c0, slave: meter, address: 0, type: f32, loop: level}\n"
@@ -226,19 +225,16 @@ TEST(ModbusRtuRuntime, a_line_on_a_plan_shows_its_classes_in_its_link_row) {
 // counted offline) and its channel is bad, until it comes back, when it is
 // counted reconnected and its output is sent again.
 TEST(ModbusRtuRuntime, a_dead_unit_costs_the_live_one_on_its_line_no_poll_and_is_polled_less_often_until_it_answers) {
-  modbus::testing::PtyPair pty;
-  if (!pty.available()) GTEST_SKIP() << pty.why();
-  modbus::FakeSlaveOptions o;
-  o.serial = {pty.a(), 19200, 'N', 8, 1};
-  o.units = {1};
-  FakeSlave slave(o);
-  ASSERT_TRUE(slave.start().ok());
+  FakeRtuLine rtu({1});
+  if (!rtu.available()) GTEST_SKIP() << rtu.why();
+  ASSERT_TRUE(rtu.start().ok());
+  FakeSlave& slave = rtu.slave();
   slave.put(*parse_address("hr:0:f32"), 2.5);
   RuntimeFixture fx;
   fx.write("p.fbd",
            "%%\nstime(0.02)\nF1 = prr(p1, d0, c0, \"Level\")\nF2 = scale(F1, 2, 1)\n"
            "F3 = prr(p2, d0, c0, \"Dead\")\npwr(F2, p1, d0, c1, \"Out\")\npwr(F2, p2, d0, c1, \"DeadOut\")\nEND\n");
-  const std::string line = "device: " + pty.b() + ", parity: N, poll: 200ms, retries: 0";
+  const std::string line = "device: " + rtu.device() + ", parity: N, poll: 200ms, retries: 0";
   auto rt = fx.start("tasks:\n  - {name: t, program: p.fbd}\n"
                      "drivers:\n  - kind: modbus\n    name: mb\n    slaves:\n"
                      "      - {name: live, unit: 1, timeout: 150ms, " + line + "}\n"

@@ -14,6 +14,7 @@
 #include "io/drivers/modbus/fake_slave.h"
 #include "io/drivers/modbus/pdu.h"
 #include "io/drivers/modbus/tests/client_checks.h"
+#include "io/drivers/modbus/tests/fake_rtu_line.h"
 #include "io/drivers/modbus/tests/pty_pair.h"
 #include "tests/support/run_tool.h"
 
@@ -21,6 +22,7 @@ namespace rtplc::modbus {
 namespace {
 
 using testing::Child;
+using testing::FakeRtuLine;
 using testing::have_pymodbus;
 using testing::PtyPair;
 
@@ -129,15 +131,10 @@ TEST(SlaveFrames, an_rtu_broadcast_is_done_and_never_answered) {
 class ModbusRtuClient : public ::testing::Test {
  protected:
   void SetUp() override {
-    if (!pty_.available()) GTEST_SKIP() << pty_.why();
-    FakeSlaveOptions o;
-    o.serial = {pty_.a(), 19200, 'N', 8, 1};
-    o.units = {7};
-    o.delay_ns = 300000000;
-    slave_ = std::make_unique<FakeSlave>(o);
-    auto r = slave_->start();
+    if (!line_.available()) GTEST_SKIP() << line_.why();
+    auto r = line_.start();
     ASSERT_TRUE(r.ok()) << r.error();
-    auto c = Client::rtu({pty_.b(), 19200, 'N', 8, 1});
+    auto c = Client::rtu(line_.master());
     ASSERT_TRUE(c.ok());
     client_ = std::move(*c);
     client_.set_timeout_ns(150000000);
@@ -146,12 +143,12 @@ class ModbusRtuClient : public ::testing::Test {
     ASSERT_TRUE(o2.ok()) << outcome_text(o2);
   }
   Outcome read_hr(uint16_t start, uint16_t count) { return testing::read_hr(client_, start, count); }
-  PtyPair pty_;
-  std::unique_ptr<FakeSlave> slave_;
+  FakeSlave& slave() { return line_.slave(); }
+  FakeRtuLine line_{{7}, 300000000};  // kMagicDelay answers after 300 ms, past the client's timeout
   Client client_;
 };
 
-TEST_F(ModbusRtuClient, reads_and_writes_over_a_pty) { testing::expect_values_both_ways(*slave_, client_); }
+TEST_F(ModbusRtuClient, reads_and_writes_over_a_pty) { testing::expect_values_both_ways(slave(), client_); }
 
 TEST_F(ModbusRtuClient, magic_addresses_answer_with_each_exception_by_name) {
   testing::expect_each_exception_by_name(client_);
@@ -185,7 +182,7 @@ TEST_F(ModbusRtuClient, a_unit_the_line_does_not_have_times_out_and_the_others_s
   EXPECT_EQ(read_hr(0, 1).kind, Outcome::Kind::kTimeout);
   client_.set_unit(7);
   EXPECT_TRUE(read_hr(0, 1).ok());
-  EXPECT_EQ(slave_->requests(), 2u);  // the fake heard both; unit 8 is not there to answer
+  EXPECT_EQ(slave().requests(), 2u);  // the fake heard both; unit 8 is not there to answer
 }
 
 // The command line over a pty: against our fake slave, then pymodbus.
