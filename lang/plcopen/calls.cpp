@@ -197,6 +197,26 @@ std::optional<Value> Lowering::call_function(Scope& s, const std::string& name, 
   return outs[0];
 }
 
+// ---- operators ----
+
+Value Lowering::operate(BinOp op, const Value& a, const Value& b, SourcePos pos) {
+  if (a.is_const && b.is_const) return em_.binary(op, a, b, pos);
+  static constexpr const char* kName[] = {"ADD", "SUB", "MUL", "DIV", "MOD", "EXPT", "AND", "OR",
+                                          "XOR", "EQ",  "NE",  "LT",  "LE",  "GT",  "GE"};
+  const iec::IecFunction* f = iec::find_iec(kName[static_cast<size_t>(op)]);
+  const std::vector<Value> outs = lower_iec(*f, em_.fresh("op"), {a, b}, pos);
+  if (outs.empty()) return constant(0, op >= BinOp::kEq);
+  return outs[0];
+}
+
+Value Lowering::operate(const char* iec_name, const Value& a, SourcePos pos) {
+  const bool is_not = std::string(iec_name) == "NOT";
+  if (a.is_const || (is_not && a.digital)) return is_not ? em_.unary_not(a, pos) : em_.negate(a, pos);
+  const std::vector<Value> outs = lower_iec(*iec::find_iec(iec_name), em_.fresh("op"), {a}, pos);
+  if (outs.empty()) return constant(0, a.digital);
+  return outs[0];
+}
+
 // ---- function block instances ----
 
 bool Lowering::fb_output_digital(const Var& v, const std::string& name) const {

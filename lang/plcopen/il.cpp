@@ -152,7 +152,7 @@ void Lowering::lower_il(Scope& s, const Body& body) {
         {"GT", BinOp::kGt},   {"GE", BinOp::kGe},   {"EQ", BinOp::kEq},   {"NE", BinOp::kNe},
         {"LE", BinOp::kLe},   {"LT", BinOp::kLt}};
     for (const auto& [n, o] : kOps) {
-      if (op == n) return em.binary(o, a, b, pos);
+      if (op == n) return operate(o, a, b, pos);
     }
     return std::nullopt;
   };
@@ -244,7 +244,7 @@ void Lowering::lower_il(Scope& s, const Body& body) {
                                   : em.binary(BinOp::kAnd, cur, em.unary_not(fire, pos), pos), pos);
       }
     } else if (op == "NOT") {
-      CR = em.unary_not(em.to_digital(CR, pos), pos);
+      CR = operate("NOT", CR, pos);  // BOOL, or bit-wise in the operand's width
     } else if (op == "JMP" || op == "JMPC" || op == "JMPCN") {
       std::string target = upper(t.substr(ob, l.end - ob));
       auto it = label_line.find(target);

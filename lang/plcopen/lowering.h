@@ -92,6 +92,11 @@ class Lowering {
   // under `prefix`. The value of each formal output; empty after an error.
   std::vector<Value> lower_iec(const iec::IecFunction& f, const std::string& prefix,
                                const std::vector<std::optional<Value>>& args, SourcePos pos);
+  // The ST and IL operators: `a + b` is ADD(a, b), `NOT x` is NOT(x), lowered
+  // through lang/iec's table like a call (so INT arithmetic wraps and NOT on a
+  // DINT has 32 bits); only constant operands fold here.
+  Value operate(BinOp op, const Value& a, const Value& b, SourcePos pos);
+  Value operate(const char* iec_name, const Value& a, SourcePos pos);
   // Calls FB instance `v` with named inputs; its outputs are then read with
   // fb_output(). A second call in one cycle is refused.
   void call_fb(Var& v, const std::vector<std::pair<std::string, Value>>& inputs, SourcePos pos);

@@ -43,16 +43,14 @@ Value Lowering::eval(Scope& s, const Expr& e) {
       Var* v = lookup(s, e.name, e.pos);
       return v ? read(*v, e.pos) : constant(0, false);
     }
-    case Expr::Kind::kNot: {
-      Value a = eval(s, *e.args[0]);
-      return em_.unary_not(a, e.pos);
-    }
+    case Expr::Kind::kNot:
+      return operate("NOT", eval(s, *e.args[0]), e.pos);
     case Expr::Kind::kNeg:
-      return em_.negate(eval(s, *e.args[0]), e.pos);
+      return operate("NEG", eval(s, *e.args[0]), e.pos);
     case Expr::Kind::kBinary: {
       Value a = eval(s, *e.args[0]);
       Value b = eval(s, *e.args[1]);
-      return em_.binary(e.op, a, b, e.pos);
+      return operate(e.op, a, b, e.pos);
     }
     case Expr::Kind::kCall: {
       std::vector<Value> args;

@@ -398,6 +398,30 @@ TEST(Plcopen, if_conversion_keeps_unassigned_values_and_integers_wrap) {
 }
 
 // Directly represented variables (%IX0.0 in an expression, without a declaration).
+// The ST and IL operators are the standard functions of lang/iec's table, so
+// they work in the operands' width: AND and NOT on DINT have 32 bits.
+TEST(Plcopen, operators_work_in_the_width_of_their_operands) {
+  const std::string vars = "<inputVars>" + var("a", "DINT", "%ID0") + var("b", "DINT", "%ID1") +
+                           "</inputVars><localVars>" + var("x", "DINT") + var("y", "DINT") + var("z", "INT") +
+                           "</localVars>";
+  const std::string st = project(kNs201, st_program(vars, "x := a AND b;\ny := NOT a;\nz := -32768 - a;"));
+  const std::string il = project(
+      kNs201, "<pou name=\"main\" pouType=\"program\"><interface>" + vars +
+                  "</interface><body><IL><xhtml:p><![CDATA[LD a\nAND b\nST x\nLD a\nNOT\nST y\n"
+                  "LD -32768\nSUB a\nST z\n]]></xhtml:p></IL></body></pou>\n");
+  for (const std::string* src : {&st, &il}) {
+    CompileResult r = compile_source(*src);
+    ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", *src);
+    Machine run(std::move(*r.image));
+    run.set("a", 65536 + 7);
+    run.set("b", 65536 + 12);
+    run.cycles(1);
+    EXPECT_EQ(run.value("main.x"), 65536 + 4);      // 16 bits would give 4
+    EXPECT_EQ(run.value("main.y"), -(65536 + 7) - 1);  // NOT in 32 bits, as a signed DINT
+    EXPECT_EQ(run.value("main.z"), 32761);  // -98311 in DINT, wrapped into INT on assignment
+  }
+}
+
 TEST(Plcopen, reads_and_writes_directly_represented_variables) {
   const std::string src = project(
       kNs201, st_program("<localVars>" + var("k", "INT") + "</localVars>",
