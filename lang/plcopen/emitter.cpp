@@ -1,6 +1,7 @@
 // Values and primitive blocks for the PLCopen lowering (see emitter.h).
 #include "lang/plcopen/emitter.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -59,6 +60,17 @@ void Emitter::append_resolved(FlatBlock b) {
 
 std::string Emitter::fresh(const std::string& scope) {
   return scope + ".$" + std::to_string(++counter_);
+}
+
+bool Emitter::recent_block_is(const std::string& ref, const char* written, const std::vector<double>& params) const {
+  constexpr size_t kLookBack = 8;  // the producer is almost always the last block
+  for (size_t n = 0; n < kLookBack && n < p_.blocks.size(); ++n) {
+    const FlatBlock& b = p_.blocks[p_.blocks.size() - 1 - n];
+    if (b.name != ref) continue;
+    if (b.written != written || b.params.size() < params.size()) return false;
+    return std::equal(params.begin(), params.end(), b.params.begin());
+  }
+  return false;
 }
 
 bool Emitter::has_block(const char* name) const { return find_block(name) != nullptr; }

@@ -57,6 +57,10 @@ class Emitter {
   // A unique name under `scope` ("main" -> "main.$7").
   std::string fresh(const std::string& scope);
 
+  // True when `ref` names one of the last few blocks and that block is
+  // written` with these params (a value that is already wrapped into a type).
+  bool recent_block_is(const std::string& ref, const char* written, const std::vector<double>& params) const;
+
   // The block name holding `v` (constants become blocks, shared by value).
   std::string ref(const Value& v, SourcePos pos);
 

@@ -324,12 +324,14 @@ void Lowering::assign(Var& v, Value value, SourcePos pos) {
     // IEC integers wrap (an INT counter goes 32767 -> -32768): the value is
     // truncated and wrapped into the variable's range.
     const iec::IecTypeInfo& t = iec::type_info(iec_type(v.decl->type.base));
-    const auto bits = static_cast<double>(t.bits);
-    const bool is_signed = t.is_signed;
-    Value w;
-    w.ref = em_.fresh("wrap");
-    em_.emit("wrap", w.ref, pos, {value.ref}, {bits, is_signed ? 1.0 : 0.0});
-    value = w;
+    const std::vector<double> params = {static_cast<double>(t.bits), t.is_signed ? 1.0 : 0.0};
+    // ADD on an INT already wrapped its sum into INT: not twice.
+    if (!em_.recent_block_is(value.ref, "wrap", params)) {
+      Value w;
+      w.ref = em_.fresh("wrap");
+      em_.emit("wrap", w.ref, pos, {value.ref}, params);
+      value = w;
+    }
   }
   value.integer = v.integer;
   v.cur = value;

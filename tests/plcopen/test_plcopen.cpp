@@ -422,6 +422,20 @@ TEST(Plcopen, operators_work_in_the_width_of_their_operands) {
   }
 }
 
+// ADD on an INT wraps its sum; the assignment to an INT does not wrap it again.
+TEST(Plcopen, an_integer_sum_is_wrapped_once) {
+  const std::string src =
+      project(kNs201, st_program("<localVars>" + var("n", "INT", "", "32766") + "</localVars>", "n := n + 1;"));
+  CompileResult r = compile_source(src);
+  ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
+  const auto wraps = std::count_if(r.program.blocks.begin(), r.program.blocks.end(),
+                                   [](const FlatBlock& b) { return b.written == "wrap"; });
+  EXPECT_EQ(wraps, 1);
+  Machine run(std::move(*r.image));
+  run.cycles(2);
+  EXPECT_EQ(run.value("main.n"), -32768);  // 32767 after the first cycle, then 32767 + 1 wraps
+}
+
 TEST(Plcopen, reads_and_writes_directly_represented_variables) {
   const std::string src = project(
       kNs201, st_program("<localVars>" + var("k", "INT") + "</localVars>",
