@@ -216,7 +216,7 @@ class Graph {
       d_.error(x->pos, "'" + trim(x->text) + "' is not a variable to assign");
       return nullptr;
     }
-    return L_.resolve_path(s_, ex->name, x->pos);
+    return L_.resolve_static(s_, ex->name, ex->args, x->pos);
   }
 
   Value negate_if(const XmlElement& e, Value v) {

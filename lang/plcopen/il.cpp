@@ -232,7 +232,7 @@ void Lowering::lower_il(Scope& s, const Body& body) {
         d_.error(pos, op + " needs a variable");
         return;
       }
-      Var* target = resolve_path(s, ex->name, pos);
+      Var* target = resolve_static(s, ex->name, ex->args, pos);
       if (!target) return;
       if (op == "ST" || op == "STN") {
         const Value v = op == "STN" ? em.unary_not(em.to_digital(CR, pos), pos) : CR;

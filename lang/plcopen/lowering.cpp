@@ -5,6 +5,9 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
 
 #include "blocks/registry.h"
 
@@ -68,6 +71,29 @@ std::optional<Location> parse_location(const std::string& a, std::string* error)
   return l;
 }
 
+namespace {
+std::string format_index(double k) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", k);
+  return buf;
+}
+
+// "a[#1].x" as the user wrote it, near enough: "a[...].x".
+std::string path_text(const std::string& path) {
+  std::string r;
+  for (size_t i = 0; i < path.size(); ++i) {
+    if (path[i] == '[') {
+      r += "[...]";
+      i = path.find(']', i);
+      if (i == std::string::npos) break;
+    } else {
+      r += path[i];
+    }
+  }
+  return r;
+}
+}  // namespace
+
 Lowering::Lowering(const Project& p, CheckedProgram& out, DiagnosticList& d)
     : proj_(p), em_(out, d), d_(d), out_(out) {
   for (const Pou& pou : proj_.pous) collect_written(pou, written_);
@@ -90,13 +116,183 @@ void Lowering::emit_channel(Var& v) {
   }
 }
 
-std::unique_ptr<Var> Lowering::make_var(const Variable& decl, const std::string& path, int depth,
+const Variable& Lowering::resolved_decl(const Variable& decl) {
+  if (decl.type.base != BaseType::kDerived || decl.type.array) return decl;
+  const DataType* t = proj_.data_type(decl.type.derived);
+  if (!t || (t->kind != DataType::Kind::kAlias && t->kind != DataType::Kind::kEnum)) return decl;
+  auto r = std::make_unique<Variable>(decl);
+  for (int hops = 0; t && t->kind == DataType::Kind::kAlias; ++hops) {
+    if (hops > kMaxNesting) {
+      d_.error(t->pos, "data type '" + t->name + "' is defined through itself");
+      break;
+    }
+    if (r->initial.empty() && !r->initial_xml) {
+      r->initial = t->initial;
+      r->initial_xml = t->initial_xml;
+    }
+    r->type = t->alias;
+    t = r->type.base == BaseType::kDerived && !r->type.array ? proj_.data_type(r->type.derived) : nullptr;
+  }
+  if (t && t->kind == DataType::Kind::kEnum) {
+    // An enumeration is an INT holding the value's position (0, 1, ...).
+    if (r->initial.empty()) r->initial = t->initial;
+    r->type = TypeRef{BaseType::kInt, {}, nullptr};
+    if (!r->initial.empty()) {
+      auto k = r->initial.find('#') != std::string::npos ? proj_.enum_value(r->initial)
+                                                          : proj_.enum_value(t->name + "#" + r->initial);
+      if (!k) {
+        d_.error(decl.pos, "variable '" + decl.name + "': initial value '" + r->initial +
+                               "' is not a value of enumeration " + t->name);
+      } else {
+        r->initial = std::to_string(*k);
+      }
+    }
+  }
+  const Variable& out = *r;
+  owned_decls_.push_back(std::move(r));
+  return out;
+}
+
+void Lowering::make_members(Var& v, const Variable& decl, const DataType& t, int depth, bool in_function) {
+  v.role = Var::Role::kStruct;
+  v.fb = std::make_unique<Scope>();
+  v.fb->path = v.path;
+  // <initialValue><structValue><value member="x">...: this variable's own
+  // initial values, over the members' declared ones.
+  std::map<std::string, const XmlElement*> given;
+  const XmlElement* init = decl.initial_xml ? decl.initial_xml : t.initial_xml;
+  if (const XmlElement* sv = init ? init->child("structValue") : nullptr) {
+    for (const XmlElement& m : sv->children) {
+      if (m.name != "value") continue;
+      const XmlAttribute* a = m.attribute("member");
+      const std::string name = a ? a->value : std::string();
+      const bool known = std::any_of(t.members.begin(), t.members.end(),
+                                     [&](const Variable& x) { return iequals(x.name, name); });
+      if (!known) d_.error(m.pos, "structure " + t.name + " has no member '" + name + "'");
+      given[upper(name)] = &m;
+    }
+  } else if (init) {
+    d_.error(init->pos, "variable '" + decl.name + "' is a structure: its initial value must be a <structValue>");
+  }
+  for (const Variable& m : t.members) {
+    auto md = std::make_unique<Variable>(m);
+    md->name = decl.name + "." + m.name;
+    md->section = decl.section;
+    md->constant = decl.constant || m.constant;
+    md->pos = decl.pos;
+    if (auto it = given.find(upper(m.name)); it != given.end()) {
+      md->initial.clear();
+      md->initial_xml = nullptr;
+      if (const XmlElement* simple = it->second->child("simpleValue")) {
+        const XmlAttribute* a = simple->attribute("value");
+        md->initial = a ? a->value : std::string();
+      } else {
+        md->initial_xml = it->second;
+      }
+    }
+    const Variable& d = *md;
+    owned_decls_.push_back(std::move(md));
+    auto mv = make_var(d, v.path + "." + m.name, depth, in_function);
+    all_vars_.push_back(mv.get());
+    v.fb->vars.emplace(upper(m.name), std::move(mv));
+  }
+}
+
+void Lowering::make_elements(Var& v, const Variable& decl, std::shared_ptr<const ArrayType> a,
+                             const XmlElement* init, int depth, bool in_function) {
+  v.role = Var::Role::kArray;
+  v.array = a;
+  // <arrayValue><value [repetitionValue="n"]>...: the elements in order.
+  std::vector<const XmlElement*> values;
+  if (const XmlElement* av = init ? init->child("arrayValue") : nullptr) {
+    for (const XmlElement& x : av->children) {
+      if (x.name != "value") continue;
+      long rep = 1;
+      if (const XmlAttribute* r = x.attribute("repetitionValue")) {
+        const auto k = parse_literal(r->value);
+        if (!k || *k < 0 || *k != std::floor(*k) || *k > static_cast<double>(kMaxArrayElements)) {
+          d_.error(x.pos, "repetitionValue '" + r->value + "' is not a count");
+          return;
+        }
+        rep = static_cast<long>(*k);
+      }
+      for (long i = 0; i < rep; ++i) values.push_back(&x);
+    }
+    if (values.size() > a->size())
+      d_.error(av->pos, "variable '" + decl.name + "' has " + std::to_string(a->size()) + " elements and " +
+                            std::to_string(values.size()) + " initial values");
+  } else if (init) {
+    d_.error(init->pos, "variable '" + decl.name + "' is an array: its initial value must be an <arrayValue>");
+  }
+  const size_t n = a->size();
+  elements_ += n;
+  if (elements_ > kMaxArrayElements) {
+    d_.error(decl.pos, "variable '" + decl.name + "': the task's arrays would hold more than " +
+                           std::to_string(kMaxArrayElements) + " elements (each is a block of its own)");
+    return;
+  }
+  for (size_t k = 0; k < n; ++k) {
+    std::string idx;
+    size_t rest = k, stride = n;
+    for (const auto& [lo, hi] : a->dims) {
+      stride /= static_cast<size_t>(hi - lo + 1);
+      idx += (idx.empty() ? "" : ",") + std::to_string(lo + static_cast<int64_t>(rest / stride));
+      rest %= stride;
+    }
+    auto ed = std::make_unique<Variable>(decl);
+    ed->name = decl.name + "[" + idx + "]";
+    ed->type = a->element;
+    ed->address.clear();
+    ed->initial.clear();
+    ed->initial_xml = nullptr;
+    if (k < values.size()) {
+      if (const XmlElement* simple = values[k]->child("simpleValue")) {
+        const XmlAttribute* at = simple->attribute("value");
+        ed->initial = at ? at->value : std::string();
+      } else {
+        ed->initial_xml = values[k];
+      }
+    }
+    const Variable& d = *ed;
+    owned_decls_.push_back(std::move(ed));
+    auto ev = make_var(d, v.path + "[" + idx + "]", depth, in_function);
+    all_vars_.push_back(ev.get());
+    v.elems.push_back(std::move(ev));
+  }
+}
+
+std::unique_ptr<Var> Lowering::make_var(const Variable& decl0, const std::string& path, int depth,
                                         bool in_function) {
+  const Variable& decl = resolved_decl(decl0);
   auto v = std::make_unique<Var>();
   v->decl = &decl;
   v->path = path;
   v->digital = decl.type.is_bool();
   v->integer = integer_type(decl.type.base);
+  const DataType* user_type = decl.type.base == BaseType::kDerived && !decl.type.array
+                                  ? proj_.data_type(decl.type.derived)
+                                  : nullptr;
+  if (decl.type.array || user_type) {
+    if (!decl.address.empty()) {
+      d_.error(decl.pos, "variable '" + decl.name + "': an array or structure cannot be located (" + decl.address +
+                             "); locate its elements' values in variables of their own");
+      return v;
+    }
+    if (decl.section == VarSection::kInput || decl.section == VarSection::kOutput) {
+      if (depth > 0 || in_function)
+        d_.error(decl.pos, "variable '" + decl.name + "': arrays and structures as inputs or outputs of a "
+                               "function or function block are not supported yet");
+    }
+    if (depth > kMaxNesting) {
+      d_.error(decl.pos, "variable '" + decl.name + "': data types nested deeper than " + std::to_string(kMaxNesting));
+      return v;
+    }
+    if (decl.type.array) make_elements(*v, decl, decl.type.array, decl.initial_xml, depth + 1, in_function);
+    else if (user_type->kind == DataType::Kind::kStruct) make_members(*v, decl, *user_type, depth + 1, in_function);
+    else make_elements(*v, decl, user_type->array, decl.initial_xml ? decl.initial_xml : user_type->initial_xml,
+                       depth + 1, in_function);
+    return v;
+  }
   if (decl.type.base == BaseType::kDerived) {
     const std::string up = upper(decl.type.derived);
     if (in_function) {
@@ -238,11 +434,181 @@ Var* Lowering::resolve_path(Scope& s, const std::string& path, SourcePos pos) {
   if (dot == std::string::npos) return lookup(s, path, pos);
   Var* base = lookup(s, path.substr(0, dot), pos);
   if (!base) return nullptr;
-  if (base->role != Var::Role::kUserFb) {
+  if (base->role != Var::Role::kUserFb && base->role != Var::Role::kStruct) {
     d_.error(pos, "'" + path + "': '" + path.substr(0, dot) + "' is not a function block instance of this project");
     return nullptr;
   }
   return resolve_path(*base->fb, path.substr(dot + 1), pos);
+}
+
+std::vector<Place> Lowering::places(Scope& s, const std::string& path,
+                                    const std::vector<std::unique_ptr<Expr>>& index, SourcePos pos) {
+  const Value yes = constant(1, true);
+  if (path.empty()) return {};
+  if (path[0] == '%') {
+    Var* v = lookup(s, path, pos);
+    if (!v) return {};
+    return {Place{yes, v, {}}};
+  }
+  auto both = [&](const Value& a, const Value& b) {
+    if (a.is_const) return a.k != 0 ? b : a;
+    if (b.is_const) return b.k != 0 ? a : b;
+    return em_.binary(BinOp::kAnd, a, b, pos);
+  };
+  std::vector<Place> cur;
+  size_t i = 0, next_index = 0;
+  bool first = true;
+  for (;;) {
+    size_t j = i;
+    while (j < path.size() && path[j] != '.' && path[j] != '[') ++j;
+    const std::string name = path.substr(i, j - i);
+    if (first) {
+      Var* v = lookup(s, name, pos);
+      if (!v) return {};
+      cur = {Place{yes, v, {}}};
+      first = false;
+    } else {
+      std::vector<Place> nx;
+      for (const Place& p : cur) {
+        Var* b = p.var;
+        if (!p.output.empty()) {
+          d_.error(pos, "'" + path + "': " + b->decl->name + "." + p.output + " has no members");
+          return {};
+        }
+        if (b->role == Var::Role::kStruct || b->role == Var::Role::kUserFb) {
+          auto it = b->fb->vars.find(upper(name));
+          if (it == b->fb->vars.end()) {
+            d_.error(pos, "'" + path + "': " +
+                              (b->role == Var::Role::kStruct ? "structure '" + b->decl->name + "' has no member '"
+                                                             : "function block '" + b->fb->pou->name +
+                                                                   "' has no variable '") +
+                              name + "'");
+            return {};
+          }
+          nx.push_back(Place{p.when, it->second.get(), {}});
+        } else if (b->role == Var::Role::kStdFb) {
+          nx.push_back(Place{p.when, b, upper(name)});
+        } else {
+          d_.error(pos, "'" + path + "': '" + b->decl->name + "' is neither a structure nor a function block instance");
+          return {};
+        }
+      }
+      cur = std::move(nx);
+    }
+    i = j;
+    while (i < path.size() && path[i] == '[') {  // "[#n]": the next n index expressions
+      const size_t close = path.find(']', i);
+      const size_t n = static_cast<size_t>(std::strtoul(path.c_str() + i + 2, nullptr, 10));
+      i = close + 1;
+      std::vector<Value> ix;
+      for (size_t k = 0; k < n && next_index < index.size(); ++k) ix.push_back(eval(s, *index[next_index++]));
+      std::vector<Place> nx;
+      for (const Place& p : cur) {
+        Var* b = p.var;
+        if (b->role != Var::Role::kArray || !p.output.empty()) {
+          d_.error(pos, "'" + path + "': '" + b->decl->name + "' is not an array");
+          return {};
+        }
+        const ArrayType& a = *b->array;
+        if (ix.size() != a.dims.size()) {
+          d_.error(pos, "'" + b->decl->name + "' has " + std::to_string(a.dims.size()) + " dimension" +
+                            (a.dims.size() == 1 ? "" : "s") + ", indexed with " + std::to_string(ix.size()));
+          return {};
+        }
+        const bool known = std::all_of(ix.begin(), ix.end(), [](const Value& x) { return x.is_const; });
+        size_t stride = b->elems.size();
+        if (known) {
+          size_t off = 0;
+          for (size_t d = 0; d < ix.size(); ++d) {
+            const auto [lo, hi] = a.dims[d];
+            stride /= static_cast<size_t>(hi - lo + 1);
+            if (ix[d].k != std::floor(ix[d].k) || ix[d].k < static_cast<double>(lo) ||
+                ix[d].k > static_cast<double>(hi)) {
+              d_.error(pos, "index " + format_index(ix[d].k) + " is outside " + b->decl->name + "'s bounds " +
+                                std::to_string(lo) + ".." + std::to_string(hi));
+              return {};
+            }
+            off += static_cast<size_t>(static_cast<int64_t>(ix[d].k) - lo) * stride;
+          }
+          nx.push_back(Place{p.when, b->elems[off].get(), {}});
+          continue;
+        }
+        // Known at run time only: every element, under "the index is its own".
+        for (size_t off = 0; off < b->elems.size(); ++off) {
+          Value c = p.when;
+          size_t rest = off, st = b->elems.size();
+          for (size_t d = 0; d < ix.size() && !(c.is_const && c.k == 0); ++d) {
+            const auto [lo, hi] = a.dims[d];
+            st /= static_cast<size_t>(hi - lo + 1);
+            const double at = static_cast<double>(lo + static_cast<int64_t>(rest / st));
+            rest %= st;
+            Value k = constant(at, false);
+            k.integer = true;
+            c = both(c, ix[d].is_const ? constant(ix[d].k == at ? 1 : 0, true) : em_.binary(BinOp::kEq, ix[d], k, pos));
+          }
+          if (c.is_const && c.k == 0) continue;
+          nx.push_back(Place{c, b->elems[off].get(), {}});
+        }
+      }
+      cur = std::move(nx);
+    }
+    if (i >= path.size()) break;
+    ++i;  // '.'
+  }
+  return cur;
+}
+
+Var* Lowering::resolve_static(Scope& s, const std::string& path, const std::vector<std::unique_ptr<Expr>>& index,
+                              SourcePos pos) {
+  std::vector<Place> ps = places(s, path, index, pos);
+  if (ps.empty()) return nullptr;
+  if (ps.size() != 1 || !ps[0].when.is_const) {
+    d_.error(pos, "'" + path_text(path) + "': an array index known only at run time is supported in ST "
+                  "expressions and assignments; here it must be a constant");
+    return nullptr;
+  }
+  if (!ps[0].output.empty()) {
+    d_.error(pos, "'" + path_text(path) + "' is an output of function block '" + ps[0].var->decl->name + "'");
+    return nullptr;
+  }
+  return ps[0].var;
+}
+
+Value Lowering::load(Scope& s, const std::string& path, const std::vector<std::unique_ptr<Expr>>& index,
+                     SourcePos pos) {
+  if (index.empty() && path.find('.') == std::string::npos && !lookup(s, path, pos, false)) {
+    if (auto k = proj_.enum_value(path)) {  // an enumeration's value: its position
+      Value v = constant(*k, false);
+      v.integer = true;
+      return v;
+    }
+  }
+  std::vector<Place> ps = places(s, path, index, pos);
+  if (ps.empty()) return constant(0, false);
+  auto value_of = [&](const Place& p) { return p.output.empty() ? read(*p.var, pos) : fb_output(*p.var, p.output, pos); };
+  if (ps.size() == 1 && ps[0].when.is_const && ps[0].when.k != 0) return value_of(ps[0]);
+  std::vector<Value> vs;
+  for (const Place& p : ps) vs.push_back(value_of(p));
+  Value acc = constant(0, vs[0].digital);  // an index out of range reads 0
+  acc.integer = vs[0].integer;
+  for (size_t k = ps.size(); k-- > 0;) acc = em_.select(ps[k].when, vs[k], acc, pos);
+  acc.integer = vs[0].integer;
+  acc.int_type = vs[0].int_type;
+  return acc;
+}
+
+void Lowering::store(Scope& s, const std::string& path, const std::vector<std::unique_ptr<Expr>>& index,
+                     const Value& v, SourcePos pos) {
+  for (const Place& p : places(s, path, index, pos)) {
+    if (!p.output.empty()) {
+      d_.error(pos, "'" + path_text(path) + "' is an output of function block '" + p.var->decl->name +
+                        "': it cannot be assigned");
+      return;
+    }
+    if (p.when.is_const && p.when.k != 0) assign(*p.var, v, pos);
+    else assign(*p.var, em_.select(p.when, v, read(*p.var, pos), pos), pos);
+    if (d_.has_errors()) return;
+  }
 }
 
 Value Lowering::start_value(Var& v, SourcePos pos) {
@@ -288,6 +654,12 @@ Value Lowering::start_value(Var& v, SourcePos pos) {
 }
 
 Value Lowering::read(Var& v, SourcePos pos) {
+  if (v.role == Var::Role::kStruct || v.role == Var::Role::kArray) {
+    d_.error(pos, "'" + v.decl->name + "' is " + (v.role == Var::Role::kStruct ? "a structure" : "an array") +
+                      ": read one " + (v.role == Var::Role::kStruct ? "member" : "element") +
+                      " at a time (a whole one is not a value rtplc can pass yet)");
+    return constant(0, false);
+  }
   if (v.role == Var::Role::kUserFb || v.role == Var::Role::kStdFb) {
     d_.error(pos, "'" + v.decl->name + "' is a function block instance; read one of its outputs (" +
                       v.decl->name + ".Q)");
@@ -309,6 +681,12 @@ void Lowering::assign(Var& v, Value value, SourcePos pos) {
   }
   if (v.role == Var::Role::kUserFb || v.role == Var::Role::kStdFb) {
     d_.error(pos, "'" + v.decl->name + "' is a function block instance and cannot be assigned");
+    return;
+  }
+  if (v.role == Var::Role::kStruct || v.role == Var::Role::kArray) {
+    d_.error(pos, "'" + v.decl->name + "' is " + (v.role == Var::Role::kStruct ? "a structure" : "an array") +
+                      ": assign one " + (v.role == Var::Role::kStruct ? "member" : "element") +
+                      " at a time (whole assignment is not supported yet)");
     return;
   }
   if (v.decl->constant) {
@@ -401,21 +779,28 @@ void Lowering::lower_body_of(Scope& s, const Body& b) {
 }
 
 void Lowering::finalize(Scope& s) {
-  for (auto& [name, vp] : s.vars) {
-    Var& v = *vp;
-    if (v.role == Var::Role::kUserFb) {
+  for (auto& [name, vp] : s.vars) finalize_var(*vp);
+}
+
+void Lowering::finalize_var(Var& v) {
+  {
+    if (v.role == Var::Role::kUserFb || v.role == Var::Role::kStruct) {
       finalize(*v.fb);
-      continue;
+      return;
+    }
+    if (v.role == Var::Role::kArray) {
+      for (auto& e : v.elems) finalize_var(*e);
+      return;
     }
     if (v.role == Var::Role::kStdFb) {
       for (const std::string& n : produced_) {
         if (n.compare(0, v.path.size() + 1, v.path + ".") == 0) out_.variables.push_back(n);
       }
-      continue;
+      return;
     }
     const SourcePos pos = v.decl->pos;
     out_.variables.push_back(v.path);
-    if (v.role == Var::Role::kInput || v.role == Var::Role::kSetpoint) continue;
+    if (v.role == Var::Role::kInput || v.role == Var::Role::kSetpoint) return;
     em_.copy_as(read(v, pos), v.path, pos);
     if (v.loc && v.loc->area == 'Q') {
       const size_t i = em_.emit(v.digital ? "ddo" : "dao", "", pos, {v.path});

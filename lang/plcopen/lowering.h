@@ -45,12 +45,24 @@ struct Var {
   std::string path;
   bool digital = false;
   bool integer = false;
-  enum class Role : uint8_t { kPlain, kInput, kSetpoint, kUserFb, kStdFb } role = Role::kPlain;
+  enum class Role : uint8_t { kPlain, kInput, kSetpoint, kUserFb, kStdFb, kStruct, kArray } role = Role::kPlain;
   std::optional<Location> loc;
   std::optional<Value> start;  // the value at the start of the cycle
   std::optional<Value> cur;    // after the last assignment so far
-  std::unique_ptr<Scope> fb;   // kUserFb: the instance's own variables
+  std::unique_ptr<Scope> fb;   // kUserFb: the instance's own variables; kStruct: its members
   StdFb std_fb;                // kStdFb
+  // kArray: one variable per element, row-major (`a[1,2]` after `a[1,1]`).
+  std::vector<std::unique_ptr<Var>> elems;
+  std::shared_ptr<const ArrayType> array;
+};
+
+// Where a path such as `a[i].x` leads: one variable, or (an index known only
+// at run time) each element it may name with the condition that it does.
+// `output` names a standard FB's output (`t[2].Q`).
+struct Place {
+  Value when;  // constant TRUE for a place known at compile time
+  Var* var = nullptr;
+  std::string output;
 };
 
 struct Scope {
@@ -75,6 +87,19 @@ class Lowering {
   Var* lookup(Scope& s, const std::string& name, SourcePos pos, bool report = true);
   // "a" or "fb1.Q": the variable read or written.
   Var* resolve_path(Scope& s, const std::string& path, SourcePos pos);
+  // A path with array indices (Expr::name with `[#n]`, their expressions in
+  // `index`): every place it may lead to; empty after an error.
+  std::vector<Place> places(Scope& s, const std::string& path, const std::vector<std::unique_ptr<Expr>>& index,
+                            SourcePos pos);
+  // One place known at compile time (an FBD/LD/IL target, an FB to call).
+  Var* resolve_static(Scope& s, const std::string& path, const std::vector<std::unique_ptr<Expr>>& index,
+                      SourcePos pos);
+  // Reads or writes through a path: an index known only at run time reads
+  // sel(i = 0, a[0], sel(i = 1, a[1], ...)) (0 when out of range) and writes
+  // each element under its condition (none when out of range).
+  Value load(Scope& s, const std::string& path, const std::vector<std::unique_ptr<Expr>>& index, SourcePos pos);
+  void store(Scope& s, const std::string& path, const std::vector<std::unique_ptr<Expr>>& index, const Value& v,
+             SourcePos pos);
   Value read(Var& v, SourcePos pos);
   void assign(Var& v, Value value, SourcePos pos);
   // Rising edge of `v`, remembered in a block named `mem` (last cycle's `v`).
@@ -143,6 +168,14 @@ class Lowering {
   std::unique_ptr<Scope> make_scope(const Pou& pou, const std::string& path, int depth);
   std::unique_ptr<Var> make_var(const Variable& decl, const std::string& path, int depth, bool in_function);
   void finalize(Scope& s);
+  void finalize_var(Var& v);
+  // The declaration with its data type resolved: an alias or a subrange to its
+  // base, an enumeration to INT with its values as integers.
+  const Variable& resolved_decl(const Variable& decl);
+  // Members of a structure, elements of an array, with their initial values.
+  void make_members(Var& v, const Variable& decl, const DataType& t, int depth, bool in_function);
+  void make_elements(Var& v, const Variable& decl, std::shared_ptr<const ArrayType> a, const XmlElement* init,
+                     int depth, bool in_function);
   Value start_value(Var& v, SourcePos pos);
   void emit_channel(Var& v);
   // `x` as it was at the last cycle `run` held (a block named `name` that
@@ -160,6 +193,7 @@ class Lowering {
   std::vector<std::unique_ptr<Scope>> function_scopes_;
   std::vector<std::string> written_;  // upper-case names written by the program bodies
   int call_depth_ = 0;
+  size_t elements_ = 0;  // array elements made so far, at most kMaxArrayElements
   std::vector<std::unique_ptr<Variable>> owned_decls_;  // function result variables
   struct PendingOutput {
     Var* fb;

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <cstdlib>
 
+#include "lang/iec/iec_functions.h"
+
 namespace rtplc::lang::plcopen {
 
 bool iequals(std::string_view a, std::string_view b) {
@@ -75,16 +77,23 @@ class Reader {
     for (const XmlElement& c : t.children) {
       if (c.name == "dataTypes") {
         for (const XmlElement& dt : c.children) {
-          if (dt.name == "dataType")
-            d_.error(dt.pos, "<dataType name=\"" + attr(dt, "name") +
-                                 "\">: user data types (structures, enumerations, arrays, "
-                                 "subranges) are not supported yet");
+          if (dt.name == "dataType") data_type(dt, p);
         }
       } else if (c.name == "pous") {
         for (const XmlElement& pe : c.children) {
           if (pe.name == "pou") p.pous.push_back(pou(pe));
         }
       }
+    }
+    for (size_t i = 0; i < p.data_types.size(); ++i) {
+      const DataType& dt = p.data_types[i];
+      for (size_t j = 0; j < i; ++j) {
+        if (iequals(dt.name, p.data_types[j].name))
+          d_.error(dt.pos, "data type '" + dt.name + "' is defined twice (also line " +
+                               std::to_string(p.data_types[j].pos.line) + ")");
+      }
+      if (elementary_type(dt.name) || iec::find_iec(dt.name))
+        d_.error(dt.pos, "data type '" + dt.name + "' has the name of a standard type or block");
     }
     for (size_t i = 0; i < p.pous.size(); ++i) {
       for (size_t j = 0; j < i; ++j) {
@@ -93,6 +102,107 @@ class Reader {
                                       std::to_string(p.pous[j].pos.line) + ")");
       }
     }
+  }
+
+  // <dataType name="..."><baseType>(derived | elementary | enum | struct |
+  // array | subrange)</baseType>[<initialValue>]</dataType>
+  void data_type(const XmlElement& e, Project& p) {
+    DataType t;
+    t.name = attr(e, "name");
+    t.pos = e.pos;
+    if (t.name.empty()) {
+      d_.error(e.pos, "<dataType> without a name");
+      return;
+    }
+    const XmlElement* bt = e.child("baseType");
+    const XmlElement* body = nullptr;
+    if (bt) {
+      for (const XmlElement& c : bt->children) {
+        if (c.name != "addData" && c.name != "documentation") {
+          body = &c;
+          break;
+        }
+      }
+    }
+    if (!body) {
+      d_.error(e.pos, "<dataType name=\"" + t.name + "\"> has no <baseType>");
+      return;
+    }
+    if (body->name == "enum") {
+      t.kind = DataType::Kind::kEnum;
+      if (const XmlElement* vs = body->child("values")) {
+        for (const XmlElement& v : vs->children) {
+          if (v.name != "value") continue;
+          const std::string n = attr(v, "name");
+          if (n.empty()) {
+            d_.error(v.pos, "an enumeration <value> without a name");
+            continue;
+          }
+          if (!attr(v, "value").empty())
+            d_.error(v.pos, "enumeration value '" + n + "' with an explicit value is not supported yet");
+          t.values.push_back(n);
+        }
+      }
+      if (t.values.empty()) d_.error(body->pos, "enumeration '" + t.name + "' has no values");
+    } else if (body->name == "struct") {
+      t.kind = DataType::Kind::kStruct;
+      variables(*body, VarSection::kLocal, t.members);
+      for (const Variable& m : t.members) {
+        if (!m.address.empty()) d_.error(m.pos, "structure member '" + m.name + "' cannot be located");
+      }
+      if (t.members.empty()) d_.error(body->pos, "structure '" + t.name + "' has no members");
+    } else if (body->name == "array") {
+      t.kind = DataType::Kind::kArray;
+      t.array = array_type(*body);
+      if (!t.array) return;
+    } else {
+      auto r = type_of(*bt);  // derived, elementary or a subrange: an alias
+      if (!r) return;
+      t.alias = *r;
+    }
+    if (const XmlElement* iv = e.child("initialValue")) {
+      if (const XmlElement* sv = iv->child("simpleValue")) t.initial = attr(*sv, "value");
+      else t.initial_xml = iv;
+    }
+    p.data_types.push_back(std::move(t));
+  }
+
+  // <array><dimension lower= upper=/>...<baseType>T</baseType></array>
+  std::shared_ptr<const ArrayType> array_type(const XmlElement& a) {
+    auto r = std::make_shared<ArrayType>();
+    for (const XmlElement& d : a.children) {
+      if (d.name != "dimension") continue;
+      const auto lo = parse_literal(attr(d, "lower")), hi = parse_literal(attr(d, "upper"));
+      if (!lo || !hi || *lo != std::floor(*lo) || *hi != std::floor(*hi)) {
+        d_.error(d.pos, "array bounds must be integer literals (lower=\"" + attr(d, "lower") + "\" upper=\"" +
+                            attr(d, "upper") + "\")");
+        return nullptr;
+      }
+      if (*hi < *lo) {
+        d_.error(d.pos, "array dimension " + attr(d, "lower") + ".." + attr(d, "upper") + " is empty");
+        return nullptr;
+      }
+      if (std::abs(*lo) > 1e9 || std::abs(*hi) > 1e9 ||
+          (*hi - *lo + 1) * static_cast<double>(r->dims.empty() ? 1 : r->size()) > static_cast<double>(kMaxArrayElements)) {
+        d_.error(d.pos, "array of more than " + std::to_string(kMaxArrayElements) +
+                            " elements: rtplc holds each element in a block of its own");
+        return nullptr;
+      }
+      r->dims.emplace_back(static_cast<int64_t>(*lo), static_cast<int64_t>(*hi));
+    }
+    if (r->dims.empty()) {
+      d_.error(a.pos, "<array> without a <dimension>");
+      return nullptr;
+    }
+    const XmlElement* bt = a.child("baseType");
+    if (!bt) {
+      d_.error(a.pos, "<array> without a <baseType>");
+      return nullptr;
+    }
+    auto el = type_of(*bt);
+    if (!el) return nullptr;
+    r->element = *el;
+    return r;
   }
 
   Pou pou(const XmlElement& e) {
@@ -155,10 +265,25 @@ class Reader {
         }
         return r;
       }
-      if (auto b = elementary_type(c.name)) return TypeRef{*b, {}};
-      d_.error(c.pos, "type <" + c.name + "> is not supported (elementary types BOOL, SINT..LINT, "
-                                          "USINT..ULINT, BYTE..LWORD, REAL, LREAL, TIME and "
-                                          "function block types are)");
+      if (auto b = elementary_type(c.name)) return TypeRef{*b, {}, nullptr};
+      if (c.name == "array") {
+        auto a = array_type(c);
+        if (!a) return std::nullopt;
+        TypeRef r;
+        r.base = BaseType::kDerived;
+        r.array = a;
+        return r;
+      }
+      if (c.name == "subrangeSigned" || c.name == "subrangeUnsigned") {
+        // The range is not checked at run time: the base type's wrap applies.
+        if (const XmlElement* b = c.child("baseType")) return type_of(*b);
+      }
+      if (c.name == "string" || c.name == "wstring") {
+        d_.error(c.pos, "type " + upper(c.name) + " is not supported: rtplc values are numbers");
+        return std::nullopt;
+      }
+      d_.error(c.pos, "type <" + c.name + "> is not supported here (elementary types, arrays, subranges, "
+                                          "and data types and function blocks by name are)");
       return std::nullopt;
     }
     d_.error(te.pos, "<type> names no type");
@@ -185,13 +310,8 @@ class Reader {
           if (auto t = type_of(c)) var.type = *t;
           typed = true;
         } else if (c.name == "initialValue") {
-          const XmlElement* sv = c.child("simpleValue");
-          if (!sv) {
-            d_.error(c.pos, "variable '" + var.name +
-                                "': only a <simpleValue> initial value is supported");
-          } else {
-            var.initial = attr(*sv, "value");
-          }
+          if (const XmlElement* sv = c.child("simpleValue")) var.initial = attr(*sv, "value");
+          else var.initial_xml = &c;  // arrayValue / structValue, read with the type
         }
       }
       if (!typed) d_.error(v.pos, "variable '" + var.name + "' has no <type>");
@@ -492,6 +612,26 @@ const Variable* Pou::var(std::string_view n) const {
     if (iequals(v.name, n)) return &v;
   }
   return nullptr;
+}
+
+const DataType* Project::data_type(std::string_view n) const {
+  for (const DataType& t : data_types) {
+    if (iequals(t.name, n)) return &t;
+  }
+  return nullptr;
+}
+
+std::optional<int> Project::enum_value(std::string_view n) const {
+  const size_t hash = n.find('#');
+  const std::string_view type = hash == std::string_view::npos ? std::string_view() : n.substr(0, hash);
+  const std::string_view value = hash == std::string_view::npos ? n : n.substr(hash + 1);
+  for (const DataType& t : data_types) {
+    if (t.kind != DataType::Kind::kEnum || (!type.empty() && !iequals(t.name, type))) continue;
+    for (size_t k = 0; k < t.values.size(); ++k) {
+      if (iequals(t.values[k], value)) return static_cast<int>(k);
+    }
+  }
+  return std::nullopt;
 }
 
 const Pou* Project::pou(std::string_view n) const {

@@ -8,6 +8,7 @@
 // the element and its line:col: a project is read whole or not at all.
 #pragma once
 
+#include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -32,10 +33,28 @@ inline iec::IecType iec_type(BaseType b) {
   return b == BaseType::kDerived ? iec::IecType::kReal : static_cast<iec::IecType>(b);
 }
 
+struct ArrayType;
+
 struct TypeRef {
   BaseType base = BaseType::kReal;
-  std::string derived;  // the FB (or alias) name when base == kDerived
+  std::string derived;  // the FB or user data type name when base == kDerived
+  // An inline ARRAY [..] OF ... (base == kDerived, derived empty).
+  std::shared_ptr<const ArrayType> array;
   bool is_bool() const { return base == BaseType::kBool; }
+};
+
+// ARRAY [lo..hi, ...] OF element: bounds are constants. Each element is a
+// variable of its own in the task image, so a task's arrays hold at most
+// this many elements between them.
+inline constexpr size_t kMaxArrayElements = 4096;
+struct ArrayType {
+  std::vector<std::pair<int64_t, int64_t>> dims;
+  TypeRef element;
+  size_t size() const {
+    size_t n = 1;
+    for (const auto& [lo, hi] : dims) n *= static_cast<size_t>(hi - lo + 1);
+    return n;
+  }
 };
 
 // "BOOL", "INT", ... or the derived name.
@@ -52,7 +71,22 @@ struct Variable {
   VarSection section = VarSection::kLocal;
   std::string address;        // "%IX0.0", empty when not located
   std::string initial;        // the initial value's text, empty when none
+  // An <arrayValue> or <structValue> initial value (arrays, structures).
+  const XmlElement* initial_xml = nullptr;
   bool constant = false;      // CONSTANT section
+  SourcePos pos;
+};
+
+// A <dataType> of <types><dataTypes> (docs/plcopen.md, "User data types").
+struct DataType {
+  enum class Kind : uint8_t { kAlias, kEnum, kStruct, kArray } kind = Kind::kAlias;
+  std::string name;
+  TypeRef alias;                     // kAlias: the type it renames (a subrange's base too)
+  std::vector<std::string> values;   // kEnum, in order: value k is the integer k
+  std::vector<Variable> members;     // kStruct
+  std::shared_ptr<const ArrayType> array;  // kArray
+  std::string initial;               // the type's own initial value (alias, enum)
+  const XmlElement* initial_xml = nullptr;
   SourcePos pos;
 };
 
@@ -122,9 +156,13 @@ struct Project {
   XmlElement root;  // owns every element the bodies point into
   std::string ns;   // the namespace the root declared
   std::vector<Pou> pous;
+  std::vector<DataType> data_types;
   std::vector<Configuration> configurations;
 
   const Pou* pou(std::string_view name) const;  // case-insensitive
+  const DataType* data_type(std::string_view name) const;  // case-insensitive
+  // The enumeration value `name` ("Run", or "Mode#Run"): its integer.
+  std::optional<int> enum_value(std::string_view name) const;
 };
 
 // Parses `text` as a PLCopen project. Errors name the element and its position.

@@ -196,16 +196,31 @@ class Parser {
       error(peek().pos, std::string("expected '") + o + "' " + where + ", found '" + peek().text + "'");
   }
 
-  // variable ::= ident { '.' ident }
-  std::string variable_path() {
+  // variable ::= ident [ '[' expr { ',' expr } ']' ] { '.' ident [ '[' ... ']' ] }
+  // Indices go to `index`; the path marks each group as `[#n]`.
+  std::string variable_path(std::vector<std::unique_ptr<Expr>>& index) {
     std::string p = next().text;
-    while (peek().t == Tok::T::kOp && peek().text == "." && peek(1).t == Tok::T::kIdent) {
-      ++i_;
-      p += "." + next().text;
+    for (;;) {
+      if (accept_op("[")) {
+        size_t n = 0;
+        do {
+          auto e = expression();
+          if (failed_) return p;
+          index.push_back(std::move(e));
+          ++n;
+        } while (accept_op(","));
+        expect_op("]", "to close the array index");
+        if (failed_) return p;
+        p += "[#" + std::to_string(n) + "]";
+        continue;
+      }
+      if (peek().t == Tok::T::kOp && peek().text == "." && peek(1).t == Tok::T::kIdent) {
+        ++i_;
+        p += "." + next().text;
+        continue;
+      }
+      return p;
     }
-    if (peek().t == Tok::T::kOp && peek().text == "[")
-      error(peek().pos, "arrays are not supported yet");
-    return p;
   }
 
   // statement ::= assignment | fb_call | if | case | for | RETURN | EXIT | CONTINUE
@@ -246,7 +261,7 @@ class Parser {
     }
     auto s = std::make_unique<Stmt>();
     s->pos = t.pos;
-    s->target = variable_path();
+    s->target = variable_path(s->target_index);
     if (failed_) return nullptr;
     if (accept_op(":=")) {
       s->kind = Stmt::Kind::kAssign;
@@ -278,7 +293,7 @@ class Parser {
             error(peek().pos, "expected a variable after '=>'");
             return;
           }
-          a.target = variable_path();
+          a.target = variable_path(a.target_index);
         }
       } else if (is_kw("NOT") && peek(1).t == Tok::T::kIdent && peek(2).t == Tok::T::kOp &&
                  peek(2).text == "=>") {
@@ -512,6 +527,16 @@ class Parser {
     if (t.t == Tok::T::kNumber || (t.t == Tok::T::kIdent && (t.up == "TRUE" || t.up == "FALSE"))) {
       bool b = false, tm = false;
       auto v = parse_literal(t.text, &b, &tm);
+      const size_t hash = t.text.find('#');
+      if (!v && hash != std::string::npos && hash > 0 &&
+          std::isalpha(static_cast<unsigned char>(t.text[0])) && !elementary_type(t.text.substr(0, hash)) &&
+          t.up.compare(0, hash + 1, "T#") != 0 && t.up.compare(0, hash + 1, "TIME#") != 0) {
+        // Mode#Run: a typed enumeration value, resolved by the lowering.
+        ++i_;
+        e->kind = Expr::Kind::kName;
+        e->name = t.text;
+        return e;
+      }
       if (!v) {
         error(t.pos, "'" + t.text + "' is not a literal rtplc reads (integers, reals, TRUE/FALSE, T#...)");
         return nullptr;
@@ -552,7 +577,7 @@ class Parser {
         return e;
       }
       e->kind = Expr::Kind::kName;
-      e->name = variable_path();
+      e->name = variable_path(e->args);
       return e;
     }
     error(t.pos, "expected an expression, found '" + (t.t == Tok::T::kEnd ? std::string("end of text") : t.text) + "'");

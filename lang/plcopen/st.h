@@ -23,7 +23,9 @@ struct Expr {
   SourcePos pos;
   double k = 0;
   bool is_bool = false, is_time = false, is_real = false;
-  std::string name;  // kName: "a" or "fb1.Q"; kCall: the function
+  // kName: "a", "fb1.Q", "p.x", or with array indices "a[#1]", "m[#2].x":
+  // `[#n]` stands for the next n expressions of `args`, in order.
+  std::string name;  // kCall: the function
   BinOp op = BinOp::kAdd;
   std::vector<std::unique_ptr<Expr>> args;
   std::vector<std::string> arg_names;  // formal names ("" when informal), per arg
@@ -33,7 +35,8 @@ struct CallArg {
   std::string formal;  // "" for an informal argument
   bool output = false; // `Q => x`
   std::unique_ptr<Expr> value;  // input
-  std::string target;           // output: the variable written
+  std::string target;           // output: the variable written (a path as Expr::name)
+  std::vector<std::unique_ptr<Expr>> target_index;  // its `[#n]` indices
   SourcePos pos;
 };
 
@@ -50,6 +53,7 @@ struct Stmt {
   Kind kind = Kind::kAssign;
   SourcePos pos;
   std::string target;                // assign: variable path; for: loop variable; call: instance
+  std::vector<std::unique_ptr<Expr>> target_index;  // the path's `[#n]` indices (Expr::name)
   std::unique_ptr<Expr> value;       // assign: value; case: selector
   std::vector<std::pair<std::unique_ptr<Expr>, Block>> branches;  // if / elsif
   Block else_body;

@@ -23,26 +23,9 @@ Value Lowering::eval(Scope& s, const Expr& e) {
       v.integer = !e.is_bool && !e.is_time && !e.is_real && e.k == std::floor(e.k);
       return v;
     }
-    case Expr::Kind::kName: {
-      const size_t dot = e.name[0] == '%' ? std::string::npos : e.name.find('.');
-      if (dot != std::string::npos) {
-        // fb1.Q: an output of an FB instance (or a nested variable of a user FB).
-        Var* base = lookup(s, e.name.substr(0, dot), e.pos);
-        if (!base) return constant(0, false);
-        if (base->role == Var::Role::kStdFb || base->role == Var::Role::kUserFb) {
-          const std::string rest = e.name.substr(dot + 1);
-          if (base->role == Var::Role::kUserFb && rest.find('.') != std::string::npos) {
-            Var* v = resolve_path(s, e.name, e.pos);
-            return v ? read(*v, e.pos) : constant(0, false);
-          }
-          return fb_output(*base, rest, e.pos);
-        }
-        d_.error(e.pos, "'" + e.name + "': '" + e.name.substr(0, dot) + "' is not a function block instance");
-        return constant(0, false);
-      }
-      Var* v = lookup(s, e.name, e.pos);
-      return v ? read(*v, e.pos) : constant(0, false);
-    }
+    case Expr::Kind::kName:
+      // a, fb1.Q, p.x, a[i], an enumeration value (Mode#Run, Run)
+      return load(s, e.name, e.args, e.pos);
     case Expr::Kind::kNot:
       return operate("NOT", eval(s, *e.args[0]), e.pos);
     case Expr::Kind::kNeg:
@@ -161,7 +144,7 @@ struct StLowerer {
     switch (st.kind) {
       case Stmt::Kind::kAssign: {
         Value v = L.eval(s, *st.value);
-        if (Var* t = L.resolve_path(s, st.target, st.pos)) L.assign(*t, v, st.pos);
+        L.store(s, st.target, st.target_index, v, st.pos);
         break;
       }
       case Stmt::Kind::kReturn: {
@@ -203,16 +186,19 @@ struct StLowerer {
                                       " times; rtplc unrolls at most " + std::to_string(kMaxUnroll));
           return {};
         }
-        Var* iv = L.resolve_path(s, st.target, st.pos);
+        Var* iv = L.resolve_static(s, st.target, st.target_index, st.pos);
         if (!iv) return {};
         Flow f;
         f.ret = iterations(st, *iv, from.k, to.k, by.k);
         return f;  // EXIT and CONTINUE end with the loop
       }
       case Stmt::Kind::kCall: {
-        Var* fb = L.lookup(s, st.target, st.pos);
-        if (!fb) return {};
-        if (fb->role != Var::Role::kStdFb && fb->role != Var::Role::kUserFb) {
+        Var* fb = st.target_index.empty() && L.is_function(upper(st.target)) &&
+                          !L.lookup(s, st.target, st.pos, false)
+                      ? nullptr
+                      : L.resolve_static(s, st.target, st.target_index, st.pos);
+        if (!fb && L.diags().has_errors()) return {};
+        if (!fb || (fb->role != Var::Role::kStdFb && fb->role != Var::Role::kUserFb)) {
           // A function called as a statement: its result is dropped.
           std::vector<Value> args;
           std::vector<std::string> formals;
@@ -233,7 +219,7 @@ struct StLowerer {
         for (const CallArg& a : st.call_args) {
           if (!a.output) continue;
           const Value v = L.fb_output(*fb, a.formal, a.pos);
-          if (Var* t = L.resolve_path(s, a.target, a.pos)) L.assign(*t, v, a.pos);
+          L.store(s, a.target, a.target_index, v, a.pos);
         }
         (void)em;
         break;

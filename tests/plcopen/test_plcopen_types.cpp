@@ -1,0 +1,215 @@
+// User data types in PLCopen projects (docs/plcopen.md, "User data types"):
+// structures, enumerations, arrays (bounds, several dimensions, indices known
+// at compile time or only at run time), aliases and subranges, with their
+// initial values, run cycle by cycle.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "lang/compiler.h"
+#include "tests/plcopen/plcopen_harness.h"
+
+namespace rtplc::lang {
+namespace {
+
+std::string project_with_types(const std::string& types, const std::string& pous) {
+  std::string p = project(kNs201, pous);
+  const std::string empty = "<dataTypes/>";
+  p.replace(p.find(empty), empty.size(), "<dataTypes>" + types + "</dataTypes>");
+  return p;
+}
+
+const std::string kPoint =
+    "<dataType name=\"Point\"><baseType><struct>"
+    "<variable name=\"x\"><type><REAL/></type><initialValue><simpleValue value=\"1.5\"/></initialValue></variable>"
+    "<variable name=\"n\"><type><INT/></type></variable>"
+    "</struct></baseType></dataType>";
+const std::string kMode =
+    "<dataType name=\"Mode\"><baseType><enum><values><value name=\"Idle\"/><value name=\"Fill\"/>"
+    "<value name=\"Drain\"/></values></enum></baseType><initialValue><simpleValue value=\"Fill\"/></initialValue>"
+    "</dataType>";
+
+std::string typed(const std::string& name, const std::string& type_xml, const std::string& init_xml = "",
+                  const std::string& addr = "") {
+  return "<variable name=\"" + name + "\"" + (addr.empty() ? "" : " address=\"" + addr + "\"") + "><type>" +
+         type_xml + "</type>" + (init_xml.empty() ? "" : "<initialValue>" + init_xml + "</initialValue>") +
+         "</variable>";
+}
+
+std::string first_error(const std::string& src) {
+  CompileResult r = compile_source(src);
+  EXPECT_FALSE(r.ok());
+  if (r.ok() || r.diags.items().empty()) return "";
+  EXPECT_GT(r.diags.items()[0].pos.line, 0u) << r.diags.items()[0].message;
+  return r.diags.items()[0].message;
+}
+
+TEST(PlcopenTypes, a_structure_holds_its_members_with_their_initial_values) {
+  const std::string src = project_with_types(
+      kPoint, st_program("<localVars>" +
+                             typed("p", "<derived name=\"Point\"/>",
+                                   "<structValue><value member=\"n\"><simpleValue value=\"3\"/></value></structValue>") +
+                             var("y", "REAL") + "</localVars>",
+                         "p.x := p.x + 1.0;\np.n := p.n + 1;\ny := p.x * 2.0;"));
+  CompileResult r = compile_source(src);
+  ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
+  const auto& vars = r.program.variables;
+  EXPECT_NE(std::find(vars.begin(), vars.end(), "main.p.x"), vars.end());  // a `rtplc sim` column
+  Machine m(std::move(*r.image));
+  m.cycles(2);
+  EXPECT_DOUBLE_EQ(m.value("main.p.x"), 3.5);
+  EXPECT_EQ(m.value("main.p.n"), 5);
+  EXPECT_DOUBLE_EQ(m.value("main.y"), 7.0);
+}
+
+TEST(PlcopenTypes, an_enumeration_is_an_int_of_its_value_positions) {
+  const std::string src = project_with_types(
+      kMode, st_program("<inputVars>" + var("full", "BOOL", "%IX0.0") + var("empty", "BOOL", "%IX0.1") +
+                            "</inputVars><localVars>" + typed("mode", "<derived name=\"Mode\"/>") + var("inlet", "BOOL") +
+                            var("code", "INT") + "</localVars>",
+                        "CASE mode OF\n  Idle: inlet := FALSE; IF empty THEN mode := Mode#Fill; END_IF;\n"
+                        "  Fill: inlet := TRUE; IF full THEN mode := Drain; END_IF;\n"
+                        "  Mode#Drain: inlet := FALSE; IF empty THEN mode := Idle; END_IF;\nEND_CASE;\ncode := mode;"));
+  CompileResult r = compile_source(src);
+  ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
+  Machine m(std::move(*r.image));
+  m.cycles(1);
+  EXPECT_EQ(m.value("main.code"), 1);  // the type's initial value, Fill
+  EXPECT_EQ(m.value("main.inlet"), 1);
+  m.set("full", 1);
+  m.cycles(1);
+  EXPECT_EQ(m.value("main.code"), 2);
+  m.set("full", 0);
+  m.set("empty", 1);
+  m.cycles(1);
+  EXPECT_EQ(m.value("main.code"), 0);
+  m.cycles(1);
+  EXPECT_EQ(m.value("main.code"), 1);
+}
+
+TEST(PlcopenTypes, arrays_take_constant_unrolled_and_run_time_indices) {
+  const std::string arr = "<array><dimension lower=\"1\" upper=\"5\"/><baseType><INT/></baseType></array>";
+  const std::string init =
+      "<arrayValue><value><simpleValue value=\"1\"/></value><value><simpleValue value=\"2\"/></value>"
+      "<value repetitionValue=\"3\"><simpleValue value=\"7\"/></value></arrayValue>";
+  const std::string src = project(
+      kNs201, st_program("<inputVars>" + var("k", "INT", "%IW0") + var("v", "INT", "%IW1") + "</inputVars><localVars>" +
+                             typed("a", arr, init) + var("i", "INT") + var("sum", "INT") + var("at_k", "INT") +
+                             var("first", "INT") + "</localVars>",
+                         "sum := 0;\nFOR i := 1 TO 5 DO sum := sum + a[i]; END_FOR;\n"
+                         "at_k := a[k];\nfirst := a[1];\nIF v > 0 THEN a[k] := v; END_IF;"));
+  CompileResult r = compile_source(src);
+  ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
+  Machine m(std::move(*r.image));
+  m.set("k", 4);
+  m.cycles(1);
+  EXPECT_EQ(m.value("main.sum"), 1 + 2 + 7 + 7 + 7);
+  EXPECT_EQ(m.value("main.at_k"), 7);
+  m.set("v", 100);  // a[4] := 100, read back next cycle
+  m.cycles(2);
+  EXPECT_EQ(m.value("main.a[4]"), 100);
+  EXPECT_EQ(m.value("main.a[3]"), 7);
+  EXPECT_EQ(m.value("main.at_k"), 100);
+  EXPECT_EQ(m.value("main.sum"), 1 + 2 + 7 + 100 + 7);
+  m.set("k", 9);  // out of range: reads 0, writes nothing
+  m.cycles(1);
+  EXPECT_EQ(m.value("main.at_k"), 0);
+  EXPECT_EQ(m.value("main.sum"), 1 + 2 + 7 + 100 + 7);
+  EXPECT_EQ(m.value("main.first"), 1);
+}
+
+TEST(PlcopenTypes, two_dimensions_arrays_of_structures_and_of_timers) {
+  const std::string grid = "<array><dimension lower=\"0\" upper=\"1\"/><dimension lower=\"0\" upper=\"2\"/>"
+                           "<baseType><REAL/></baseType></array>";
+  const std::string pts = "<array><dimension lower=\"0\" upper=\"2\"/><baseType><derived name=\"Point\"/></baseType></array>";
+  const std::string tons = "<array><dimension lower=\"1\" upper=\"2\"/><baseType><derived name=\"TON\"/></baseType></array>";
+  const std::string src = project_with_types(
+      kPoint, st_program("<inputVars>" + var("go", "BOOL", "%IX0.0") + "</inputVars><localVars>" + typed("g", grid) +
+                             typed("pts", pts) + typed("t", tons) + var("i", "INT") + var("j", "INT") +
+                             var("total", "REAL") + var("q", "BOOL") + "</localVars>",
+                         "FOR i := 0 TO 1 DO FOR j := 0 TO 2 DO g[i, j] := i * 10 + j; END_FOR; END_FOR;\n"
+                         "total := 0.0;\nFOR i := 0 TO 2 DO pts[i].x := g[1, i]; total := total + pts[i].x + pts[i].n; END_FOR;\n"
+                         "t[2](IN := go, PT := T#30ms);\nq := t[2].Q;"));
+  CompileResult r = compile_source(src);
+  ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
+  const double dt = r.image->period_s();
+  Machine m(std::move(*r.image));
+  m.cycles(1);
+  EXPECT_EQ(m.value("main.g[1,2]"), 12);
+  EXPECT_DOUBLE_EQ(m.value("main.pts[2].x"), 12);
+  EXPECT_DOUBLE_EQ(m.value("main.total"), 10 + 11 + 12);
+  m.set("go", 1);
+  m.cycles(static_cast<int>(std::ceil(0.03 / dt)) + 1);
+  EXPECT_EQ(m.value("main.q"), 1);
+}
+
+TEST(PlcopenTypes, aliases_and_subranges_take_their_base_type) {
+  const std::string types =
+      "<dataType name=\"Percent\"><baseType><subrangeSigned><range lower=\"0\" upper=\"100\"/>"
+      "<baseType><INT/></baseType></subrangeSigned></baseType><initialValue><simpleValue value=\"50\"/></initialValue></dataType>"
+      "<dataType name=\"Level\"><baseType><derived name=\"Percent\"/></baseType></dataType>";
+  const std::string src = project_with_types(
+      types, st_program("<localVars>" + typed("l", "<derived name=\"Level\"/>") + var("h", "REAL") + "</localVars>",
+                        "l := l + 1;\nh := l / 4;"));
+  CompileResult r = compile_source(src);
+  ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
+  Machine m(std::move(*r.image));
+  m.cycles(1);
+  EXPECT_EQ(m.value("main.l"), 51);  // the subrange type's initial value, then + 1
+  EXPECT_EQ(m.value("main.h"), 12);  // INT division
+}
+
+TEST(PlcopenTypes, fbd_variables_name_members_and_elements) {
+  const std::string pos = "<position x=\"0\" y=\"0\"/>";
+  const std::string arr = "<array><dimension lower=\"0\" upper=\"3\"/><baseType><REAL/></baseType></array>";
+  const std::string src = project_with_types(
+      kPoint,
+      "<pou name=\"main\" pouType=\"program\"><interface><localVars>" + typed("p", "<derived name=\"Point\"/>") +
+          typed("a", arr) + "</localVars></interface><body><FBD>"
+          "<inVariable localId=\"1\">" + pos + "<connectionPointOut/><expression>p.x</expression></inVariable>"
+          "<block localId=\"2\" typeName=\"MUL\">" + pos + "<inputVariables>"
+          "<variable formalParameter=\"IN1\"><connectionPointIn><connection refLocalId=\"1\"/></connectionPointIn></variable>"
+          "<variable formalParameter=\"IN2\"><connectionPointIn><connection refLocalId=\"3\"/></connectionPointIn></variable>"
+          "</inputVariables><inOutVariables/><outputVariables><variable formalParameter=\"OUT\"><connectionPointOut/></variable></outputVariables></block>"
+          "<inVariable localId=\"3\">" + pos + "<connectionPointOut/><expression>4.0</expression></inVariable>"
+          "<outVariable localId=\"4\">" + pos + "<connectionPointIn><connection refLocalId=\"2\"/></connectionPointIn><expression>a[2]</expression></outVariable>"
+          "</FBD></body></pou>\n");
+  CompileResult r = compile_source(src);
+  ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
+  Machine m(std::move(*r.image));
+  m.cycles(1);
+  EXPECT_DOUBLE_EQ(m.value("main.a[2]"), 6.0);  // p.x starts at 1.5
+  EXPECT_DOUBLE_EQ(m.value("main.a[1]"), 0.0);
+}
+
+TEST(PlcopenTypes, refuses_what_it_cannot_hold_with_the_place) {
+  const std::string arr = "<array><dimension lower=\"1\" upper=\"3\"/><baseType><INT/></baseType></array>";
+  const std::string locals = "<localVars>" + typed("a", arr) + typed("p", "<derived name=\"Point\"/>") +
+                             typed("q", "<derived name=\"Point\"/>") + var("x", "INT") + "</localVars>";
+  EXPECT_NE(first_error(project_with_types(kPoint, st_program(locals, "x := a[4];"))).find("index 4 is outside a's bounds 1..3"),
+            std::string::npos);
+  EXPECT_NE(first_error(project_with_types(kPoint, st_program(locals, "p := q;"))).find("'q' is a structure: read one member at a time"),
+            std::string::npos);
+  EXPECT_NE(first_error(project_with_types(kPoint, st_program(locals, "x := p.z;"))).find("structure 'p' has no member 'z'"),
+            std::string::npos);
+  EXPECT_NE(first_error(project_with_types(kPoint, st_program(locals, "x := a[1, 2];"))).find("'a' has 1 dimension, indexed with 2"),
+            std::string::npos);
+  EXPECT_NE(first_error(project_with_types(
+                kPoint, st_program("<localVars>" + typed("b", arr, "", "%MW0") + "</localVars>", "b[1] := 1;")))
+                .find("an array or structure cannot be located"),
+            std::string::npos);
+  EXPECT_NE(first_error(project(kNs201, st_program("<localVars>" + typed("s", "<string/>") + "</localVars>", "")))
+                .find("type STRING is not supported"),
+            std::string::npos);
+  EXPECT_NE(first_error(project_with_types(kMode, st_program("<localVars>" + typed("m", "<derived name=\"Mode\"/>",
+                                                                                     "<simpleValue value=\"Boil\"/>") +
+                                                                "</localVars>",
+                                                            "")))
+                .find("'Boil' is not a value of enumeration Mode"),
+            std::string::npos);
+}
+
+}  // namespace
+}  // namespace rtplc::lang
