@@ -219,14 +219,15 @@ bool read_sfc_graph(const XmlElement& body, const std::string& name, DiagnosticL
         diags.error(a.pos, "an <action> needs a <reference> or an <inline> body");
         return false;
       }
-      static const char* const kQual[] = {"N", "S", "R", "P", "L", "D"};
+      static const char* const kQual[] = {"N", "S", "R", "P", "P1", "P0", "L", "D", "SD", "DS", "SL"};
       bool ok = false;
       for (const char* q : kQual) ok = ok || u.qualifier == q;
       if (!ok) {
-        diags.error(a.pos, "action qualifier " + u.qualifier + " is not supported yet (N, S, R, P, L and D are)");
+        diags.error(a.pos, "action qualifier " + u.qualifier +
+                               " is not supported (N, S, R, P, P1, P0, L, D, SD, DS and SL are)");
         return false;
       }
-      if ((u.qualifier == "L" || u.qualifier == "D") && dur.empty()) {
+      if (sfc::is_timed_qualifier(u.qualifier) && dur.empty()) {
         diags.error(a.pos, "qualifier " + u.qualifier + " needs a duration");
         return false;
       }
@@ -234,8 +235,9 @@ bool read_sfc_graph(const XmlElement& body, const std::string& name, DiagnosticL
     }
   }
   // One chart OUTPUT per action target (a variable or an action, named
-  // without case, as IEC names are); the builder ORs its N, P, L, D terms and
-  // its reset-dominant S/R latch into the output's action flag.
+  // without case, as IEC names are); the builder ORs its N, P, P1, P0, L, D,
+  // SD, DS and SL terms and its reset-dominant S/R latch into the output's
+  // action flag.
   std::vector<std::string>& targets_in_order = g->targets;
   for (const SfcActionUse& u : uses) {
     if (std::find(targets_in_order.begin(), targets_in_order.end(), upper(u.target)) == targets_in_order.end()) {
@@ -251,7 +253,7 @@ bool read_sfc_graph(const XmlElement& body, const std::string& name, DiagnosticL
     ca.pos = u.pos;
     ca.target = sfc_output_name(u.target);
     ca.target_pos = u.pos;
-    if (u.qualifier == "L" || u.qualifier == "D") ca.seconds = u.duration;
+    if (sfc::is_timed_qualifier(u.qualifier)) ca.seconds = u.duration;
     ca.time_pos = u.pos;
     chart.steps[u.step].actions.push_back(std::move(ca));
   }

@@ -134,12 +134,12 @@ class Checker {
                        : "unknown output '" + a.target + "'" + closest_name(a.target, outs),
                    len(a.target));
         }
-        const bool timed = a.qualifier == "L" || a.qualifier == "D";
+        const bool timed = is_timed_qualifier(a.qualifier);
         if (timed && !a.seconds) {
           d_.error(a.pos, "qualifier " + a.qualifier + " needs a time, e.g. '" + a.qualifier + " " +
                               a.target + " 5s'");
         } else if (!timed && a.seconds) {
-          d_.error(a.time_pos, "qualifier " + a.qualifier + " takes no time (only L and D do)");
+          d_.error(a.time_pos, "qualifier " + a.qualifier + " takes no time (only L, D, SD, DS and SL do)");
         } else if (timed && *a.seconds < 0) {
           d_.error(a.time_pos, "an action time cannot be negative");
         }
