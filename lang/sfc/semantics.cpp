@@ -157,6 +157,23 @@ class Checker {
         }
       }
     }
+    // SD, DS and SL keep their latch until an R: without one, they act once.
+    std::set<std::string> reset;
+    for (const Step& st : c_.steps) {
+      for (const Action& a : st.actions) {
+        if (a.qualifier == "R") reset.insert(a.target);
+      }
+    }
+    for (const Step& st : c_.steps) {
+      for (const Action& a : st.actions) {
+        if ((a.qualifier == "SD" || a.qualifier == "DS" || a.qualifier == "SL") &&
+            !reset.count(a.target)) {
+          d_.warning(a.pos, "qualifier " + a.qualifier + " stores " + a.target + " until an 'R " +
+                                a.target + "', and no step has one: it never resets",
+                     len(a.qualifier));
+        }
+      }
+    }
     if (c_.steps.empty()) {
       d_.error(c_.pos, "the program has no STEP");
     } else if (!any_initial) {

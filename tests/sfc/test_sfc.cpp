@@ -411,6 +411,19 @@ TEST(SfcDiagnostics, an_unread_signal_and_an_undriven_output_are_warnings) {
   EXPECT_NE(out.find("no action drives output Q"), std::string::npos) << out;
 }
 
+TEST(SfcDiagnostics, a_stored_qualifier_without_a_reset_is_a_warning) {
+  bool ok = false;
+  const std::string out = diags(chart("INITIAL STEP A\nSL Q 1s\nEND_STEP\n"
+                                      "TRANSITION t FROM A TO A WHEN STOP\n"),
+                                &ok);
+  EXPECT_TRUE(ok) << out;
+  EXPECT_NE(out.find("t.fbd:7:1: warning: qualifier SL stores Q until an 'R Q', and no step has one"),
+            std::string::npos)
+      << out;
+  const std::string with_reset = diags(qualifier_chart("SL Q 1s\n"), &ok);
+  EXPECT_EQ(with_reset.find("never resets"), std::string::npos) << with_reset;
+}
+
 TEST(SfcFrontEnd, the_same_chart_compiles_to_the_same_image) {
   const std::string src = read(RTPLC_SOURCE_DIR "/examples/tank.sfc");
   lang::CompileResult a = lang::compile_source(src), b = lang::compile_source(src);
