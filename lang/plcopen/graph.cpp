@@ -6,8 +6,12 @@
 // reference reads the previous cycle's value (the one-cycle rule) and is
 // listed by `check --explain`. A variable read in the body is read after the
 // body's own assignments to it, unless that assignment depends on the read.
+#include "lang/plcopen/graph.h"
+
 #include <map>
 #include <set>
+#include <utility>
+#include <vector>
 
 #include "lang/plcopen/lowering.h"
 
@@ -40,13 +44,25 @@ const char* const kSfcElements[] = {"step", "transition", "selectionDivergence",
 
 class Graph {
  public:
-  Graph(Lowering& L, Scope& s, const XmlElement& body, bool ladder)
-      : L_(L), s_(s), body_(body), ladder_(ladder), d_(L.diags()) {}
+  // `in_sfc`: the FBD and LD elements drawn in an SFC body; its SFC elements
+  // are the chart's (sfc.cpp) and are skipped here.
+  Graph(Lowering& L, Scope& s, const XmlElement& body, bool ladder, bool in_sfc = false)
+      : L_(L), s_(s), body_(body), ladder_(ladder), in_sfc_(in_sfc), d_(L.diags()) {}
+
+  // A transition body: an outVariable or coil that names `name` assigns no
+  // variable; its value is the transition's (result()).
+  void set_result_name(const std::string& name) {
+    result_as_written_ = name;
+    result_name_ = upper(name);
+  }
 
   void run() {
     for (const XmlElement& e : body_.children) {
       if (e.name == "addData" || e.name == "documentation" || e.name == "comment" || e.name == "error")
         continue;
+      bool sfc_element = false;
+      for (const char* n : kSfcElements) sfc_element = sfc_element || e.name == n;
+      if (sfc_element && in_sfc_) continue;
       for (const char* n : kSfcElements) {
         if (e.name == n) {
           d_.error(e.pos, "<" + e.name + "> in an " + lang() + " body: SFC elements in PLCopen XML are not supported yet");
@@ -101,8 +117,59 @@ class Graph {
     L_.before_read = saved;
   }
 
+  // After run(): the value flowing into `cpin`, a connection point of an
+  // element outside the graph (an SFC transition's condition).
+  Value value_into(const XmlElement& cpin) { return input(&cpin); }
+
+  // After run() with a result name: the value of the one outVariable or coil
+  // naming it; without one, in LD, what reaches the right power rail (the
+  // OR of its rungs). Invalid, with the reason in the diagnostics, otherwise.
+  Value result(const std::string& what, SourcePos pos) {
+    if (results_.size() > 1) {
+      d_.error(elems_[results_[1].first]->pos, what + " is written twice in its body (localId " +
+                                                   results_[0].first + " and " + results_[1].first + ")");
+      return {};
+    }
+    if (results_.size() == 1) return results_[0].second;
+    const XmlElement* rail = nullptr;
+    int rails = 0;
+    for (const std::string& id : order_) {
+      if (elems_[id]->name == "rightPowerRail") {
+        rail = elems_[id];
+        ++rails;
+      }
+    }
+    if (!ladder_ || rails != 1) {
+      const std::string named = "named '" + result_as_written_ + "'";
+      if (!ladder_)
+        d_.error(pos, what + " has no outVariable " + named + " in its FBD body: that element gives its value");
+      else if (result_name_.empty())
+        d_.error(pos, what + " needs one right power rail in its LD body: what reaches it is its value");
+      else
+        d_.error(pos, what + " has no coil " + named + " and not one right power rail in its LD body: one of "
+                      "them gives its value");
+      return {};
+    }
+    Value r;
+    for (const XmlElement& c : rail->children) {
+      if (c.name != "connectionPointIn") continue;
+      Value v = input(&c);
+      if (!v.valid()) continue;
+      v = L_.em().to_digital(v, c.pos);
+      r = r.valid() ? L_.em().binary(BinOp::kOr, r, v, c.pos) : v;
+    }
+    if (!r.valid()) d_.error(rail->pos, what + ": nothing reaches the right power rail");
+    return r;
+  }
+
  private:
-  std::string lang() const { return ladder_ ? "LD" : "FBD"; }
+  std::string lang() const { return in_sfc_ ? "SFC" : ladder_ ? "LD" : "FBD"; }
+
+  // An outVariable's expression or a coil's variable that is the result name.
+  bool writes_result(const XmlElement& e, const char* child) const {
+    const XmlElement* x = e.child(child);
+    return !result_name_.empty() && x && upper(trim(x->text)) == result_name_;
+  }
 
   void lower_writers(const std::string& name) {
     auto it = writers_.find(name);
@@ -252,6 +319,10 @@ class Graph {
       Value v = input(e.child("connectionPointIn"));
       if (!v.valid()) {
         d_.error(pos, "<" + e.name + "> localId " + id + " has nothing connected to its input");
+      } else if (writes_result(e, "expression")) {
+        v = L_.em().to_digital(negate_if(e, v), pos);
+        results_.emplace_back(id, v);
+        outs[""] = v;
       } else {
         v = negate_if(e, v);
         if (Var* t = target(e, "expression")) {
@@ -328,14 +399,23 @@ class Graph {
     if (!power.valid()) power = constant(0, true);
     power = em.to_digital(power, e.pos);
     outs[""] = power;
-    Var* t = target(e, "variable");
-    if (!t) return;
+    const bool result = writes_result(e, "variable");
+    Var* t = result ? nullptr : target(e, "variable");
+    if (!t && !result) return;
     Value v = power;
     const std::string edge = attr(e, "edge");
     if (edge == "rising") v = L_.rising(v, s_.path + ".coil" + id, e.pos);
     else if (edge == "falling") v = L_.falling(v, s_.path + ".coil" + id, e.pos);
     const std::string storage = attr(e, "storage");
     if (attr(e, "negated") == "true") v = em.unary_not(v, e.pos);
+    if (result) {
+      if (!storage.empty() && storage != "none") {
+        d_.error(e.pos, "a " + storage + " coil cannot give a transition its value (it has no memory): use a plain coil");
+        return;
+      }
+      results_.emplace_back(id, v);
+      return;
+    }
     if (storage == "set") {
       v = em.binary(BinOp::kOr, em.to_digital(L_.read(*t, e.pos), e.pos), v, e.pos);
     } else if (storage == "reset") {
@@ -433,7 +513,11 @@ class Graph {
   Scope& s_;
   const XmlElement& body_;
   bool ladder_;
+  bool in_sfc_;
   DiagnosticList& d_;
+  std::string result_name_;                              // upper case; empty: none
+  std::string result_as_written_;
+  std::vector<std::pair<std::string, Value>> results_;  // (localId, value) writing it
   std::map<std::string, const XmlElement*> elems_;
   std::vector<std::string> order_;
   std::map<std::string, std::string> connectors_;
@@ -452,6 +536,24 @@ class Graph {
 void Lowering::lower_graph(Scope& s, const XmlElement& body, bool ladder) {
   Graph g(*this, s, body, ladder);
   g.run();
+}
+
+std::vector<Value> lower_sfc_graph_inputs(Lowering& L, Scope& s, const XmlElement& sfc,
+                                          const std::vector<const XmlElement*>& points) {
+  Graph g(L, s, sfc, false, true);
+  g.run();
+  std::vector<Value> out;
+  for (const XmlElement* p : points) out.push_back(L.diags().has_errors() ? Value{} : g.value_into(*p));
+  return out;
+}
+
+Value lower_graph_result(Lowering& L, Scope& s, const XmlElement& body, bool ladder,
+                         const std::string& name, const std::string& what, SourcePos pos) {
+  Graph g(L, s, body, ladder);
+  g.set_result_name(name);
+  g.run();
+  if (L.diags().has_errors()) return {};
+  return g.result(what, pos);
 }
 
 void collect_written(const Pou& p, std::vector<std::string>& out) {

@@ -4,20 +4,25 @@
 // the evolution rules and action qualifiers (docs/sfc.md, "How an SFC runs"),
 // so a PLCopen chart and a .sfc file evolve by one definition. What stays here
 // is what only PLCopen has:
-//   - transition conditions in ST (inline or a named <transition>), lowered to
-//     importer blocks the chart reads as host signals;
+//   - transition conditions, lowered to importer blocks the chart reads as
+//     host signals: ST (inline or a named <transition>), FBD or LD bodies
+//     (inline or named: the outVariable or coil named after the transition,
+//     graph.h), and FBD/LD elements drawn in the SFC body itself feeding the
+//     condition's connectionPointIn;
 //   - step flags copied to blocks named `instance.step.NAME.X` (traced by
 //     `rtplc sim`; the chart's own flag keeps its name, so a swap keeps the
 //     active steps);
 //   - each action target's flag then drives a BOOL variable, or guards a
-//     named action's body (ST, FBD, LD or IL) or an inline ST body, which runs
+//     named action's body or an inline one (ST, FBD, LD or IL), which runs
 //     if-converted while the action is active.
 #include <algorithm>
 #include <functional>
+#include <iterator>
 #include <map>
 #include <optional>
 #include <set>
 
+#include "lang/plcopen/graph.h"
 #include "lang/plcopen/lowering.h"
 #include "lang/plcopen/sfc_chart.h"
 #include "lang/sfc/builder.h"
@@ -43,6 +48,53 @@ std::vector<std::string> inputs_of(const XmlElement& e) {
   return out;
 }
 
+const char* const kSfcElements[] = {"step", "transition", "selectionDivergence", "selectionConvergence",
+                                    "simultaneousDivergence", "simultaneousConvergence", "jumpStep",
+                                    "actionBlock"};
+// FBD and LD elements an SFC body may hold beside the chart: they compute
+// transition conditions (graph.h, lower_sfc_graph_inputs).
+const char* const kGraphElements[] = {"block", "inVariable", "outVariable", "inOutVariable", "connector",
+                                      "continuation", "contact", "coil", "leftPowerRail", "rightPowerRail"};
+
+bool is_sfc_element(const std::string& n) {
+  return std::any_of(std::begin(kSfcElements), std::end(kSfcElements), [&](const char* k) { return n == k; });
+}
+bool is_graph_element(const std::string& n) {
+  return std::any_of(std::begin(kGraphElements), std::end(kGraphElements), [&](const char* k) { return n == k; });
+}
+
+// The body of an <inline> (an inline condition or action): its language
+// element, as read_project() reads a POU's <body>.
+bool read_inline_body(const XmlElement& inl, DiagnosticList& diags, Body* b) {
+  b->pos = inl.pos;
+  for (const XmlElement& c : inl.children) {
+    if (c.name == "addData" || c.name == "documentation") continue;
+    if (c.name == "FBD") b->language = BodyLanguage::kFbd;
+    else if (c.name == "LD") b->language = BodyLanguage::kLd;
+    else if (c.name == "SFC") b->language = BodyLanguage::kSfc;
+    else if (c.name == "ST") b->language = BodyLanguage::kSt;
+    else if (c.name == "IL") b->language = BodyLanguage::kIl;
+    else {
+      diags.error(c.pos, "<" + c.name + "> in an <inline> is no PLCopen body language (FBD, LD, ST, IL)");
+      return false;
+    }
+    b->pos = c.pos;
+    if (b->language == BodyLanguage::kSt || b->language == BodyLanguage::kIl) {
+      const XmlElement* holder = &c;
+      for (const XmlElement& t : c.children) {
+        if (t.name == "p" || t.name == "xhtml") holder = &t;
+      }
+      b->text = holder;
+      b->source = holder->text;
+    } else {
+      b->graph = &c;
+    }
+    return true;
+  }
+  diags.error(inl.pos, "<inline> holds no FBD, LD, ST or IL body");
+  return false;
+}
+
 }  // namespace
 
 std::string sfc_output_name(std::string target) {
@@ -57,12 +109,7 @@ bool read_sfc_graph(const XmlElement& body, const std::string& name, DiagnosticL
   std::map<std::string, std::string> step_by_name;           // upper name -> id
   for (const XmlElement& e : body.children) {
     if (e.name == "addData" || e.name == "documentation" || e.name == "comment") continue;
-    static const char* const kKnown[] = {"step", "transition", "selectionDivergence", "selectionConvergence",
-                                         "simultaneousDivergence", "simultaneousConvergence", "jumpStep",
-                                         "actionBlock"};
-    bool known = false;
-    for (const char* k : kKnown) known = known || e.name == k;
-    if (!known) {
+    if (!is_sfc_element(e.name) && !is_graph_element(e.name)) {
       diags.error(e.pos, "<" + e.name + "> in an SFC body is not supported yet" +
                           (e.name == "macroStep" ? std::string(" (macro steps)") : std::string()));
       return false;
@@ -219,14 +266,15 @@ bool read_sfc_graph(const XmlElement& body, const std::string& name, DiagnosticL
         diags.error(a.pos, "an <action> needs a <reference> or an <inline> body");
         return false;
       }
-      static const char* const kQual[] = {"N", "S", "R", "P", "L", "D"};
+      static const char* const kQual[] = {"N", "S", "R", "P", "P1", "P0", "L", "D", "SD", "DS", "SL"};
       bool ok = false;
       for (const char* q : kQual) ok = ok || u.qualifier == q;
       if (!ok) {
-        diags.error(a.pos, "action qualifier " + u.qualifier + " is not supported yet (N, S, R, P, L and D are)");
+        diags.error(a.pos, "action qualifier " + u.qualifier +
+                               " is not supported (N, S, R, P, P1, P0, L, D, SD, DS and SL are)");
         return false;
       }
-      if ((u.qualifier == "L" || u.qualifier == "D") && dur.empty()) {
+      if (sfc::is_timed_qualifier(u.qualifier) && dur.empty()) {
         diags.error(a.pos, "qualifier " + u.qualifier + " needs a duration");
         return false;
       }
@@ -234,8 +282,9 @@ bool read_sfc_graph(const XmlElement& body, const std::string& name, DiagnosticL
     }
   }
   // One chart OUTPUT per action target (a variable or an action, named
-  // without case, as IEC names are); the builder ORs its N, P, L, D terms and
-  // its reset-dominant S/R latch into the output's action flag.
+  // without case, as IEC names are); the builder ORs its N, P, P1, P0, L, D,
+  // SD, DS and SL terms and its reset-dominant S/R latch into the output's
+  // action flag.
   std::vector<std::string>& targets_in_order = g->targets;
   for (const SfcActionUse& u : uses) {
     if (std::find(targets_in_order.begin(), targets_in_order.end(), upper(u.target)) == targets_in_order.end()) {
@@ -251,7 +300,7 @@ bool read_sfc_graph(const XmlElement& body, const std::string& name, DiagnosticL
     ca.pos = u.pos;
     ca.target = sfc_output_name(u.target);
     ca.target_pos = u.pos;
-    if (u.qualifier == "L" || u.qualifier == "D") ca.seconds = u.duration;
+    if (sfc::is_timed_qualifier(u.qualifier)) ca.seconds = u.duration;
     ca.time_pos = u.pos;
     chart.steps[u.step].actions.push_back(std::move(ca));
   }
@@ -289,6 +338,45 @@ void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
   const sfc::Chart& chart = g.chart;
   const std::vector<SfcActionUse>& uses = g.uses;
   Emitter& em = em_;
+  // Conditions drawn in the SFC body itself (Beremiz): FBD and LD elements
+  // beside the steps, lowered once as one graph, each feeding a condition's
+  // <connectionPointIn>.
+  std::vector<Value> drawn(g.transitions.size());
+  {
+    std::set<std::string> sfc_ids;
+    bool graph_elements = false;
+    for (const XmlElement& e : body.children) {
+      if (is_sfc_element(e.name)) sfc_ids.insert(attr(e, "localId"));
+      graph_elements = graph_elements || is_graph_element(e.name);
+    }
+    std::vector<const XmlElement*> points;
+    std::vector<size_t> point_of;
+    for (size_t i = 0; i < g.transitions.size(); ++i) {
+      const XmlElement* c = g.transitions[i]->child("condition");
+      const XmlElement* cp = c ? c->child("connectionPointIn") : nullptr;
+      if (!cp) continue;
+      const std::string id = attr(*g.transitions[i], "localId");
+      if (inputs_of(*c).empty()) {
+        d_.error(cp->pos, "the condition of transition localId " + id + " has nothing connected to it");
+        return;
+      }
+      for (const std::string& src : inputs_of(*c)) {
+        if (sfc_ids.count(src)) {
+          d_.error(cp->pos, "the condition of transition localId " + id + " is connected to localId " + src +
+                                ", an SFC element: a condition takes its value from FBD or LD elements");
+          return;
+        }
+      }
+      points.push_back(cp);
+      point_of.push_back(i);
+    }
+    if (graph_elements || !points.empty()) {
+      std::vector<Value> v = lower_sfc_graph_inputs(*this, s, body, points);
+      if (d_.has_errors()) return;
+      for (size_t k = 0; k < points.size(); ++k) drawn[point_of[k]] = v[k];
+    }
+  }
+
   // Each condition, lowered in the importer's blocks, is held in a block the
   // chart reads as a host signal.
   std::map<std::string, uint32_t> host_blocks;  // host signal -> block index
@@ -297,21 +385,36 @@ void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
     const std::string id = attr(t, "localId");
     Value cond = constant(0, true);
     const XmlElement* c = t.child("condition");
-    const XmlElement* inl = c ? c->child("inline") : nullptr;
-    const XmlElement* ref = c ? c->child("reference") : nullptr;
-    if (inl) {
-      const XmlElement* st = inl->child("ST");
-      if (!st) {
-        d_.error(inl->pos, "an inline transition condition must be ST");
-        return;
-      }
-      const XmlElement* holder = st;
-      for (const XmlElement& h : st->children) {
-        if (h.name == "p" || h.name == "xhtml") holder = &h;
-      }
-      auto ex = parse_st_expression(holder->text, *holder, d_);
+    if (!c) {
+      d_.error(t.pos, "<transition> localId " + id + " has no <condition>");
+      return;
+    }
+    const XmlElement* inl = c->child("inline");
+    const XmlElement* ref = c->child("reference");
+    Body inline_b;
+    if (drawn[i].valid()) {
+      cond = em.to_digital(drawn[i], t.pos);
+    } else if (inl && read_inline_body(*inl, d_, &inline_b) && inline_b.language == BodyLanguage::kSt) {
+      auto ex = parse_st_expression(inline_b.source, *inline_b.text, d_);
       if (!ex) return;
       cond = em.to_digital(eval(s, *ex), t.pos);
+    } else if (inl) {
+      if (d_.has_errors()) return;
+      const bool ladder = inline_b.language == BodyLanguage::kLd;
+      if (inline_b.language != BodyLanguage::kFbd && !ladder) {
+        d_.error(inline_b.pos, std::string("an inline transition condition in ") + language_name(inline_b.language) +
+                                   " is not supported (ST, FBD and LD are)");
+        return;
+      }
+      const std::string name = attr(*inl, "name");
+      if (name.empty() && !ladder) {
+        d_.error(inl->pos, "an inline FBD condition needs <inline name=...> and an outVariable of that name (its value)");
+        return;
+      }
+      Value v = lower_graph_result(*this, s, *inline_b.graph, ladder, name,
+                                   "the inline condition of transition localId " + id, inl->pos);
+      if (!v.valid()) return;
+      cond = em.to_digital(v, t.pos);
     } else if (ref) {
       const std::string n = attr(*ref, "name");
       const NamedBody* nb = nullptr;
@@ -322,28 +425,37 @@ void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
         d_.error(ref->pos, "transition '" + n + "' is not declared in the POU's <transitions>");
         return;
       }
-      if (nb->body.language != BodyLanguage::kSt) {
-        d_.error(nb->pos, "transition '" + n + "': only ST transition bodies are supported yet");
+      if (nb->body.language == BodyLanguage::kFbd || nb->body.language == BodyLanguage::kLd) {
+        // The value of the outVariable or coil named after the transition.
+        Value v = lower_graph_result(*this, s, *nb->body.graph, nb->body.language == BodyLanguage::kLd, nb->name,
+                                     "transition '" + nb->name + "'", nb->pos);
+        if (!v.valid()) return;
+        cond = em.to_digital(v, t.pos);
+      } else if (nb->body.language != BodyLanguage::kSt) {
+        d_.error(nb->pos, "transition '" + n + "': a transition body in " + language_name(nb->body.language) +
+                              " is not supported yet (ST, FBD and LD are)");
         return;
+      } else {
+        // An expression, or `NAME := expression;`.
+        std::string text = nb->body.source;
+        const size_t assign = text.find(":=");
+        size_t begin = 0, end = text.size();
+        if (assign != std::string::npos) {
+          begin = assign + 2;
+          const size_t semi = text.rfind(';');
+          if (semi != std::string::npos && semi > begin) end = semi;
+        } else if (const size_t semi = text.rfind(';'); semi != std::string::npos) {
+          end = semi;
+        }
+        auto ex = parse_st_expression(text, *nb->body.text, d_, begin, end);
+        if (!ex) return;
+        cond = em.to_digital(eval(s, *ex), t.pos);
       }
-      // An expression, or `NAME := expression;`.
-      std::string text = nb->body.source;
-      const size_t assign = text.find(":=");
-      size_t begin = 0, end = text.size();
-      if (assign != std::string::npos) {
-        begin = assign + 2;
-        const size_t semi = text.rfind(';');
-        if (semi != std::string::npos && semi > begin) end = semi;
-      } else if (const size_t semi = text.rfind(';'); semi != std::string::npos) {
-        end = semi;
-      }
-      auto ex = parse_st_expression(text, *nb->body.text, d_, begin, end);
-      if (!ex) return;
-      cond = em.to_digital(eval(s, *ex), t.pos);
     } else {
-      d_.error(t.pos, "a transition condition connected to FBD or LD elements is not supported yet (write it inline in ST)");
+      d_.error(c->pos, "a transition's <condition> needs a <reference>, an <inline> body or a <connectionPointIn>");
       return;
     }
+    if (attr(*c, "negated") == "true") cond = em.unary_not(cond, t.pos);
     const std::string x = em.ref(cond, t.pos);
     host_blocks[chart.transitions[i].condition.name] =
         static_cast<uint32_t>(em.emit("or", s.path + ".$sfc.cond." + id, t.pos, {x, x}));
@@ -392,16 +504,19 @@ void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
     const XmlElement* text = nullptr;
     std::string source;
     if (first->inline_body) {
-      const XmlElement* st = first->inline_body->child("ST");
-      if (!st) {
-        d_.error(first->pos, "an inline action body must be ST");
+      Body b;
+      if (!read_inline_body(*first->inline_body, d_, &b)) return;
+      if (b.language == BodyLanguage::kSfc) {
+        d_.error(b.pos, "an SFC inside an SFC action is not supported");
         return;
       }
-      text = st;
-      for (const XmlElement& h : st->children) {
-        if (h.name == "p" || h.name == "xhtml") text = &h;
+      if (b.language != BodyLanguage::kSt) {
+        // FBD, LD or IL: runs, if-converted, while the action is active.
+        guarded(on, pos, [&] { lower_body_of(s, b); });
+        continue;
       }
-      source = text->text;
+      text = b.text;
+      source = b.source;
     } else if (nb) {
       // FBD, LD, ST or IL: the body runs, if-converted, while the action is active.
       guarded(on, pos, [&] { lower_body_of(s, nb->body); });

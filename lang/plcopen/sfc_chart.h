@@ -20,7 +20,7 @@ namespace rtplc::lang::plcopen {
 // One action of an <actionBlock>: a qualifier on a variable or an action.
 struct SfcActionUse {
   std::string qualifier;
-  double duration = 0;  // seconds, L and D
+  double duration = 0;  // seconds: L, D, SD, DS, SL
   std::string target;   // a variable or an action name ("inline<id>@<block>" for an inline body)
   const XmlElement* inline_body = nullptr;
   SourcePos pos;

@@ -57,13 +57,18 @@ struct Expr {
 };
 
 struct Action {
-  std::string qualifier;  // N S R P L D
+  std::string qualifier;  // N S R P P1 P0 L D SD DS SL
   SourcePos pos;
   std::string target;  // an OUTPUT
   SourcePos target_pos;
-  std::optional<double> seconds;  // L and D
+  std::optional<double> seconds;  // L, D, SD, DS and SL (is_timed_qualifier)
   SourcePos time_pos;
 };
+
+// The qualifiers that take a time (IEC 61131-3: L, D, SD, DS, SL).
+inline bool is_timed_qualifier(const std::string& q) {
+  return q == "L" || q == "D" || q == "SD" || q == "DS" || q == "SL";
+}
 
 struct NameRef {
   std::string name;

@@ -9,8 +9,10 @@
 //      transition (text order) from a shared source step fires;
 //   5. steps: step.S = (prev AND NOT any leaving transition) OR any entering one
 //      (OR sfc.first for an initial step), then its flag's ddo;
-//   6. actions, per output: N, P, L, D terms and one reset-dominant S/R latch,
-//      OR-ed into out.O, then the output block;
+//   6. actions, per output: the R uses' OR first, then the N, P/P1, P0, L
+//      and D terms, the SD, DS and SL ones (each with its own reset-dominant
+//      latch) and one reset-dominant S latch, OR-ed into out.O, then the
+//      output block;
 //   7. sfc.one = NOT sfc.zero.
 // So evolution reads only last cycle's step flags (every step lasts at least a
 // cycle, SFC semantics), and actions see this cycle's. Hot swap matches blocks
@@ -307,52 +309,84 @@ class Builder {
     }
   }
 
+  // Reset-dominant latch `name` = (set OR last cycle's name) AND clear; the
+  // self-reference is to a later block, so it reads the previous cycle.
+  void latch(const std::string& name, const std::string& set, const std::string& clear,
+             SourcePos pos, std::string keep = {}) {
+    if (keep.empty()) keep = name + ".keep";
+    emit("or", keep, pos, {set, name});
+    emit("and", name, pos, {keep, clear});
+  }
+
   void output(const Signal& o) {
     const std::string out = "out." + o.name;
     std::vector<std::string> terms, sets, resets;
+    bool stored = false;  // S, SD, DS or SL: latches, cleared by this output's R
+    for (const Step& st : c_.steps) {
+      for (const Action& a : st.actions) {
+        if (a.target != o.name) continue;
+        if (a.qualifier == "R") resets.push_back(flag(st.name));
+        stored = stored || a.qualifier == "S" || a.qualifier == "SD" || a.qualifier == "DS" ||
+                 a.qualifier == "SL";
+      }
+    }
+    // The reset first, so every latch below reads this cycle's.
+    const std::string reset =
+        resets.empty() ? "sfc.zero" : reduce("or", resets, out + ".reset", o.pos);
+    if (!resets.empty() || stored) emit("not", out + ".clear", o.pos, {reset});
+    bool delayed_stored = false;  // SD, DS or SL: their own latches
     for (const Step& st : c_.steps) {
       for (const Action& a : st.actions) {
         if (a.target != o.name) continue;
         const std::string base = "act." + st.name + "." + a.qualifier + "." + o.name;
+        const std::string x = flag(st.name);
         const double secs = a.seconds.value_or(0);
-        switch (a.qualifier[0]) {
-          case 'N':
-            terms.push_back(flag(st.name));
-            break;
-          case 'S':
-            sets.push_back(flag(st.name));
-            break;
-          case 'R':
-            resets.push_back(flag(st.name));
-            break;
-          case 'P':  // the step's rising edge: active now, not last cycle
-            emit("not", base + ".n", a.pos, {prev(st.name)});
-            emit("and", base, a.pos, {flag(st.name), base + ".n"});
-            terms.push_back(base);
-            break;
-          case 'L':  // active and the time not yet elapsed
-            emit("time", base + ".t", a.pos, {flag(st.name)}, {secs});
-            emit("not", base + ".n", a.pos, {base + ".t"});
-            emit("and", base, a.pos, {flag(st.name), base + ".n"});
-            terms.push_back(base);
-            break;
-          case 'D':  // active and the time elapsed
-            emit("time", base, a.pos, {flag(st.name)}, {secs});
-            terms.push_back(base);
-            break;
-          default:
-            break;
+        const std::string& q = a.qualifier;
+        if (q == "N") {
+          terms.push_back(x);
+        } else if (q == "S") {
+          sets.push_back(x);
+        } else if (q == "P" || q == "P1") {  // the step's rising edge: active now, not last cycle
+          emit("not", base + ".n", a.pos, {prev(st.name)});
+          emit("and", base, a.pos, {x, base + ".n"});
+          terms.push_back(base);
+        } else if (q == "P0") {  // the falling edge: active last cycle, not now
+          emit("not", base + ".n", a.pos, {x});
+          emit("and", base, a.pos, {prev(st.name), base + ".n"});
+          terms.push_back(base);
+        } else if (q == "L") {  // active and the time not yet elapsed
+          emit("time", base + ".t", a.pos, {x}, {secs});
+          emit("not", base + ".n", a.pos, {base + ".t"});
+          emit("and", base, a.pos, {x, base + ".n"});
+          terms.push_back(base);
+        } else if (q == "D") {  // active and the time elapsed
+          emit("time", base, a.pos, {x}, {secs});
+          terms.push_back(base);
+        } else if (q == "SD") {  // stored from the step, then delayed: time(latch)
+          delayed_stored = true;
+          latch(base + ".latch", x, out + ".clear", a.pos);
+          emit("time", base, a.pos, {base + ".latch"}, {secs});
+          terms.push_back(base);
+        } else if (q == "DS") {  // delayed while the step lasts, then stored: latch(time)
+          delayed_stored = true;
+          emit("time", base + ".t", a.pos, {x}, {secs});
+          latch(base, base + ".t", out + ".clear", a.pos);
+          terms.push_back(base);
+        } else if (q == "SL") {  // stored from the step, limited: latch AND NOT time(latch)
+          delayed_stored = true;
+          latch(base + ".latch", x, out + ".clear", a.pos);
+          emit("time", base + ".t", a.pos, {base + ".latch"}, {secs});
+          emit("not", base + ".n", a.pos, {base + ".t"});
+          emit("and", base, a.pos, {base + ".latch", base + ".n"});
+          terms.push_back(base);
         }
       }
     }
-    if (!sets.empty() || !resets.empty()) {
-      // Reset-dominant latch: latch = (set OR latch_prev) AND NOT reset.
+    // The S latch; an output with only R uses keeps it too (always 0), so it
+    // counts as driven.
+    if (!sets.empty() || (!resets.empty() && !delayed_stored)) {
       const std::string set = sets.empty() ? "sfc.zero" : reduce("or", sets, out + ".set", o.pos);
-      const std::string reset =
-          resets.empty() ? "sfc.zero" : reduce("or", resets, out + ".reset", o.pos);
-      emit("or", out + ".keep", o.pos, {set, out + ".latch"});
-      emit("not", out + ".clear", o.pos, {reset});
-      emit("and", out + ".latch", o.pos, {out + ".keep", out + ".clear"});
+      latch(out + ".latch", set, out + ".clear", o.pos, out + ".keep");
       terms.push_back(out + ".latch");
     }
     if (terms.empty()) {

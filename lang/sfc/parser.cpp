@@ -167,7 +167,7 @@ class Parser {
   }
 
   // step   := [ 'INITIAL' ] 'STEP' NAME { action | subnet } 'END_STEP'
-  // action := QUALIFIER NAME [ NUMBER ]        QUALIFIER: N S R P L D
+  // action := QUALIFIER NAME [ NUMBER ]  QUALIFIER: N S R P P1 P0 L D SD DS SL
   // subnet := 'SUBNET' NAME { ',' NAME }
   void step(Chart& c) {
     Step s;
@@ -213,11 +213,14 @@ class Parser {
 
   Action action() {
     const Token& q = cur();
-    static constexpr std::array<std::string_view, 6> kQualifiers = {"N", "S", "R", "P", "L", "D"};
+    static constexpr std::array<std::string_view, 11> kQualifiers = {
+        "N", "S", "R", "P", "P1", "P0", "L", "D", "SD", "DS", "SL"};
     if (q.kind != Tok::kName ||
         std::find(kQualifiers.begin(), kQualifiers.end(), q.text) == kQualifiers.end()) {
       fail(q,
-           "expected an action qualifier (N, S, R, P, L or D) or END_STEP, found " + describe(q));
+           "expected an action qualifier (N, S, R, P, P1, P0, L, D, SD, DS or SL) or END_STEP, "
+           "found " +
+               describe(q));
     }
     Action a;
     a.qualifier = std::string(q.text);

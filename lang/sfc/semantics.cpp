@@ -134,12 +134,12 @@ class Checker {
                        : "unknown output '" + a.target + "'" + closest_name(a.target, outs),
                    len(a.target));
         }
-        const bool timed = a.qualifier == "L" || a.qualifier == "D";
+        const bool timed = is_timed_qualifier(a.qualifier);
         if (timed && !a.seconds) {
           d_.error(a.pos, "qualifier " + a.qualifier + " needs a time, e.g. '" + a.qualifier + " " +
                               a.target + " 5s'");
         } else if (!timed && a.seconds) {
-          d_.error(a.time_pos, "qualifier " + a.qualifier + " takes no time (only L and D do)");
+          d_.error(a.time_pos, "qualifier " + a.qualifier + " takes no time (only L, D, SD, DS and SL do)");
         } else if (timed && *a.seconds < 0) {
           d_.error(a.time_pos, "an action time cannot be negative");
         }
@@ -154,6 +154,23 @@ class Checker {
           for (const Module& mo : c_.modules) mods.push_back(mo.name);
           d_.error(m.pos, "unknown plant module '" + m.name + "'" + closest_name(m.name, mods),
                    len(m.name));
+        }
+      }
+    }
+    // SD, DS and SL keep their latch until an R: without one, they act once.
+    std::set<std::string> reset;
+    for (const Step& st : c_.steps) {
+      for (const Action& a : st.actions) {
+        if (a.qualifier == "R") reset.insert(a.target);
+      }
+    }
+    for (const Step& st : c_.steps) {
+      for (const Action& a : st.actions) {
+        if ((a.qualifier == "SD" || a.qualifier == "DS" || a.qualifier == "SL") &&
+            !reset.count(a.target)) {
+          d_.warning(a.pos, "qualifier " + a.qualifier + " stores " + a.target + " until an 'R " +
+                                a.target + "', and no step has one: it never resets",
+                     len(a.qualifier));
         }
       }
     }

@@ -160,6 +160,82 @@ TEST(SfcRun, pulse_limited_and_delayed_actions_follow_the_step_time) {
   EXPECT_EQ(trace, "110 010 010 001 001 001 ");
 }
 
+// The charts of the stored/delayed qualifier tests: A is idle, B holds the
+// action under test, C resets Q. GO takes A to B, STOP takes B back to A, RST
+// takes A to C, and C returns to A at once.
+std::string qualifier_chart(const std::string& actions_of_b) {
+  return chart("INPUT RST = ddi(p0, d0, c2, \"RST\")\nOUTPUT R1 = ddo(p0, d1, c1, \"R1\")\n"
+               "INITIAL STEP A\nEND_STEP\nSTEP B\n" +
+               actions_of_b +
+               "END_STEP\nSTEP C\nR Q\nEND_STEP\n"
+               "TRANSITION t1 FROM A TO B WHEN GO\nTRANSITION t2 FROM B TO A WHEN STOP\n"
+               "TRANSITION t3 FROM A TO C WHEN RST\nTRANSITION t4 FROM C TO A WHEN TRUE\n");
+}
+
+// One cycle per entry of `inputs` (GO, STOP, RST as "100", ...); per cycle the
+// active step and the outputs `outs`, e.g. "B1 A0 ".
+std::string trace(Sfc& s, const std::vector<std::string>& inputs,
+                  const std::vector<std::string>& outs = {"Q"}) {
+  std::string t;
+  for (const std::string& in : inputs) {
+    s.set("GO", in[0] == '1');
+    s.set("STOP", in[1] == '1');
+    s.set("RST", in[2] == '1');
+    s.step();
+    for (const char* st : {"A", "B", "C"}) {
+      if (s.active(st)) t += st;
+    }
+    for (const std::string& o : outs) t += std::to_string(static_cast<int>(s.out(o)));
+    t += ' ';
+  }
+  return t;
+}
+
+// P1 pulses the cycle the step became active (as P), P0 the cycle it ended.
+TEST(SfcRun, p1_and_p0_pulse_at_the_steps_rising_and_falling_edge) {
+  Sfc s(qualifier_chart("P1 Q\nP0 R1\n"));
+  ASSERT_TRUE(s.ok()) << s.result().diags.render("t", "");
+  EXPECT_EQ(trace(s, {"000", "100", "000", "000", "010", "000", "100", "010", "000"}, {"Q", "R1"}),
+            "A00 B10 B00 B00 A01 A00 B10 A01 A00 ");
+}
+
+// SD at 0.1 s, T = 0.3 s: stored in the cycle B becomes active, 1 three
+// cycles later although B ended in between, until C's R; an R before the
+// time is up means it never comes on.
+TEST(SfcRun, sd_is_stored_then_delayed_and_outlives_its_step) {
+  Sfc s(qualifier_chart("SD Q 0.3s\n"));
+  ASSERT_TRUE(s.ok()) << s.result().diags.render("t", "");
+  EXPECT_EQ(trace(s, {"000", "100", "010", "000", "000", "000", "001", "000"}),
+            "A0 B0 A0 A0 A1 A1 C0 A0 ");
+  // Again, reset one cycle before the delay ends.
+  EXPECT_EQ(trace(s, {"100", "010", "001", "000", "000", "000"}), "B0 A0 C0 A0 A0 A0 ");
+}
+
+// DS: only if B is still active T after it became active is Q set, and then
+// stored past B's end until R.
+TEST(SfcRun, ds_stores_only_when_the_step_outlasts_the_delay) {
+  Sfc s(qualifier_chart("DS Q 0.3s\n"));
+  ASSERT_TRUE(s.ok()) << s.result().diags.render("t", "");
+  EXPECT_EQ(trace(s, {"000", "100", "000", "010", "100", "000", "000", "000", "010", "000",
+                      "001", "000"}),
+            "A0 B0 B0 A0 B0 B0 B0 B1 A1 A1 C0 A0 ");
+}
+
+// SL: set when B becomes active and 1 for T (three cycles) even though B ends
+// after one; B again without an R does not restart it (the latch is still
+// set, its time spent); after C's R it runs again.
+TEST(SfcRun, sl_is_stored_and_limited_in_time_until_reset) {
+  Sfc s(qualifier_chart("SL Q 0.3s\n"));
+  ASSERT_TRUE(s.ok()) << s.result().diags.render("t", "");
+  EXPECT_EQ(trace(s, {"000", "100", "010", "000", "000", "000", "100", "010", "001", "000",
+                      "100", "000", "000", "000"}),
+            "A0 B1 A1 A1 A0 A0 B0 A0 C0 A0 B1 B1 B1 B0 ");
+  // An R while it runs ends it at once.
+  Sfc r(qualifier_chart("SL Q 0.3s\n"));
+  ASSERT_TRUE(r.ok());
+  EXPECT_EQ(trace(r, {"000", "100", "010", "001", "000"}), "A0 B1 A1 C0 A0 ");
+}
+
 TEST(SfcRun, selection_divergence_takes_the_first_written_branch) {
   Sfc s(
       chart("INITIAL STEP A\nEND_STEP\nSTEP B\nEND_STEP\nSTEP C\nEND_STEP\n"
@@ -261,6 +337,11 @@ TEST(SfcDiagnostics, rules_of_steps_actions_and_conditions) {
       {"STEP A\nEND_STEP\nTRANSITION t FROM A TO A WHEN GO\n", "no step is INITIAL"},
       {"INITIAL STEP A\nL Q\nEND_STEP\n", "qualifier L needs a time"},
       {"INITIAL STEP A\nN Q 5s\nEND_STEP\n", "qualifier N takes no time"},
+      {"INITIAL STEP A\nSD Q\nEND_STEP\n", "qualifier SD needs a time"},
+      {"INITIAL STEP A\nDS Q\nEND_STEP\n", "qualifier DS needs a time"},
+      {"INITIAL STEP A\nSL Q\nEND_STEP\n", "qualifier SL needs a time"},
+      {"INITIAL STEP A\nP1 Q 1s\nEND_STEP\n", "qualifier P1 takes no time"},
+      {"INITIAL STEP A\nDL Q 1s\nEND_STEP\n", "expected an action qualifier (N, S, R, P, P1"},
       {"INITIAL STEP A\nN GO\nEND_STEP\n", "action target 'GO' is not an OUTPUT"},
       {"INITIAL STEP A\nEND_STEP\nSTEP A\nEND_STEP\n", "step 'A' is already defined as step"},
       {"SIGNAL lv = dai(p0, d0, c5)\nINITIAL STEP A\nEND_STEP\nTRANSITION t FROM A TO A WHEN lv\n",
@@ -328,6 +409,19 @@ TEST(SfcDiagnostics, an_unread_signal_and_an_undriven_output_are_warnings) {
   EXPECT_TRUE(ok) << out;
   EXPECT_NE(out.find("idle (not) is computed but never used"), std::string::npos) << out;
   EXPECT_NE(out.find("no action drives output Q"), std::string::npos) << out;
+}
+
+TEST(SfcDiagnostics, a_stored_qualifier_without_a_reset_is_a_warning) {
+  bool ok = false;
+  const std::string out = diags(chart("INITIAL STEP A\nSL Q 1s\nEND_STEP\n"
+                                      "TRANSITION t FROM A TO A WHEN STOP\n"),
+                                &ok);
+  EXPECT_TRUE(ok) << out;
+  EXPECT_NE(out.find("t.fbd:7:1: warning: qualifier SL stores Q until an 'R Q', and no step has one"),
+            std::string::npos)
+      << out;
+  const std::string with_reset = diags(qualifier_chart("SL Q 1s\n"), &ok);
+  EXPECT_EQ(with_reset.find("never resets"), std::string::npos) << with_reset;
 }
 
 TEST(SfcFrontEnd, the_same_chart_compiles_to_the_same_image) {
