@@ -1,13 +1,14 @@
 // FBD and LD bodies -> blocks (docs/plcopen.md, "FBD and LD"). Both are graphs
-// of elements joined by `connection refLocalId`; the order of evaluation comes
-// from the data flow, never from executionOrderId or positions (exports carry
-// 0 and 0,0). An element is lowered once, after everything it reads; an
-// element reached again while it is being lowered closes a feedback loop: that
-// reference reads the previous cycle's value (the one-cycle rule) and is
-// listed by `check --explain`. A variable read in the body is read after the
-// body's own assignments to it, unless that assignment depends on the read.
+// of elements joined by `connection refLocalId`. Assignments run in the
+// editors' order (execution_order()); each element is lowered once, after
+// everything it reads through connections; an element reached again while it
+// is being lowered closes a feedback loop: that reference reads the previous
+// cycle's value (the one-cycle rule) and is listed by `check --explain`. A
+// variable read sees the assignments to it that ran before.
 #include "lang/plcopen/graph.h"
 
+#include <algorithm>
+#include <cstdlib>
 #include <map>
 #include <set>
 #include <utility>
@@ -103,16 +104,9 @@ class Graph {
     }
     auto saved = L_.before_read;
     L_.before_read = [this](const std::string& name) { lower_writers(name); };
-    // Sinks first (assignments, coils, rails), then blocks (FB calls whose
-    // outputs nobody reads), then the rest: a loop through a variable is then
-    // broken at the variable's read, the reference the author drew last.
-    for (int pass = 0; pass < 3; ++pass) {
-      for (const std::string& id : order_) {
-        if (d_.has_errors()) break;
-        const std::string& n = elems_[id]->name;
-        const bool sink = n == "outVariable" || n == "inOutVariable" || n == "coil" || n == "rightPowerRail";
-        if ((pass == 0 && sink) || (pass == 1 && n == "block") || pass == 2) lower(id);
-      }
+    for (const std::string& id : execution_order()) {
+      if (d_.has_errors()) break;
+      lower(id);
     }
     L_.before_read = saved;
   }
@@ -171,17 +165,71 @@ class Graph {
     return !result_name_.empty() && x && upper(trim(x->text)) == result_name_;
   }
 
+  // The order the editors' own runtimes run a body in (Beremiz and OpenPLC
+  // generate one statement per assignment in this order; CODESYS exports
+  // put every element at 0,0, which leaves document order): elements with
+  // executionOrderId > 0 by that id; then assignments and coils, then blocks
+  // no assignment reaches (FB calls whose outputs nobody reads), each top to
+  // bottom (rows within 10 units of each other left to right); then the rest.
+  // Each lowers what it reads on demand, so data flow through connections is
+  // always respected.
+  std::vector<std::string> execution_order() {
+    struct Item {
+      std::string id;
+      double x = 0, y = 0;
+    };
+    std::vector<std::pair<long, std::string>> numbered;
+    std::vector<Item> sinks, blocks;
+    std::vector<std::string> rest;
+    for (const std::string& id : order_) {
+      const XmlElement& e = *elems_[id];
+      const bool assigns = e.name == "outVariable" || e.name == "inOutVariable";
+      const long eo = std::strtol(attr(e, "executionOrderId").c_str(), nullptr, 10);
+      Item it{id};
+      if (const XmlElement* p = e.child("position")) {
+        it.x = std::strtod(attr(*p, "x").c_str(), nullptr);
+        it.y = std::strtod(attr(*p, "y").c_str(), nullptr);
+      }
+      if (eo > 0 && (assigns || e.name == "block")) numbered.emplace_back(eo, id);
+      else if (assigns || e.name == "coil") sinks.push_back(it);
+      else if (e.name == "block") blocks.push_back(it);
+      else rest.push_back(id);
+    }
+    std::stable_sort(numbered.begin(), numbered.end(),
+                     [](const auto& a, const auto& b) { return a.first < b.first; });
+    auto by_rows = [](std::vector<Item>& v) {
+      std::stable_sort(v.begin(), v.end(), [](const Item& a, const Item& b) { return a.y < b.y; });
+      for (size_t b = 0; b < v.size();) {  // a row: within 10 units of its first element
+        size_t e = b + 1;
+        while (e < v.size() && v[e].y - v[b].y < 10) ++e;
+        std::stable_sort(v.begin() + static_cast<std::ptrdiff_t>(b), v.begin() + static_cast<std::ptrdiff_t>(e),
+                         [](const Item& p, const Item& q) { return p.x < q.x; });
+        b = e;
+      }
+    };
+    by_rows(sinks);
+    by_rows(blocks);
+    std::vector<std::string> out;
+    for (const auto& [eo, id] : numbered) out.push_back(id);
+    for (const Item& it : sinks) out.push_back(it.id);
+    for (const Item& it : blocks) out.push_back(it.id);
+    out.insert(out.end(), rest.begin(), rest.end());
+    return out;
+  }
+
+  // A read of variable `name` sees what the elements before it in the
+  // execution order wrote; a writer after it (or the one being lowered, a
+  // loop) has not run yet: the read sees the value from before, last cycle's
+  // when nothing earlier wrote it. `check --explain` lists each such read.
   void lower_writers(const std::string& name) {
     auto it = writers_.find(name);
     if (it == writers_.end()) return;
     for (const std::string& id : it->second) {
-      if (state_[id] == 1) {
-        if (reported_.insert(id + "@" + name).second)
-          L_.note(s_.pou->name + " (" + lang() + "): '" + name + "' is read while localId " + id +
-                  " writes it: that read sees the previous cycle's value (feedback loop)");
-        continue;
-      }
-      lower(id);
+      if (state_[id] == 2) continue;
+      if (reported_.insert(id + "@" + name).second)
+        L_.note(s_.pou->name + " (" + lang() + "): '" + name + "' is read before localId " + id +
+                " writes it" + (state_[id] == 1 ? " (a feedback loop)" : " (later in the execution order)") +
+                ": that read sees the value from before, the previous cycle's unless an earlier element wrote it");
     }
   }
 

@@ -436,6 +436,48 @@ TEST(Plcopen, an_integer_sum_is_wrapped_once) {
   EXPECT_EQ(run.value("main.n"), -32768);  // 32767 after the first cycle, then 32767 + 1 wraps
 }
 
+// Assignments run in the editors' order: top to bottom by position (a row
+// left to right), executionOrderId first when it is set. A read sees only the
+// assignments before it: `first` is TRUE in the first cycle for the read above
+// the assignment that clears it.
+TEST(Plcopen, fbd_assignments_run_top_to_bottom_as_in_the_editors) {
+  auto at = [](int x, int y) { return "<position x=\"" + std::to_string(x) + "\" y=\"" + std::to_string(y) + "\"/>"; };
+  auto body = [&](int read_x, int read_y, int clear_y, const std::string& read_eo, const std::string& clear_eo) {
+    return project(
+        kNs201,
+        "<pou name=\"main\" pouType=\"program\"><interface><localVars>" + var("first", "BOOL", "", "TRUE") +
+            var("seen", "BOOL") + var("n", "INT") + "</localVars></interface><body><FBD>"
+            "<inVariable localId=\"3\">" + at(10, clear_y) + "<connectionPointOut/><expression>FALSE</expression></inVariable>"
+            "<outVariable localId=\"4\" executionOrderId=\"" + clear_eo + "\">" + at(200, clear_y) +
+            "<connectionPointIn><connection refLocalId=\"3\"/></connectionPointIn><expression>first</expression></outVariable>"
+            "<inVariable localId=\"1\">" + at(10, read_y) + "<connectionPointOut/><expression>first</expression></inVariable>"
+            "<outVariable localId=\"2\" executionOrderId=\"" + read_eo + "\">" + at(read_x, read_y) +
+            "<connectionPointIn><connection refLocalId=\"1\"/></connectionPointIn><expression>seen</expression></outVariable>"
+            "</FBD></body></pou>\n");
+  };
+  struct Case {
+    int read_x, read_y, clear_y;  // the clear's outVariable is at x 200
+    const char *read_eo, *clear_eo;
+    double seen_first_cycle;
+  } cases[] = {
+      {200, 10, 100, "0", "0", 1},   // the read is drawn above: it runs first
+      {200, 100, 10, "0", "0", 0},   // below: the clear ran before it
+      {100, 104, 100, "0", "0", 1},  // one row (within 10 units): left to right, the read is left
+      {300, 104, 100, "0", "0", 0},  // ... and here right of the clear
+      {200, 100, 10, "1", "2", 1},   // executionOrderId decides when it is set
+  };
+  for (const Case& c : cases) {
+    const std::string src = body(c.read_x, c.read_y, c.clear_y, c.read_eo, c.clear_eo);
+    CompileResult r = compile_source(src);
+    ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
+    Machine run(std::move(*r.image));
+    run.cycles(1);
+    EXPECT_EQ(run.value("main.seen"), c.seen_first_cycle) << "read at y " << c.read_y << ", clear at y " << c.clear_y;
+    run.cycles(1);
+    EXPECT_EQ(run.value("main.seen"), 0);
+  }
+}
+
 TEST(Plcopen, reads_and_writes_directly_represented_variables) {
   const std::string src = project(
       kNs201, st_program("<localVars>" + var("k", "INT") + "</localVars>",
