@@ -46,9 +46,10 @@ bool is_plcopen_source(std::string_view text) {
   for (;;) {
     while (i < text.size() && std::isspace(static_cast<unsigned char>(text[i]))) ++i;
     if (text.substr(i, 2) == "<?" || text.substr(i, 4) == "<!--") {
-      const size_t e = text.find(text.substr(i, 2) == "<?" ? "?>" : "-->", i);
+      const bool pi = text.substr(i, 2) == "<?";
+      const size_t e = text.find(pi ? "?>" : "-->", i);
       if (e == std::string_view::npos) return false;
-      i = e + 2;
+      i = e + (pi ? 2 : 3);
       continue;
     }
     break;

@@ -47,6 +47,11 @@ std::optional<Location> parse_location(const std::string& a, std::string* error)
     any = true;
   }
   if (l.size == 'X') {
+    if (parts.size() == 1) {
+      // A single-level bit address (%IX12, MatIEC's tests): bit 12 counted
+      // from bit 0 of byte 0, so %IX12 is %IX1.4.
+      parts = {parts[0] / 8, parts[0] % 8};
+    }
     if (parts.size() != 2) return bad("needs byte.bit, e.g. %IX0.3");
     if (parts[0] > 255) return bad("has a byte above 255");
     if (parts[1] > 7) return bad("has a bit above 7");
@@ -294,7 +299,9 @@ std::unique_ptr<Var> Lowering::make_var(const Variable& decl0, const std::string
     return v;
   }
   if (decl.type.base == BaseType::kDerived) {
-    const std::string up = upper(decl.type.derived);
+    std::string up = upper(decl.type.derived);
+    // CODESYS names the IEC blocks by their library: Standard.TON is TON.
+    if (up.rfind("STANDARD.", 0) == 0 && iec::find_iec(up.substr(9))) up = up.substr(9);
     if (in_function) {
       d_.error(decl.pos, "variable '" + decl.name + "': a function cannot hold a function block instance");
     } else if (const iec::IecFunction* f = iec::find_iec(up); f && f->function_block) {

@@ -37,6 +37,55 @@ std::string attr(const XmlElement& e, std::string_view n) {
   return a ? a->value : std::string();
 }
 
+// A task interval in seconds: a TIME literal (T#20ms, tc6_0201), an XML
+// duration (PT0.02S, what the tc6_0200 schema types it as) or an XML time of
+// day (00:00:00.100000, the legacy tc6.xsd).
+std::optional<double> parse_interval(const std::string& text) {
+  bool is_time = false;
+  if (auto v = parse_literal(text, nullptr, &is_time); v && is_time) return v;
+  const char* p = text.c_str();
+  char* end = nullptr;
+  if (text.size() > 1 && (p[0] == 'P' || p[0] == 'p')) {
+    double total = 0;
+    bool in_time = false, any = false;
+    ++p;
+    while (*p) {
+      if (*p == 'T' || *p == 't') {
+        in_time = true;
+        ++p;
+        continue;
+      }
+      const double k = std::strtod(p, &end);
+      if (end == p || !std::isfinite(k) || k < 0) return std::nullopt;
+      const char u = static_cast<char>(std::toupper(static_cast<unsigned char>(*end)));
+      double unit = 0;
+      if (!in_time && u == 'D') unit = 86400;
+      else if (in_time && u == 'H') unit = 3600;
+      else if (in_time && u == 'M') unit = 60;
+      else if (in_time && u == 'S') unit = 1;
+      else return std::nullopt;
+      total += k * unit;
+      any = true;
+      p = end + 1;
+    }
+    if (!any) return std::nullopt;
+    return total;
+  }
+  // HH:MM:SS[.frac]
+  double parts[3] = {0, 0, 0};
+  for (int i = 0; i < 3; ++i) {
+    if (!std::isdigit(static_cast<unsigned char>(*p))) return std::nullopt;
+    parts[i] = std::strtod(p, &end);
+    p = end;
+    if (i < 2) {
+      if (*p != ':') return std::nullopt;
+      ++p;
+    }
+  }
+  if (*p != '\0' || parts[1] >= 60 || parts[2] >= 60) return std::nullopt;
+  return parts[0] * 3600 + parts[1] * 60 + parts[2];
+}
+
 class Reader {
  public:
   explicit Reader(DiagnosticList& d) : d_(d) {}
@@ -69,6 +118,15 @@ class Reader {
       }
       // fileHeader, contentHeader, addData: descriptive only.
     }
+    // CODESYS V3 keeps an application's POUs in its resource's addData.
+    for (Pou& pou : vendor_pous_) p.pous.push_back(std::move(pou));
+    for (size_t i = 0; i < p.pous.size(); ++i) {
+      for (size_t j = 0; j < i; ++j) {
+        if (iequals(p.pous[i].name, p.pous[j].name))
+          d_.error(p.pous[i].pos, "POU '" + p.pous[i].name + "' is defined twice (also line " +
+                                      std::to_string(p.pous[j].pos.line) + ")");
+      }
+    }
     return !d_.has_errors();
   }
 
@@ -94,13 +152,6 @@ class Reader {
       }
       if (elementary_type(dt.name) || iec::find_iec(dt.name))
         d_.error(dt.pos, "data type '" + dt.name + "' has the name of a standard type or block");
-    }
-    for (size_t i = 0; i < p.pous.size(); ++i) {
-      for (size_t j = 0; j < i; ++j) {
-        if (iequals(p.pous[i].name, p.pous[j].name))
-          d_.error(p.pous[i].pos, "POU '" + p.pous[i].name + "' is defined twice (also line " +
-                                      std::to_string(p.pous[j].pos.line) + ")");
-      }
     }
   }
 
@@ -412,17 +463,30 @@ class Reader {
         variables(c, VarSection::kGlobal, r.globals);
       } else if (c.name == "pouInstance") {
         r.unassigned.push_back(instance(c));
+      } else if (c.name == "addData") {
+        // CODESYS V3: <data name=".../plcopenxml/pou"><pou>, and global
+        // variable lists as <data name=".../plcopenxml/globalvars"><globalVars>.
+        for (const XmlElement& d : c.children) {
+          if (d.name != "data") continue;
+          const std::string n = attr(d, "name");
+          const auto ends = [&](std::string_view tail) {
+            return n.size() >= tail.size() && n.compare(n.size() - tail.size(), tail.size(), tail) == 0;
+          };
+          for (const XmlElement& x : d.children) {
+            if (ends("/pou") && x.name == "pou") vendor_pous_.push_back(pou(x));
+            else if (ends("/globalvars") && x.name == "globalVars") variables(x, VarSection::kGlobal, r.globals);
+          }
+        }
       } else if (c.name == "task") {
         Task t;
         t.name = attr(c, "name");
         t.pos = c.pos;
         const std::string iv = attr(c, "interval");
         if (!iv.empty()) {
-          bool is_time = false;
-          auto v = parse_literal(iv, nullptr, &is_time);
-          if (!v || !is_time || *v <= 0) {
+          auto v = parse_interval(iv);
+          if (!v || *v <= 0) {
             d_.error(c.pos, "task '" + t.name + "': interval '" + iv +
-                                "' is not a positive TIME literal such as T#20ms");
+                                "' is not a positive time (T#20ms, PT0.02S or 00:00:00.020)");
           } else {
             t.interval = *v;
           }
@@ -448,6 +512,7 @@ class Reader {
   }
 
   DiagnosticList& d_;
+  std::vector<Pou> vendor_pous_;  // POUs found in a resource's addData
 };
 
 // Digits of `s` in base `base`, with IEC underscores; false if none or a bad digit.

@@ -241,8 +241,10 @@ bool read_sfc_graph(const XmlElement& body, const std::string& name, DiagnosticL
       diags.error(ab.pos, "an <actionBlock> must be connected to one step");
       return false;
     }
+    int nth = 0;  // inline actions are named by their place in the block: Beremiz gives each localId 0
     for (const XmlElement& a : ab.children) {
       if (a.name != "action") continue;
+      ++nth;
       SfcActionUse u;
       u.qualifier = upper(attr(a, "qualifier"));
       if (u.qualifier.empty()) u.qualifier = "N";
@@ -261,7 +263,7 @@ bool read_sfc_graph(const XmlElement& body, const std::string& name, DiagnosticL
         u.target = attr(*r, "name");
       } else if (const XmlElement* in = a.child("inline")) {
         u.inline_body = in;
-        u.target = "inline" + attr(a, "localId") + "@" + id;
+        u.target = "inline" + std::to_string(nth) + "@" + id;
       } else {
         diags.error(a.pos, "an <action> needs a <reference> or an <inline> body");
         return false;

@@ -478,6 +478,81 @@ TEST(Plcopen, fbd_assignments_run_top_to_bottom_as_in_the_editors) {
   }
 }
 
+// Habits of real exports: task intervals as XML durations (tc6_0200) and
+// times of day (legacy tc6.xsd), single-level bit addresses, CODESYS V3's
+// POUs and global variable lists in the resource's addData, library-named
+// IEC blocks, and inline SFC actions that all carry localId 0 (Beremiz).
+TEST(Plcopen, reads_the_editors_other_habits) {
+  for (const auto& [interval, seconds] : {std::pair<std::string, double>{"T#20ms", 0.02},
+                                          {"PT0.02S", 0.02},
+                                          {"PT1M", 60},
+                                          {"00:00:00.100000", 0.1}}) {
+    const std::string src = project(
+        kNs201, st_program("<localVars>" + var("n", "INT") + "</localVars>", "n := n + 1;"),
+        "<instances><configurations><configuration name=\"c\"><resource name=\"r\"><task name=\"t\" interval=\"" +
+            interval + "\" priority=\"0\"><pouInstance name=\"main\" typeName=\"main\"/></task></resource>"
+            "</configuration></configurations></instances>\n");
+    CompileResult r = compile_source(src);
+    ASSERT_TRUE(r.ok()) << interval << "\n" << r.diags.render("t.xml", src);
+    EXPECT_DOUBLE_EQ(r.image->period_s(), seconds) << interval;
+  }
+  {
+    const std::string src = project(
+        kNs201, st_program("<inputVars>" + var("b", "BOOL", "%IX12") + "</inputVars><localVars>" + var("x", "BOOL") +
+                               "</localVars>",
+                           "x := b;"));
+    CompileResult r = compile_source(src);
+    ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
+    const auto in = std::find_if(r.program.blocks.begin(), r.program.blocks.end(),
+                                 [](const FlatBlock& b) { return b.written == "ddi"; });
+    ASSERT_NE(in, r.program.blocks.end());
+    EXPECT_EQ(in->d, 1);  // %IX12 is %IX1.4
+    EXPECT_EQ(in->c, 4u);
+  }
+  {
+    const std::string src =
+        "<!-- exported by hand --><?xml version=\"1.0\"?>\n<project xmlns=\"http://www.plcopen.org/xml/tc6_0200\">"
+        "<fileHeader companyName=\"t\"/><types><dataTypes/><pous/></types><instances><configurations>"
+        "<configuration name=\"Device\"><resource name=\"Application\">"
+        "<task name=\"Task\" interval=\"PT0.01S\" priority=\"1\"><pouInstance name=\"PLC_PRG\" typeName=\"PLC_PRG\"/></task>"
+        "<addData><data name=\"http://www.3s-software.com/plcopenxml/globalvars\" handleUnknown=\"implementation\">"
+        "<globalVars name=\"GVL\">" + var("limit", "INT", "", "3") + "</globalVars></data>"
+        "<data name=\"http://www.3s-software.com/plcopenxml/pou\" handleUnknown=\"implementation\">"
+        "<pou name=\"PLC_PRG\" pouType=\"program\"><interface><localVars>" + var("c", "INT") +
+        "<variable name=\"edge\"><type><derived name=\"Standard.R_TRIG\"/></type></variable>"
+        "</localVars></interface><body><ST><xhtml xmlns=\"http://www.w3.org/1999/xhtml\">"
+        "edge(CLK := TRUE); IF c &lt; limit THEN c := c + 1; END_IF;</xhtml></ST></body></pou></data></addData>"
+        "</resource></configuration></configurations></instances></project>\n";
+    CompileResult r = compile_source(src);
+    ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
+    EXPECT_DOUBLE_EQ(r.image->period_s(), 0.01);
+    Machine run(std::move(*r.image));
+    run.cycles(5);
+    EXPECT_EQ(run.value("PLC_PRG.c"), 3);
+    EXPECT_EQ(run.value("PLC_PRG.edge.Q"), 0);  // TRUE since the first cycle: one edge, then none
+  }
+  {
+    const std::string pos = "<position x=\"0\" y=\"0\"/>";
+    const std::string src = project(
+        kNs201,
+        "<pou name=\"main\" pouType=\"program\"><interface><localVars>" + var("a", "INT") + var("b", "INT") +
+            "</localVars></interface><body><SFC>"
+            "<step localId=\"1\" name=\"S\" initialStep=\"true\">" + pos +
+            "<connectionPointIn/><connectionPointOut formalParameter=\"\"/>"
+            "<connectionPointOutAction formalParameter=\"\"/></step>"
+            "<actionBlock localId=\"2\">" + pos + "<connectionPointIn><connection refLocalId=\"1\"/></connectionPointIn>"
+            "<action localId=\"0\" qualifier=\"N\"><inline><ST><xhtml:p><![CDATA[a := a + 1;]]></xhtml:p></ST></inline></action>"
+            "<action localId=\"0\" qualifier=\"N\"><inline><ST><xhtml:p><![CDATA[b := b + 2;]]></xhtml:p></ST></inline></action>"
+            "</actionBlock></SFC></body></pou>\n");
+    CompileResult r = compile_source(src);
+    ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
+    Machine run(std::move(*r.image));
+    run.cycles(3);
+    EXPECT_EQ(run.value("main.a"), 3);
+    EXPECT_EQ(run.value("main.b"), 6);
+  }
+}
+
 TEST(Plcopen, reads_and_writes_directly_represented_variables) {
   const std::string src = project(
       kNs201, st_program("<localVars>" + var("k", "INT") + "</localVars>",
