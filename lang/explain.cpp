@@ -108,8 +108,12 @@ std::string explain(const CompileResult& r) {
     const FlatBlock& b = p.blocks[i];
     for (uint32_t k = 0; k < b.n_in; ++k) {
       if (!b.delayed[k]) continue;
+      bool seen = false;  // or(x', x'): one line for the two inputs of one reference
+      for (uint32_t j = 0; j < k; ++j) seen = seen || (b.delayed[j] && b.in[j] == b.in[k]);
+      if (seen) continue;
       const FlatBlock& src = p.blocks[b.in[k]];
-      std::string why = b.in[k] == i ? "reads its own output" : "runs later (#" + std::to_string(b.in[k]) + ")";
+      std::string why = b.in[k] == i ? "reads its own output (a value held from cycle to cycle)"
+                                     : "runs later (#" + std::to_string(b.in[k]) + ")";
       delayed.push_back("  line " + std::to_string(b.in_pos[k].line) + ":" +
                         std::to_string(b.in_pos[k].col) + "  " + (b.spec->has_output ? b.name : b.written) +
                         " reads " + src.name + ", which " + why + ": one-cycle delay");

@@ -78,6 +78,17 @@ std::vector<Tok> lex(std::string_view s, const XmlElement& origin, DiagnosticLis
       while (i < s.size() && s[i] != '\n') ++i;
       continue;
     }
+    if (c == '{') {
+      // A pragma ({attribute 'hide'}, CODESYS; {info ...}): the standard lets
+      // an implementation ignore those it does not know, and rtplc knows none.
+      const size_t e = s.find('}', i + 1);
+      if (e == std::string_view::npos) {
+        d.error(pm.at(i), "unterminated pragma '{'");
+        break;
+      }
+      i = e + 1;
+      continue;
+    }
     Tok t;
     t.offset = i;
     t.pos = pm.at(i);

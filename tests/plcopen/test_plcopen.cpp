@@ -553,6 +553,22 @@ TEST(Plcopen, reads_the_editors_other_habits) {
   }
 }
 
+// CODESYS bodies carry pragmas and // comments; both are skipped.
+TEST(Plcopen, st_skips_pragmas_and_line_comments) {
+  const std::string src = project(
+      kNs201, st_program("<localVars>" + var("a", "DINT") + "</localVars>",
+                         "// counts\n{attribute 'hide'}\nif a < 16#FF then a := a + 2#10; end_if; (* by 2 *)"));
+  CompileResult r = compile_source(src);
+  ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
+  Machine run(std::move(*r.image));
+  run.cycles(3);
+  EXPECT_EQ(run.value("main.a"), 6);
+  const std::string bad = project(kNs201, st_program("<localVars>" + var("a", "DINT") + "</localVars>", "{attribute a := 1;"));
+  CompileResult b = compile_source(bad);
+  ASSERT_FALSE(b.ok());
+  EXPECT_NE(b.diags.items()[0].message.find("unterminated pragma"), std::string::npos);
+}
+
 TEST(Plcopen, reads_and_writes_directly_represented_variables) {
   const std::string src = project(
       kNs201, st_program("<localVars>" + var("k", "INT") + "</localVars>",
