@@ -125,8 +125,40 @@ std::vector<Value> Lowering::lower_iec(const iec::IecFunction& f, const std::str
   return r;
 }
 
+bool Lowering::is_in_out(const Var* fb, const std::string& function, const std::string& formal) const {
+  if (formal.empty()) return false;
+  if (fb) {
+    if (fb->role != Var::Role::kUserFb) return false;
+    auto it = fb->fb->vars.find(upper(formal));
+    return it != fb->fb->vars.end() && it->second->role == Var::Role::kInOut;
+  }
+  const Pou* p = proj_.pou(function);
+  if (!p || p->type != PouType::kFunction) return false;
+  const Variable* d = p->var(formal);
+  return d && d->section == VarSection::kInOut;
+}
+
+// Binds each (formal, caller's variable) to the VAR_IN_OUT of `scope`.
+static void bind_in_outs(Scope& scope, const std::string& callee,
+                         const std::vector<std::pair<std::string, Var*>>& inouts, DiagnosticList& d, SourcePos pos) {
+  for (const auto& [formal, var] : inouts) {
+    auto it = scope.vars.find(upper(formal));
+    if (it == scope.vars.end() || it->second->role != Var::Role::kInOut) {
+      d.error(pos, callee + " has no VAR_IN_OUT '" + formal + "'");
+      continue;
+    }
+    if (var->role == Var::Role::kInput) {
+      d.error(pos, "'" + var->decl->name + "' is an input (" + var->decl->address + "): it cannot be passed as VAR_IN_OUT '" +
+                       formal + "', which the callee may write");
+      continue;
+    }
+    it->second->alias = var;
+  }
+}
+
 std::optional<Value> Lowering::call_function(Scope& s, const std::string& name, std::vector<Value> args,
-                                             std::vector<std::string> formals, SourcePos pos) {
+                                             std::vector<std::string> formals, SourcePos pos,
+                                             const std::vector<std::pair<std::string, Var*>>& inouts) {
   const std::string up = upper(name);
   const Pou* user = proj_.pou(up);
   if (user && user->type == PouType::kFunction) {
@@ -145,6 +177,7 @@ std::optional<Value> Lowering::call_function(Scope& s, const std::string& name, 
     auto rv = make_var(*rdecl, sc->path + "." + user->name, call_depth_, true);
     all_vars_.push_back(rv.get());
     sc->vars.emplace(upper(user->name), std::move(rv));
+    bind_in_outs(*sc, "function '" + user->name + "'", inouts, d_, pos);
     std::vector<Var*> inputs;
     for (const Variable& d : user->vars) {
       if (d.section == VarSection::kInput) inputs.push_back(sc->vars[upper(d.name)].get());
@@ -182,6 +215,10 @@ std::optional<Value> Lowering::call_function(Scope& s, const std::string& name, 
     return constant(0, false);
   }
   if (!f || f->function_block) return std::nullopt;
+  if (!inouts.empty()) {
+    d_.error(pos, name + " has no VAR_IN_OUT '" + inouts[0].first + "'");
+    return constant(0, false);
+  }
   std::vector<std::optional<Value>> placed;
   if (!place_args(*f, args, formals, placed, name, d_, pos)) return constant(0, false);
   size_t given = 0;
@@ -254,7 +291,12 @@ Value Lowering::fb_output(Var& v, const std::string& name, SourcePos pos) {
   return r;
 }
 
-void Lowering::call_fb(Var& v, const std::vector<std::pair<std::string, Value>>& inputs, SourcePos pos) {
+void Lowering::call_fb(Var& v, const std::vector<std::pair<std::string, Value>>& inputs, SourcePos pos,
+                       const std::vector<std::pair<std::string, Var*>>& inouts) {
+  if (v.role == Var::Role::kStdFb && !inouts.empty()) {
+    d_.error(pos, v.std_fb.type + " has no VAR_IN_OUT '" + inouts[0].first + "'");
+    return;
+  }
   if (v.role == Var::Role::kUserFb) {
     Scope& fb = *v.fb;
     if (fb.called) {
@@ -262,6 +304,7 @@ void Lowering::call_fb(Var& v, const std::vector<std::pair<std::string, Value>>&
       return;
     }
     fb.called = true;
+    bind_in_outs(fb, "function block '" + fb.pou->name + "'", inouts, d_, pos);
     std::vector<Var*> in_order;
     for (const Variable& d : fb.pou->vars) {
       if (d.section == VarSection::kInput) in_order.push_back(fb.vars[upper(d.name)].get());

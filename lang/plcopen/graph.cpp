@@ -334,6 +334,29 @@ class Graph {
     return L_.resolve_static(s_, ex->name, ex->args, x->pos);
   }
 
+  // The variable an in-out parameter is connected to: an inVariable or
+  // inOutVariable naming it.
+  Var* in_out_variable(const XmlElement& v, const std::string& type) {
+    const std::string formal = attr(v, "formalParameter");
+    const XmlElement* cpin = v.child("connectionPointIn");
+    const XmlElement* c = cpin ? cpin->child("connection") : nullptr;
+    auto it = c ? elems_.find(attr(*c, "refLocalId")) : elems_.end();
+    const XmlElement* src = it == elems_.end() ? nullptr : it->second;
+    if (!src || (src->name != "inVariable" && src->name != "inOutVariable")) {
+      d_.error(v.pos, "block " + type + ": in-out parameter '" + formal +
+                          "' must be connected to a variable (an inVariable or inOutVariable)");
+      return nullptr;
+    }
+    const XmlElement* x = src->child("expression");
+    auto ex = x ? parse_st_expression(x->text, *x, d_) : nullptr;
+    if (!ex) return nullptr;
+    if (ex->kind != Expr::Kind::kName) {
+      d_.error(x->pos, "block " + type + ": in-out parameter '" + formal + "' needs a variable, not '" + trim(x->text) + "'");
+      return nullptr;
+    }
+    return L_.in_out_argument(s_, *ex, formal, x->pos);
+  }
+
   Value negate_if(const XmlElement& e, Value v) {
     if (attr(e, "negated") == "true") return L_.em().unary_not(L_.em().to_digital(v, e.pos), e.pos);
     return v;
@@ -502,12 +525,15 @@ class Graph {
         inputs.emplace_back(formal, x);
       }
     }
+    // In-out parameters: the variable drawn into each, passed by reference;
+    // the parameter's output side is that variable after the call.
+    std::vector<std::pair<std::string, Var*>> inouts;
     if (const XmlElement* io = e.child("inOutVariables")) {
       for (const XmlElement& v : io->children) {
-        if (v.name == "variable") {
-          d_.error(v.pos, "block " + type + ": in-out parameters are not supported yet");
-          return;
-        }
+        if (v.name != "variable") continue;
+        Var* var = in_out_variable(v, type);
+        if (!var) return;
+        inouts.emplace_back(attr(v, "formalParameter"), var);
       }
     }
     std::vector<std::pair<std::string, const XmlElement*>> out_vars;
@@ -525,8 +551,9 @@ class Graph {
         formals.push_back(upper(f));
         args.push_back(v);
       }
-      auto r = L_.call_function(s_, type, args, formals, pos);
+      auto r = L_.call_function(s_, type, args, formals, pos, inouts);
       if (!r) return;
+      for (const auto& [f, var] : inouts) outs[upper(f)] = L_.read(*var, pos);
       // EN false: the function does not run, so a variable it feeds keeps its value.
       if (!(en.is_const && en.k != 0)) enable_[id] = en;
       for (auto& [f, v] : out_vars) {
@@ -548,8 +575,9 @@ class Graph {
     }
     // EN false: the instance is not called, so it keeps its state and shows
     // its last outputs (if-converted like a call under IF; ENO = EN).
-    if (en.is_const && en.k != 0) L_.call_fb(*fb, inputs, pos);
-    else L_.guarded(en, pos, [&] { L_.call_fb(*fb, inputs, pos); });
+    if (en.is_const && en.k != 0) L_.call_fb(*fb, inputs, pos, inouts);
+    else L_.guarded(en, pos, [&] { L_.call_fb(*fb, inputs, pos, inouts); });
+    for (const auto& [f, var] : inouts) outs[upper(f)] = L_.read(*var, pos);
     for (auto& [f, v] : out_vars) {
       if (upper(f) == "ENO") continue;
       outs[upper(f)] = negate_if(*v, L_.fb_output(*fb, f, pos));

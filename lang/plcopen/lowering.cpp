@@ -354,7 +354,15 @@ std::unique_ptr<Scope> Lowering::make_scope(const Pou& pou, const std::string& p
   for (const Variable& decl : pou.vars) {
     if (decl.section == VarSection::kExternal) continue;  // resolved through globals
     if (decl.section == VarSection::kInOut) {
-      d_.error(decl.pos, "variable '" + decl.name + "': VAR_IN_OUT is not supported yet");
+      if (pou.type == PouType::kProgram) {
+        d_.error(decl.pos, "variable '" + decl.name + "': a program has no caller to pass VAR_IN_OUT");
+        continue;
+      }
+      auto v = std::make_unique<Var>();
+      v->decl = &decl;
+      v->path = path + "." + decl.name;
+      v->role = Var::Role::kInOut;
+      s->vars.emplace(upper(decl.name), std::move(v));
       continue;
     }
     if (decl.section == VarSection::kGlobal) {
@@ -418,7 +426,13 @@ Var* Lowering::lookup(Scope& s, const std::string& name, SourcePos pos, bool rep
     return raw;
   }
   auto it = s.vars.find(up);
-  if (it != s.vars.end()) return it->second.get();
+  if (it != s.vars.end()) {
+    Var* v = it->second.get();
+    if (v->role != Var::Role::kInOut) return v;
+    if (!v->alias && report)
+      d_.error(pos, "'" + name + "' is VAR_IN_OUT and this call passes no variable for it");
+    return v->alias;
+  }
   if (s.globals && s.pou) {
     const Variable* decl = s.pou->var(name);
     if (decl && decl->section == VarSection::kExternal) {
@@ -484,6 +498,11 @@ std::vector<Place> Lowering::places(Scope& s, const std::string& path,
         }
         if (b->role == Var::Role::kStruct || b->role == Var::Role::kUserFb) {
           auto it = b->fb->vars.find(upper(name));
+          if (it != b->fb->vars.end() && it->second->role == Var::Role::kInOut) {
+            d_.error(pos, "'" + path_text(path) + "': " + name + " is VAR_IN_OUT of '" + b->decl->name +
+                              "': use the variable passed for it");
+            return {};
+          }
           if (it == b->fb->vars.end()) {
             d_.error(pos, "'" + path + "': " +
                               (b->role == Var::Role::kStruct ? "structure '" + b->decl->name + "' has no member '"
@@ -790,6 +809,7 @@ void Lowering::finalize(Scope& s) {
 }
 
 void Lowering::finalize_var(Var& v) {
+  if (v.role == Var::Role::kInOut) return;  // the caller's variable: finalized there
   {
     if (v.role == Var::Role::kUserFb || v.role == Var::Role::kStruct) {
       finalize(*v.fb);

@@ -45,7 +45,7 @@ struct Var {
   std::string path;
   bool digital = false;
   bool integer = false;
-  enum class Role : uint8_t { kPlain, kInput, kSetpoint, kUserFb, kStdFb, kStruct, kArray } role = Role::kPlain;
+  enum class Role : uint8_t { kPlain, kInput, kSetpoint, kUserFb, kStdFb, kStruct, kArray, kInOut } role = Role::kPlain;
   std::optional<Location> loc;
   std::optional<Value> start;  // the value at the start of the cycle
   std::optional<Value> cur;    // after the last assignment so far
@@ -54,6 +54,9 @@ struct Var {
   // kArray: one variable per element, row-major (`a[1,2]` after `a[1,1]`).
   std::vector<std::unique_ptr<Var>> elems;
   std::shared_ptr<const ArrayType> array;
+  // kInOut (VAR_IN_OUT): no storage of its own; the caller's variable, bound
+  // by the call, which every read and write of the name reaches.
+  Var* alias = nullptr;
 };
 
 // Where a path such as `a[i].x` leads: one variable, or (an index known only
@@ -110,7 +113,7 @@ class Lowering {
   // formal names were put in order); nullopt when `name` is no function.
   std::optional<Value> call_function(Scope& s, const std::string& name,
                                      std::vector<Value> args, std::vector<std::string> formals,
-                                     SourcePos pos);
+                                     SourcePos pos, const std::vector<std::pair<std::string, Var*>>& inouts = {});
   bool is_function(const std::string& upper_name) const;
   // Lowers standard function or block `f` through lang/iec's table, arguments
   // by formal position (nullopt: unconnected, the IEC default), its blocks named
@@ -124,7 +127,13 @@ class Lowering {
   Value operate(const char* iec_name, const Value& a, SourcePos pos);
   // Calls FB instance `v` with named inputs; its outputs are then read with
   // fb_output(). A second call in one cycle is refused.
-  void call_fb(Var& v, const std::vector<std::pair<std::string, Value>>& inputs, SourcePos pos);
+  void call_fb(Var& v, const std::vector<std::pair<std::string, Value>>& inputs, SourcePos pos,
+               const std::vector<std::pair<std::string, Var*>>& inouts = {});
+  // True when `formal` is a VAR_IN_OUT of the user FB instance or user
+  // function `callee` names (the argument is then a variable, not a value).
+  bool is_in_out(const Var* fb, const std::string& function, const std::string& formal) const;
+  // The caller's variable an argument for VAR_IN_OUT `formal` names.
+  Var* in_out_argument(Scope& s, const Expr& e, const std::string& formal, SourcePos pos);
   Value fb_output(Var& v, const std::string& name, SourcePos pos);
   bool fb_output_digital(const Var& v, const std::string& name) const;
 

@@ -16,6 +16,20 @@ namespace {
 constexpr int kMaxUnroll = 1000;
 }
 
+Var* Lowering::in_out_argument(Scope& s, const Expr& e, const std::string& formal, SourcePos pos) {
+  if (e.kind != Expr::Kind::kName) {
+    d_.error(pos, "VAR_IN_OUT '" + formal + "' needs a variable, not an expression");
+    return nullptr;
+  }
+  Var* v = resolve_static(s, e.name, e.args, pos);
+  if (v && (v->role == Var::Role::kUserFb || v->role == Var::Role::kStdFb || v->role == Var::Role::kStruct ||
+            v->role == Var::Role::kArray)) {
+    d_.error(pos, "VAR_IN_OUT '" + formal + "': passing a whole function block, structure or array is not supported yet");
+    return nullptr;
+  }
+  return v;
+}
+
 Value Lowering::eval(Scope& s, const Expr& e) {
   switch (e.kind) {
     case Expr::Kind::kLiteral: {
@@ -37,8 +51,19 @@ Value Lowering::eval(Scope& s, const Expr& e) {
     }
     case Expr::Kind::kCall: {
       std::vector<Value> args;
-      for (const auto& a : e.args) args.push_back(eval(s, *a));
-      auto r = call_function(s, e.name, args, e.arg_names, e.pos);
+      std::vector<std::string> formals;
+      std::vector<std::pair<std::string, Var*>> inouts;
+      for (size_t i = 0; i < e.args.size(); ++i) {
+        const std::string& f = i < e.arg_names.size() ? e.arg_names[i] : std::string();
+        if (is_in_out(nullptr, e.name, f)) {
+          if (Var* v = in_out_argument(s, *e.args[i], f, e.args[i]->pos)) inouts.emplace_back(f, v);
+          continue;
+        }
+        args.push_back(eval(s, *e.args[i]));
+        formals.push_back(f);
+      }
+      if (d_.has_errors()) return constant(0, false);
+      auto r = call_function(s, e.name, args, formals, e.pos, inouts);
       if (!r) {
         Var* v = lookup(s, e.name, e.pos, false);
         if (v && (v->role == Var::Role::kStdFb || v->role == Var::Role::kUserFb))
@@ -202,20 +227,33 @@ struct StLowerer {
           // A function called as a statement: its result is dropped.
           std::vector<Value> args;
           std::vector<std::string> formals;
+          std::vector<std::pair<std::string, Var*>> inouts;
           for (const CallArg& a : st.call_args) {
             if (a.output) continue;
+            if (L.is_in_out(nullptr, st.target, a.formal)) {
+              if (Var* v = L.in_out_argument(s, *a.value, a.formal, a.pos)) inouts.emplace_back(a.formal, v);
+              continue;
+            }
             args.push_back(L.eval(s, *a.value));
             formals.push_back(upper(a.formal));
           }
-          if (!L.call_function(s, st.target, args, formals, st.pos))
+          if (L.diags().has_errors()) return {};
+          if (!L.call_function(s, st.target, args, formals, st.pos, inouts))
             L.diags().error(st.pos, "'" + st.target + "' is neither a function block instance nor a function");
           return {};
         }
         std::vector<std::pair<std::string, Value>> ins;
+        std::vector<std::pair<std::string, Var*>> inouts;
         for (const CallArg& a : st.call_args) {
-          if (!a.output) ins.emplace_back(a.formal, L.eval(s, *a.value));
+          if (a.output) continue;
+          if (L.is_in_out(fb, "", a.formal)) {
+            if (Var* v = L.in_out_argument(s, *a.value, a.formal, a.pos)) inouts.emplace_back(a.formal, v);
+          } else {
+            ins.emplace_back(a.formal, L.eval(s, *a.value));
+          }
         }
-        L.call_fb(*fb, ins, st.pos);
+        if (L.diags().has_errors()) return {};
+        L.call_fb(*fb, ins, st.pos, inouts);
         for (const CallArg& a : st.call_args) {
           if (!a.output) continue;
           const Value v = L.fb_output(*fb, a.formal, a.pos);

@@ -38,6 +38,10 @@ std::string typed(const std::string& name, const std::string& type_xml, const st
          "</variable>";
 }
 
+std::string fb(const char* name, const char* type) {
+  return std::string("<variable name=\"") + name + "\"><type><derived name=\"" + type + "\"/></type></variable>";
+}
+
 std::string first_error(const std::string& src) {
   CompileResult r = compile_source(src);
   EXPECT_FALSE(r.ok());
@@ -208,6 +212,69 @@ TEST(PlcopenTypes, refuses_what_it_cannot_hold_with_the_place) {
                                                                 "</localVars>",
                                                             "")))
                 .find("'Boil' is not a value of enumeration Mode"),
+            std::string::npos);
+}
+
+// VAR_IN_OUT: the caller's variable, read and written by the callee.
+TEST(PlcopenTypes, var_in_out_passes_the_callers_variable) {
+  const std::string bump =
+      "<pou name=\"Bump\" pouType=\"functionBlock\"><interface><inputVars>" + var("step", "INT", "", "1") +
+      "</inputVars><inOutVars>" + var("x", "INT") +
+      "</inOutVars></interface><body><ST><xhtml:p><![CDATA[x := x + step;]]></xhtml:p></ST></body></pou>\n";
+  const std::string swap =
+      "<pou name=\"Swap\" pouType=\"function\"><interface><returnType><BOOL/></returnType><inOutVars>" +
+      var("a", "INT") + var("b", "INT") + "</inOutVars><localVars>" + var("tmp", "INT") +
+      "</localVars></interface><body><ST><xhtml:p><![CDATA[tmp := a; a := b; b := tmp; Swap := TRUE;]]></xhtml:p></ST>"
+      "</body></pou>\n";
+  const std::string pos = "<position x=\"0\" y=\"0\"/>";
+  const std::string src = project(
+      kNs201,
+      bump + swap +
+          "<pou name=\"main\" pouType=\"program\"><interface><localVars>" + fb("b1", "Bump") + fb("b2", "Bump") +
+          var("n", "INT") + var("m", "INT") + var("p", "INT", "", "1") + var("q", "INT", "", "2") + var("ok", "BOOL") +
+          var("seen", "INT") + "</localVars></interface><body><FBD>"
+          "<inVariable localId=\"1\">" + pos + "<connectionPointOut/><expression>m</expression></inVariable>"
+          "<inVariable localId=\"2\">" + pos + "<connectionPointOut/><expression>5</expression></inVariable>"
+          "<block localId=\"3\" typeName=\"Bump\" instanceName=\"b2\">" + pos + "<inputVariables>"
+          "<variable formalParameter=\"step\"><connectionPointIn><connection refLocalId=\"2\"/></connectionPointIn></variable>"
+          "</inputVariables><inOutVariables><variable formalParameter=\"x\"><connectionPointIn><connection refLocalId=\"1\"/>"
+          "</connectionPointIn><connectionPointOut/></variable></inOutVariables><outputVariables/></block>"
+          "<outVariable localId=\"4\">" + pos + "<connectionPointIn><connection refLocalId=\"3\" formalParameter=\"x\"/>"
+          "</connectionPointIn><expression>seen</expression></outVariable>"
+          "</FBD></body></pou>\n");
+  // The FBD program above exercises the graphical form; an ST one the textual.
+  const std::string st = project(
+      kNs201, bump + swap + st_program("<localVars>" + fb("b1", "Bump") + var("n", "INT") + var("p", "INT", "", "1") +
+                                           var("q", "INT", "", "2") + var("ok", "BOOL") + "</localVars>",
+                                       "b1(step := 2, x := n);\nok := Swap(a := p, b := q);"));
+  {
+    CompileResult r = compile_source(st);
+    ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", st);
+    Machine m(std::move(*r.image));
+    m.cycles(1);
+    EXPECT_EQ(m.value("main.n"), 2);
+    EXPECT_EQ(m.value("main.p"), 2);
+    EXPECT_EQ(m.value("main.q"), 1);
+    EXPECT_EQ(m.value("main.ok"), 1);
+    m.cycles(1);
+    EXPECT_EQ(m.value("main.n"), 4);
+    EXPECT_EQ(m.value("main.p"), 1);  // swapped back
+  }
+  {
+    CompileResult r = compile_source(src);
+    ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
+    Machine m(std::move(*r.image));
+    m.cycles(3);
+    EXPECT_EQ(m.value("main.m"), 15);
+    EXPECT_EQ(m.value("main.seen"), 15);  // the in-out's output side: m after the call
+  }
+  const std::string vars = "<inputVars>" + var("i", "INT", "%IW0") + "</inputVars><localVars>" + fb("b1", "Bump") +
+                           var("n", "INT") + "</localVars>";
+  EXPECT_NE(first_error(project(kNs201, bump + st_program(vars, "b1(x := n + 1);"))).find("needs a variable, not an expression"),
+            std::string::npos);
+  EXPECT_NE(first_error(project(kNs201, bump + st_program(vars, "b1(step := 1);"))).find("'x' is VAR_IN_OUT and this call passes no variable"),
+            std::string::npos);
+  EXPECT_NE(first_error(project(kNs201, bump + st_program(vars, "b1(x := i);"))).find("'i' is an input"),
             std::string::npos);
 }
 
