@@ -70,6 +70,7 @@ class PathSet {
 }  // namespace
 
 void Lowering::lower_il(Scope& s, const Body& body) {
+  il_result_.reset();
   const std::string& src = body.source;
   const XmlElement& origin = *body.text;
   // Comments become spaces, so offsets (and positions) stay those of the file.
@@ -325,6 +326,7 @@ void Lowering::lower_il(Scope& s, const Body& body) {
     (void)arrivals;
     if (!d_.has_errors()) d_.error(body.pos, "jump to " + label + " never reaches its label");
   }
+  if (!d_.has_errors()) il_result_ = CR;
 }
 
 }  // namespace rtplc::lang::plcopen

@@ -155,6 +155,9 @@ class Lowering {
   void lower_graph(Scope& s, const XmlElement& body, bool ladder);
   void lower_st(Scope& s, const Block& b);
   void lower_il(Scope& s, const Body& body);
+  // The current result at the end of the last IL body lowered (an IL
+  // transition's condition); nullopt after an error.
+  const std::optional<Value>& il_result() const { return il_result_; }
   void lower_sfc(Scope& s, const XmlElement& body);
   // `b` runs only while `cond` holds (an SFC action): if-converted.
   void lower_st_guarded(Scope& s, const Block& b, const Value& cond, SourcePos pos);
@@ -202,7 +205,8 @@ class Lowering {
   std::vector<std::unique_ptr<Scope>> function_scopes_;
   std::vector<std::string> written_;  // upper-case names written by the program bodies
   int call_depth_ = 0;
-  size_t elements_ = 0;  // array elements made so far, at most kMaxArrayElements
+  size_t elements_ = 0;
+  std::optional<Value> il_result_;  // array elements made so far, at most kMaxArrayElements
   std::vector<std::unique_ptr<Variable>> owned_decls_;  // function result variables
   struct PendingOutput {
     Var* fb;

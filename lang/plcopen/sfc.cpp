@@ -403,20 +403,25 @@ void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
     } else if (inl) {
       if (d_.has_errors()) return;
       const bool ladder = inline_b.language == BodyLanguage::kLd;
-      if (inline_b.language != BodyLanguage::kFbd && !ladder) {
-        d_.error(inline_b.pos, std::string("an inline transition condition in ") + language_name(inline_b.language) +
-                                   " is not supported (ST, FBD and LD are)");
-        return;
-      }
       const std::string name = attr(*inl, "name");
-      if (name.empty() && !ladder) {
+      if (inline_b.language == BodyLanguage::kIl) {
+        // IL: the current result at the end of the body.
+        lower_il(s, inline_b);
+        if (!il_result()) return;
+        cond = em.to_digital(*il_result(), t.pos);
+      } else if (inline_b.language != BodyLanguage::kFbd && !ladder) {
+        d_.error(inline_b.pos, std::string("an inline transition condition in ") + language_name(inline_b.language) +
+                                   " is not supported (ST, FBD, LD and IL are)");
+        return;
+      } else if (name.empty() && !ladder) {
         d_.error(inl->pos, "an inline FBD condition needs <inline name=...> and an outVariable of that name (its value)");
         return;
+      } else {
+        Value v = lower_graph_result(*this, s, *inline_b.graph, ladder, name,
+                                     "the inline condition of transition localId " + id, inl->pos);
+        if (!v.valid()) return;
+        cond = em.to_digital(v, t.pos);
       }
-      Value v = lower_graph_result(*this, s, *inline_b.graph, ladder, name,
-                                   "the inline condition of transition localId " + id, inl->pos);
-      if (!v.valid()) return;
-      cond = em.to_digital(v, t.pos);
     } else if (ref) {
       const std::string n = attr(*ref, "name");
       const NamedBody* nb = nullptr;
@@ -433,9 +438,13 @@ void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
                                      "transition '" + nb->name + "'", nb->pos);
         if (!v.valid()) return;
         cond = em.to_digital(v, t.pos);
+      } else if (nb->body.language == BodyLanguage::kIl) {
+        lower_il(s, nb->body);  // the current result at the end is the condition
+        if (!il_result()) return;
+        cond = em.to_digital(*il_result(), t.pos);
       } else if (nb->body.language != BodyLanguage::kSt) {
         d_.error(nb->pos, "transition '" + n + "': a transition body in " + language_name(nb->body.language) +
-                              " is not supported yet (ST, FBD and LD are)");
+                              " is not supported yet (ST, FBD, LD and IL are)");
         return;
       } else {
         // An expression, or `NAME := expression;`.
