@@ -66,6 +66,11 @@ inline std::string var(const std::string& name, const std::string& type, const s
          "</variable>";
 }
 
+// A variable of a function block or data type: fb("t1", "TON").
+inline std::string fb(const char* name, const char* type) {
+  return std::string("<variable name=\"") + name + "\"><type><derived name=\"" + type + "\"/></type></variable>";
+}
+
 inline const char* kNs201 = "http://www.plcopen.org/xml/tc6_0201";
 
 }  // namespace rtplc::lang

@@ -20,10 +20,6 @@ std::string task(const std::string& attrs, const std::string& globals = "") {
 }
 const std::string kEvery10ms = task("interval=\"T#10ms\"");
 
-std::string fb(const char* name, const char* type) {
-  return std::string("<variable name=\"") + name + "\"><type><derived name=\"" + type + "\"/></type></variable>";
-}
-
 CompileResult compile_ok(const std::string& src) {
   CompileResult r = compile_source(src);
   EXPECT_TRUE(r.ok()) << r.diags.render("t.xml", src);

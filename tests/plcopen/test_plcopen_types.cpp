@@ -38,10 +38,6 @@ std::string typed(const std::string& name, const std::string& type_xml, const st
          "</variable>";
 }
 
-std::string fb(const char* name, const char* type) {
-  return std::string("<variable name=\"") + name + "\"><type><derived name=\"" + type + "\"/></type></variable>";
-}
-
 std::string first_error(const std::string& src) {
   CompileResult r = compile_source(src);
   EXPECT_FALSE(r.ok());
