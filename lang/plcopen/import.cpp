@@ -133,6 +133,11 @@ ImportResult import_plcopen(std::string_view xml, const ImportOptions& opt, Diag
     return res;
   }
   res.entry = chosen.name;
+  if (!chosen.task && !p.configurations.empty()) {
+    res.program.notes.push_back("program instance " + chosen.name +
+                                " is in no task: it runs once per cycle of the runtime task, at that task's "
+                                "period (the runtime config's, else the default)");
+  }
   if (chosen.task) {
     res.priority = chosen.task->priority;
     std::string ins;
