@@ -12,8 +12,10 @@
 #include <cstdlib>
 #include <fstream>
 #include <regex>
+#include <sstream>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "tests/support/run_tool.h"
 
@@ -155,6 +157,32 @@ TEST(Cli, sim_of_a_plcopen_event_task_traces_each_variable_once) {
   while (std::getline(in, line)) last = line;
   EXPECT_EQ(header, "t,trig,inst.n");
   EXPECT_EQ(last.substr(last.rfind(',') + 1), "1") << "one rising edge, one run: " << last;
+}
+
+// examples/plcopen_batch.xml on the measuring tank: recipe 2 (the set-point's
+// initial value) is two fills per batch, so 60 s make two batches of two.
+TEST(Cli, the_plcopen_batch_example_runs_its_recipes_on_the_tank) {
+  Scratch s;
+  const std::string csv = s.dir() + "/b.csv";
+  const ToolRun r = run_tool("sim -q " + kExamples + "/plcopen_batch.xml --plant measuring-tank --duration 60 --csv " + csv);
+  ASSERT_EQ(r.status, 0) << r.out;
+  std::ifstream in(csv);
+  std::string header, line, last;
+  std::getline(in, header);
+  while (std::getline(in, line)) last = line;
+  auto column = [](const std::string& row, const std::string& head, const std::string& name) {
+    std::vector<std::string> hs, vs;
+    std::stringstream h(head), v(row);
+    for (std::string x; std::getline(h, x, ',');) hs.push_back(x);
+    for (std::string x; std::getline(v, x, ',');) vs.push_back(x);
+    for (size_t i = 0; i < hs.size() && i < vs.size(); ++i) {
+      if (hs[i] == name) return vs[i];
+    }
+    return std::string("missing");
+  };
+  EXPECT_EQ(column(last, header, "tank.count.batches"), "2") << header << "\n" << last;
+  EXPECT_EQ(column(last, header, "tank.count.fills"), "4");
+  EXPECT_EQ(column(last, header, "tank.recipes[2].settle"), "3");
 }
 
 TEST(Cli, sim_reports_a_diverging_loop_as_unstable_and_fails) {
