@@ -283,6 +283,11 @@ Value Lowering::fb_output(Var& v, const std::string& name, SourcePos pos) {
     d_.error(pos, v.std_fb.type + " has no output '" + name + "' (it has " + outs + ")");
     return constant(0, false);
   }
+  if (auto g = gathered_.find(&v); g != gathered_.end() && !g->second.empty()) {
+    d_.error(pos, "'" + v.decl->name + "." + up + "' is read after a call of '" + v.decl->name +
+                      "' inside the IF or CASE that calls it in several branches; read it after the END_IF or END_CASE");
+    return constant(0, false);
+  }
   Value r;
   r.ref = v.path + "." + up;  // made by the call; read before it: last cycle's
   r.digital = fb_output_digital(v, up);
@@ -335,10 +340,10 @@ void Lowering::call_fb(Var& v, const std::vector<std::pair<std::string, Value>>&
   }
   StdFb& f = v.std_fb;
   if (f.called) {
-    d_.error(pos, "'" + v.decl->name + "' is called twice in one cycle; call an instance once");
+    d_.error(pos, "'" + v.decl->name + "' is called twice in one cycle; call an instance once (or in exclusive "
+                  "branches of one IF or CASE)");
     return;
   }
-  f.called = true;
   std::vector<Value> args;
   std::vector<std::string> formals;
   for (const auto& [formal, value] : inputs) {
@@ -347,7 +352,60 @@ void Lowering::call_fb(Var& v, const std::vector<std::pair<std::string, Value>>&
   }
   std::vector<std::optional<Value>> placed;
   if (!place_args(*f.iec, args, formals, placed, f.type, d_, pos)) return;
-  const Value run = active(pos);
+  if (auto g = gathered_.find(&v); g != gathered_.end()) {
+    g->second.push_back(GatheredCall{active(pos), std::move(placed)});
+    return;
+  }
+  f.called = true;
+  lower_std_fb(v, active(pos), std::move(placed), pos);
+}
+
+void Lowering::begin_gathered(Var& v) { gathered_[&v]; }
+
+void Lowering::end_gathered(Var& v, SourcePos pos) {
+  auto g = gathered_.find(&v);
+  if (g == gathered_.end()) return;
+  std::vector<GatheredCall> calls = std::move(g->second);
+  gathered_.erase(g);
+  if (calls.empty()) return;  // every branch calling it was a constant FALSE
+  v.std_fb.called = true;
+  if (calls.size() == 1) {
+    lower_std_fb(v, calls[0].run, std::move(calls[0].placed), pos);
+    return;
+  }
+  // run = any branch called it; each input = the one of the branch taken
+  // (an input a call leaves out keeps its value, as an FB input does).
+  Value run = calls[0].run;
+  size_t n = 0;
+  for (size_t c = 0; c < calls.size(); ++c) {
+    if (c > 0) run = em_.binary(BinOp::kOr, run, calls[c].run, pos);
+    n = std::max(n, calls[c].placed.size());
+  }
+  std::vector<std::optional<Value>> merged(n);
+  for (size_t k = 0; k < n; ++k) {
+    const std::string formal = k < v.std_fb.iec->inputs.size() ? v.std_fb.iec->inputs[k] : "IN" + std::to_string(k + 1);
+    std::optional<Value> x;
+    for (size_t c = calls.size(); c-- > 0;) {
+      if (k >= calls[c].placed.size() || !calls[c].placed[k]) continue;
+      const Value& a = *calls[c].placed[k];
+      if (!x) {
+        // Innermost: the held value itself when no call that gives it runs.
+        Value self;
+        self.ref = v.path + ".$in." + formal;
+        self.digital = a.digital;
+        self.integer = a.integer;
+        x = em_.select(calls[c].run, a, self, pos);
+      } else {
+        x = em_.select(calls[c].run, a, *x, pos);
+      }
+    }
+    merged[k] = x;
+  }
+  lower_std_fb(v, run, std::move(merged), pos);
+}
+
+void Lowering::lower_std_fb(Var& v, const Value& run, std::vector<std::optional<Value>> placed, SourcePos pos) {
+  const StdFb& f = v.std_fb;
   if (run.is_const && run.k != 0) {
     // Called every cycle. Each output is a block named `instance.OUTPUT`:
     // reads before the call find it later in the cycle (last cycle's value),

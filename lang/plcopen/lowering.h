@@ -135,6 +135,14 @@ class Lowering {
   // The caller's variable an argument for VAR_IN_OUT `formal` names.
   Var* in_out_argument(Scope& s, const Expr& e, const std::string& formal, SourcePos pos);
   Value fb_output(Var& v, const std::string& name, SourcePos pos);
+  // A standard FB instance called in several branches of one IF or CASE
+  // (`IF c THEN t(IN := TRUE); ELSE t(IN := FALSE); END_IF;`): between
+  // begin_gathered and end_gathered its calls are only noted, and at the
+  // END_IF it runs once on the inputs of the branch taken (the branches are
+  // exclusive, so at most one call happens in a cycle).
+  void begin_gathered(Var& v);
+  void end_gathered(Var& v, SourcePos pos);
+  bool gathered(const Var& v) const { return gathered_.count(&v) != 0; }
   bool fb_output_digital(const Var& v, const std::string& name) const;
 
   void lower_body(Scope& s);
@@ -193,6 +201,8 @@ class Lowering {
   // `x` as it was at the last cycle `run` held (a block named `name` that
   // reads itself): what a standard FB that is not called keeps.
   Value hold(const Value& run, const Value& x, const std::string& name, SourcePos pos);
+  // Standard FB `v` called in the cycles `run` holds, inputs by formal position.
+  void lower_std_fb(Var& v, const Value& run, std::vector<std::optional<Value>> placed, SourcePos pos);
 
   const Project& proj_;
   Emitter em_;
@@ -221,6 +231,11 @@ class Lowering {
     std::optional<Value> conj;  // this and every outer condition, made when first asked
   };
   std::vector<PathCond> path_;
+  struct GatheredCall {
+    Value run;
+    std::vector<std::optional<Value>> placed;
+  };
+  std::map<const Var*, std::vector<GatheredCall>> gathered_;
   std::string trigger_;
   SourcePos trigger_pos_;
 };

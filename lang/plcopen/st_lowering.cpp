@@ -7,7 +7,9 @@
 // called inside a branch has its variables merged like the caller's (kept
 // when not called); a standard FB called there sees its inputs, and shows
 // its outputs, as they were at its last call (Lowering::call_fb).
+#include <algorithm>
 #include <cmath>
+#include <map>
 
 #include "lang/plcopen/lowering.h"
 
@@ -164,6 +166,59 @@ struct StLowerer {
 
   std::vector<Var*> all_vars() { return L.vars_for_merge(); }
 
+  // How many times each instance is called as a statement in `b` (a FOR
+  // body's calls count twice: it may run more than once).
+  static void count_calls(const Block& b, std::map<std::string, int>& n, int weight = 1) {
+    for (const auto& st : b) {
+      switch (st->kind) {
+        case Stmt::Kind::kCall:
+          if (st->target_index.empty()) n[upper(st->target)] += weight;
+          break;
+        case Stmt::Kind::kIf:
+          for (const auto& [c, body] : st->branches) count_calls(body, n, weight);
+          count_calls(st->else_body, n, weight);
+          break;
+        case Stmt::Kind::kCase:
+          for (const CaseBranch& cb : st->cases) count_calls(cb.body, n, weight);
+          count_calls(st->else_body, n, weight);
+          break;
+        case Stmt::Kind::kFor:
+          count_calls(st->body, n, 2);
+          break;
+        default:
+          break;
+      }
+    }
+  }
+
+  // The standard FB instances this IF or CASE calls in two or more of its
+  // branches, at most once in each: gathered (Lowering::begin_gathered).
+  std::vector<Var*> gather(const Stmt& st) {
+    std::vector<const Block*> branches;
+    for (const auto& [c, body] : st.branches) branches.push_back(&body);
+    for (const CaseBranch& cb : st.cases) branches.push_back(&cb.body);
+    branches.push_back(&st.else_body);
+    std::map<std::string, std::pair<int, int>> seen;  // name -> (branches calling it, most calls in one)
+    for (const Block* b : branches) {
+      std::map<std::string, int> n;
+      count_calls(*b, n);
+      for (const auto& [name, k] : n) {
+        auto& e = seen[name];
+        e.first += 1;
+        e.second = std::max(e.second, k);
+      }
+    }
+    std::vector<Var*> out;
+    for (const auto& [name, e] : seen) {
+      if (e.first < 2 || e.second > 1) continue;
+      Var* v = L.lookup(s, name, st.pos, false);
+      if (!v || v->role != Var::Role::kStdFb || v->std_fb.called || L.gathered(*v)) continue;
+      L.begin_gathered(*v);
+      out.push_back(v);
+    }
+    return out;
+  }
+
   Flow statement(const Stmt& st) {
     Emitter& em = L.em();
     switch (st.kind) {
@@ -187,11 +242,18 @@ struct StLowerer {
         f.cont = constant(1, true);
         return f;
       }
-      case Stmt::Kind::kIf:
-        return if_chain(st, 0);
+      case Stmt::Kind::kIf: {
+        const std::vector<Var*> g = gather(st);
+        const Flow f = if_chain(st, 0);
+        for (Var* v : g) L.end_gathered(*v, st.pos);
+        return f;
+      }
       case Stmt::Kind::kCase: {
+        const std::vector<Var*> g = gather(st);
         const Value sel = L.eval(s, *st.value);
-        return case_chain(st, sel, 0);
+        const Flow f = case_chain(st, sel, 0);
+        for (Var* v : g) L.end_gathered(*v, st.pos);
+        return f;
       }
       case Stmt::Kind::kFor: {
         const Value from = L.eval(s, *st.from), to = L.eval(s, *st.to);

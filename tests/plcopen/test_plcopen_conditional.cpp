@@ -378,5 +378,62 @@ TEST(PlcopenConditional, refuses_exit_outside_a_loop_and_jumps_in_st) {
   }
 }
 
+// One instance called in exclusive branches of an IF or CASE runs once, at
+// the END_IF, on the inputs of the branch taken.
+TEST(PlcopenConditional, an_instance_called_in_both_branches_runs_on_the_branch_taken) {
+  const std::string src = project(
+      kNs201,
+      st_program("<inputVars>" + var("c", "BOOL", "%IX0.0") + var("mode", "INT", "%IW0") + var("p", "BOOL", "%IX0.1") +
+                     "</inputVars><localVars>" + fb("t", "TON") + fb("ref", "TON") + fb("k", "CTU") + var("q", "BOOL") +
+                     var("cv", "INT") + "</localVars>",
+                 "IF c THEN\n  t(IN := TRUE, PT := T#50ms);\nELSE\n  t(IN := FALSE, PT := T#50ms);\nEND_IF;\n"
+                 "q := t.Q;\nref(IN := c, PT := T#50ms);\n"
+                 "CASE mode OF\n  1: k(CU := p, PV := 100);\n  2: k(CU := NOT p, PV := 100);\n  3: k(R := TRUE);\nEND_CASE;\n"
+                 "cv := k.CV;"),
+      kEvery10ms);
+  CompileResult r = compile_ok(src);
+  ASSERT_TRUE(r.ok());
+  Machine m(std::move(*r.image));
+  for (int i = 0; i < 30; ++i) {  // c on for 12 cycles, off for 4, ...
+    m.set("c", i % 16 < 12);
+    m.cycles(1);
+    EXPECT_EQ(m.value("main.q"), m.value("main.ref.Q")) << "cycle " << i;
+    EXPECT_DOUBLE_EQ(m.value("main.t.ET"), m.value("main.ref.ET")) << "cycle " << i;
+  }
+  m.set("mode", 1);
+  for (int i = 0; i < 3; ++i) {  // three rising edges of p
+    m.set("p", 1);
+    m.cycles(1);
+    m.set("p", 0);
+    m.cycles(1);
+  }
+  EXPECT_EQ(m.value("main.cv"), 3);
+  m.set("mode", 2);  // CU is NOT p: p is FALSE, so CU is TRUE at once, an edge from the last call's FALSE
+  m.cycles(1);
+  EXPECT_EQ(m.value("main.cv"), 4);
+  m.set("mode", 0);  // not called
+  m.set("p", 1);
+  m.cycles(2);
+  EXPECT_EQ(m.value("main.cv"), 4);
+  m.set("mode", 3);  // R := TRUE; CU left out keeps its last value
+  m.cycles(1);
+  EXPECT_EQ(m.value("main.cv"), 0);
+}
+
+TEST(PlcopenConditional, refuses_reading_a_gathered_instance_inside_its_if_and_two_calls_in_a_row) {
+  const std::string vars = "<inputVars>" + var("c", "BOOL", "%IX0.0") + "</inputVars><localVars>" + fb("t", "TON") +
+                           var("q", "BOOL") + "</localVars>";
+  CompileResult inside = compile_source(project(
+      kNs201, st_program(vars, "IF c THEN t(IN := TRUE, PT := T#1s); q := t.Q; ELSE t(IN := FALSE); END_IF;")));
+  ASSERT_FALSE(inside.ok());
+  EXPECT_NE(inside.diags.items()[0].message.find("read it after the END_IF"), std::string::npos)
+      << inside.diags.items()[0].message;
+  CompileResult twice =
+      compile_source(project(kNs201, st_program(vars, "t(IN := c, PT := T#1s);\nt(IN := NOT c, PT := T#1s);")));
+  ASSERT_FALSE(twice.ok());
+  EXPECT_NE(twice.diags.items()[0].message.find("is called twice in one cycle"), std::string::npos);
+  EXPECT_GT(twice.diags.items()[0].pos.line, 0u);
+}
+
 }  // namespace
 }  // namespace rtplc::lang
