@@ -474,7 +474,7 @@ Value Lowering::active(SourcePos pos) {
 
 bool Lowering::finish() {
   if (globals_) finalize(*globals_);
-  for (const auto& [v, mem] : edge_memories_) em_.copy_as(v, mem, SourcePos{});
+  for (const EdgeMemory& m : edge_memories_) em_.copy_as(m.value, m.name, m.pos);
   for (const PendingOutput& po : pending_outputs_) {
     const std::string n = po.fb->path + "." + po.name;
     if (std::find(produced_.begin(), produced_.end(), n) != produced_.end()) continue;

@@ -742,7 +742,7 @@ void Lowering::assign(Var& v, Value value, SourcePos pos) {
 }
 
 Value Lowering::rising(const Value& v, const std::string& mem, SourcePos pos) {
-  edge_memories_.emplace_back(v, mem);
+  edge_memories_.push_back(EdgeMemory{v, mem, pos});
   Value m;
   m.ref = mem;
   m.digital = true;

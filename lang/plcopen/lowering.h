@@ -211,7 +211,12 @@ class Lowering {
   std::unique_ptr<Scope> globals_;
   std::vector<std::unique_ptr<Scope>> programs_;
   std::vector<Var*> all_vars_;
-  std::vector<std::pair<Value, std::string>> edge_memories_;
+  struct EdgeMemory {
+    Value value;
+    std::string name;
+    SourcePos pos;  // the edge's place in the file, for --explain
+  };
+  std::vector<EdgeMemory> edge_memories_;
   std::vector<std::unique_ptr<Scope>> function_scopes_;
   std::vector<std::string> written_;  // upper-case names written by the program bodies
   int call_depth_ = 0;
