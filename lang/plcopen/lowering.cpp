@@ -829,7 +829,7 @@ void Lowering::finalize_var(Var& v) {
     out_.variables.push_back(v.path);
     if (v.role == Var::Role::kInput || v.role == Var::Role::kSetpoint) return;
     em_.copy_as(read(v, pos), v.path, pos);
-    if (v.loc && v.loc->area == 'Q') {
+    if (v.loc && v.loc->area == 'Q' && drives_output(v)) {
       const size_t i = em_.emit(v.digital ? "ddo" : "dao", "", pos, {v.path});
       FlatBlock& b = em_.block(i);
       b.p = static_cast<uint16_t>(v.loc->p);
@@ -838,6 +838,48 @@ void Lowering::finalize_var(Var& v) {
       b.label = v.decl->name;
     }
   }
+}
+
+bool Lowering::written(const Var& v) const {
+  return std::find(written_.begin(), written_.end(), upper(v.decl->name)) != written_.end() ||
+         std::find(written_.begin(), written_.end(), upper(v.decl->address)) != written_.end();
+}
+
+bool Lowering::drives_output(Var& v) {
+  // Two variables at one %Q address are one output: the one the program
+  // writes drives it (OpenPLC accepts such aliases); two that are both
+  // written would be two writers of one channel.
+  const Location& l = *v.loc;
+  auto same = [&](const Location& m) { return m.area == 'Q' && m.size == l.size && m.p == l.p && m.d == l.d && m.c == l.c; };
+  for (const Var* u : outputs_) {
+    if (!same(*u->loc)) continue;
+    if (written(v) && written(*u)) {
+      d_.error(v.decl->pos, "'" + v.decl->name + "' and '" + u->decl->name + "' (line " +
+                                std::to_string(u->decl->pos.line) + ") are both at " + v.decl->address +
+                                " and both written: an output has one writer");
+    }
+    return false;  // that one drives it
+  }
+  if (!written(v)) {
+    // Unwritten: it leaves the output to a written alias declared anywhere.
+    std::vector<const Variable*> decls;
+    for (const Pou& pou : proj_.pous)
+      for (const Variable& d : pou.vars) decls.push_back(&d);
+    for (const Configuration& c : proj_.configurations) {
+      for (const Variable& d : c.globals) decls.push_back(&d);
+      for (const Resource& r : c.resources)
+        for (const Variable& d : r.globals) decls.push_back(&d);
+    }
+    for (const Variable* d : decls) {
+      if (d == v.decl || d->address.empty() || iequals(d->name, v.decl->name)) continue;
+      std::string err;
+      const auto m = parse_location(d->address, &err);
+      if (!m || !same(*m)) continue;
+      if (std::find(written_.begin(), written_.end(), upper(d->name)) != written_.end()) return false;
+    }
+  }
+  outputs_.push_back(&v);
+  return true;
 }
 
 void Lowering::program_instance(const Pou& pou, const std::string& path) {

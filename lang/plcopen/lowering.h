@@ -189,6 +189,10 @@ class Lowering {
   std::unique_ptr<Var> make_var(const Variable& decl, const std::string& path, int depth, bool in_function);
   void finalize(Scope& s);
   void finalize_var(Var& v);
+  bool written(const Var& v) const;  // some body assigns it
+  // Whether %Q variable `v` drives its output (not when an alias at the same
+  // address that the program writes does).
+  bool drives_output(Var& v);
   // The declaration with its data type resolved: an alias or a subrange to its
   // base, an enumeration to INT with its values as integers.
   const Variable& resolved_decl(const Variable& decl);
@@ -221,6 +225,7 @@ class Lowering {
   std::vector<std::string> written_;  // upper-case names written by the program bodies
   int call_depth_ = 0;
   size_t elements_ = 0;
+  std::vector<const Var*> outputs_;  // %Q variables that drive their output
   std::optional<Value> il_result_;  // array elements made so far, at most kMaxArrayElements
   std::vector<std::unique_ptr<Variable>> owned_decls_;  // function result variables
   struct PendingOutput {

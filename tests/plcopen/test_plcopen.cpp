@@ -569,6 +569,32 @@ TEST(Plcopen, st_skips_pragmas_and_line_comments) {
   EXPECT_NE(b.diags.items()[0].message.find("unterminated pragma"), std::string::npos);
 }
 
+// Two variables at one %Q address are one output (OpenPLC accepts this): the
+// one the program writes drives it, in either order; both written is an error.
+TEST(Plcopen, aliases_at_one_output_address_have_one_writer) {
+  for (const bool written_first : {true, false}) {
+    const std::string a = var("pump", "BOOL", "%QX1.0"), b = var("valve", "BOOL", "%QX1.0");
+    const std::string src = project(
+        kNs201, st_program("<inputVars>" + var("start", "BOOL", "%IX0.0") + "</inputVars><outputVars>" +
+                               (written_first ? a + b : b + a) + "</outputVars>",
+                           "pump := start;"));
+    CompileResult r = compile_source(src);
+    ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
+    Machine run(std::move(*r.image));
+    run.set("start", 1);
+    run.cycles(1);
+    EXPECT_EQ(run.out("pump"), 1);
+  }
+  const std::string both = project(
+      kNs201, st_program("<outputVars>" + var("pump", "BOOL", "%QX1.0") + var("valve", "BOOL", "%QX1.0") +
+                             "</outputVars>",
+                         "pump := TRUE; valve := FALSE;"));
+  CompileResult r = compile_source(both);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.diags.items()[0].message.find("'valve' and 'pump'"), std::string::npos) << r.diags.items()[0].message;
+  EXPECT_NE(r.diags.items()[0].message.find("both written: an output has one writer"), std::string::npos);
+}
+
 TEST(Plcopen, reads_and_writes_directly_represented_variables) {
   const std::string src = project(
       kNs201, st_program("<localVars>" + var("k", "INT") + "</localVars>",
