@@ -158,7 +158,8 @@ static void bind_in_outs(Scope& scope, const std::string& callee,
 
 std::optional<Value> Lowering::call_function(Scope& s, const std::string& name, std::vector<Value> args,
                                              std::vector<std::string> formals, SourcePos pos,
-                                             const std::vector<std::pair<std::string, Var*>>& inouts) {
+                                             const std::vector<std::pair<std::string, Var*>>& inouts,
+                                             const std::vector<std::pair<std::string, Var*>>& wholes) {
   const std::string up = upper(name);
   const Pou* user = proj_.pou(up);
   if (user && user->type == PouType::kFunction) {
@@ -178,6 +179,10 @@ std::optional<Value> Lowering::call_function(Scope& s, const std::string& name, 
     all_vars_.push_back(rv.get());
     sc->vars.emplace(upper(user->name), std::move(rv));
     bind_in_outs(*sc, "function '" + user->name + "'", inouts, d_, pos);
+    for (const auto& [formal, src] : wholes) {
+      auto it = sc->vars.find(upper(formal));
+      if (it != sc->vars.end()) assign_whole(*it->second, *src, pos);
+    }
     std::vector<Var*> inputs;
     for (const Variable& d : user->vars) {
       if (d.section == VarSection::kInput) inputs.push_back(sc->vars[upper(d.name)].get());
@@ -215,8 +220,8 @@ std::optional<Value> Lowering::call_function(Scope& s, const std::string& name, 
     return constant(0, false);
   }
   if (!f || f->function_block) return std::nullopt;
-  if (!inouts.empty()) {
-    d_.error(pos, name + " has no VAR_IN_OUT '" + inouts[0].first + "'");
+  if (!inouts.empty() || !wholes.empty()) {
+    d_.error(pos, name + " takes no variable of its own for '" + (inouts.empty() ? wholes : inouts)[0].first + "'");
     return constant(0, false);
   }
   std::vector<std::optional<Value>> placed;

@@ -298,6 +298,11 @@ class Graph {
         return r;
       }
       Value v = output_of(ref, attr(c, "formalParameter"), c.pos);
+      if (whole_elems_.count(ref)) {  // known once output_of lowered it
+        d_.error(c.pos, "localId " + ref + " names a whole structure or array: connect it to a structure or array "
+                        "input of a function block, or name one member");
+        return r;
+      }
       if (first) {
         r = v;
         first = false;
@@ -316,6 +321,12 @@ class Graph {
     }
     auto ex = parse_st_expression(x->text, *x, d_);
     if (!ex) return constant(0, false);
+    if (ex->kind == Expr::Kind::kName && ex->args.empty() && L_.whole_var(s_, ex->name)) {
+      // A whole structure or array: only a structure or array input of a
+      // function block takes it (connected_variable), never as a value.
+      whole_elems_.insert(attr(e, "localId"));
+      return constant(0, false);
+    }
     return L_.eval(s_, *ex);
   }
 
@@ -334,16 +345,16 @@ class Graph {
     return L_.resolve_static(s_, ex->name, ex->args, x->pos);
   }
 
-  // The variable an in-out parameter is connected to: an inVariable or
-  // inOutVariable naming it.
-  Var* in_out_variable(const XmlElement& v, const std::string& type) {
+  // The variable an in-out parameter (or, `whole`, a structure or array
+  // input) is connected to: an inVariable or inOutVariable naming it.
+  Var* connected_variable(const XmlElement& v, const std::string& type, bool whole) {
     const std::string formal = attr(v, "formalParameter");
     const XmlElement* cpin = v.child("connectionPointIn");
     const XmlElement* c = cpin ? cpin->child("connection") : nullptr;
     auto it = c ? elems_.find(attr(*c, "refLocalId")) : elems_.end();
     const XmlElement* src = it == elems_.end() ? nullptr : it->second;
     if (!src || (src->name != "inVariable" && src->name != "inOutVariable")) {
-      d_.error(v.pos, "block " + type + ": in-out parameter '" + formal +
+      d_.error(v.pos, "block " + type + ": " + (whole ? "structure or array input '" : "in-out parameter '") + formal +
                           "' must be connected to a variable (an inVariable or inOutVariable)");
       return nullptr;
     }
@@ -351,8 +362,14 @@ class Graph {
     auto ex = x ? parse_st_expression(x->text, *x, d_) : nullptr;
     if (!ex) return nullptr;
     if (ex->kind != Expr::Kind::kName) {
-      d_.error(x->pos, "block " + type + ": in-out parameter '" + formal + "' needs a variable, not '" + trim(x->text) + "'");
+      d_.error(x->pos, "block " + type + ": " + (whole ? "structure or array input '" : "in-out parameter '") + formal +
+                           "' needs a variable, not '" + trim(x->text) + "'");
       return nullptr;
+    }
+    if (whole) {
+      Var* w = ex->args.empty() ? L_.whole_var(s_, ex->name) : nullptr;
+      if (!w) d_.error(x->pos, "block " + type + ": input '" + formal + "' is a structure or array: connect a variable of its type");
+      return w;
     }
     return L_.in_out_argument(s_, *ex, formal, x->pos);
   }
@@ -504,11 +521,19 @@ class Graph {
     const std::string up = upper(type);
     const SourcePos pos = e.pos;
     std::vector<std::pair<std::string, Value>> inputs;
+    std::vector<std::pair<Var*, Var*>> wholes;  // (the FB's structure or array input, the caller's)
+    Var* instance = attr(e, "instanceName").empty() ? nullptr : L_.lookup(s_, attr(e, "instanceName"), pos, false);
     Value en = constant(1, true);
     if (const XmlElement* iv = e.child("inputVariables")) {
       for (const XmlElement& v : iv->children) {
         if (v.name != "variable") continue;
         const std::string formal = attr(v, "formalParameter");
+        if (Var* m = L_.whole_member(instance, formal)) {
+          Var* src = connected_variable(v, type, true);
+          if (!src) return;
+          wholes.emplace_back(m, src);
+          continue;
+        }
         Value x = input(v.child("connectionPointIn"));
         if (!x.valid()) continue;  // an unconnected input keeps its default
         x = negate_if(v, x);
@@ -531,7 +556,7 @@ class Graph {
     if (const XmlElement* io = e.child("inOutVariables")) {
       for (const XmlElement& v : io->children) {
         if (v.name != "variable") continue;
-        Var* var = in_out_variable(v, type);
+        Var* var = connected_variable(v, type, false);
         if (!var) return;
         inouts.emplace_back(attr(v, "formalParameter"), var);
       }
@@ -575,8 +600,12 @@ class Graph {
     }
     // EN false: the instance is not called, so it keeps its state and shows
     // its last outputs (if-converted like a call under IF; ENO = EN).
-    if (en.is_const && en.k != 0) L_.call_fb(*fb, inputs, pos, inouts);
-    else L_.guarded(en, pos, [&] { L_.call_fb(*fb, inputs, pos, inouts); });
+    auto call = [&] {
+      for (const auto& [m, src] : wholes) L_.assign_whole(*m, *src, pos);
+      L_.call_fb(*fb, inputs, pos, inouts);
+    };
+    if (en.is_const && en.k != 0) call();
+    else L_.guarded(en, pos, call);
     for (const auto& [f, var] : inouts) outs[upper(f)] = L_.read(*var, pos);
     for (auto& [f, v] : out_vars) {
       if (upper(f) == "ENO") continue;
@@ -604,6 +633,7 @@ class Graph {
   std::map<std::string, Value> enable_;  // function block localId -> its EN, when not always true
   std::set<std::string> made_alias_;
   std::set<std::string> reported_;
+  std::set<std::string> whole_elems_;  // inVariables naming a whole structure or array
   int depth_ = 0;
 };
 

@@ -283,11 +283,6 @@ std::unique_ptr<Var> Lowering::make_var(const Variable& decl0, const std::string
                              "); locate its elements' values in variables of their own");
       return v;
     }
-    if (decl.section == VarSection::kInput || decl.section == VarSection::kOutput) {
-      if (depth > 0 || in_function)
-        d_.error(decl.pos, "variable '" + decl.name + "': arrays and structures as inputs or outputs of a "
-                               "function or function block are not supported yet");
-    }
     if (depth > kMaxNesting) {
       d_.error(decl.pos, "variable '" + decl.name + "': data types nested deeper than " + std::to_string(kMaxNesting));
       return v;
@@ -582,6 +577,76 @@ std::vector<Place> Lowering::places(Scope& s, const std::string& path,
     ++i;  // '.'
   }
   return cur;
+}
+
+Var* Lowering::whole_var(Scope& s, const std::string& path) {
+  if (path.empty() || path[0] == '%' || path.find('[') != std::string::npos) return nullptr;
+  Var* v = nullptr;
+  size_t i = 0;
+  while (i <= path.size()) {
+    const size_t j = std::min(path.find('.', i), path.size());
+    const std::string name = path.substr(i, j - i);
+    if (!v) {
+      v = lookup(s, name, SourcePos{}, false);
+    } else if (v->role == Var::Role::kStruct || v->role == Var::Role::kUserFb) {
+      auto it = v->fb->vars.find(upper(name));
+      v = it == v->fb->vars.end() || it->second->role == Var::Role::kInOut ? nullptr : it->second.get();
+    } else {
+      return nullptr;
+    }
+    if (!v) return nullptr;
+    i = j + 1;
+  }
+  return v && (v->role == Var::Role::kStruct || v->role == Var::Role::kArray) ? v : nullptr;
+}
+
+bool Lowering::assign_whole(Var& dst, Var& src, SourcePos pos) {
+  auto shape_error = [&] {
+    d_.error(pos, "'" + dst.decl->name + "' and '" + src.decl->name + "' are not of one type: a whole " +
+                      (dst.role == Var::Role::kStruct ? "structure" : "array") + " takes one of its own type");
+    return false;
+  };
+  if (dst.role != src.role) return shape_error();
+  if (dst.role == Var::Role::kStruct) {
+    if (dst.decl->type.derived.empty() || !iequals(dst.decl->type.derived, src.decl->type.derived) ||
+        dst.fb->vars.size() != src.fb->vars.size())
+      return shape_error();
+    for (auto& [name, m] : dst.fb->vars) {
+      auto it = src.fb->vars.find(name);
+      if (it == src.fb->vars.end()) return shape_error();
+      if (!assign_whole(*m, *it->second, pos)) return false;
+    }
+    return true;
+  }
+  if (dst.role == Var::Role::kArray) {
+    if (dst.array->dims != src.array->dims || dst.elems.size() != src.elems.size()) return shape_error();
+    for (size_t k = 0; k < dst.elems.size(); ++k) {
+      if (!assign_whole(*dst.elems[k], *src.elems[k], pos)) return false;
+    }
+    return true;
+  }
+  assign(dst, read(src, pos), pos);
+  return !d_.has_errors();
+}
+
+Var* Lowering::whole_member(const Var* fb, const std::string& formal) const {
+  if (!fb || fb->role != Var::Role::kUserFb || formal.empty()) return nullptr;
+  auto it = fb->fb->vars.find(upper(formal));
+  if (it == fb->fb->vars.end()) return nullptr;
+  Var* m = it->second.get();
+  return m->role == Var::Role::kStruct || m->role == Var::Role::kArray ? m : nullptr;
+}
+
+bool Lowering::whole_parameter(const std::string& function, const std::string& formal) const {
+  const Pou* p = proj_.pou(function);
+  if (!p || p->type != PouType::kFunction || formal.empty()) return false;
+  const Variable* d = p->var(formal);
+  if (!d || d->section == VarSection::kInOut) return false;
+  if (d->type.array) return true;
+  const DataType* t = d->type.base == BaseType::kDerived ? proj_.data_type(d->type.derived) : nullptr;
+  for (int hops = 0; t && t->kind == DataType::Kind::kAlias && hops < kMaxNesting; ++hops)
+    t = t->alias.array ? nullptr : proj_.data_type(t->alias.derived);
+  return t && (t->kind == DataType::Kind::kStruct || t->kind == DataType::Kind::kArray);
 }
 
 Var* Lowering::resolve_static(Scope& s, const std::string& path, const std::vector<std::unique_ptr<Expr>>& index,

@@ -94,6 +94,17 @@ class Lowering {
   // `index`): every place it may lead to; empty after an error.
   std::vector<Place> places(Scope& s, const std::string& path, const std::vector<std::unique_ptr<Expr>>& index,
                             SourcePos pos);
+  // The structure or array a plain path (`p`, `fb1.p`, `s.inner`, no index)
+  // names; nullptr, without a message, for anything else.
+  Var* whole_var(Scope& s, const std::string& path);
+  // dst := src for a whole structure or array of one type, member by member
+  // (element by element); false after an error.
+  bool assign_whole(Var& dst, Var& src, SourcePos pos);
+  // The structure or array variable of user FB instance `fb` (or user
+  // function `function`) that formal parameter `formal` names; nullptr when
+  // it is a plain one.
+  Var* whole_member(const Var* fb, const std::string& formal) const;
+  bool whole_parameter(const std::string& function, const std::string& formal) const;
   // One place known at compile time (an FBD/LD/IL target, an FB to call).
   Var* resolve_static(Scope& s, const std::string& path, const std::vector<std::unique_ptr<Expr>>& index,
                       SourcePos pos);
@@ -111,9 +122,12 @@ class Lowering {
 
   // A call of a standard or user function with positional arguments (after
   // formal names were put in order); nullopt when `name` is no function.
+  // `wholes`: (formal, caller's structure or array) copied into the
+  // function's parameter of that name.
   std::optional<Value> call_function(Scope& s, const std::string& name,
                                      std::vector<Value> args, std::vector<std::string> formals,
-                                     SourcePos pos, const std::vector<std::pair<std::string, Var*>>& inouts = {});
+                                     SourcePos pos, const std::vector<std::pair<std::string, Var*>>& inouts = {},
+                                     const std::vector<std::pair<std::string, Var*>>& wholes = {});
   bool is_function(const std::string& upper_name) const;
   // Lowers standard function or block `f` through lang/iec's table, arguments
   // by formal position (nullopt: unconnected, the IEC default), its blocks named

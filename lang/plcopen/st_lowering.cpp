@@ -54,18 +54,25 @@ Value Lowering::eval(Scope& s, const Expr& e) {
     case Expr::Kind::kCall: {
       std::vector<Value> args;
       std::vector<std::string> formals;
-      std::vector<std::pair<std::string, Var*>> inouts;
+      std::vector<std::pair<std::string, Var*>> inouts, wholes;
       for (size_t i = 0; i < e.args.size(); ++i) {
         const std::string& f = i < e.arg_names.size() ? e.arg_names[i] : std::string();
         if (is_in_out(nullptr, e.name, f)) {
           if (Var* v = in_out_argument(s, *e.args[i], f, e.args[i]->pos)) inouts.emplace_back(f, v);
           continue;
         }
+        if (whole_parameter(e.name, f)) {
+          const Expr& a = *e.args[i];
+          Var* v = a.kind == Expr::Kind::kName && a.args.empty() ? whole_var(s, a.name) : nullptr;
+          if (!v) d_.error(a.pos, "'" + f + "' is a structure or array: pass a variable of its type");
+          else wholes.emplace_back(f, v);
+          continue;
+        }
         args.push_back(eval(s, *e.args[i]));
         formals.push_back(f);
       }
       if (d_.has_errors()) return constant(0, false);
-      auto r = call_function(s, e.name, args, formals, e.pos, inouts);
+      auto r = call_function(s, e.name, args, formals, e.pos, inouts, wholes);
       if (!r) {
         Var* v = lookup(s, e.name, e.pos, false);
         if (v && (v->role == Var::Role::kStdFb || v->role == Var::Role::kUserFb))
@@ -166,6 +173,13 @@ struct StLowerer {
 
   std::vector<Var*> all_vars() { return L.vars_for_merge(); }
 
+  // The caller's structure or array an argument names (`fb(p := q)`).
+  Var* whole_argument(const Expr& e, const std::string& formal, SourcePos pos) {
+    Var* v = e.kind == Expr::Kind::kName && e.args.empty() ? L.whole_var(s, e.name) : nullptr;
+    if (!v) L.diags().error(pos, "'" + formal + "' is a structure or array: pass a variable of its type");
+    return v;
+  }
+
   // How many times each instance is called as a statement in `b` (a FOR
   // body's calls count twice: it may run more than once).
   static void count_calls(const Block& b, std::map<std::string, int>& n, int weight = 1) {
@@ -223,6 +237,19 @@ struct StLowerer {
     Emitter& em = L.em();
     switch (st.kind) {
       case Stmt::Kind::kAssign: {
+        if (Var* dst = st.target_index.empty() ? L.whole_var(s, st.target) : nullptr) {
+          // A whole structure or array: member by member, from one of its type.
+          Var* src = st.value->kind == Expr::Kind::kName && st.value->args.empty() ? L.whole_var(s, st.value->name)
+                                                                                  : nullptr;
+          if (!src) {
+            L.diags().error(st.value->pos, "'" + dst->decl->name + "' is a whole " +
+                                               (dst->role == Var::Role::kStruct ? "structure" : "array") +
+                                               ": assign a variable of its type, or one member at a time");
+            return {};
+          }
+          L.assign_whole(*dst, *src, st.pos);
+          break;
+        }
         Value v = L.eval(s, *st.value);
         L.store(s, st.target, st.target_index, v, st.pos);
         break;
@@ -289,18 +316,22 @@ struct StLowerer {
           // A function called as a statement: its result is dropped.
           std::vector<Value> args;
           std::vector<std::string> formals;
-          std::vector<std::pair<std::string, Var*>> inouts;
+          std::vector<std::pair<std::string, Var*>> inouts, wholes;
           for (const CallArg& a : st.call_args) {
             if (a.output) continue;
             if (L.is_in_out(nullptr, st.target, a.formal)) {
               if (Var* v = L.in_out_argument(s, *a.value, a.formal, a.pos)) inouts.emplace_back(a.formal, v);
               continue;
             }
+            if (L.whole_parameter(st.target, a.formal)) {
+              if (Var* v = whole_argument(*a.value, a.formal, a.pos)) wholes.emplace_back(a.formal, v);
+              continue;
+            }
             args.push_back(L.eval(s, *a.value));
             formals.push_back(upper(a.formal));
           }
           if (L.diags().has_errors()) return {};
-          if (!L.call_function(s, st.target, args, formals, st.pos, inouts))
+          if (!L.call_function(s, st.target, args, formals, st.pos, inouts, wholes))
             L.diags().error(st.pos, "'" + st.target + "' is neither a function block instance nor a function");
           return {};
         }
@@ -310,6 +341,9 @@ struct StLowerer {
           if (a.output) continue;
           if (L.is_in_out(fb, "", a.formal)) {
             if (Var* v = L.in_out_argument(s, *a.value, a.formal, a.pos)) inouts.emplace_back(a.formal, v);
+          } else if (Var* m = L.whole_member(fb, a.formal)) {
+            // A structure or array input: copied in before the call.
+            if (Var* v = whole_argument(*a.value, a.formal, a.pos)) L.assign_whole(*m, *v, a.pos);
           } else {
             ins.emplace_back(a.formal, L.eval(s, *a.value));
           }
@@ -318,6 +352,15 @@ struct StLowerer {
         L.call_fb(*fb, ins, st.pos, inouts);
         for (const CallArg& a : st.call_args) {
           if (!a.output) continue;
+          if (Var* m = L.whole_member(fb, a.formal)) {  // a structure or array output: copied out
+            Var* dst = a.target_index.empty() ? L.whole_var(s, a.target) : nullptr;
+            if (!dst) {
+              L.diags().error(a.pos, "'" + a.formal + "' is a whole structure or array: '=>' needs a variable of its type");
+              return {};
+            }
+            L.assign_whole(*dst, *m, a.pos);
+            continue;
+          }
           const Value v = L.fb_output(*fb, a.formal, a.pos);
           L.store(s, a.target, a.target_index, v, a.pos);
         }

@@ -190,7 +190,7 @@ TEST(PlcopenTypes, refuses_what_it_cannot_hold_with_the_place) {
                              typed("q", "<derived name=\"Point\"/>") + var("x", "INT") + "</localVars>";
   EXPECT_NE(first_error(project_with_types(kPoint, st_program(locals, "x := a[4];"))).find("index 4 is outside a's bounds 1..3"),
             std::string::npos);
-  EXPECT_NE(first_error(project_with_types(kPoint, st_program(locals, "p := q;"))).find("'q' is a structure: read one member at a time"),
+  EXPECT_NE(first_error(project_with_types(kPoint, st_program(locals, "x := p;"))).find("'p' is a structure: read one member at a time"),
             std::string::npos);
   EXPECT_NE(first_error(project_with_types(kPoint, st_program(locals, "x := p.z;"))).find("structure 'p' has no member 'z'"),
             std::string::npos);
@@ -271,6 +271,79 @@ TEST(PlcopenTypes, var_in_out_passes_the_callers_variable) {
   EXPECT_NE(first_error(project(kNs201, bump + st_program(vars, "b1(step := 1);"))).find("'x' is VAR_IN_OUT and this call passes no variable"),
             std::string::npos);
   EXPECT_NE(first_error(project(kNs201, bump + st_program(vars, "b1(x := i);"))).find("'i' is an input"),
+            std::string::npos);
+}
+
+// Whole structures and arrays: assigned member by member, and passed to and
+// from function blocks and functions by copy.
+TEST(PlcopenTypes, whole_structures_and_arrays_are_copied_member_by_member) {
+  const std::string arr = "<array><dimension lower=\"0\" upper=\"2\"/><baseType><INT/></baseType></array>";
+  const std::string shift =
+      "<pou name=\"Shift\" pouType=\"functionBlock\"><interface><inputVars>" + typed("pin", "<derived name=\"Point\"/>") +
+      "</inputVars><outputVars>" + typed("pout", "<derived name=\"Point\"/>") + var("len", "REAL") +
+      "</outputVars></interface><body><ST><xhtml:p><![CDATA[pout := pin; pout.x := pin.x + 10.0; len := pin.x * 2.0;]]>"
+      "</xhtml:p></ST></body></pou>\n";
+  const std::string sum =
+      "<pou name=\"SumP\" pouType=\"function\"><interface><returnType><REAL/></returnType><inputVars>" +
+      typed("pt", "<derived name=\"Point\"/>") +
+      "</inputVars></interface><body><ST><xhtml:p><![CDATA[SumP := pt.x + pt.n;]]></xhtml:p></ST></body></pou>\n";
+  const std::string src = project_with_types(
+      kPoint, shift + sum +
+                  st_program("<localVars>" + typed("p", "<derived name=\"Point\"/>") + typed("q", "<derived name=\"Point\"/>") +
+                                 typed("r", "<derived name=\"Point\"/>") + typed("a", arr,
+                                 "<arrayValue><value><simpleValue value=\"4\"/></value><value><simpleValue value=\"5\"/></value>"
+                                 "<value><simpleValue value=\"6\"/></value></arrayValue>") + typed("b", arr) + fb("sh", "Shift") +
+                                 var("y", "REAL") + var("z", "REAL") + "</localVars>",
+                             "p.n := 7;\nq := p;\nb := a;\nsh(pin := q, pout => r);\ny := sh.len;\nz := SumP(pt := r);"));
+  CompileResult r = compile_source(src);
+  ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
+  Machine m(std::move(*r.image));
+  m.cycles(1);
+  EXPECT_DOUBLE_EQ(m.value("main.q.x"), 1.5);  // Point's initial x
+  EXPECT_EQ(m.value("main.q.n"), 7);
+  EXPECT_EQ(m.value("main.b[2]"), 6);
+  EXPECT_DOUBLE_EQ(m.value("main.r.x"), 11.5);
+  EXPECT_EQ(m.value("main.r.n"), 7);
+  EXPECT_DOUBLE_EQ(m.value("main.y"), 3.0);
+  EXPECT_DOUBLE_EQ(m.value("main.z"), 18.5);
+  // The same FB drawn in FBD: the structure input connected to an inVariable.
+  const std::string pos = "<position x=\"0\" y=\"0\"/>";
+  const std::string fbd = project_with_types(
+      kPoint, shift + "<pou name=\"main\" pouType=\"program\"><interface><localVars>" +
+                  typed("p", "<derived name=\"Point\"/>") + fb("sh", "Shift") + var("y", "REAL") +
+                  "</localVars></interface><body><FBD>"
+                  "<inVariable localId=\"1\">" + pos + "<connectionPointOut/><expression>p</expression></inVariable>"
+                  "<block localId=\"2\" typeName=\"Shift\" instanceName=\"sh\">" + pos + "<inputVariables>"
+                  "<variable formalParameter=\"pin\"><connectionPointIn><connection refLocalId=\"1\"/></connectionPointIn></variable>"
+                  "</inputVariables><inOutVariables/><outputVariables><variable formalParameter=\"len\"><connectionPointOut/>"
+                  "</variable></outputVariables></block>"
+                  "<outVariable localId=\"3\">" + pos + "<connectionPointIn><connection refLocalId=\"2\" formalParameter=\"len\"/>"
+                  "</connectionPointIn><expression>y</expression></outVariable></FBD></body></pou>\n");
+  CompileResult rf = compile_source(fbd);
+  ASSERT_TRUE(rf.ok()) << rf.diags.render("t.xml", fbd);
+  Machine mf(std::move(*rf.image));
+  mf.cycles(1);
+  EXPECT_DOUBLE_EQ(mf.value("main.y"), 3.0);
+  EXPECT_DOUBLE_EQ(mf.value("main.sh.pout.x"), 11.5);
+  // A whole structure wired to a number's input is refused, not read as 0.
+  std::string scalar = fbd;
+  scalar.replace(scalar.find("formalParameter=\"pin\"><connectionPointIn><connection refLocalId=\"1\"/>"),
+                 std::string("formalParameter=\"pin\"><connectionPointIn><connection refLocalId=\"1\"/>").size(),
+                 "formalParameter=\"pin\"><connectionPointIn><connection refLocalId=\"4\"/>");
+  scalar.replace(scalar.find("</FBD>"), 6,
+                 "<outVariable localId=\"5\">" + pos + "<connectionPointIn><connection refLocalId=\"1\"/></connectionPointIn>"
+                 "<expression>y</expression></outVariable><inVariable localId=\"4\">" + pos +
+                 "<connectionPointOut/><expression>p</expression></inVariable></FBD>");
+  EXPECT_NE(first_error(scalar).find("names a whole structure or array"), std::string::npos) << first_error(scalar);
+  const std::string other = "<array><dimension lower=\"0\" upper=\"3\"/><baseType><INT/></baseType></array>";
+  EXPECT_NE(first_error(project(kNs201, st_program("<localVars>" + typed("a", arr) + typed("c", other) + "</localVars>",
+                                                   "c := a;")))
+                .find("'c' and 'a' are not of one type"),
+            std::string::npos);
+  EXPECT_NE(first_error(project_with_types(kPoint, shift + st_program("<localVars>" + fb("sh", "Shift") + var("k", "REAL") +
+                                                                          "</localVars>",
+                                                                      "sh(pin := k);")))
+                .find("'pin' is a structure or array: pass a variable of its type"),
             std::string::npos);
 }
 
