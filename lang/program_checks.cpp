@@ -16,6 +16,7 @@
 
 #include "common/capacities.h"
 #include "common/text.h"
+#include "lang/iec/iec_functions.h"
 
 namespace rtplc::lang {
 namespace {
@@ -290,6 +291,11 @@ void check_program_size(const CheckedProgram& p, DiagnosticList& diags) {
 }
 
 std::string unknown_block_hint(std::string_view name) {
+  // An IEC name (TON, LIMIT, INT_TO_REAL): FBD text spells it with the
+  // primitives lang/iec lowers it to.
+  if (const iec::IecFunction* f = iec::find_iec(name); f && find_block(std::string(name)) == nullptr)
+    return "; IEC " + f->name + " is written in FBD text as " + f->lowers_to + " (rtplc blocks " + f->name +
+           " shows it)";
   if (std::string hint = suggest_block(name); !hint.empty())
     return "; did you mean '" + hint + "'?";
   return " (rtplc blocks lists all " + std::to_string(all_blocks().size()) + ")";

@@ -39,6 +39,12 @@ TEST(Checker, unknown_block_with_a_suggestion) {
   expect_error(body("F1 = asp(d0, c0, 1, \"a\")\nF2 = filter(F1, 2)\n"), 3, 6, "did you mean 'filt'");
 }
 
+// An IEC name in FBD text: the message says which primitives spell it.
+TEST(Checker, an_iec_name_points_at_the_primitives_that_spell_it) {
+  expect_error(body("D1 = dsp(d0, c0, 0, \"a\")\nD2 = TON(D1, 1)\n"), 3, 6,
+               "IEC TON is written in FBD text as ton (Q), ton_et (ET)");
+}
+
 TEST(Checker, wrong_arity) {
   expect_error(body("F1 = asp(d0, c0, 1, \"a\")\nF2 = sub(F1)\n"), 3, 6, "sub takes sub(a, b, [k])");
   expect_error(body("F1 = asp(d0, c0, 1, \"a\")\nF2 = abs(F1, F1)\n"), 3, 6, "found 2 arguments");
