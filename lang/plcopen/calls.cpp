@@ -279,7 +279,7 @@ Value Lowering::fb_output(Var& v, const std::string& name, SourcePos pos) {
       d_.error(pos, "function block '" + v.fb->pou->name + "' has no variable '" + name + "'");
       return constant(0, false);
     }
-    return read(*it->second, pos);
+    return read_from_outside(*it->second, pos);
   }
   const iec::IecFunction& f = *v.std_fb.iec;
   if (iec::iec_output_index(f, up) < 0) {

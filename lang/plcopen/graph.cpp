@@ -404,9 +404,15 @@ class Graph {
     if (e.name == "inVariable") {
       outs[""] = negate_if(e, expression_value(e, pos));
     } else if (e.name == "outVariable" || e.name == "inOutVariable") {
-      Value v = input(e.child("connectionPointIn"));
-      if (!v.valid()) {
-        d_.error(pos, "<" + e.name + "> localId " + id + " has nothing connected to its input");
+      const XmlElement* cp = e.child("connectionPointIn");
+      const bool wired = cp && cp->child("connection");
+      Value v = input(cp);
+      if (!wired && !writes_result(e, "expression")) {
+        // Left unconnected in the editor: Beremiz and OpenPLC generate no
+        // statement for it, and neither does rtplc.
+        d_.warning(pos, "<" + e.name + "> localId " + id + " has nothing connected to its input: it assigns nothing");
+      } else if (!v.valid()) {
+        if (!d_.has_errors()) d_.error(pos, "<" + e.name + "> localId " + id + " has nothing connected to its input");
       } else if (writes_result(e, "expression")) {
         v = L_.em().to_digital(negate_if(e, v), pos);
         results_.emplace_back(id, v);
@@ -415,7 +421,6 @@ class Graph {
         v = negate_if(e, v);
         if (Var* t = target(e, "expression")) {
           // Fed by a function whose EN is false this cycle: the assignment does not happen.
-          const XmlElement* cp = e.child("connectionPointIn");
           const XmlElement* c = cp ? cp->child("connection") : nullptr;
           auto en = c ? enable_.find(attr(*c, "refLocalId")) : enable_.end();
           if (en != enable_.end()) v = L_.em().select(en->second, v, L_.read(*t, pos), pos);
@@ -522,6 +527,7 @@ class Graph {
     const SourcePos pos = e.pos;
     std::vector<std::pair<std::string, Value>> inputs;
     std::vector<std::pair<Var*, Var*>> wholes;  // (the FB's structure or array input, the caller's)
+    std::vector<std::pair<std::string, Var*>> function_wholes;  // (a function's such input, the caller's)
     Var* instance = attr(e, "instanceName").empty() ? nullptr : L_.lookup(s_, attr(e, "instanceName"), pos, false);
     Value en = constant(1, true);
     if (const XmlElement* iv = e.child("inputVariables")) {
@@ -532,6 +538,12 @@ class Graph {
           Var* src = connected_variable(v, type, true);
           if (!src) return;
           wholes.emplace_back(m, src);
+          continue;
+        }
+        if (!instance && L_.whole_parameter(type, formal)) {  // a user function's structure input
+          Var* src = connected_variable(v, type, true);
+          if (!src) return;
+          function_wholes.emplace_back(formal, src);
           continue;
         }
         Value x = input(v.child("connectionPointIn"));
@@ -576,7 +588,7 @@ class Graph {
         formals.push_back(upper(f));
         args.push_back(v);
       }
-      auto r = L_.call_function(s_, type, args, formals, pos, inouts);
+      auto r = L_.call_function(s_, type, args, formals, pos, inouts, function_wholes);
       if (!r) return;
       for (const auto& [f, var] : inouts) outs[upper(f)] = L_.read(*var, pos);
       // EN false: the function does not run, so a variable it feeds keeps its value.

@@ -464,7 +464,7 @@ std::vector<Place> Lowering::places(Scope& s, const std::string& path,
   if (path[0] == '%') {
     Var* v = lookup(s, path, pos);
     if (!v) return {};
-    return {Place{yes, v, {}}};
+    return {Place{yes, v, {}, false}};
   }
   auto both = [&](const Value& a, const Value& b) {
     if (a.is_const) return a.k != 0 ? b : a;
@@ -481,7 +481,7 @@ std::vector<Place> Lowering::places(Scope& s, const std::string& path,
     if (first) {
       Var* v = lookup(s, name, pos);
       if (!v) return {};
-      cur = {Place{yes, v, {}}};
+      cur = {Place{yes, v, {}, false}};
       first = false;
     } else {
       std::vector<Place> nx;
@@ -506,9 +506,9 @@ std::vector<Place> Lowering::places(Scope& s, const std::string& path,
                               name + "'");
             return {};
           }
-          nx.push_back(Place{p.when, it->second.get(), {}});
+          nx.push_back(Place{p.when, it->second.get(), {}, p.in_instance || b->role == Var::Role::kUserFb});
         } else if (b->role == Var::Role::kStdFb) {
-          nx.push_back(Place{p.when, b, upper(name)});
+          nx.push_back(Place{p.when, b, upper(name), p.in_instance});
         } else {
           d_.error(pos, "'" + path + "': '" + b->decl->name + "' is neither a structure nor a function block instance");
           return {};
@@ -551,7 +551,7 @@ std::vector<Place> Lowering::places(Scope& s, const std::string& path,
             }
             off += static_cast<size_t>(static_cast<int64_t>(ix[d].k) - lo) * stride;
           }
-          nx.push_back(Place{p.when, b->elems[off].get(), {}});
+          nx.push_back(Place{p.when, b->elems[off].get(), {}, p.in_instance});
           continue;
         }
         // Known at run time only: every element, under "the index is its own".
@@ -568,7 +568,7 @@ std::vector<Place> Lowering::places(Scope& s, const std::string& path,
             c = both(c, ix[d].is_const ? constant(ix[d].k == at ? 1 : 0, true) : em_.binary(BinOp::kEq, ix[d], k, pos));
           }
           if (c.is_const && c.k == 0) continue;
-          nx.push_back(Place{c, b->elems[off].get(), {}});
+          nx.push_back(Place{c, b->elems[off].get(), {}, p.in_instance});
         }
       }
       cur = std::move(nx);
@@ -676,7 +676,10 @@ Value Lowering::load(Scope& s, const std::string& path, const std::vector<std::u
   }
   std::vector<Place> ps = places(s, path, index, pos);
   if (ps.empty()) return constant(0, false);
-  auto value_of = [&](const Place& p) { return p.output.empty() ? read(*p.var, pos) : fb_output(*p.var, p.output, pos); };
+  auto value_of = [&](const Place& p) {
+    if (!p.output.empty()) return fb_output(*p.var, p.output, pos);
+    return p.in_instance ? read_from_outside(*p.var, pos) : read(*p.var, pos);
+  };
   if (ps.size() == 1 && ps[0].when.is_const && ps[0].when.k != 0) return value_of(ps[0]);
   std::vector<Value> vs;
   for (const Place& p : ps) vs.push_back(value_of(p));
@@ -742,6 +745,14 @@ Value Lowering::start_value(Var& v, SourcePos pos) {
     v.start = s;
   }
   return *v.start;
+}
+
+Value Lowering::read_from_outside(Var& v, SourcePos pos) {
+  auto saved = before_read;
+  before_read = nullptr;
+  Value r = read(v, pos);
+  before_read = saved;
+  return r;
 }
 
 Value Lowering::read(Var& v, SourcePos pos) {

@@ -66,6 +66,7 @@ struct Place {
   Value when;  // constant TRUE for a place known at compile time
   Var* var = nullptr;
   std::string output;
+  bool in_instance = false;  // a variable of an FB instance (`fb1.q`), not the body's own
 };
 
 struct Scope {
@@ -115,6 +116,9 @@ class Lowering {
   void store(Scope& s, const std::string& path, const std::vector<std::unique_ptr<Expr>>& index, const Value& v,
              SourcePos pos);
   Value read(Var& v, SourcePos pos);
+  // read() of a variable of an FB instance from outside it: its name is not
+  // one the reading body writes, so the body's data-flow order is not asked.
+  Value read_from_outside(Var& v, SourcePos pos);
   void assign(Var& v, Value value, SourcePos pos);
   // Rising edge of `v`, remembered in a block named `mem` (last cycle's `v`).
   Value rising(const Value& v, const std::string& mem, SourcePos pos);

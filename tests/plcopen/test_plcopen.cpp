@@ -595,6 +595,36 @@ TEST(Plcopen, aliases_at_one_output_address_have_one_writer) {
   EXPECT_NE(r.diags.items()[0].message.find("both written: an output has one writer"), std::string::npos);
 }
 
+// An outVariable left unconnected in the editor assigns nothing (a warning,
+// as Beremiz and OpenPLC skip it); an FB output named like the variable it
+// feeds is no feedback loop.
+TEST(Plcopen, fbd_unconnected_outputs_and_same_named_fb_outputs) {
+  const std::string pos = "<position x=\"0\" y=\"0\"/>";
+  const std::string inc =
+      "<pou name=\"Inc\" pouType=\"functionBlock\"><interface><outputVars>" + var("q", "INT") +
+      "</outputVars></interface><body><ST><xhtml:p><![CDATA[q := q + 1;]]></xhtml:p></ST></body></pou>\n";
+  const std::string src = project(
+      kNs201,
+      inc + "<pou name=\"main\" pouType=\"program\"><interface><localVars>" + fb("i1", "Inc") + var("q", "INT") +
+          var("z", "INT") + "</localVars></interface><body><FBD>"
+          "<block localId=\"1\" typeName=\"Inc\" instanceName=\"i1\">" + pos + "<inputVariables/><inOutVariables/>"
+          "<outputVariables><variable formalParameter=\"q\"><connectionPointOut/></variable></outputVariables></block>"
+          "<outVariable localId=\"2\">" + pos + "<connectionPointIn><connection refLocalId=\"1\" formalParameter=\"q\"/>"
+          "</connectionPointIn><expression>q</expression></outVariable>"
+          "<outVariable localId=\"3\">" + pos + "<connectionPointIn/><expression>z</expression></outVariable>"
+          "</FBD></body></pou>\n");
+  CompileResult r = compile_source(src);
+  ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
+  ASSERT_EQ(r.diags.warning_count(), 1u);
+  EXPECT_NE(r.diags.items()[0].message.find("localId 3 has nothing connected to its input: it assigns nothing"),
+            std::string::npos);
+  for (const std::string& n : r.program.notes) EXPECT_EQ(n.find("is read before"), std::string::npos) << n;
+  Machine run(std::move(*r.image));
+  run.cycles(3);
+  EXPECT_EQ(run.value("main.q"), 3);
+  EXPECT_EQ(run.value("main.z"), 0);
+}
+
 TEST(Plcopen, reads_and_writes_directly_represented_variables) {
   const std::string src = project(
       kNs201, st_program("<localVars>" + var("k", "INT") + "</localVars>",

@@ -325,6 +325,22 @@ TEST(PlcopenTypes, whole_structures_and_arrays_are_copied_member_by_member) {
   mf.cycles(1);
   EXPECT_DOUBLE_EQ(mf.value("main.y"), 3.0);
   EXPECT_DOUBLE_EQ(mf.value("main.sh.pout.x"), 11.5);
+  // A user function's structure input wired the same way.
+  const std::string fn_fbd = project_with_types(
+      kPoint, sum + "<pou name=\"main\" pouType=\"program\"><interface><localVars>" +
+                  typed("p", "<derived name=\"Point\"/>") + var("y", "REAL") + "</localVars></interface><body><FBD>"
+                  "<inVariable localId=\"1\">" + pos + "<connectionPointOut/><expression>p</expression></inVariable>"
+                  "<block localId=\"2\" typeName=\"SumP\">" + pos + "<inputVariables>"
+                  "<variable formalParameter=\"pt\"><connectionPointIn><connection refLocalId=\"1\"/></connectionPointIn></variable>"
+                  "</inputVariables><inOutVariables/><outputVariables><variable formalParameter=\"OUT\"><connectionPointOut/>"
+                  "</variable></outputVariables></block>"
+                  "<outVariable localId=\"3\">" + pos + "<connectionPointIn><connection refLocalId=\"2\"/></connectionPointIn>"
+                  "<expression>y</expression></outVariable></FBD></body></pou>\n");
+  CompileResult rfn = compile_source(fn_fbd);
+  ASSERT_TRUE(rfn.ok()) << rfn.diags.render("t.xml", fn_fbd);
+  Machine mfn(std::move(*rfn.image));
+  mfn.cycles(1);
+  EXPECT_DOUBLE_EQ(mfn.value("main.y"), 1.5);  // x 1.5 + n 0
   // A whole structure wired to a number's input is refused, not read as 0.
   std::string scalar = fbd;
   scalar.replace(scalar.find("formalParameter=\"pin\"><connectionPointIn><connection refLocalId=\"1\"/>"),
