@@ -3,15 +3,17 @@
 // bridge thread, the tasks, monitors). Two primitives:
 //
 // SnapshotSlot<T> — one writer, any number of readers, nobody ever waits.
-//   The slot keeps kSlots copies of T, each with its own sequence number, and
-//   a count `published` of completed stores.
-//   writer  store(v): k = (published + 1) % kSlots; seq[k] += 1 (odd: "being
-//           written"); the payload words of copy k; seq[k] += 1 (even);
-//           published += 1. Every one of these is an atomic store; the odd
-//           increment is an acq_rel read-modify-write, the rest release.
+//   The slot keeps kSlots copies of T, each with its own sequence number and
+//   the publication number it holds (`gen`), and a count `published` of
+//   completed stores.
+//   writer  store(v): n = published + 1; k = n % kSlots; seq[k] += 1 (odd:
+//           "being written"); the payload words of copy k; gen[k] = n; seq[k]
+//           += 1 (even); published = n. Every one of these is an atomic store;
+//           the odd increment is an acq_rel read-modify-write, the rest release.
 //   reader  n = published (acquire); k = n % kSlots; s1 = seq[k] (acquire),
-//           odd -> retry; copy the words (acquire loads, so the second sequence
-//           load cannot move before them); s2 = seq[k]; s1 == s2 -> done.
+//           odd -> retry; g = gen[k] and the words (acquire loads, so the
+//           second sequence load cannot move before them); s2 = seq[k];
+//           s1 == s2 and g == n -> done, else retry.
 //   Why this and not a plain seqlock (one copy): a reader at a higher SCHED_FIFO
 //   priority on the writer's CPU that preempts the writer between its two
 //   sequence stores would spin on the odd sequence forever, and the writer would
@@ -25,6 +27,14 @@
 //   store's odd increment happens-before the second sequence load, which then
 //   differs, so a torn copy is never accepted. Payload words are atomics, so
 //   there is no data race (ThreadSanitizer checks this very code; no fences).
+//   Why `gen`: readers must see values in publication order. Without it, a
+//   reader that loaded published = n and was then delayed could find copy k
+//   already rewritten whole with publication n + kSlots (its seq even again)
+//   while the writer had not yet stored published = n + kSlots; it took that
+//   value, and its next load of `published` (still n + kSlots - 1) handed it
+//   an older one. Accepting only g == n means a reader returns exactly the
+//   publication whose number it loaded, and successive loads of one atomic by
+//   one thread never go backwards (read-read coherence), so neither do values.
 //
 // BoundedQueue<T> — many producers (tasks queueing writes), one consumer (the engine
 //   thread); Vyukov's bounded array queue. Each cell carries a sequence number: a
@@ -41,6 +51,7 @@
 #include <cstring>
 #include <memory>
 #include <type_traits>
+#include <utility>
 
 namespace rtplc::link {
 
@@ -65,20 +76,27 @@ class SnapshotSlot {
 
   // The one writer thread.
   void store(const T& value) {
-    store(value, [] {});
+    store(value, [] {}, [] {});
   }
-  // The same; `mid_store()` runs while the copy is half written (tests use it
-  // to be preempted exactly there).
-  template <typename MidStore>
-  void store(const T& value, MidStore&& mid_store) {
+  // The same; `mid_store()` runs while the copy is half written and
+  // `before_publish()` once the copy is whole but not yet published (tests use
+  // them to be preempted exactly there).
+  template <typename MidStore, typename BeforePublish>
+  void store(const T& value, MidStore&& mid_store, BeforePublish&& before_publish) {
     const uint64_t n = published_.load(std::memory_order_relaxed) + 1;
     Copy& c = copies_[n % kSlots];
     const uint64_t s = c.seq.fetch_add(1, std::memory_order_acq_rel);
     mid_store();
     write_words(c, value);
+    c.gen.store(n, std::memory_order_release);
     c.seq.store(s + 2, std::memory_order_release);
+    before_publish();
     published_.store(n, std::memory_order_release);
     last_ = value;
+  }
+  template <typename MidStore>
+  void store(const T& value, MidStore&& mid_store) {
+    store(value, std::forward<MidStore>(mid_store), [] {});
   }
 
   // The writer's own latest value (writer thread only: no race with itself).
@@ -87,14 +105,22 @@ class SnapshotSlot {
   // Any thread; never waits. Returns false (and leaves `out` unchanged) when no
   // consistent copy was obtained in `tries` attempts.
   bool try_load(T& out, uint32_t tries = kDefaultTries) const {
+    return try_load(out, tries, [] {});
+  }
+  // The same; `after_index()` runs between the load of `published` and the
+  // copy (tests use it to delay a reader exactly there).
+  template <typename AfterIndex>
+  bool try_load(T& out, uint32_t tries, AfterIndex&& after_index) const {
     uint64_t buf[kWords];
     for (uint32_t t = 0; t < tries; ++t) {
       const uint64_t n = published_.load(std::memory_order_acquire);
+      after_index();
       const Copy& c = copies_[n % kSlots];
       const uint64_t s1 = c.seq.load(std::memory_order_acquire);
       if (s1 & 1) continue;
+      const uint64_t g = c.gen.load(std::memory_order_acquire);
       for (size_t i = 0; i < kWords; ++i) buf[i] = c.words[i].load(std::memory_order_acquire);
-      if (c.seq.load(std::memory_order_relaxed) != s1) continue;
+      if (c.seq.load(std::memory_order_relaxed) != s1 || g != n) continue;
       std::memcpy(&out, buf, sizeof(T));
       return true;
     }
@@ -104,6 +130,7 @@ class SnapshotSlot {
  private:
   struct alignas(64) Copy {
     std::atomic<uint64_t> seq{0};
+    std::atomic<uint64_t> gen{0};  // the publication number this copy holds
     std::atomic<uint64_t> words[kWords];
   };
   static void write_words(Copy& c, const T& value) {

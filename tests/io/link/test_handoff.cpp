@@ -63,6 +63,49 @@ TEST(Handoff, never_hands_a_reader_a_torn_value) {
   EXPECT_EQ(slot.writer_value().e, 200000u);
 }
 
+// The ordering bug a loaded machine found: a reader that loaded `published`
+// and was delayed there, while the writer rewrote that very copy whole with a
+// publication kSlots later but had not yet published it, took the newer value;
+// its next read (of the older, still-published number) went backwards. The
+// hooks stop each side exactly there, so this fails every time on a slot
+// without the generation check, on any machine.
+TEST(Handoff, a_delayed_reader_never_gets_an_older_value_after_a_newer_one) {
+  SnapshotSlot<Wide> slot;
+  auto wide = [](uint64_t v) { return Wide{v, v, v, v, v}; };
+  slot.store(wide(1));  // copy 1
+  std::atomic<int> phase{0};
+  auto wait_for = [&](int p) {
+    while (phase.load() != p) std::this_thread::yield();
+  };
+  std::thread writer([&] {
+    wait_for(1);
+    for (uint64_t v = 2; v <= 4; ++v) slot.store(wide(v));
+    // 5 goes into copy 1 again (5 % 4): whole, but not yet published.
+    slot.store(wide(5), [] {}, [&] {
+      phase.store(2);
+      wait_for(3);
+    });
+  });
+  Wide first{}, second{};
+  bool delayed = false;
+  const bool ok1 = slot.try_load(first, SnapshotSlot<Wide>::kDefaultTries, [&] {
+    if (delayed) return;
+    delayed = true;
+    phase.store(1);  // holding published = 1
+    wait_for(2);
+  });
+  const bool ok2 = slot.try_load(second);
+  phase.store(3);
+  writer.join();
+  ASSERT_TRUE(ok1);
+  ASSERT_TRUE(ok2);
+  EXPECT_LE(first.a, second.a) << "read " << first.a << ", then the older " << second.a;
+  EXPECT_EQ(first.a, first.e);
+  Wide last{};
+  ASSERT_TRUE(slot.try_load(last));
+  EXPECT_EQ(last.a, 5u);
+}
+
 // What the SnapshotSlot replaced: one copy guarded by one sequence. A reader
 // that preempts its writer between the two sequence stores sees an odd
 // sequence on every try (bounded here; the old code retried forever).
