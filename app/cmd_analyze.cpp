@@ -15,6 +15,7 @@
 #include <string>
 
 #include "app/commands.h"
+#include "common/files.h"
 #include "lang/petri/dot.h"
 #include "lang/petri/generators.h"
 #include "lang/petri/pnml.h"
@@ -74,20 +75,12 @@ petri::Net load_net(AnalyzeArgs& a) {
     std::fprintf(stderr, "rtplc analyze: give a PNML file or --generate MODEL-N\n");
     throw CLI::RuntimeError(kExitUsage);
   }
-  std::ifstream f(a.file, std::ios::binary);
-  if (!f) {
-    std::fprintf(stderr, "rtplc analyze: cannot read %s\n", a.file.c_str());
-    throw CLI::RuntimeError(kExitFailure);
+  Result<std::string> read = read_file_bounded(a.file, kMaxFileBytes);
+  if (!read) {
+    std::fprintf(stderr, "rtplc analyze: %s\n", read.error().c_str());
+    throw CLI::RuntimeError(kExitUsage);
   }
-  std::string text;
-  text.resize(kMaxFileBytes + 1);
-  f.read(text.data(), static_cast<std::streamsize>(text.size()));
-  text.resize(static_cast<size_t>(f.gcount()));
-  if (text.size() > kMaxFileBytes) {
-    std::fprintf(stderr, "rtplc analyze: %s is larger than %zu MB\n", a.file.c_str(),
-                 kMaxFileBytes >> 20);
-    throw CLI::RuntimeError(kExitFailure);
-  }
+  std::string text = std::move(read).value();
   const size_t first = text.find_first_not_of(" \t\r\n\xEF\xBB\xBF");
   const bool color = isatty(STDERR_FILENO) != 0;
   if (!a.pou.empty() && !lang::plcopen::is_plcopen_source(text)) {

@@ -6,11 +6,102 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
 
 namespace rtplc {
+
+namespace {
+constexpr const char* kMissing = ": no such file";
+
+const char* kind_of(mode_t m) {
+  if (S_ISDIR(m)) return "a folder, not a file";
+  if (S_ISFIFO(m)) return "a FIFO (named pipe), not a regular file";
+  if (S_ISCHR(m)) return "a character device, not a regular file";
+  if (S_ISBLK(m)) return "a block device, not a regular file";
+  if (S_ISSOCK(m)) return "a socket, not a regular file";
+  return "not a regular file";
+}
+
+std::string size_text(size_t bytes) {
+  if (bytes >= (size_t{1} << 20) && bytes % (size_t{1} << 20) == 0) return std::to_string(bytes >> 20) + " MiB";
+  if (bytes >= 1024 && bytes % 1024 == 0) return std::to_string(bytes >> 10) + " KiB";
+  return std::to_string(bytes) + " bytes";
+}
+}  // namespace
+
+Result<std::string> read_file_bounded(const std::string& path, size_t max_bytes, FollowLinks follow) {
+  // O_NONBLOCK: opening a FIFO for reading would otherwise wait for a writer.
+  int flags = O_RDONLY | O_CLOEXEC | O_NONBLOCK | O_NOCTTY;
+  if (follow == FollowLinks::kNo) flags |= O_NOFOLLOW;
+  const int fd = ::open(path.c_str(), flags);
+  if (fd < 0) {
+    const int e = errno;
+    if (e == ENOENT) return make_error(path + kMissing);
+    if (e == ELOOP && follow == FollowLinks::kNo) {
+      return make_error(path + ": is a symbolic link; refusing to follow it here");
+    }
+    return make_error(path + ": cannot open: " + std::strerror(e));
+  }
+  struct stat st {};
+  if (fstat(fd, &st) != 0) {
+    const int e = errno;
+    close(fd);
+    return make_error(path + ": cannot inspect: " + std::strerror(e));
+  }
+  if (!S_ISREG(st.st_mode)) {
+    close(fd);
+    return make_error(path + ": is " + kind_of(st.st_mode));
+  }
+  if (static_cast<unsigned long long>(st.st_size) > max_bytes) {
+    close(fd);
+    return make_error(path + ": is " + std::to_string(st.st_size) + " bytes; at most " +
+                      size_text(max_bytes) + " are read");
+  }
+  // The size can change while we read (or be 0 for /proc files): read until
+  // the end, never past the limit.
+  std::string text;
+  text.resize(static_cast<size_t>(st.st_size) + 1);
+  size_t got = 0;
+  for (;;) {
+    if (got == text.size()) {
+      if (text.size() > max_bytes) break;
+      text.resize(std::min(max_bytes + 1, text.size() * 2 + 4096));
+    }
+    const ssize_t n = ::read(fd, text.data() + got, text.size() - got);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      const int e = errno;
+      close(fd);
+      return make_error(path + ": cannot read: " + std::strerror(e));
+    }
+    if (n == 0) break;
+    got += static_cast<size_t>(n);
+  }
+  close(fd);
+  if (got > max_bytes) {
+    return make_error(path + ": is larger than " + size_text(max_bytes) + "; at most that is read");
+  }
+  text.resize(got);
+  return text;
+}
+
+bool is_missing_file_error(const std::string& error) {
+  const size_t n = std::strlen(kMissing);
+  return error.size() >= n && error.compare(error.size() - n, n, kMissing) == 0;
+}
+
+std::string file_error_reason(const std::string& path, const std::string& error) {
+  return error.rfind(path + ": ", 0) == 0 ? error.substr(path.size() + 2) : error;
+}
+
+bool same_file(const std::string& a, const std::string& b) {
+  struct stat sa {}, sb {};
+  if (stat(a.c_str(), &sa) != 0 || stat(b.c_str(), &sb) != 0) return false;
+  return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+}
 
 std::string folder_of(const std::string& path) {
   const size_t slash = path.find_last_of('/');
@@ -53,7 +144,16 @@ Result<void> write_file_atomically(const std::string& path, mode_t mode,
   const std::string dir = folder_of(path);
   if (auto r = make_folders(dir, 0750, 0750); !r) return r;
   const std::string tmp = path + ".tmp";
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, mode);
+  // A .tmp left by a crash is ours to remove, but only a plain file: a link or
+  // anything else there was put by someone else, and we refuse to write.
+  struct stat old {};
+  if (lstat(tmp.c_str(), &old) == 0) {
+    if (!S_ISREG(old.st_mode)) {
+      return make_error("refusing to write " + tmp + ": it exists and is not a plain file");
+    }
+    unlink(tmp.c_str());
+  }
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, mode);
   if (fd < 0) return make_error("cannot write " + tmp + ": " + std::strerror(errno));
   constexpr size_t kChunk = 64 * 1024;
   std::string pending;
@@ -107,8 +207,19 @@ Result<void> ensure_private_folder(const std::string& dir) {
   if ((st.st_mode & 077) != 0) {
     char mode[8];
     std::snprintf(mode, sizeof mode, "%04o", static_cast<unsigned>(st.st_mode & 07777));
+    // A folder others may write to (/tmp, /var/tmp, a shared drop folder) is
+    // shared on purpose: never advise changing it, advise a folder of our own.
+    if ((st.st_mode & (S_ISVTX | S_IWGRP | S_IWOTH)) != 0) {
+      return make_error("refusing " + dir + ": it is a shared folder (mode " + mode +
+                        "), where other users could replace or read what the runtime puts "
+                        "there; name a path in a folder of the runtime's own (created 0700 "
+                        "when missing), e.g. " + dir + "/rtplc-" + std::to_string(geteuid()) +
+                        "/, or leave the setting out to use the default");
+    }
     return make_error("refusing " + dir + ": its mode " + mode +
-                      " lets other users in; it must be 0700 (chmod 700 " + dir + ")");
+                      " lets other users in; the runtime's folder must be private (mode 0700): "
+                      "name a folder of the runtime's own, or, if only this runtime uses " + dir +
+                      ", chmod 700 " + dir);
   }
   return {};
 }

@@ -1,6 +1,8 @@
-// Folder helpers for the files the runtime owns (retain file, control socket).
+// File helpers: the one bounded reader every command and the runtime use, and
+// the folders and files the runtime owns (retain file, control socket, store).
 #pragma once
 
+#include <cstddef>
 #include <functional>
 #include <string_view>
 #include <string>
@@ -14,6 +16,28 @@ namespace rtplc {
 // "/" for "/x", "." for "x".
 std::string folder_of(const std::string& path);
 
+// Whether read_file_bounded follows a symbolic link at the last component.
+// Files of the state folder (retain, program store) are read kNoFollow: a link
+// planted there must not make a root runtime read whatever it points to.
+enum class FollowLinks : unsigned char { kYes, kNo };
+
+// Reads a whole regular file of at most `max_bytes`. Refuses, with a message
+// that starts with the path and says why, anything else: a missing file, a
+// folder, a FIFO, a device (/dev/zero would never end), a socket, a file over
+// the limit, a link when `follow` is kNo. Never blocks on a FIFO (opened
+// O_NONBLOCK, then refused) and never holds more than max_bytes + 1 in memory.
+Result<std::string> read_file_bounded(const std::string& path, size_t max_bytes,
+                                      FollowLinks follow = FollowLinks::kYes);
+// Whether the error from read_file_bounded was "no such file".
+bool is_missing_file_error(const std::string& error);
+// The reason alone ("is a folder, not a file"), for messages that already
+// name the path.
+std::string file_error_reason(const std::string& path, const std::string& error);
+
+// Whether `a` and `b` name the same existing file (same device and inode), so
+// a command never writes its output over its own input.
+bool same_file(const std::string& a, const std::string& b);
+
 // Creates `dir` and any missing parents (mode `parent_mode`); `dir` itself, if
 // created, gets `mode`. Existing folders are left as they are.
 Result<void> make_folders(const std::string& dir, mode_t mode, mode_t parent_mode);
@@ -21,7 +45,9 @@ Result<void> make_folders(const std::string& dir, mode_t mode, mode_t parent_mod
 // Replaces `path` with `text` so that a reader — or the next start after a
 // crash or power cut — finds either the old file or the new one, whole: write a
 // temporary file, fsync it, rename it over `path`, fsync the folder. Creates the
-// folder (0750) if needed.
+// folder (0750) if needed. The temporary file is created O_EXCL|O_NOFOLLOW (a
+// stale one from a crash is removed first, and only if it is a plain file), so
+// a link planted at PATH.tmp is never followed.
 Result<void> write_file_atomically(const std::string& path, const std::string& text, mode_t mode);
 // The same, for a file written in pieces (one too big to build as one string
 // first): `body` gets a sink and calls it with each piece, in order; it returns

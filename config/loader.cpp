@@ -15,6 +15,7 @@
 
 #include <yaml-cpp/eventhandler.h>
 
+#include "common/files.h"
 #include "config/config.h"
 #include "config/driver_kinds.h"
 #include "config/schema.h"
@@ -27,7 +28,7 @@ namespace fs = std::filesystem;
 
 // A config is a few hundred lines; anything far larger is a mistake (a log
 // or a binary passed by accident) and not worth parsing.
-constexpr std::uintmax_t kMaxConfigBytes = 1 << 20;
+constexpr size_t kMaxConfigBytes = size_t{1} << 20;
 
 SourcePos or_else(SourcePos p, SourcePos fallback) {
   return p.line ? p : fallback;
@@ -578,31 +579,17 @@ LoadResult load_config(const std::string& path, const LoadOptions& options) {
   try {
     std::error_code ec;
     const fs::path p(path);
-    const fs::file_status st = fs::status(p, ec);
-    if (!fs::exists(st)) {
-      res.diags.error({}, "config file not found");
+    Result<std::string> text = read_file_bounded(path, kMaxConfigBytes);
+    if (!text) {
+      const std::string why = file_error_reason(path, text.error());
+      res.diags.error({}, is_missing_file_error(text.error()) ? std::string("config file not found")
+                          : why.rfind("is ", 0) == 0       ? "the config " + why
+                                                           : "the config file: " + why);
       return res;
     }
-    if (!fs::is_regular_file(st)) {
-      res.diags.error({}, "the config is not a regular file");
-      return res;
-    }
-    const std::uintmax_t size = fs::file_size(p, ec);
-    if (!ec && size > kMaxConfigBytes) {
-      res.diags.error(
-          {}, "the config is " + std::to_string(size) + " bytes; a config file is at most 1 MiB");
-      return res;
-    }
-    std::ifstream in(p, std::ios::binary);
-    if (!in) {
-      res.diags.error({}, "cannot open the config file");
-      return res;
-    }
-    std::ostringstream text;
-    text << in.rdbuf();
     fs::path abs = fs::absolute(p, ec);
     const std::string base = (ec ? p : abs).parent_path().lexically_normal().string();
-    return parse_config(text.str(), path, base, options);
+    return parse_config(*text, path, base, options);
   } catch (const std::exception& e) {
     res.diags.error({}, std::string("cannot read the config file: ") + e.what());
     return res;

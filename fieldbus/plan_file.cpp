@@ -2,6 +2,8 @@
 // nothing throws past this file.
 #include "fieldbus/plan_file.h"
 
+#include "common/files.h"
+
 #include <yaml-cpp/yaml.h>
 
 #include <filesystem>
@@ -364,24 +366,16 @@ PlanFile parse_plan_file(std::string_view yaml, const std::string& file_name) {
 PlanFile load_plan_file(const std::string& path) {
   PlanFile out;
   out.file = path;
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) {
-    out.diags.error({}, std::filesystem::exists(path, ec) ? "the plan file is not a regular file"
-                                                          : "plan file not found");
+  Result<std::string> text = read_file_bounded(path, size_t{1} << 20);
+  if (!text) {
+    // The diagnostic is rendered after "PATH:", so say only why.
+    const std::string why = file_error_reason(path, text.error());
+    out.diags.error({}, is_missing_file_error(text.error()) ? std::string("plan file not found")
+                        : why.rfind("is ", 0) == 0       ? "the plan file " + why
+                                                         : "the plan file: " + why);
     return out;
   }
-  if (std::filesystem::file_size(path, ec) > (1u << 20)) {
-    out.diags.error({}, "the plan file is larger than 1 MiB");
-    return out;
-  }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    out.diags.error({}, "cannot open the plan file");
-    return out;
-  }
-  std::ostringstream text;
-  text << in.rdbuf();
-  return parse_plan_file(text.str(), path);
+  return parse_plan_file(*text, path);
 }
 
 }  // namespace rtplc::fieldbus

@@ -10,6 +10,8 @@
 // order, so the operands of a run sit next to each other in memory.
 #include "lang/compiler.h"
 
+#include "common/files.h"
+
 #include <algorithm>
 #include <cmath>
 #include <fstream>
@@ -285,18 +287,12 @@ Result<TaskImage> build_image(const CheckedProgram& prog, const CompileOptions& 
 }
 
 std::optional<std::string> read_text_file(const std::string& path, std::string* error) {
-  std::ifstream f(path, std::ios::binary);
-  if (!f) {
-    if (error) *error = "cannot open " + path;
+  Result<std::string> text = read_file_bounded(path, kMaxSourceBytes);
+  if (!text) {
+    if (error) *error = text.error();
     return std::nullopt;
   }
-  std::ostringstream ss;
-  ss << f.rdbuf();
-  if (f.bad()) {
-    if (error) *error = "cannot read " + path;
-    return std::nullopt;
-  }
-  return ss.str();
+  return std::move(text).value();
 }
 
 namespace {
@@ -308,7 +304,7 @@ CompileResult compile_as(std::string_view source, const CompileOptions& options,
   const bool sfc = language == Language::kSfc;
   CompileResult r;
   // Guard the compiler's own memory against absurd input; real programs are KBs.
-  if (source.size() > (64u << 20)) {
+  if (source.size() > kMaxSourceBytes) {
     r.diags.error(SourcePos{}, "source larger than 64 MiB");
     return r;
   }
@@ -378,9 +374,25 @@ CompileResult compile_file(const std::string& path, const CompileOptions& option
     const size_t n = std::char_traits<char>::length(ext);
     return path.size() > n && path.compare(path.size() - n, n, ext) == 0;
   };
+  // A Petri net is analysed, not compiled: say so instead of a cascade of
+  // FBD errors about XML.
+  if (ends_with(".pnml") || text->substr(0, 4096).find("<pnml") != std::string::npos) {
+    CompileResult r;
+    r.diags.error(SourcePos{}, "this is a Petri net (PNML), not a program; `rtplc analyze " + path +
+                                   "` analyses it, and an SFC program (.sfc) is what a task runs");
+    return r;
+  }
   const Language l = ends_with(".xml") || plcopen::is_plcopen_source(*text) ? Language::kPlcopen
                      : ends_with(".sfc") || is_sfc_source(*text)           ? Language::kSfc
                                                                            : Language::kFbd;
+  if (!o.entry.empty() && l != Language::kPlcopen) {
+    CompileResult r;
+    r.diags.error(SourcePos{}, "an entry ('" + o.entry + "': --entry, or a task's program_instance) chooses a task "
+                               "or program of a PLCopen XML project; this file is one " +
+                               (l == Language::kSfc ? std::string("SFC") : std::string("FBD")) +
+                               " program, so leave the entry out");
+    return r;
+  }
   return compile_as(*text, o, l);
 }
 

@@ -54,7 +54,12 @@ Result<TaskImage> build_image(const CheckedProgram& program, const CompileOption
 // I/O bindings, state and parameter sizes, the run schedule.
 std::string explain(const CompileResult& result);
 
-// Reads a whole file; nullopt (and `error`) on failure.
+// The largest program source any front end reads; real programs are KBs.
+inline constexpr size_t kMaxSourceBytes = size_t{64} << 20;
+
+// Reads a whole program source through the one bounded reader
+// (read_file_bounded: regular files only, at most kMaxSourceBytes); nullopt
+// (and `error`, starting with the path) on failure.
 std::optional<std::string> read_text_file(const std::string& path, std::string* error);
 
 }  // namespace rtplc::lang

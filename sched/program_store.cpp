@@ -12,11 +12,14 @@
 
 #include "blocks/image.h"
 #include "common/files.h"
+#include "lang/compiler.h"
 
 namespace rtplc::sched {
 namespace {
 
 const std::vector<ProgramVersion> kNone;
+// A manifest line is about 80 bytes; a store keeps a bounded history per task.
+constexpr size_t kMaxManifestBytes = size_t{16} << 20;
 
 bool is_hash(const std::string& h) {
   if (h.size() != 16) return false;
@@ -36,8 +39,15 @@ std::string ProgramStore::hash_of(const std::string& source) {
 
 Result<void> ProgramStore::load() {
   versions_.clear();
-  std::ifstream in(dir_ + "/programs.manifest");
-  if (!in) return {};
+  // The store decides what a task boots with: read it without following
+  // links (a link planted in the state folder must not choose our program).
+  Result<std::string> manifest =
+      read_file_bounded(dir_ + "/programs.manifest", kMaxManifestBytes, FollowLinks::kNo);
+  if (!manifest) {
+    if (is_missing_file_error(manifest.error())) return {};
+    return make_error(manifest.error());
+  }
+  std::istringstream in(*manifest);
   std::string line;
   size_t n = 0;
   while (std::getline(in, line)) {
@@ -71,11 +81,12 @@ const std::vector<ProgramVersion>& ProgramStore::history(const std::string& task
 Result<std::string> ProgramStore::source(const std::string& hash) const {
   if (!is_hash(hash)) return make_error("'" + hash + "' is not a program hash");
   const std::string path = dir_ + "/" + hash + ".prog";
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return make_error("the stored program " + path + " is missing");
-  std::ostringstream s;
-  s << in.rdbuf();
-  std::string text = s.str();
+  Result<std::string> read = read_file_bounded(path, lang::kMaxSourceBytes, FollowLinks::kNo);
+  if (!read) {
+    if (is_missing_file_error(read.error())) return make_error("the stored program " + path + " is missing");
+    return make_error("the stored program " + read.error());
+  }
+  std::string text = std::move(read).value();
   if (hash_of(text) != hash) return make_error("the stored program " + path + " is damaged (its hash differs)");
   return text;
 }

@@ -17,11 +17,14 @@
 namespace rtplc::sched {
 Result<void> RetainStore::load() {
   values_.clear();
-  std::ifstream f(path_);
-  if (!f) {
-    if (errno == ENOENT) return {};
-    return make_error("cannot read " + path_ + ": " + std::strerror(errno));
+  // Retained values go straight into the plant's set-points: never read
+  // through a link someone planted where the retain file belongs.
+  Result<std::string> text = read_file_bounded(path_, size_t{16} << 20, FollowLinks::kNo);
+  if (!text) {
+    if (is_missing_file_error(text.error())) return {};
+    return make_error(text.error());
   }
+  std::istringstream f(*text);
   std::string line;
   int n = 0;
   while (std::getline(f, line)) {

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "tests/support/run_tool.h"
+#include "tests/support/scratch.h"
 
 namespace rtplc::test {
 namespace {
@@ -25,24 +26,6 @@ namespace {
 const std::string kExamples = std::string(RTPLC_SOURCE_DIR) + "/examples";
 const std::string kPid = kExamples + "/seed_pid.fbd";
 
-// A private scratch folder, removed with everything in it.
-class Scratch {
- public:
-  Scratch() {
-    char tmpl[] = "/tmp/rtplc-cli-XXXXXX";
-    dir_ = mkdtemp(tmpl);
-  }
-  ~Scratch() { std::system(("rm -rf '" + dir_ + "'").c_str()); }
-  const std::string& dir() const { return dir_; }
-  std::string write(const std::string& name, const std::string& text) const {
-    const std::string p = dir_ + "/" + name;
-    std::ofstream(p, std::ios::binary) << text;
-    return p;
-  }
-
- private:
-  std::string dir_;
-};
 
 bool has(const ToolRun& r, const std::string& s) { return r.out.find(s) != std::string::npos; }
 
@@ -109,7 +92,7 @@ TEST(Cli, sim_step_refuses_nan_values_and_times_outside_the_run) {
 // ---- sim without a plant, and with a diverging one ---------------------------
 
 TEST(Cli, sim_runs_a_program_without_plant_channels_open_loop_and_says_so) {
-  Scratch s;
+  Scratch s("rtplc-cli");
   const std::string f = s.write("logic.fbd",
                                 "%%\nstime(0.1)\nD1 = dsp(d0, c0, 0, \"Start\")\nD2 = time(D1, 1)\n"
                                 "ddo(D2, p0, d0, c1, \"Motor\")\nEND\n%%\n");
@@ -132,7 +115,7 @@ TEST(Cli, sim_runs_a_program_without_plant_channels_open_loop_and_says_so) {
 // A PLCopen project's variables get a column each; a located global is its
 // channel's column, once (here a set-point, so --step can raise it).
 TEST(Cli, sim_of_a_plcopen_event_task_traces_each_variable_once) {
-  Scratch s;
+  Scratch s("rtplc-cli");
   const std::string f = s.write(
       "ev.xml",
       "<?xml version=\"1.0\"?>\n<project xmlns=\"http://www.plcopen.org/xml/tc6_0201\" "
@@ -162,7 +145,7 @@ TEST(Cli, sim_of_a_plcopen_event_task_traces_each_variable_once) {
 // examples/plcopen_batch.xml on the measuring tank: recipe 2 (the set-point's
 // initial value) is two fills per batch, so 60 s make two batches of two.
 TEST(Cli, the_plcopen_batch_example_runs_its_recipes_on_the_tank) {
-  Scratch s;
+  Scratch s("rtplc-cli");
   const std::string csv = s.dir() + "/b.csv";
   const ToolRun r = run_tool("sim -q " + kExamples + "/plcopen_batch.xml --plant measuring-tank --duration 60 --csv " + csv);
   ASSERT_EQ(r.status, 0) << r.out;
@@ -224,7 +207,7 @@ TEST(Cli, version_prints_version_commit_and_build_type) {
 // ---- inputs of the wrong kind --------------------------------------------------
 
 TEST(Cli, inputs_of_the_wrong_kind_say_what_the_file_is) {
-  Scratch s;
+  Scratch s("rtplc-cli");
   ToolRun r = run_tool("check " + s.dir());
   EXPECT_EQ(r.status, 2) << r.out;
   EXPECT_TRUE(has(r, "is a folder")) << r.out;
@@ -250,7 +233,7 @@ TEST(Cli, inputs_of_the_wrong_kind_say_what_the_file_is) {
 }
 
 TEST(Cli, compile_into_a_folder_is_refused_and_leaves_no_tmp_file) {
-  Scratch s;
+  Scratch s("rtplc-cli");
   const ToolRun r = run_tool("compile " + kPid + " -o " + s.dir());
   EXPECT_EQ(r.status, 2) << r.out;
   EXPECT_TRUE(has(r, "is a folder")) << r.out;
@@ -280,7 +263,7 @@ TEST(Cli, swap_rollback_refuses_a_file_it_would_ignore) {
 // ---- diagnostics of a binary file ----------------------------------------------
 
 TEST(Cli, check_of_random_bytes_prints_escaped_lines_and_a_count_that_adds_up) {
-  Scratch s;
+  Scratch s("rtplc-cli");
   std::string junk;
   uint32_t x = 12345;
   for (int i = 0; i < 20000; ++i) {

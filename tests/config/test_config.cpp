@@ -286,7 +286,7 @@ TEST(Config, load_config_reports_a_missing_or_odd_file_without_position) {
       << r.render();
   LoadResult d = load_config("/tmp");
   EXPECT_FALSE(d.ok());
-  EXPECT_NE(d.render().find("not a regular file"), std::string::npos);
+  EXPECT_NE(d.render().find("the config is a folder, not a file"), std::string::npos) << d.render();
 }
 
 // The shipped examples load with their programs in place, and say what they claim.

@@ -105,12 +105,18 @@ TEST(OperatingSafely, a_socket_folder_another_user_could_enter_is_refused) {
   fx.write("p.fbd", kProgram);
   const std::string open_dir = fx.dir() + "/open";
   ASSERT_EQ(mkdir(open_dir.c_str(), 0700), 0);
-  ASSERT_EQ(chmod(open_dir.c_str(), 0777), 0);
+  ASSERT_EQ(chmod(open_dir.c_str(), 0750), 0);
   sched::RuntimeOptions opt;
   opt.socket_override = open_dir + "/r.sock";
   std::string errors;
   EXPECT_EQ(fx.load(kTask, &errors, opt), nullptr);
   EXPECT_NE(errors.find("lets other users in"), std::string::npos) << errors;
+  // A shared folder such as /tmp (1777) is refused too, and the advice is a
+  // folder of the runtime's own: never to change a folder others rely on.
+  ASSERT_EQ(chmod(open_dir.c_str(), 01777), 0);
+  EXPECT_EQ(fx.load(kTask, &errors, opt), nullptr);
+  EXPECT_NE(errors.find("is a shared folder (mode 1777)"), std::string::npos) << errors;
+  EXPECT_EQ(errors.find("chmod"), std::string::npos) << errors;
   if (kt::can_drop_privileges()) {
     const std::string theirs = fx.dir() + "/theirs";
     ASSERT_EQ(mkdir(theirs.c_str(), 0700), 0);
