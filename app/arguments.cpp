@@ -2,6 +2,7 @@
 #include "app/arguments.h"
 
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
@@ -10,6 +11,7 @@
 
 #include "app/commands.h"
 #include "blocks/image.h"
+#include "common/files.h"
 #include "config/values.h"
 
 namespace rtplc::app {
@@ -48,6 +50,22 @@ CLI::Validator seconds_at_least(double min_s) {
   return CLI::Validator([min_s](std::string& s) { return check_seconds(s, min_s); }, "SECONDS");
 }
 
+CLI::Validator seconds_between(double min_s, double max_s) {
+  return CLI::Validator(
+      [min_s, max_s](std::string& s) -> std::string {
+        std::string e = check_seconds(s, 0);
+        if (!e.empty()) return e;
+        const double v = std::stod(s);
+        if (v < min_s || v > max_s) {
+          char b[96];
+          std::snprintf(b, sizeof b, "must be %g to %g s, not %s", min_s, max_s, s.c_str());
+          return b;
+        }
+        return "";
+      },
+      "SECONDS");
+}
+
 CLI::Validator runtime_name() {
   return CLI::Validator(
       [](std::string& s) -> std::string {
@@ -61,6 +79,7 @@ InputKind input_kind(const std::string& path) {
   struct stat st{};
   if (stat(path.c_str(), &st) != 0) return InputKind::kMissing;
   if (S_ISDIR(st.st_mode)) return InputKind::kFolder;
+  if (!S_ISREG(st.st_mode)) return InputKind::kSpecial;
   if (ends_with(path, ".yaml") || ends_with(path, ".yml")) return InputKind::kConfig;
   std::ifstream f(path, std::ios::binary);
   char magic[sizeof kImageMagic] = {};
@@ -81,6 +100,9 @@ void require_program(const std::string& path, const char* cmd, bool config_ok) {
       why = config_ok ? "is a folder, not a file; give one .fbd program or .yaml configuration"
                       : "is a folder, not a file; give one .fbd program";
       break;
+    case InputKind::kSpecial:
+      why = "is not a regular file (a FIFO, device or socket); give a program file";
+      break;
     case InputKind::kConfig:
       if (config_ok) return;
       why = "is a runtime configuration (YAML), not an FBD program; `rtplc check` and "
@@ -93,6 +115,37 @@ void require_program(const std::string& path, const char* cmd, bool config_ok) {
       return;
   }
   std::fprintf(stderr, "rtplc %s: %s: %s\n", cmd, path.c_str(), why);
+  throw CLI::RuntimeError(kExitUsage);
+}
+
+void require_output_path(const std::string& path, const char* cmd, const char* option,
+                         const std::vector<std::string>& inputs) {
+  std::string why;
+  struct stat st{};
+  const std::string dir = folder_of(path);
+  struct stat dst{};
+  if (path.empty()) {
+    why = "is empty";
+  } else if (stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode)) {
+    why = "is a folder; give a file name inside it";
+  } else if (stat(dir.c_str(), &dst) != 0) {
+    why = "cannot be written: the folder " + dir + " does not exist";
+  } else if (!S_ISDIR(dst.st_mode)) {
+    why = "cannot be written: " + dir + " is not a folder";
+  } else if (access(dir.c_str(), W_OK) != 0) {
+    why = "cannot be written: the folder " + dir + " is not writable (" + std::strerror(errno) + ")";
+  } else if (stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) {
+    why = "exists and is not a regular file";
+  } else {
+    for (const std::string& in : inputs) {
+      if (same_file(in, path)) {
+        why = "is the input " + in + "; refusing to overwrite a source";
+        break;
+      }
+    }
+  }
+  if (why.empty()) return;
+  std::fprintf(stderr, "rtplc %s: %s %s %s\n", cmd, option, path.c_str(), why.c_str());
   throw CLI::RuntimeError(kExitUsage);
 }
 

@@ -7,6 +7,7 @@
 #include <CLI/CLI.hpp>
 
 #include <string>
+#include <vector>
 
 namespace rtplc::app {
 
@@ -15,14 +16,25 @@ CLI::Validator positive_seconds();
 // Like positive_seconds, and at least `min_s` (refresh periods: no busy loop).
 CLI::Validator seconds_at_least(double min_s);
 // A runtime name: 1 to 31 letters, digits, '_' or '-' (it names files and shared memory).
+// A positive number of seconds within [min_s, max_s], with one message.
+CLI::Validator seconds_between(double min_s, double max_s);
 CLI::Validator runtime_name();
 
-enum class InputKind { kMissing, kFolder, kConfig, kTaskImage, kProgram };
+// kSpecial: a FIFO, a device or a socket; never opened (a FIFO would block,
+// /dev/zero would never end).
+enum class InputKind { kMissing, kFolder, kSpecial, kConfig, kTaskImage, kProgram };
 InputKind input_kind(const std::string& path);
 
 // Refuses (exit 2, with what the file is and what to give instead) any input
 // that is not one of the kinds `cmd` accepts: an FBD program always, a
 // configuration when `config_ok`.
 void require_program(const std::string& path, const char* cmd, bool config_ok = false);
+
+// Refuses (exit 2, naming the path and the reason) an output path a command
+// could not write or must not write, before any work is done: its folder is
+// missing or not writable, it is a folder, or it is one of the command's
+// `inputs` (same file: a compile never truncates its own source).
+void require_output_path(const std::string& path, const char* cmd, const char* option,
+                         const std::vector<std::string>& inputs = {});
 
 }  // namespace rtplc::app

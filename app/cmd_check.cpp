@@ -12,6 +12,7 @@
 #include "app/arguments.h"
 #include "app/commands.h"
 #include "blocks/registry.h"
+#include "common/files.h"
 #include "config/config.h"
 #include "lang/compiler.h"
 #include "lang/iec/iec_functions.h"
@@ -31,6 +32,7 @@ struct CheckArgs {
   bool iec = false;
   bool paths = false;
   std::string entry;
+  std::string name;
 };
 
 // Prints diagnostics; returns true when the program compiled.
@@ -94,7 +96,8 @@ void run_check_config(const CheckArgs& a) {
   sched::RuntimeOptions opt;
   opt.name_override = "check-" + std::to_string(getpid());  // never clashes with a running one
   opt.lock_memory = false;
-  opt.state_name = cfg.config->name;  // what a run of this config would restore (read only)
+  // What `rtplc run CONFIG [--name NAME]` would restore and boot (read only).
+  opt.state_name = a.name.empty() ? cfg.config->name : a.name;
   opt.check_only = true;
   sched::LoadReport report;
   auto rt = sched::Runtime::load(*cfg.config, opt, report);
@@ -132,36 +135,23 @@ void run_check(const CheckArgs& a) {
 
 void run_compile(const CheckArgs& a) {
   require_program(a.file, "compile");
-  if (!a.output.empty() && input_kind(a.output) == InputKind::kFolder) {
-    std::fprintf(stderr, "rtplc compile: -o %s is a folder; give the image file's name, e.g. %s/%s\n",
-                 a.output.c_str(), a.output.c_str(), "prog.img");
-    throw CLI::RuntimeError(kExitUsage);
-  }
-  lang::CompileResult r = lang::compile_file(a.file, options_from(a));
-  if (!report(a.file, r, a.werror)) throw CLI::RuntimeError(kExitFailure);
   std::string out = a.output;
   if (out.empty()) {
     out = a.file;
     if (out.size() > 4 && out.substr(out.size() - 4) == ".fbd") out.resize(out.size() - 4);
     out += ".img";
   }
-  // Write beside, then rename: a crash never leaves a half-written image.
-  std::string tmp = out + ".tmp";
-  {
-    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    auto bytes = r.image->bytes();
-    f.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
-    f.close();
-    if (!f) {
-      std::remove(tmp.c_str());
-      std::fprintf(stderr, "rtplc compile: cannot write %s\n", tmp.c_str());
-      throw CLI::RuntimeError(kExitFailure);
-    }
-  }
-  if (std::rename(tmp.c_str(), out.c_str()) != 0) {
-    const int e = errno;
-    std::remove(tmp.c_str());
-    std::fprintf(stderr, "rtplc compile: cannot write %s: %s\n", out.c_str(), std::strerror(e));
+  // Before compiling: an output that cannot be written, or that is the source
+  // itself (`compile F.fbd -o F.fbd`), is refused and nothing is touched.
+  require_output_path(out, "compile", a.output.empty() ? "output" : "-o", {a.file});
+  lang::CompileResult r = lang::compile_file(a.file, options_from(a));
+  if (!report(a.file, r, a.werror)) throw CLI::RuntimeError(kExitFailure);
+  // Written beside, then renamed: a crash never leaves a half-written image.
+  auto bytes = r.image->bytes();
+  if (Result<void> w = write_file_atomically(
+          out, std::string(reinterpret_cast<const char*>(bytes.data()), bytes.size()), 0644);
+      !w) {
+    std::fprintf(stderr, "rtplc compile: %s\n", w.error().c_str());
     throw CLI::RuntimeError(kExitFailure);
   }
   std::printf("%s -> %s (%zu bytes, %u blocks)\n", a.file.c_str(), out.c_str(),
@@ -240,6 +230,10 @@ void add_check_commands(CLI::App& app) {
   check->add_flag("--paths", args->paths,
                   "configuration only: list the program files it names (\"program PATH\") and the\n"
                   "retain_file and socket it sets, one per line, without loading the runtime");
+  check->add_option("--name", args->name,
+                    "configuration only: preview the warm start of the runtime run under this name\n"
+                    "(`rtplc run CONFIG --name NAME`): its retained values, state and saved programs")
+      ->check(runtime_name());
   check->add_option("--entry", args->entry, "PLCopen XML: the task, program instance or program to check (default: the project's only one)");
   check->add_option("--period", args->period, "override stime: task period in seconds")
       ->check(positive_seconds());

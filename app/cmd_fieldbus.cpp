@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "app/arguments.h"
 #include "app/commands.h"
 #include "fieldbus/plan_file.h"
 #include "fieldbus/plan_report.h"
@@ -118,7 +119,7 @@ void add_fieldbus_command(CLI::App& app) {
   plan->add_flag("--json", a->json, "print the plan as JSON (times in seconds)");
   plan->add_flag("--simulate", a->simulate, "simulate the planned bus and print per-class delays");
   plan->add_option("--duration", a->duration, "simulated seconds of bus time (default 60)")
-      ->check(CLI::Range(1e-3, 1e6));
+      ->check(seconds_between(1e-3, 1e6));
   plan->add_option("--seed", a->seed, "seed of the random arrivals (default 1)");
   plan->add_option("--plot", a->plot,
                    "draw the simulated delay distributions into a PNG (gnuplot)");

@@ -6,6 +6,7 @@
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -13,8 +14,11 @@
 #include <ctime>
 #include <memory>
 #include <thread>
+#include <vector>
 
 #include "app/arguments.h"
+#include "app/log_output.h"
+#include "common/files.h"
 #include "app/commands.h"
 #include "config/config.h"
 #include "kernel_rt/clock.h"
@@ -64,11 +68,20 @@ std::string socket_for(const ClientArgs& a) { return sched::control_socket_of(a.
   throw CLI::RuntimeError(code);
 }
 
+// A client command that could not reach its runtime also says which ones run.
+[[noreturn]] void fail_client(const std::string& what, const std::string& error) {
+  const bool unreachable = error.rfind("cannot reach the runtime at ", 0) == 0;
+  fail(what + ": " + error + (unreachable ? sched::running_runtimes_hint() : std::string()));
+}
+
 void run_runtime(const RunArgs& a) {
+  // Before anything can write to a pipe: the runtime never dies of its log.
+  signal(SIGPIPE, SIG_IGN);
   if (const InputKind k = input_kind(a.config); k != InputKind::kConfig) {
     fail("rtplc run: " + a.config + ": " +
              (k == InputKind::kMissing  ? std::string("no such file")
               : k == InputKind::kFolder ? std::string("is a folder")
+              : k == InputKind::kSpecial ? std::string("is not a regular file (a FIFO, device or socket)")
                                         : std::string("is not a runtime configuration (.yaml)")) +
              "; `rtplc run` takes a runtime configuration, e.g. examples/seed_pid.yaml",
          kExitUsage);
@@ -87,6 +100,9 @@ void run_runtime(const RunArgs& a) {
   const std::string rendered = report.render(isatty(STDERR_FILENO));
   if (!rendered.empty()) std::fputs(rendered.c_str(), stderr);
   if (!rt) fail("rtplc run: nothing started");
+  // The log goes to stdout while stdout works, then to a file in the
+  // runtime's private folder (the socket's): docs/operations.md, "Logs".
+  const auto log = install_runtime_log(folder_of(rt->socket_path()) + "/" + rt->name() + ".log");
 
   // Signals are taken by sigwait below, not by handlers: block them before any
   // thread starts so every thread inherits the mask.
@@ -101,6 +117,7 @@ void run_runtime(const RunArgs& a) {
     spdlog::info("runtime {}: {} tasks, shared memory {}, control socket {}", rt->name(),
                  rt->task_count(), rt->image().object_name(), rt->socket_path());
     for (const std::string& l : rt->describe()) spdlog::info("  {}", l);
+    spdlog::info("  log: here, and in {} if this output goes away", log->fallback_path());
   }
   auto started = rt->start();
   if (!started) fail("rtplc run: " + started.error());
@@ -144,15 +161,30 @@ void run_runtime(const RunArgs& a) {
   }
 }
 
+// The value of `set` and `force`, checked before the runtime is asked: an
+// empty or misspelt number is the operator's typo, said as such.
+void require_number(const char* verb, const ClientArgs& a) {
+  char* end = nullptr;
+  const char* v = a.value.c_str();
+  (void)std::strtod(v, &end);
+  if (a.value.empty() || end == v || *end != '\0') {
+    fail("rtplc " + std::string(verb) + ": '" + a.value + "' is not a number; give the value, e.g. rtplc " + verb +
+             " " + a.label + " 42",
+         kExitUsage);
+  }
+}
+
 void run_set(const ClientArgs& a) {
+  require_number("set", a);
   auto r = sched::control_request(socket_for(a), "set " + a.label + " " + a.value);
-  if (!r) fail("rtplc set: " + r.error());
+  if (!r) fail_client("rtplc set", r.error());
   std::fputs(r->c_str(), stdout);
 }
 
 void run_force(const ClientArgs& a) {
+  require_number("force", a);
   auto r = sched::control_request(socket_for(a), "force " + a.label + " " + a.value);
-  if (!r) fail("rtplc force: " + r.error());
+  if (!r) fail_client("rtplc force", r.error());
   std::fputs(r->c_str(), stdout);
 }
 
@@ -162,7 +194,7 @@ void run_unforce(const ClientArgs& a) {
          kExitUsage);
   }
   auto r = sched::control_request(socket_for(a), a.all ? std::string("unforce_all") : "unforce " + a.label);
-  if (!r) fail("rtplc unforce: " + r.error());
+  if (!r) fail_client("rtplc unforce", r.error());
   std::fputs(r->c_str(), stdout);
 }
 
@@ -176,7 +208,7 @@ void run_swap(const ClientArgs& a) {
            kExitUsage);
     }
     auto r = sched::control_request(socket_for(a), "rollback " + a.task + drop_word(a));
-    if (!r) fail("rtplc swap --rollback: " + r.error());
+    if (!r) fail_client("rtplc swap --rollback", r.error());
     std::fputs(r->c_str(), stdout);
     return;
   }
@@ -184,7 +216,7 @@ void run_swap(const ClientArgs& a) {
   require_program(a.file, "swap");
   std::string err;
   auto text = lang::read_text_file(a.file, &err);
-  if (!text) fail("rtplc swap: " + err);
+  if (!text) fail("rtplc swap: " + err, kExitUsage);
   // Checked here first, so a typo is reported with colours and without bothering the runtime.
   lang::CompileResult local = lang::compile_source(*text);
   if (!local.ok()) {
@@ -198,10 +230,35 @@ void run_swap(const ClientArgs& a) {
   auto r = sched::control_request(socket_for(a),
                                   "swap " + a.task + " " + label + " " + std::to_string(text->size()) + drop_word(a),
                                   *text, 60000);
-  if (!r) fail("rtplc swap: " + r.error());
+  if (!r) fail_client("rtplc swap", r.error());
   std::fputs(r->c_str(), stdout);
   // The runtime's answer says when the file's stime differs from the task's
   // period (the task keeps its grid).
+}
+
+// `rtplc stop` returns once the runtime has let go (its outputs driven safe,
+// its lock released), so an immediate `rtplc run` of the same name starts.
+// The lock beside the socket is held until the runtime's process ends.
+void wait_until_stopped(const std::string& socket, const std::string& answer) {
+  const std::string prefix = "stopping runtime ";
+  if (answer.rfind(prefix, 0) != 0) return;
+  std::string name = answer.substr(prefix.size());
+  while (!name.empty() && (name.back() == '\n' || name.back() == '.')) name.pop_back();
+  const std::string lock = folder_of(socket) + "/" + name + ".lock";
+  constexpr int kPollMs = 50, kPatienceMs = 60000;
+  // Without rights to the lock (another user's runtime, reached through
+  // monitor_group), the socket going silent is the best sign there is.
+  const bool can_lock = access(lock.c_str(), R_OK | W_OK) == 0;
+  for (int waited = 0; waited < kPatienceMs; waited += kPollMs) {
+    const bool gone = can_lock ? FileLock::acquire(lock).ok() : !sched::control_request(socket, "ping").ok();
+    if (gone) {
+      std::printf("runtime %s stopped\n", name.c_str());
+      return;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(kPollMs));
+  }
+  fail("rtplc stop: runtime " + name + " is still stopping after " + std::to_string(kPatienceMs / 1000) +
+       " s (its lock " + lock + " is held)");
 }
 
 void run_simple(const ClientArgs& a, const char* verb) {
@@ -216,9 +273,25 @@ void run_simple(const ClientArgs& a, const char* verb) {
              "; every channel in its image is stale");
       }
     }
-    fail(std::string("rtplc ") + verb + ": " + r.error());
+    fail_client(std::string("rtplc ") + verb, r.error());
   }
   std::fputs(r->c_str(), stdout);
+  if (std::string(verb) == "stop") wait_until_stopped(socket_for(a), *r);
+}
+
+void run_list() {
+  const std::vector<sched::RuntimeSeen> seen = sched::runtimes_on_this_machine();
+  if (seen.empty()) {
+    std::printf("no runtime on this machine (`rtplc run CONFIG` starts one)\n");
+    return;
+  }
+  size_t w = 4;
+  for (const auto& r : seen) w = std::max(w, r.name.size());
+  std::printf("%-*s  %-7s  %s\n", static_cast<int>(w), "NAME", "STATE", "SOCKET");
+  for (const auto& r : seen) {
+    std::printf("%-*s  %-7s  %s\n", static_cast<int>(w), r.name.c_str(), r.alive ? "running" : "dead",
+                r.alive ? r.socket.c_str() : r.why.c_str());
+  }
 }
 
 void add_client_options(CLI::App* c, ClientArgs& a) {
@@ -319,6 +392,11 @@ void add_run_commands(CLI::App& app) {
   CLI::App* stop = app.add_subcommand("stop", "Stop the running runtime (outputs to their safe values).");
   add_client_options(stop, *cl);
   stop->callback([cl] { run_simple(*cl, "stop"); });
+
+  CLI::App* list = app.add_subcommand("list", "List the runtimes on this machine: name, state, control socket.");
+  list->footer("A runtime that died (kill -9, a crash) is listed until its name runs again.\n"
+               "Every client command takes --name NAME to choose one; the default name is rtplc.");
+  list->callback([] { run_list(); });
 }
 
 }  // namespace rtplc::app

@@ -69,6 +69,10 @@ io::SetpointStep parse_step(const std::string& s, double duration) {
 
 void run_sim(const SimArgs& a) {
   require_program(a.file, "sim");
+  // Outputs are checked before the run: a path that cannot be written fails
+  // now, naming it, not after a long simulation.
+  if (!a.csv.empty()) require_output_path(a.csv, "sim", "--csv", {a.file});
+  if (!a.plot.empty()) require_output_path(a.plot, "sim", "--plot", {a.file, a.csv});
   lang::CompileOptions copt;
   if (a.period > 0) copt.period_override = a.period;
   copt.entry = a.entry;
@@ -186,7 +190,7 @@ void add_sim_command(CLI::App& app) {
   sim->add_option("file", a->file, "control algorithm file (.fbd), SFC program (.sfc) or PLCopen XML project (.xml)")->required();
   sim->add_option("--entry", a->entry, "PLCopen XML: the task, program instance or program to simulate (default: the project's only one)");
   sim->add_option("--duration", a->duration, "simulated seconds (default 30)")
-      ->check(positive_seconds() & CLI::Range(1e-3, 1e7));
+      ->check(seconds_between(1e-3, 1e7));
   sim->add_option("--plant", a->plant, "plant model (default second-order = 1/(s^2+s+1))")
       ->each([a](const std::string&) { a->plant_given = true; });
   sim->add_option("--csv", a->csv, "write the trace as CSV");

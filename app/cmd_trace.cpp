@@ -25,6 +25,7 @@
 
 #include "app/arguments.h"
 #include "app/commands.h"
+#include "common/files.h"
 #include "io/process_image.h"
 #include "io/trace_ring.h"
 #include "kernel_rt/clock.h"
@@ -161,27 +162,28 @@ void append_row(Recording& rec, const io::TraceSample& s, int64_t t0, size_t n, 
 
 Result<void> write_recording(const Recording& rec, const std::vector<std::string>& columns,
                              const std::vector<std::string>& summary, const std::string& path) {
-  const bool to_stdout = path.empty() || path == "-";
-  const std::string tmp = path + ".tmp";
-  std::FILE* f = to_stdout ? stdout : std::fopen(tmp.c_str(), "w");
-  if (f == nullptr) return make_error("cannot write " + tmp + ": " + std::strerror(errno));
-  io::write_csv_header(f, columns);
-  size_t note = 0;
-  for (size_t r = 0; r < rec.rows.size(); ++r) {
-    for (; note < rec.notes.size() && rec.notes[note].first == r; ++note) {
-      std::fprintf(f, "# %s\n", rec.notes[note].second.c_str());
+  const auto body = [&](const FileSink& sink) {
+    if (!sink(io::csv_header_line(columns))) return false;
+    size_t note = 0;
+    for (size_t r = 0; r < rec.rows.size(); ++r) {
+      for (; note < rec.notes.size() && rec.notes[note].first == r; ++note) {
+        if (!sink("# " + rec.notes[note].second + "\n")) return false;
+      }
+      if (!sink(io::csv_row_line(rec.rows[r].data(), rec.rows[r].size()))) return false;
     }
-    io::write_csv_row(f, rec.rows[r].data(), rec.rows[r].size());
+    for (const std::string& s : summary) {
+      if (!sink("# " + s + "\n")) return false;
+    }
+    return true;
+  };
+  if (path.empty() || path == "-") {
+    const bool ok = body([](std::string_view piece) {
+      return std::fwrite(piece.data(), 1, piece.size(), stdout) == piece.size();
+    }) && std::fflush(stdout) == 0;
+    return ok ? Result<void>{} : make_error("error writing the CSV to standard output");
   }
-  for (const std::string& s : summary) std::fprintf(f, "# %s\n", s.c_str());
-  const bool ok = std::fflush(f) == 0 && !std::ferror(f);
-  if (to_stdout) return ok ? Result<void>{} : make_error("error writing the CSV to standard output");
-  std::fclose(f);
-  if (!ok) return make_error("error writing " + tmp);
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    return make_error("cannot rename " + tmp + " to " + path + ": " + std::strerror(errno));
-  }
-  return {};
+  // Whole or not at all, and no stray PATH.tmp when it fails.
+  return write_file_atomically(path, 0644, body);
 }
 
 Result<void> plot_recording(const Recording& rec, const Selection& sel, bool cycles, const std::string& png,
@@ -217,6 +219,9 @@ void run_trace(const TraceArgs& a) {
   if (!a.plot.empty() && std::system("command -v gnuplot >/dev/null 2>&1") != 0) {
     fail("--plot needs gnuplot (install the gnuplot-nox package, or scripts/setup-deps)");
   }
+  // Before recording: an output that cannot be written fails now, by name.
+  if (!a.csv.empty() && a.csv != "-") require_output_path(a.csv, "trace", "--csv");
+  if (!a.plot.empty()) require_output_path(a.plot, "trace", "--plot", {a.csv});
 
   auto img = io::ProcessImage::attach(a.name);
   if (!img) fail(img.error());
@@ -393,7 +398,7 @@ void add_trace_command(CLI::App& app) {
       "  rtplc trace F1 --duration 2 --cycles | head");
   tr->add_option("labels", a->labels, "channel labels (inputs, outputs, set-points of one task)")->required();
   tr->add_option("--duration", a->duration, "seconds to record (default 10; from the trigger with --trigger)")
-      ->check(positive_seconds() & CLI::Range(1e-3, 1e6));
+      ->check(seconds_between(1e-3, 1e6));
   tr->add_option("--csv", a->csv, "write the CSV here (default: standard output)");
   tr->add_option("--plot", a->plot, "also draw the trace into this PNG (needs gnuplot)");
   tr->add_option("--trigger", a->trigger,

@@ -253,6 +253,13 @@ std::optional<double> YamlReader::duration(const Field& f) {
                  format_duration(*d));
     return std::nullopt;
   }
+  // A bare number is seconds; "period: 100" is almost always 100 ms meant.
+  const std::string text = f.value.Scalar();
+  if (*d >= 1 && parse_real(text)) {
+    warning(f.pos, "'" + std::string(f.spec->key) + ": " + text + "' has no unit, so it means " +
+                       format_duration(*d) + "; write " + text + "s to say so, or " + text +
+                       "ms if milliseconds were meant", f.width);
+  }
   return d;
 }
 

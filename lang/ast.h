@@ -70,6 +70,7 @@ struct Program {
   std::vector<Call> body;
   std::vector<MacroDef> defs;
   bool has_stime = false;
+  bool stime_written = false;  // an stime(...) was written, valid or not (no "no stime" note then)
   double stime = 0;
   SourcePos stime_pos;
   bool has_end = false;

@@ -72,7 +72,7 @@ class MacroExpander {
                        d.name_length);
       }
     }
-    if (!prog_.has_stime && !prog_.body.empty()) {
+    if (!prog_.has_stime && !prog_.stime_written && !prog_.body.empty()) {
       diags_.note(SourcePos{}, "no stime(...) in the program: the task period defaults to " +
                                    format_number(kDefaultPeriod) + " s");
     }

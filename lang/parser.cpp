@@ -212,6 +212,7 @@ class Parser {
   void stime(Program& prog, bool in_macro) {
     const Token& kw = cur();
     const uint32_t line = kw.pos.line;
+    if (!in_macro) prog.stime_written = true;
     next();
     if (!expect(Tok::kLParen, "after stime")) {
       recover(line);

@@ -339,11 +339,17 @@ std::string ControlServer::execute(const std::vector<std::string>& w, const std:
     }
   } else if (verb == "swap" && (w.size() == 4 || (w.size() == 5 && w[4].rfind("drop=", 0) == 0))) {
     res = rt_.swap(w[1], source, w[2], w.size() == 5 ? drop_list(w[4]) : std::vector<std::string>{});
-    if (res) log_(false, "swap: " + res->substr(0, res->find('\n', res->find('\n') + 1)));
-    else log_(true, "swap of " + w[1] + " refused: " + res.error().substr(0, res.error().find('\n')));
+    // One log line per swap: its first two answer lines (compiled, installed).
+    if (res) {
+      std::string said = res->substr(0, res->find('\n', res->find('\n') + 1));
+      for (char& ch : said) if (ch == '\n') ch = ';';
+      log_(false, "swap of " + w[1] + who + ": " + said);
+    } else {
+      log_(true, "swap of " + w[1] + who + " refused: " + res.error().substr(0, res.error().find('\n')));
+    }
   } else if (verb == "rollback" && (w.size() == 2 || (w.size() == 3 && w[2].rfind("drop=", 0) == 0))) {
     res = rt_.rollback(w[1], w.size() == 3 ? drop_list(w[2]) : std::vector<std::string>{});
-    if (res) log_(false, "rollback: " + res->substr(0, res->find('\n')));
+    if (res) log_(false, "rollback of " + w[1] + who + ": " + res->substr(0, res->find('\n')));
   } else if (verb == "trace" && w.size() >= 2) {
     res = rt_.trace_start(std::vector<std::string>(w.begin() + 1, w.end()));
     if (res) {
@@ -357,6 +363,7 @@ std::string ControlServer::execute(const std::vector<std::string>& w, const std:
     res = rt_.trace_end(w[1]);
     if (res) log_(false, "trace " + w[1] + " ended by its reader");
   } else if (verb == "stop" && w.size() == 1) {
+    log_(false, "stop requested" + who);
     stop_requested_.store(true, std::memory_order_release);
     res = std::string("stopping runtime ") + rt_.name();
   } else if (verb == "set" || verb == "swap" || verb == "rollback" || verb == "force" || verb == "unforce" ||

@@ -16,7 +16,9 @@
 #include "common/files.h"
 #include "common/text.h"
 #include "kernel_rt/clock.h"
+#include "config/values.h"
 #include "kernel_rt/rt_kernel.h"
+#include "kernel_rt/rt_thread.h"
 #include "lang/compiler.h"
 #include "sched/stats_source.h"
 
@@ -68,6 +70,13 @@ Task* Runtime::find_task(const std::string& name) {
   return nullptr;
 }
 
+std::string Runtime::no_task_text(const std::string& name) const {
+  std::string list;
+  for (const auto& t : tasks_) list += (list.empty() ? "" : ", ") + t->params().name;
+  return "no task named " + name + (list.empty() ? std::string("; this runtime has no tasks")
+                                                  : "; the tasks are " + list);
+}
+
 // ---------------------------------------------------------------------------
 // Loading
 
@@ -79,11 +88,12 @@ std::unique_ptr<Runtime> Runtime::load(const config::RuntimeConfig& cfg, const R
   rt->socket_path_ = !opt.socket_override.empty() ? opt.socket_override
                      : !cfg.socket_path.empty()   ? cfg.socket_path
                                                   : default_socket_path(rt->name_);
+  // Whose state this is: the runtime's own, or (check) the runtime it previews.
+  rt->state_name_ = opt.state_name.empty() ? rt->name_ : opt.state_name;
   rt->retain_ = RetainStore(!opt.retain_override.empty() ? opt.retain_override
                             : !cfg.retain_path.empty()   ? cfg.retain_path
-                                                         : default_retain_path(rt->name_));
-  rt->programs_ = ProgramStore(folder_of(rt->retain_.path()) + "/" + rt->name_ + ".programs");
-  rt->state_name_ = opt.state_name.empty() ? rt->name_ : opt.state_name;
+                                                         : default_retain_path(rt->state_name_));
+  rt->programs_ = ProgramStore(folder_of(rt->retain_.path()) + "/" + rt->state_name_ + ".programs");
   rt->state_path_ = folder_of(rt->retain_.path()) + "/" + rt->state_name_ + ".state";
   rt->retain_every_ns_ = std::llround(cfg.retain_every_s * 1e9);
   rt->lock_memory_ = cfg.lock_memory && opt.lock_memory;
@@ -137,6 +147,19 @@ bool Runtime::build(const config::RuntimeConfig& cfg, LoadReport& report) {
   DiagnosticList& cdiag = report.files[0].diags;
   const size_t n_tasks = cfg.tasks.size();
 
+  // 0. What only this machine can say, said by `check` as by `run`: a CPU to pin
+  // to must be one this process may run on.
+  bool machine_ok = true;
+  auto check_cpu = [&](const std::optional<unsigned>& cpu, SourcePos pos, const std::string& who) {
+    if (!cpu || kernel_rt::cpu_allowed(*cpu)) return;
+    cdiag.error(pos, who + ": CPU " + std::to_string(*cpu) + " is not available on this machine (this process may use " +
+                         std::to_string(kernel_rt::allowed_cpu_count()) + " CPUs)");
+    machine_ok = false;
+  };
+  for (const config::TaskConfig& tc : cfg.tasks) check_cpu(tc.cpu, tc.cpu_pos, "task " + tc.name);
+  for (const config::DriverConfig& dc : cfg.drivers) check_cpu(dc.cpu, dc.cpu_pos, "driver " + dc.name);
+  if (!machine_ok) return false;
+
   // 1. Compile every program; a program's problems are reported against its text.
   std::vector<TaskImage> images;
   std::vector<std::string> sources;
@@ -187,6 +210,14 @@ bool Runtime::build(const config::RuntimeConfig& cfg, LoadReport& report) {
       images.emplace_back();
       sources.emplace_back();
       continue;
+    }
+    // The config's period replaces the program's stime; say so when they differ
+    // (`period: 100` on a 0.1 s program runs it a thousand times slower).
+    if (tc.period_s && r.program.period_from_stime &&
+        std::abs(r.program.period - *tc.period_s) > 1e-9 * *tc.period_s) {
+      cdiag.warning(tc.period_pos, "task " + tc.name + ": period " + config::format_duration(*tc.period_s) +
+                                       " replaces the stime " + config::format_duration(r.program.period) +
+                                       " of " + tc.program + " (leave 'period' out to run at the program's stime)");
     }
     images.push_back(std::move(*r.image));
     sources.push_back(report.files.back().text);

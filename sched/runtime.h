@@ -41,7 +41,8 @@ struct RuntimeOptions {
   std::string socket_override;
   std::string retain_override;
   bool cold = false;  // `rtplc run --cold`: no block starts from its retained state
-  // Whose state file (NAME.state) to read: empty, this runtime's own name.
+  // Whose state (NAME.state, the default NAME.retain, NAME.programs) to read:
+  // empty, this runtime's own name.
   // `rtplc check` runs under a name of its own but reports the real one's.
   std::string state_name;
   // `rtplc check`: load and plan everything, then go; takes no lock and keeps
@@ -144,6 +145,8 @@ class Runtime {
   io::ProcessImage& image() { return image_; }
   size_t task_count() const { return tasks_.size(); }
   Task& task(size_t i) { return *tasks_[i]; }
+  // "no task named X; the tasks are a, b" for an operator's typo.
+  std::string no_task_text(const std::string& name) const;
   Task* find_task(const std::string& name);
   // Summary lines printed when the runtime starts (with what the warm start restored).
   std::vector<std::string> describe() const;

@@ -237,7 +237,7 @@ Result<std::string> Runtime::swap(const std::string& task, const std::string& so
                                   const std::vector<std::string>& drop_outputs) {
   const int64_t t0 = kernel_rt::monotonic_now_ns();
   Task* t = find_task(task);
-  if (t == nullptr) return make_error("no task named " + task);
+  if (t == nullptr) return make_error(no_task_text(task));
   lang::CompileOptions o;
   o.name = task;
   o.period_override = static_cast<double>(t->params().period_ns) / 1e9;  // the task keeps its grid
@@ -274,7 +274,7 @@ Result<std::string> Runtime::swap(const std::string& task, const std::string& so
 
 Result<std::string> Runtime::rollback(const std::string& task, const std::vector<std::string>& drop_outputs) {
   Task* t = find_task(task);
-  if (t == nullptr) return make_error("no task named " + task);
+  if (t == nullptr) return make_error(no_task_text(task));
   // The version before the current one, from the store (it survives restarts
   // and keeps several); a runtime whose store could not be written keeps the
   // one it replaced in memory.

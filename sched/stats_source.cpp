@@ -1,6 +1,10 @@
 // Task statistics views from a process image (see stats_source.h).
 #include "sched/stats_source.h"
 
+#include <algorithm>
+
+#include <dirent.h>
+
 #include <sys/utsname.h>
 #include <time.h>
 
@@ -62,6 +66,39 @@ std::string not_running_text(const std::string& name, const io::Liveness& l) {
     when = buf;
   }
   return "runtime " + name + " is not running (died at " + when + ": " + l.why + ")";
+}
+
+std::vector<RuntimeSeen> runtimes_on_this_machine() {
+  std::vector<RuntimeSeen> out;
+  DIR* d = opendir("/dev/shm");
+  if (d == nullptr) return out;
+  const std::string prefix = "rtplc-";
+  while (const dirent* e = readdir(d)) {
+    const std::string f = e->d_name;
+    if (f.rfind(prefix, 0) != 0 || f.size() == prefix.size()) continue;
+    RuntimeSeen r;
+    r.name = f.substr(prefix.size());
+    auto img = io::ProcessImage::attach(r.name);
+    if (!img) continue;  // not ours to read, or not an image
+    const io::Liveness live = img->liveness();
+    r.alive = live.alive;
+    if (!live.alive) r.why = not_running_text(r.name, live);
+    const io::ImageHeader& h = img->header();
+    r.socket = std::string(h.socket_path, strnlen(h.socket_path, sizeof h.socket_path));
+    out.push_back(std::move(r));
+  }
+  closedir(d);
+  std::sort(out.begin(), out.end(), [](const RuntimeSeen& a, const RuntimeSeen& b) { return a.name < b.name; });
+  return out;
+}
+
+std::string running_runtimes_hint() {
+  std::string names;
+  for (const RuntimeSeen& r : runtimes_on_this_machine()) {
+    if (r.alive) names += (names.empty() ? "" : ", ") + r.name;
+  }
+  return names.empty() ? std::string("; no runtime is running here (`rtplc run CONFIG` starts one)")
+                       : "; running here: " + names + " (choose one with --name; `rtplc list` shows them)";
 }
 
 LinkSnapshot link_snapshot(const io::LinkStatus& ls) {

@@ -23,6 +23,18 @@ RuntimeSummary summary_of(const io::ProcessImage& image, const std::vector<TaskS
 // gone)": what every tool says of an image whose runtime is dead.
 std::string not_running_text(const std::string& name, const io::Liveness& l);
 
+// The runtimes this user can see on this machine: every process image
+// (/dev/shm/rtplc-NAME) that attaches, alive or left behind by a dead one.
+struct RuntimeSeen {
+  std::string name;
+  bool alive = false;
+  std::string socket;  // its control socket, as its image says
+  std::string why;     // when dead: since when and why
+};
+std::vector<RuntimeSeen> runtimes_on_this_machine();
+// "; running here: a, b (give --name)" or "; no runtime is running here".
+std::string running_runtimes_hint();
+
 // One link's status as plain values, whatever the driver's kind.
 struct LinkSnapshot {
   std::string name, driver, kind, peer, state, quality;

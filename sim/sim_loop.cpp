@@ -1,16 +1,20 @@
 // Closed-loop simulation in virtual time (see sim_loop.h).
 #include "sim/sim_loop.h"
 
+#include <sys/stat.h>
 #include <time.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 
 #include "blocks/executor.h"
+#include "common/files.h"
 #include "kernel_rt/clock.h"
 
 namespace rtplc::io {
@@ -318,41 +322,42 @@ std::string format_metrics(const SimTrace& tr, const StepMetrics& m) {
   return out;
 }
 
-void write_csv_header(std::FILE* f, const std::vector<std::string>& columns) {
-  for (size_t i = 0; i < columns.size(); ++i) std::fprintf(f, "%s%s", i ? "," : "", columns[i].c_str());
-  std::fputc('\n', f);
+std::string csv_header_line(const std::vector<std::string>& columns) {
+  std::string line;
+  for (size_t i = 0; i < columns.size(); ++i) line += (i ? "," : "") + columns[i];
+  return line + '\n';
 }
 
-void write_csv_row(std::FILE* f, const double* row, size_t n) {
+std::string csv_row_line(const double* row, size_t n) {
+  std::string line;
+  char cell[40];
   for (size_t i = 0; i < n; ++i) {
     // t to the microsecond over a day-long run, without trailing zeros;
     // values with full precision.
-    if (i == 0) std::fprintf(f, "%.11g", row[i]);
-    else std::fprintf(f, ",%.10g", row[i]);
+    std::snprintf(cell, sizeof cell, i == 0 ? "%.11g" : ",%.10g", row[i]);
+    line += cell;
   }
-  std::fputc('\n', f);
+  return line + '\n';
 }
 
 Result<void> write_csv(const SimTrace& tr, const std::string& path) {
-  std::string tmp = path + ".tmp";
-  FILE* f = std::fopen(tmp.c_str(), "w");
-  if (!f) return make_error("cannot write " + tmp + ": " + std::strerror(errno));
-  write_csv_header(f, tr.columns);
-  for (const auto& row : tr.rows) write_csv_row(f, row.data(), row.size());
-  const bool ok = std::fflush(f) == 0 && !std::ferror(f);
-  std::fclose(f);
-  if (!ok) return make_error("error writing " + tmp);
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    return make_error("cannot rename " + tmp + " to " + path + ": " + std::strerror(errno));
-  }
-  return {};
+  // Whole or not at all: a failed write (a folder at PATH, a full disk) leaves
+  // neither a half file nor a stray PATH.tmp behind.
+  return write_file_atomically(path, 0644, [&](const FileSink& sink) {
+    if (!sink(csv_header_line(tr.columns))) return false;
+    for (const auto& row : tr.rows) {
+      if (!sink(csv_row_line(row.data(), row.size()))) return false;
+    }
+    return true;
+  });
 }
 
 Result<void> write_plot(const SimTrace& tr, const std::string& csv_path, const std::string& png_path,
                         const std::string& title) {
   std::string script;
   script += "set terminal pngcairo size 1100,760 enhanced font 'Sans,10'\n";
-  script += "set output " + gp_quote(png_path) + "\n";
+  const std::string tmp_png = png_path + ".tmp";
+  script += "set output " + gp_quote(tmp_png) + "\n";
   script += "set datafile separator ','\n";
   script += "set grid\nset key outside right top\n";
   script += "set multiplot layout 2,1 title " + gp_quote(title) + " noenhanced\n";
@@ -402,13 +407,41 @@ Result<void> write_plot(const SimTrace& tr, const std::string& csv_path, const s
     script += "plot " + (bottom.empty() ? std::string("0 notitle") : bottom) + "\n";
     script += "unset multiplot\n";
   }
-  FILE* gp = popen("gnuplot 2>&1", "w");
-  if (!gp) return make_error("cannot start gnuplot (install the gnuplot-nox package)");
+  // gnuplot writes into a temporary file beside the PNG (so a failed run
+  // leaves no half picture), its own output goes to /dev/null (a PNG it could
+  // not open would otherwise land on the terminal), its errors into a file we
+  // read back for the message.
+  if (std::system("command -v gnuplot >/dev/null 2>&1") != 0) {
+    return make_error("cannot draw " + png_path + ": gnuplot is not installed (Debian: apt-get install gnuplot-nox)");
+  }
+  char err_name[] = "/tmp/rtplc-gnuplot-XXXXXX";
+  const int err_fd = mkstemp(err_name);
+  if (err_fd < 0) return make_error(std::string("cannot create a temporary file: ") + std::strerror(errno));
+  close(err_fd);
+  FILE* gp = popen(("gnuplot >/dev/null 2>" + std::string(err_name)).c_str(), "w");
+  if (!gp) {
+    unlink(err_name);
+    return make_error("cannot start gnuplot: " + std::string(std::strerror(errno)));
+  }
   std::fputs(script.c_str(), gp);
   const int rc = pclose(gp);
-  if (rc != 0) {
-    return make_error("gnuplot failed (exit " + std::to_string(rc) +
-                      "); is gnuplot installed? scripts/setup-deps installs it");
+  std::string said;
+  if (Result<std::string> e = read_file_bounded(err_name, 64 * 1024); e) said = *e;
+  unlink(err_name);
+  struct stat st{};
+  const bool drawn = rc == 0 && stat(tmp_png.c_str(), &st) == 0 && st.st_size > 0;
+  if (!drawn) {
+    unlink(tmp_png.c_str());
+    // gnuplot's own words, the last non-empty line (it names the file and why).
+    while (!said.empty() && (said.back() == '\n' || said.back() == ' ')) said.pop_back();
+    const size_t nl = said.find_last_of('\n');
+    const std::string last = nl == std::string::npos ? said : said.substr(nl + 1);
+    return make_error("cannot draw " + png_path + (last.empty() ? std::string(": gnuplot failed") : ": gnuplot: " + last));
+  }
+  if (std::rename(tmp_png.c_str(), png_path.c_str()) != 0) {
+    const int e = errno;
+    unlink(tmp_png.c_str());
+    return make_error("cannot write " + png_path + ": " + std::strerror(e));
   }
   return {};
 }

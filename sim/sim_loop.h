@@ -89,8 +89,9 @@ Result<void> write_csv(const SimTrace& trace, const std::string& path);
 // The CSV layout `rtplc sim` and `rtplc trace` share: a header naming the
 // columns (t first), then one row per task cycle. Lines starting with '#' (a
 // trace's notes) are comments to gnuplot and to CSV readers told so.
-void write_csv_header(std::FILE* f, const std::vector<std::string>& columns);
-void write_csv_row(std::FILE* f, const double* row, size_t n);
+// Each returns one line with its '\n'.
+std::string csv_header_line(const std::vector<std::string>& columns);
+std::string csv_row_line(const double* row, size_t n);
 
 // Draws the signals with gnuplot into a PNG: measurement and set-points on top,
 // outputs below. `csv_path` must hold the trace (write_csv first).

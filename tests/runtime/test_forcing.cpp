@@ -247,7 +247,7 @@ TEST_F(Forcing, the_cli_exits_zero_on_success_and_non_zero_on_every_refusal) {
   r = test::run_tool("force Lamp 0.5" + at);
   EXPECT_EQ(r.status, 1) << r.out;
   r = test::run_tool("force ProcVal abc" + at);
-  EXPECT_EQ(r.status, 1) << r.out;
+  EXPECT_EQ(r.status, 2) << r.out;  // a typo on the command line, refused before the runtime is asked
   r = test::run_tool("force ProcVal" + at);
   EXPECT_EQ(r.status, 2) << r.out;  // a usage error: the value is missing
   r = test::run_tool("unforce" + at);

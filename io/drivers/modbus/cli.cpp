@@ -67,6 +67,11 @@ std::vector<std::string> items_of(const Target& t, bool need_items) {
   std::vector<std::string> items = t.args;
   if (t.rtu.empty()) {
     if (items.empty()) fail(kExitUsage, "give the slave's HOST (or --rtu DEVICE)");
+    // `read --port 1502 hr:0`: the host was forgotten, not the items.
+    if (items.front().find(':') != std::string::npos && parse_address(items.front().substr(0, items.front().find('=')))) {
+      fail(kExitUsage, "'" + items.front() + "' is an item, not a host: give the slave's HOST first (e.g. " +
+                           "127.0.0.1 " + items.front() + "), or --rtu DEVICE");
+    }
     items.erase(items.begin());
   }
   if (need_items && items.empty()) fail(kExitUsage, std::string("give at least one item\n") + kAddressHelp);
@@ -146,6 +151,7 @@ void run_scan(const Target& t, int from, int to, const std::string& probe_text) 
   auto probe = parse_address(probe_text);
   if (!probe) fail(kExitUsage, probe.error());
   if (!items_of(t, false).empty()) fail(kExitUsage, "scan takes no items (see --probe)");
+  if (from > to) fail(kExitUsage, fmt::format("--from {} is above --to {}: nothing would be scanned", from, to));
   Client c = connect_or_fail(t);
   int found = 0;
   for (int unit = from; unit <= to; ++unit) {
@@ -178,7 +184,8 @@ void run_fake_slave(FakeSlaveOptions opt, const std::vector<std::string>& sets) 
     char* end = nullptr;
     const std::string v = s.find('=') == std::string::npos ? "" : s.substr(s.find('=') + 1);
     const double value = std::strtod(v.c_str(), &end);
-    if (v.empty() || *end != '\0') fail(kExitUsage, fmt::format("--set '{}': expected ADDRESS=VALUE", s));
+    if (s.find('=') == std::string::npos) fail(kExitUsage, fmt::format("--set '{}': expected ADDRESS=VALUE, e.g. hr:4:f32=21.5", s));
+    if (v.empty() || *end != '\0') fail(kExitUsage, fmt::format("--set '{}': '{}' is not a number", s, v));
     if (auto r = check_value(*a, value); !r) fail(kExitUsage, fmt::format("--set '{}': {}", s, r.error()));
     slave.put(*a, value);
   }

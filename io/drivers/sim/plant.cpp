@@ -63,7 +63,12 @@ class TransferFunction final : public Plant {
     return y;
   }
 
-  std::string describe() const override { return poly(num_) + "/(" + poly(den_) + ")"; }
+  std::string describe() const override {
+    // (2 s + 1)/(s^2 + 3 s + 1): a numerator of several terms needs its own parentheses.
+    const std::string n = poly(num_);
+    const bool terms = n.find(" + ") != std::string::npos || n.find(" - ") != std::string::npos;
+    return (terms ? "(" + n + ")" : n) + "/(" + poly(den_) + ")";
+  }
 
  private:
   void deriv(const std::vector<double>& x, double u, std::vector<double>& dx) const {
