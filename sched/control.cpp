@@ -293,6 +293,19 @@ static std::vector<std::string> drop_list(const std::string& word) {
   return out;
 }
 
+// Answer lines joined for one log line: "a; b", no trailing separator.
+static std::string one_line(const std::string& text) {
+  std::string out;
+  size_t from = 0;
+  while (from < text.size()) {
+    size_t nl = text.find('\n', from);
+    if (nl == std::string::npos) nl = text.size();
+    if (nl > from) out += (out.empty() ? "" : "; ") + text.substr(from, nl - from);
+    from = nl + 1;
+  }
+  return out;
+}
+
 // A number as the operator typed it; "nan" and "inf" parse, so the verb can
 // refuse them with its own reason (and the range of a set-point).
 static bool parse_number(const std::string& word, double& v) {
@@ -333,16 +346,13 @@ std::string ControlServer::execute(const std::vector<std::string>& w, const std:
   } else if (verb == "unforce_all" && w.size() == 1) {
     res = rt_.unforce_all();
     if (res) {
-      std::string lines = *res;
-      for (char& ch : lines) if (ch == '\n') ch = ';';
-      log_(true, "UNFORCE --all" + who + ": " + lines);
+      log_(true, "UNFORCE --all" + who + ": " + one_line(*res));
     }
   } else if (verb == "swap" && (w.size() == 4 || (w.size() == 5 && w[4].rfind("drop=", 0) == 0))) {
     res = rt_.swap(w[1], source, w[2], w.size() == 5 ? drop_list(w[4]) : std::vector<std::string>{});
     // One log line per swap: its first two answer lines (compiled, installed).
     if (res) {
-      std::string said = res->substr(0, res->find('\n', res->find('\n') + 1));
-      for (char& ch : said) if (ch == '\n') ch = ';';
+      std::string said = one_line(res->substr(0, res->find('\n', res->find('\n') + 1)));
       log_(false, "swap of " + w[1] + who + ": " + said);
     } else {
       log_(true, "swap of " + w[1] + who + " refused: " + res.error().substr(0, res.error().find('\n')));

@@ -34,9 +34,19 @@ std::string read_file(const std::string& path) {
 
 }  // namespace
 
+// systemd's $RUNTIME_DIRECTORY / $STATE_DIRECTORY (RuntimeDirectory=,
+// StateDirectory= of a unit; several are separated by ':'): the first one.
+static std::string systemd_directory(const char* var) {
+  const char* v = std::getenv(var);
+  if (v == nullptr || *v == '\0') return "";
+  const std::string all = v;
+  return all.substr(0, all.find(':'));
+}
+
 std::string default_socket_path(const std::string& name) {
-  // A folder of our own, checked before use (ensure_private_folder): root's is
-  // /run/rtplc, a user's lives in their runtime folder or in /tmp.
+  // A folder of our own, checked before use (ensure_private_folder): the one
+  // systemd made for the unit, root's /run/rtplc, a user's runtime folder or /tmp.
+  if (const std::string d = systemd_directory("RUNTIME_DIRECTORY"); !d.empty()) return d + "/" + name + ".sock";
   if (geteuid() == 0) return "/run/rtplc/" + name + ".sock";
   if (const char* x = std::getenv("XDG_RUNTIME_DIR"); x && *x) {
     return std::string(x) + "/rtplc/" + name + ".sock";
@@ -45,6 +55,7 @@ std::string default_socket_path(const std::string& name) {
 }
 
 std::string default_retain_path(const std::string& name) {
+  if (const std::string d = systemd_directory("STATE_DIRECTORY"); !d.empty()) return d + "/" + name + ".retain";
   if (geteuid() == 0) return "/var/lib/rtplc/" + name + ".retain";
   if (const char* x = std::getenv("XDG_STATE_HOME"); x && *x) {
     return std::string(x) + "/rtplc/" + name + ".retain";
