@@ -142,15 +142,20 @@ void run_monitor(const ViewArgs& a) {
       char age[32] = "-";
       if (v.timestamp_ns != 0) std::snprintf(age, sizeof age, "%.3fs", io::age_s(v.timestamp_ns));
       const bool unwired = r.kind == static_cast<uint8_t>(io::RegionKind::kUnwired);
+      // An output no driver sends reaches nothing: computed, but not good to
+      // anyone looking at the plant (a driver that sends it reports delivery).
+      const bool unsent = d.dir == static_cast<uint8_t>(io::ChannelDir::kOutput) && d.has_delivery == 0;
       // A forced value says so in capitals; a forced output its driver cannot
       // deliver shows the delivery's quality, and FORCED beside the writer.
       const char* quality = !live.alive ? "stale"
                             : unwired   ? "bad"
                             : !v.fresh  ? "-"
                             : v.forced && v.quality == Quality::kForced ? "FORCED"
-                                                                        : quality_name(v.quality);
+                            : unsent                                     ? "unsent"
+                                                                         : quality_name(v.quality);
       const std::string writer = std::string(unwired ? "(no driver)" : r.name) +
-                                 (v.forced && v.quality != Quality::kForced ? " (FORCED)" : "");
+                                 (v.forced && v.quality != Quality::kForced ? " (FORCED)" : "") +
+                                 (unsent ? " (no driver sends it)" : "");
       std::snprintf(line, sizeof line, "  %-20s %-9s %-24s %14s  %-7s %8s  %s\n", d.label, dir, d.key,
                     fmt_value(v.value, d.kind).c_str(), quality, age, writer.c_str());
       out += line;

@@ -147,17 +147,39 @@ TEST(FirstHour, check_of_a_fifo_says_so_instead_of_waiting_for_a_writer) {
 
 // ---- 4. the tank example -------------------------------------------------------
 
-TEST(FirstHour, the_tank_example_runs_as_the_readme_says) {
+TEST(FirstHour, the_tank_example_runs_as_the_readme_says_and_shows_unsent_outputs_as_such) {
   // Under another name, so a user's own `tank` runtime is not disturbed; its
-  // state goes to the default folders, removed afterwards.
+  // state goes to folders of this test's own.
+  Scratch s("rtplc-first");
   const std::string name = "fhtank" + std::to_string(getpid());
-  const ToolRun r = run_tool("run " + kExamples + "/tank.yaml --name " + name + " --no-lock -q --duration 1");
-  EXPECT_EQ(r.status, 0) << r.out;
-  EXPECT_FALSE(has(r, "refusing")) << r.out;
-  EXPECT_FALSE(has(r, "chmod")) << r.out;
-  const ToolRun check = run_tool("check " + kExamples + "/tank.yaml");
+  const std::string env = "RUNTIME_DIRECTORY=" + s.dir() + " STATE_DIRECTORY=" + s.dir() + " ";
+  const ToolRun check = run_shell(env + rtplc_binary() + " check " + kExamples + "/tank.yaml");
   EXPECT_EQ(check.status, 0) << check.out;
-  std::system(("rm -rf /var/lib/rtplc/" + name + ".* \"$HOME/.local/state/rtplc/" + name + "\".*").c_str());
+  const ToolRun r = run_shell(env + rtplc_binary() + " run " + kExamples + "/tank.yaml --name " + name +
+                              " --no-lock --duration 30 > " + s.path("run.log") + " 2>&1 & " +
+                              "for i in $(seq 1 300); do " + rtplc_binary() + " status --name " + name +
+                              " >/dev/null 2>&1 && break; sleep 0.1; done; " +
+                              // until both tasks and the plant have published a cycle
+                              "for i in $(seq 1 300); do " + rtplc_binary() + " monitor --once --name " + name +
+                              " | grep -q 'LV_201 .* good ' && break; sleep 0.1; done; " + rtplc_binary() +
+                              " monitor --once --name " + name + "; " + rtplc_binary() + " stop --name " + name);
+  const std::string log = slurp(s.path("run.log"));
+  EXPECT_FALSE(has(ToolRun{0, log}, "refusing")) << log;
+  EXPECT_FALSE(has(ToolRun{0, log}, "chmod")) << log;
+  EXPECT_TRUE(has(r, "runtime " + name + " stopped")) << r.out << log;
+  // valve1, valve2 and lamp1: no driver claims p0.d1.*, so nothing sends them.
+  for (const char* out : {"valve1", "valve2", "lamp1"}) {
+    const size_t at = r.out.find(std::string("  ") + out + " ");
+    ASSERT_NE(at, std::string::npos) << r.out;
+    const std::string row = r.out.substr(at, r.out.find('\n', at) - at);
+    EXPECT_NE(row.find("unsent"), std::string::npos) << row;
+    EXPECT_NE(row.find("(no driver sends it)"), std::string::npos) << row;
+    EXPECT_EQ(row.find(" good "), std::string::npos) << row;
+  }
+  // LV_201 goes to the sim plant: sent, and good.
+  const size_t lv = r.out.find("  LV_201 ");
+  ASSERT_NE(lv, std::string::npos) << r.out;
+  EXPECT_NE(r.out.substr(lv, r.out.find('\n', lv) - lv).find(" good "), std::string::npos) << r.out;
 }
 
 // ---- 5. output paths -------------------------------------------------------------
