@@ -123,7 +123,7 @@ void run_sim(const SimArgs& a) {
     throw CLI::RuntimeError(kExitFailure);
   }
 
-  io::StepMetrics m = io::step_metrics(*trace);
+  const std::vector<io::StepMetrics> m = io::step_metrics(*trace);
   if (!a.quiet) {
     std::printf("%zu cycles", trace->rows.size());
     if (trace->block_errors) std::printf(", %llu block errors (outputs held)", static_cast<unsigned long long>(trace->block_errors));

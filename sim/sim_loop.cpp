@@ -141,6 +141,19 @@ Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const Sim
     if (b.dir == BindingDir::kSetpoint) arena.io_in[b.io_index] = b.init;
   }
   if (analog_setpoints != 1) tr.sp_column = -1;
+  // Several set-points (a PID's, a manual value, a mode): the one every
+  // --step changes is the loop's.
+  if (tr.sp_column < 0 && !opt.steps.empty()) {
+    const std::string& label = opt.steps.front().label;
+    bool one_label = true;
+    for (const SetpointStep& st : opt.steps) one_label = one_label && st.label == label;
+    for (size_t c = 1; c < cols.size() + 1 && one_label; ++c) {
+      const Binding& b = *cols[c - 1];
+      if (b.dir == BindingDir::kSetpoint && b.kind == Kind::kAnalog && tr.columns[c] == label) {
+        tr.sp_column = static_cast<int>(c);
+      }
+    }
+  }
   std::vector<uint32_t> probe_slots;
   for (const std::string& name : opt.probes) {
     // A located variable is already traced as its channel, under the same label.
@@ -243,82 +256,115 @@ Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const Sim
   return tr;
 }
 
-StepMetrics step_metrics(const SimTrace& tr) {
-  StepMetrics m;
-  if (tr.pv_column < 0 || tr.rows.empty()) return m;
+namespace {
+
+// The figures of one step over rows [from, to).
+StepMetrics one_step(const SimTrace& tr, size_t from, size_t to, double setpoint_from) {
   const auto pv = static_cast<size_t>(tr.pv_column);
-  // Analyse from the last set-point change.
-  size_t from = 0;
-  if (tr.sp_column >= 0) {
-    const auto sp = static_cast<size_t>(tr.sp_column);
-    m.has_setpoint = true;
-    for (size_t i = 1; i < tr.rows.size(); ++i) {
-      if (tr.rows[i][sp] != tr.rows[i - 1][sp]) from = i;
-    }
-    m.setpoint = tr.rows.back()[sp];
-  }
+  const auto sp = static_cast<size_t>(tr.sp_column);
+  StepMetrics m;
+  m.at = tr.rows[from][0];
+  m.setpoint_from = setpoint_from;
+  m.setpoint = tr.rows[from][sp];
   m.initial = tr.rows[from][pv];
-  m.final_value = tr.rows.back()[pv];
-  const double target = m.has_setpoint ? m.setpoint : m.final_value;
-  const double span = target - m.initial;
-  const double t0 = tr.rows[from][0];
-  if (std::fabs(span) < 1e-12) return m;
-  m.final_error_pct = std::fabs(m.final_value - target) / std::fabs(span) * 100.0;
+  m.final_value = tr.rows[to - 1][pv];
+  m.last = to == tr.rows.size();
+  const double span = m.setpoint - m.initial;
+  m.final_error_pct = std::fabs(m.final_value - m.setpoint) / std::fabs(span) * 100.0;
   m.peak = m.initial;
   double t10 = -1, t90 = -1;
   size_t last_outside = from;
   bool ever_outside = false;
-  for (size_t i = from; i < tr.rows.size(); ++i) {
+  for (size_t i = from; i < to; ++i) {
     const double y = tr.rows[i][pv], t = tr.rows[i][0];
-    const double frac = (y - m.initial) / span;  // progress toward the target
+    const double frac = (y - m.initial) / span;  // progress toward the set-point
     if ((y - m.peak) * (span > 0 ? 1 : -1) > 0) {
       m.peak = y;
-      m.peak_time = t - t0;
+      m.peak_time = t - m.at;
     }
     if (t10 < 0 && frac >= 0.1) t10 = t;
     if (t90 < 0 && frac >= 0.9) t90 = t;
-    if (std::fabs(y - target) > 0.02 * std::fabs(span)) {
+    if (std::fabs(y - m.setpoint) > 0.02 * std::fabs(span)) {
       last_outside = i;
       ever_outside = true;
     }
   }
-  const double over = (m.peak - target) / span * 100.0;
+  const double over = (m.peak - m.setpoint) / span * 100.0;
   m.overshoot_pct = over > 0 ? over : 0.0;
   if (t10 >= 0 && t90 >= 0) m.rise_time = t90 - t10;
   if (!ever_outside) m.settling_time = 0;
-  else if (last_outside + 1 < tr.rows.size()) m.settling_time = tr.rows[last_outside + 1][0] - t0;
+  else if (last_outside + 1 < to) m.settling_time = tr.rows[last_outside + 1][0] - m.at;
   return m;
 }
 
-std::string format_metrics(const SimTrace& tr, const StepMetrics& m) {
+}  // namespace
+
+std::vector<StepMetrics> step_metrics(const SimTrace& tr) {
+  std::vector<StepMetrics> out;
+  if (tr.pv_column < 0 || tr.sp_column < 0 || tr.rows.empty()) return out;
+  const auto pv = static_cast<size_t>(tr.pv_column);
+  const auto sp = static_cast<size_t>(tr.sp_column);
+  // Segments between set-point changes; the first starts at t = 0, where the
+  // measurement's own start is the "set-point before".
+  std::vector<size_t> starts{0};
+  for (size_t i = 1; i < tr.rows.size(); ++i) {
+    if (tr.rows[i][sp] != tr.rows[i - 1][sp]) starts.push_back(i);
+  }
+  for (size_t k = 0; k < starts.size(); ++k) {
+    const size_t from = starts[k];
+    const size_t to = k + 1 < starts.size() ? starts[k + 1] : tr.rows.size();
+    // No step to respond to: the measurement already sits at the set-point.
+    if (std::fabs(tr.rows[from][sp] - tr.rows[from][pv]) < 1e-12) continue;
+    out.push_back(one_step(tr, from, to, k == 0 ? tr.rows[0][pv] : tr.rows[from - 1][sp]));
+  }
+  return out;
+}
+
+std::string format_metrics(const SimTrace& tr, const std::vector<StepMetrics>& steps) {
   if (tr.pv_column < 0 || tr.open_loop) return "";  // no loop: no step response
   const std::string pv = tr.columns[static_cast<size_t>(tr.pv_column)];
   char buf[512];
+  if (tr.sp_column < 0) {
+    std::snprintf(buf, sizeof buf,
+                  "%s: %g -> %g; no step figures: no single analog set-point to compare it with "
+                  "(a --step on the loop's set-point names it)\n",
+                  pv.c_str(), tr.rows.front()[static_cast<size_t>(tr.pv_column)],
+                  tr.rows.back()[static_cast<size_t>(tr.pv_column)]);
+    return buf;
+  }
+  const std::string spn = tr.columns[static_cast<size_t>(tr.sp_column)];
+  if (steps.empty()) {
+    std::snprintf(buf, sizeof buf, "%s: no step figures: it starts at its set-point %s and that never changes\n",
+                  pv.c_str(), spn.c_str());
+    return buf;
+  }
   std::string out;
-  if (m.has_setpoint) {
-    std::snprintf(buf, sizeof buf, "%s: %g -> %g (set-point %s = %g), final error %.3f%% of the step\n",
-                  pv.c_str(), m.initial, m.final_value,
-                  tr.columns[static_cast<size_t>(tr.sp_column)].c_str(), m.setpoint, m.final_error_pct);
-  } else {
-    std::snprintf(buf, sizeof buf, "%s: %g -> %g (no single analog set-point to compare with)\n",
-                  pv.c_str(), m.initial, m.final_value);
+  for (const StepMetrics& m : steps) {
+    const std::string until = m.last ? "by the end of the run" : "before the next step";
+    if (m.at == tr.rows.front()[0]) {
+      // The run starts away from the set-point: the "step" is the start.
+      std::snprintf(buf, sizeof buf, "from the start, %s = %g: %s %g -> %g, final error %.3f%% of the step\n",
+                    spn.c_str(), m.setpoint, pv.c_str(), m.initial, m.final_value, m.final_error_pct);
+    } else {
+      std::snprintf(buf, sizeof buf, "step at %g s, %s %g -> %g: %s %g -> %g, final error %.3f%% of the step\n",
+                    m.at, spn.c_str(), m.setpoint_from, m.setpoint, pv.c_str(), m.initial, m.final_value,
+                    m.final_error_pct);
+    }
+    out += buf;
+    std::snprintf(buf, sizeof buf, "  overshoot %.1f%% (peak %g, %g s after the %s)\n", m.overshoot_pct, m.peak,
+                  m.peak_time, m.at == tr.rows.front()[0] ? "start" : "step");
+    out += buf;
+    if (m.rise_time >= 0) std::snprintf(buf, sizeof buf, "  rise time (10%%-90%%) %g s\n", m.rise_time);
+    else std::snprintf(buf, sizeof buf, "  rise time: never reached 90%% of the step %s\n", until.c_str());
+    out += buf;
+    if (m.settling_time >= 0) {
+      std::snprintf(buf, sizeof buf, "  settling time (2%% band) %g s after the %s\n", m.settling_time,
+                    m.at == tr.rows.front()[0] ? "start" : "step");
+    } else {
+      std::snprintf(buf, sizeof buf, "  did not settle within 2%% of the step %s\n", until.c_str());
+    }
+    out += buf;
   }
-  out += buf;
-  std::snprintf(buf, sizeof buf, "  overshoot %.1f%% (peak %g at %g s)\n", m.overshoot_pct, m.peak,
-                m.peak_time);
-  out += buf;
-  if (m.rise_time >= 0) {
-    std::snprintf(buf, sizeof buf, "  rise time (10%%-90%%) %g s\n", m.rise_time);
-  } else {
-    std::snprintf(buf, sizeof buf, "  rise time: never reached 90%% of the step\n");
-  }
-  out += buf;
-  if (m.settling_time >= 0) {
-    std::snprintf(buf, sizeof buf, "  settling time (2%% band) %g s\n", m.settling_time);
-  } else {
-    std::snprintf(buf, sizeof buf, "  did not settle within 2%% of the step\n");
-  }
-  out += buf;
   return out;
 }
 

@@ -69,21 +69,28 @@ bool has_plant_input(const TaskImage& image, const SimOptions& opt);
 
 // Step-response figures of the measurement against its set-point, from the last
 // set-point change (or t = 0) to the end of the run.
+// The response to one set-point step: the step at t = 0 (the measurement starts
+// away from the set-point) and every later change of the set-point, each
+// analysed up to the next one. Times are after the step, not from t = 0.
 struct StepMetrics {
-  bool has_setpoint = false;
-  double setpoint = 0;
-  double initial = 0;
-  double final_value = 0;
+  double at = 0;                // when the set-point took its new value (s of the run)
+  double setpoint_from = 0;     // the set-point before the step (the measurement's start at t = 0)
+  double setpoint = 0;          // ... and after it
+  double initial = 0;           // the measurement when the step came
+  double final_value = 0;       // ... at the end of the segment
   double final_error_pct = 0;   // |final - setpoint| / |setpoint - initial| * 100
   double overshoot_pct = 0;     // beyond the set-point, relative to the step size
   double peak = 0;
-  double peak_time = 0;
+  double peak_time = 0;         // after the step
   double rise_time = -1;        // 10% -> 90% of the step; -1 if never reached
-  double settling_time = -1;    // enters and stays within 2% of the step; -1 if never
+  double settling_time = -1;    // after the step: enters and stays within 2% of it; -1 if never
+  bool last = false;            // the segment runs to the end of the run
 };
 
-StepMetrics step_metrics(const SimTrace& trace);
-std::string format_metrics(const SimTrace& trace, const StepMetrics& m);
+// One entry per step of the loop's set-point; none when the trace has no
+// single analog set-point to compare the measurement with (or no measurement).
+std::vector<StepMetrics> step_metrics(const SimTrace& trace);
+std::string format_metrics(const SimTrace& trace, const std::vector<StepMetrics>& steps);
 
 Result<void> write_csv(const SimTrace& trace, const std::string& path);
 // The CSV layout `rtplc sim` and `rtplc trace` share: a header naming the

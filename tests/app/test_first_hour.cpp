@@ -346,5 +346,34 @@ TEST(FirstHour, stop_waits_for_the_runtime_to_let_go_and_says_who_asked) {
   EXPECT_TRUE(has(ToolRun{0, slurp(log)}, "stop requested by uid " + std::to_string(getuid()))) << slurp(log);
 }
 
+// ---- 7. sim's summary: per step, labelled, or none --------------------------------
+
+TEST(FirstHour, sim_gives_figures_per_setpoint_step_timed_from_the_step) {
+  // The README's flow_pidc run: the set-point falls from an unreachable 150 to 20
+  // at 11 s, and the loop settles in under a second after that step.
+  ToolRun r = run_tool("sim " + kExamples + "/flow_pidc.fbd --plant fopdt:K=1,T=0.5,L=0.05 --duration 20 "
+                       "--step FIC_101_SP=150@1 --step FIC_101_SP=20@11");
+  EXPECT_EQ(r.status, 0) << r.out;
+  const size_t at = r.out.find("step at 11 s, FIC_101_SP 150 -> 20");
+  ASSERT_NE(at, std::string::npos) << r.out;
+  const std::string step = r.out.substr(at);
+  const size_t settle = step.find("settling time (2% band) ");
+  ASSERT_NE(settle, std::string::npos) << step;
+  EXPECT_LT(std::stod(step.substr(settle + 24)), 2.0) << step;
+  EXPECT_EQ(r.out.find("400.0%"), std::string::npos) << r.out;
+  EXPECT_TRUE(has(r, "step at 1 s, FIC_101_SP 20 -> 150")) << r.out;
+  EXPECT_TRUE(has(r, "never reached 90% of the step before the next step")) << r.out;
+  // A second step peaks as long after itself as the first after the start.
+  r = run_tool("sim " + kExamples + "/seed_pid.fbd --step Setpoint=60@20 --duration 40");
+  EXPECT_TRUE(has(r, "overshoot 17.6% (peak 58.7785, 1.5 s after the start)")) << r.out;
+  EXPECT_TRUE(has(r, "step at 20 s, Setpoint 50 -> 60")) << r.out;
+  EXPECT_TRUE(has(r, "1.5 s after the step")) << r.out;
+  // No set-point at all: no invented figures.
+  r = run_tool("sim " + kExamples + "/plcopen_tank.xml --duration 5");
+  EXPECT_EQ(r.status, 0) << r.out;
+  EXPECT_TRUE(has(r, "no step figures")) << r.out;
+  EXPECT_FALSE(has(r, "rise time")) << r.out;
+}
+
 }  // namespace
 }  // namespace rtplc::test

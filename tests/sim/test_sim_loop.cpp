@@ -34,8 +34,11 @@ TEST(SimLoop, seed_pid_settles_to_the_setpoint_after_an_overshoot) {
   EXPECT_DOUBLE_EQ(t.rows.back()[0], 30.0);
   const double pv_end = t.rows.back()[1];
   EXPECT_NEAR(pv_end, 50.0, 0.25);  // within 0.5 % at 30 s
-  StepMetrics m = step_metrics(t);
-  EXPECT_TRUE(m.has_setpoint);
+  const std::vector<StepMetrics> steps = step_metrics(t);
+  ASSERT_EQ(steps.size(), 1u);  // the step at t = 0: ProcVal starts at 0, Setpoint is 50
+  const StepMetrics& m = steps[0];
+  EXPECT_DOUBLE_EQ(m.at, 0);
+  EXPECT_DOUBLE_EQ(m.setpoint_from, 0);
   EXPECT_DOUBLE_EQ(m.setpoint, 50);
   EXPECT_GT(m.overshoot_pct, 5.0);  // it does overshoot ...
   EXPECT_LT(m.overshoot_pct, 40.0);  // ... and stays stable
@@ -52,8 +55,45 @@ TEST(SimLoop, a_setpoint_step_moves_the_loop_to_the_new_value) {
   EXPECT_EQ(t.rows[299][2], 50);
   EXPECT_EQ(t.rows[300][2], 60);
   EXPECT_NEAR(t.rows.back()[1], 60, 0.3);
-  StepMetrics m = step_metrics(t);
-  EXPECT_NEAR(m.initial, 50, 0.3);  // analysed from the change
+  const std::vector<StepMetrics> steps = step_metrics(t);
+  ASSERT_EQ(steps.size(), 2u);  // 0 -> 50 at t = 0, 50 -> 60 at 30 s
+  EXPECT_DOUBLE_EQ(steps[1].at, 30);
+  EXPECT_DOUBLE_EQ(steps[1].setpoint_from, 50);
+  EXPECT_NEAR(steps[1].initial, 50, 0.3);  // analysed from the change
+  // Times are after the step: the second response peaks as fast as the first.
+  EXPECT_NEAR(steps[1].peak_time, steps[0].peak_time, 0.2);
+  EXPECT_LT(steps[1].settling_time, 30);
+  EXPECT_FALSE(steps[0].last);
+  EXPECT_TRUE(steps[1].last);
+}
+
+// A hand-worked trace: the measurement steps straight to the set-point after
+// one sample, overshoots by a quarter of the step once, then sits on it.
+TEST(SimLoop, step_figures_of_a_hand_worked_trace) {
+  SimTrace t;
+  t.columns = {"t", "PV", "SP"};
+  t.pv_column = 1;
+  t.sp_column = 2;
+  //            t    PV     SP
+  t.rows = {{0.0, 0.0, 0.0}, {1.0, 0.0, 10.0}, {2.0, 5.0, 10.0}, {3.0, 12.5, 10.0},
+            {4.0, 10.0, 10.0}, {5.0, 10.0, 10.0}};
+  const std::vector<StepMetrics> steps = step_metrics(t);
+  ASSERT_EQ(steps.size(), 1u);  // at t = 0 the PV sits on the SP: no step there
+  const StepMetrics& m = steps[0];
+  EXPECT_DOUBLE_EQ(m.at, 1.0);
+  EXPECT_DOUBLE_EQ(m.setpoint_from, 0.0);
+  EXPECT_DOUBLE_EQ(m.overshoot_pct, 25.0);   // (12.5 - 10) / 10
+  EXPECT_DOUBLE_EQ(m.peak_time, 2.0);        // at t = 3 s, 2 s after the step
+  EXPECT_DOUBLE_EQ(m.rise_time, 1.0);        // 10 % at t = 2 (5 >= 1), 90 % at t = 3
+  EXPECT_DOUBLE_EQ(m.settling_time, 3.0);    // within 2 % from t = 4 s on
+  EXPECT_DOUBLE_EQ(m.final_error_pct, 0.0);
+  const std::string text = format_metrics(t, steps);
+  EXPECT_NE(text.find("step at 1 s, SP 0 -> 10: PV 0 -> 10"), std::string::npos) << text;
+  EXPECT_NE(text.find("2 s after the step"), std::string::npos) << text;
+  // Without a set-point there are no step figures, and the summary says why.
+  t.sp_column = -1;
+  EXPECT_TRUE(step_metrics(t).empty());
+  EXPECT_NE(format_metrics(t, {}).find("no step figures"), std::string::npos);
 }
 
 TEST(SimLoop, wiring_errors_name_the_channels_the_program_has) {
