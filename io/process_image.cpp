@@ -57,11 +57,7 @@ uint64_t process_start_ticks(pid_t pid) {
   return field == 22 ? std::strtoull(p, nullptr, 10) : 0;
 }
 
-int64_t realtime_now_ns() {
-  timespec ts;
-  clock_gettime(CLOCK_REALTIME, &ts);
-  return int64_t{ts.tv_sec} * 1000000000 + ts.tv_nsec;
-}
+using kernel_rt::realtime_now_ns;
 
 }  // namespace
 

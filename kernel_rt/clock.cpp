@@ -104,6 +104,12 @@ int64_t monotonic_now_ns() noexcept {
   return to_ns(monotonic_now());
 }
 
+int64_t realtime_now_ns() noexcept {
+  timespec ts{};
+  clock_gettime(CLOCK_REALTIME, &ts);
+  return to_ns(ts);
+}
+
 SleepStatus sleep_until(const timespec& deadline) noexcept {
   const timespec target = normalize(deadline);
   if (target.tv_sec < 0) return SleepStatus::kReached;  // before boot: nothing to wait for

@@ -40,6 +40,9 @@ int compare(const timespec& a, const timespec& b) noexcept;
 // CLOCK_MONOTONIC now.
 timespec monotonic_now() noexcept;
 int64_t monotonic_now_ns() noexcept;
+// CLOCK_REALTIME now, in ns since 1970: wall-clock instants for people (logs,
+// records, "died at"); never for timing, which is CLOCK_MONOTONIC.
+int64_t realtime_now_ns() noexcept;
 
 enum class SleepStatus : uint8_t {
   kReached,          // the clock has passed the deadline (or it was already in the past)

@@ -68,11 +68,7 @@ std::string frame(bool ok, const std::string& body) {
   return out + ".\n";
 }
 
-int64_t realtime_ns() {
-  timespec ts;
-  clock_gettime(CLOCK_REALTIME, &ts);
-  return int64_t{ts.tv_sec} * 1000000000 + ts.tv_nsec;
-}
+int64_t realtime_ns() { return kernel_rt::realtime_now_ns(); }
 
 std::vector<std::string> split(const std::string& s) {
   std::vector<std::string> v;

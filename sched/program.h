@@ -86,6 +86,30 @@ struct LoadedProgram {
   StateSnapshot snapshot;
   std::string file;    // where the source came from
   std::string source;  // the source text (kept for rollback and for `status`)
+  // Task thread only: per instruction, the error count already reported, their
+  // sum, and where the next scan starts (so one erring block cannot hide the
+  // others). Sized when the program is made: reporting allocates nothing.
+  std::vector<uint64_t> errors_reported;
+  uint64_t errors_reported_total = 0;
+  uint32_t next_error_scan = 0;
+  // Reports of this program come at most this far apart: 1 s, doubling with
+  // each report up to a minute, so a block that errs every cycle is said at
+  // once, then about once a minute, never thousands of times.
+  int64_t error_report_gap_ns = 1000000000;
+};
+
+// A block that counted errors, as the task thread reports it (at most one a
+// second per task) for the control thread to log and show in `status`. The
+// names are copied: the program may be gone by the time the report is read.
+struct BlockErrorReport {
+  uint64_t count = 0;        // the block's errors so far under this program
+  uint64_t new_errors = 0;   // since its previous report
+  uint64_t source_hash = 0;  // of the program that counted them
+  int64_t when_ns = 0;       // CLOCK_MONOTONIC of the cycle
+  uint32_t line = 0;
+  uint32_t col = 0;
+  char name[48] = {};   // "F10.M4", "instance0.t1"
+  char block[16] = {};  // the block as written: "div", "epi"
 };
 
 // Copies one input group's values from its region into `io_in`: one

@@ -2,6 +2,7 @@
 // Manifest format, one version per line, oldest first within a task:
 //   TASK <tab> HASH <tab> REALTIME_NS <tab> ORIGIN
 #include "sched/program_store.h"
+#include "kernel_rt/clock.h"
 
 #include <sys/stat.h>
 
@@ -94,9 +95,7 @@ Result<std::string> ProgramStore::source(const std::string& hash) const {
 Result<ProgramVersion> ProgramStore::push(const std::string& task, const std::string& text, std::string origin) {
   ProgramVersion v;
   v.hash = hash_of(text);
-  timespec ts{};
-  clock_gettime(CLOCK_REALTIME, &ts);
-  v.realtime_ns = int64_t{ts.tv_sec} * 1000000000 + ts.tv_nsec;
+  v.realtime_ns = kernel_rt::realtime_now_ns();
   for (char& c : origin) {
     if (c == '\t' || c == '\n') c = ' ';
   }

@@ -12,6 +12,7 @@
 #include <set>
 #include <thread>
 
+#include "blocks/registry.h"
 #include "common/capacities.h"
 #include "common/files.h"
 #include "common/text.h"
@@ -412,6 +413,7 @@ Result<std::unique_ptr<LoadedProgram>> Runtime::make_program(uint32_t t, TaskIma
   p->snapshot.prepare(retained_blocks(p->image, config_.tasks[t].retain_all, config_.tasks[t].retain_blocks));
   p->source = std::move(source);
   p->file = std::move(file);
+  p->errors_reported.assign(p->image.header().n_instr, 0);
   const io::RegionDesc& out_region = image_.region(t);
   if (p->image.header().n_io_out > out_region.capacity) {
     return make_error("the new program has " + std::to_string(p->image.header().n_io_out) +
@@ -689,6 +691,7 @@ void Runtime::tick(const std::function<void(bool, const std::string&)>& log) {
     }
   }
   expire_traces(log);
+  report_block_errors(log);
   io::LinkEvent e;
   while (events_.pop(e)) {
     log(e.level == io::LinkEvent::Level::kError || e.level == io::LinkEvent::Level::kWarning,
@@ -697,6 +700,27 @@ void Runtime::tick(const std::function<void(bool, const std::string&)>& log) {
   if (const uint64_t dropped = events_.dropped(); dropped != events_dropped_said_) {
     log(true, std::to_string(dropped - events_dropped_said_) + " driver events were not logged (queue full)");
     events_dropped_said_ = dropped;
+  }
+}
+
+void Runtime::report_block_errors(const std::function<void(bool, const std::string&)>& log) {
+  last_block_error_.resize(tasks_.size());
+  for (auto& t : tasks_) {
+    BlockErrorReport r;
+    while (t->pop_block_error(r)) {
+      const LoadedProgram& now = t->active();
+      const bool same = now.image.header().source_hash == r.source_hash;
+      const BlockSpec* spec = find_block(r.block);
+      const std::string why = spec != nullptr && spec->errors[0] != '\0' ? spec->errors : "see docs/blocks.md";
+      const std::string where = std::string(r.name) + " (" + r.block + ") at " +
+                                (same ? now.file : std::string("an earlier program")) + ":" + std::to_string(r.line) +
+                                ":" + std::to_string(r.col);
+      const std::string text = "task " + t->params().name + ": block " + where + ": " + std::to_string(r.new_errors) +
+                               " error" + (r.new_errors == 1 ? "" : "s") + " (" + std::to_string(r.count) +
+                               " in all; " + why + ")";
+      log(true, text);
+      last_block_error_[t->index()] = where + ", " + format_utc(kernel_rt::realtime_now_ns()) + ": " + why;
+    }
   }
 }
 

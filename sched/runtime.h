@@ -175,6 +175,8 @@ class Runtime {
     bool clearing = false;  // ended; the empty selection is not yet taken by the task
   };
   void expire_traces(const std::function<void(bool, const std::string&)>& log);
+  // Logs what the tasks reported of their blocks' errors and keeps the last for `status`.
+  void report_block_errors(const std::function<void(bool, const std::string&)>& log);
   bool clear_trace(uint32_t task);
   Result<std::string> install(Task& t, std::unique_ptr<LoadedProgram> next, bool keep_previous);
 
@@ -188,6 +190,7 @@ class Runtime {
   RetainStore retain_;
   ProgramStore programs_;             // the boot programs (program_store.h)
   std::vector<std::string> origins_;  // per task: where its running program came from
+  std::vector<std::string> last_block_error_;  // per task: the last block error reported, for `status`
   std::vector<std::string> notices_;  // said once at start
   RuntimeOptions options_;
   bool lock_memory_ = true;

@@ -97,11 +97,7 @@ std::string format_utc(int64_t realtime_ns) {
 }
 
 namespace {
-int64_t realtime_now_ns() {
-  timespec ts;
-  clock_gettime(CLOCK_REALTIME, &ts);
-  return int64_t{ts.tv_sec} * 1000000000 + ts.tv_nsec;
-}
+using kernel_rt::realtime_now_ns;
 
 const char* dir_name(uint8_t dir) {
   return dir == static_cast<uint8_t>(io::ChannelDir::kInput)    ? "input"
@@ -341,6 +337,9 @@ std::string Runtime::status() const {
          std::to_string(st->cycles()) + " cycles, " + std::to_string(st->overruns()) +
          " overruns, " + std::to_string(ti.swaps.load()) + " swaps, " +
          std::to_string(ti.block_errors.load()) + " block errors";
+    if (t->index() < last_block_error_.size() && !last_block_error_[t->index()].empty()) {
+      s += "\n    last block error: " + last_block_error_[t->index()];
+    }
     // An SFC task: its step flags are output channels on the step-flag processor
     // labelled <chart>.<step> (docs/sfc.md); list the active ones.
     std::string steps;

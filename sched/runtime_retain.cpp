@@ -5,6 +5,7 @@
 #include <ctime>
 
 #include "sched/runtime.h"
+#include "kernel_rt/clock.h"
 
 namespace rtplc::sched {
 namespace {
@@ -19,9 +20,7 @@ std::string utc_text(int64_t unix_ms) {
 }
 
 int64_t unix_ms_now() {
-  timespec ts{};
-  clock_gettime(CLOCK_REALTIME, &ts);
-  return static_cast<int64_t>(ts.tv_sec) * 1000 + ts.tv_nsec / 1000000;
+  return kernel_rt::realtime_now_ns() / 1000000;
 }
 
 std::string names_of(const std::vector<std::string>& v, size_t max = 8) {

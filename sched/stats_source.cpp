@@ -1,5 +1,6 @@
 // Task statistics views from a process image (see stats_source.h).
 #include "sched/stats_source.h"
+#include "kernel_rt/clock.h"
 
 #include <algorithm>
 
@@ -39,10 +40,7 @@ std::vector<TaskStatsView> read_task_stats(const io::ProcessImage& image) {
 }
 
 int64_t runtime_uptime_ns(const io::ProcessImage& image) {
-  timespec rt;
-  clock_gettime(CLOCK_REALTIME, &rt);
-  const int64_t now = int64_t{rt.tv_sec} * 1000000000 + rt.tv_nsec;
-  return now - image.header().started_realtime_ns;
+  return kernel_rt::realtime_now_ns() - image.header().started_realtime_ns;
 }
 
 RuntimeSummary summary_of(const io::ProcessImage& image, const std::vector<TaskStatsView>& views) {

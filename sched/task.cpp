@@ -1,6 +1,8 @@
 // The task thread's cycle and the swap hand-over (see task.h).
 #include "sched/task.h"
 
+#include <cstring>
+
 #include <algorithm>
 #include <limits>
 
@@ -152,6 +154,37 @@ void Task::write_outputs(LoadedProgram& p, bool safe) noexcept {
   image_.end_write(region_, k, kernel_rt::monotonic_now_ns(), p.arena.cycles);
 }
 
+void Task::report_block_errors(LoadedProgram& p, int64_t now_ns) noexcept {
+  const auto n = static_cast<uint32_t>(p.errors_reported.size());
+  if (n == 0 || p.arena.errors.size() < n) return;
+  for (uint32_t k = 0; k < n; ++k) {
+    const uint32_t i = (p.next_error_scan + k) % n;
+    const uint64_t now = p.arena.errors[i];
+    if (now <= p.errors_reported[i]) continue;
+    BlockErrorReport r;
+    r.count = now;
+    r.new_errors = now - p.errors_reported[i];
+    r.source_hash = p.image.header().source_hash;
+    r.when_ns = now_ns;
+    const BlockInfo& b = p.image.blocks()[i];
+    r.line = b.line;
+    r.col = b.col;
+    std::strncpy(r.name, p.image.str(b.name), sizeof r.name - 1);
+    std::strncpy(r.block, p.image.str(b.block), sizeof r.block - 1);
+    // Counted as reported even when the queue is full: the image's count says
+    // how many there were, and the next report is a second away.
+    (void)block_errors_.push(r);
+    p.errors_reported_total += r.new_errors;
+    p.errors_reported[i] = now;
+    p.next_error_scan = (i + 1) % n;
+    next_error_report_ns_ = now_ns + p.error_report_gap_ns;
+    p.error_report_gap_ns = std::min<int64_t>(p.error_report_gap_ns * 2, int64_t{60} * 1000000000);
+    return;
+  }
+  // Counters that were reset (a program's own arena reset): start again from them.
+  p.errors_reported_total = p.arena.total_errors;
+}
+
 void Task::resolve_trace(const LoadedProgram& p) noexcept {
   for (uint32_t i = 0; i < trace_.n(); ++i) {
     const io::TraceSource& s = trace_.sources()[i];
@@ -214,6 +247,7 @@ void Task::run() noexcept {
       current_ = next;
       pending_.store(nullptr, std::memory_order_release);
       info_->swaps.fetch_add(1, std::memory_order_relaxed);
+      next_error_report_ns_ = 0;  // the new program's first block error is said at once
       info_->last_swap_ns.store(wake, std::memory_order_relaxed);
       if (stopped) {
         stopped = false;  // new code is how an operator restarts a stopped task
@@ -228,6 +262,9 @@ void Task::run() noexcept {
       read_inputs(*current_);
       write_outputs(*current_, false);
       info_->block_errors.store(current_->arena.total_errors, std::memory_order_relaxed);
+      if (current_->arena.total_errors != current_->errors_reported_total && wake >= next_error_report_ns_) {
+        report_block_errors(*current_, wake);
+      }
       if (params_.snapshot_every > 0 && --until_snapshot == 0) {
         until_snapshot = params_.snapshot_every;
         current_->snapshot.take(current_->arena, wake);

@@ -35,6 +35,7 @@
 
 #include "common/result.h"
 #include "config/config.h"
+#include "io/link/handoff.h"
 #include "io/process_image.h"
 #include "kernel_rt/rt_thread.h"
 #include "sched/jitter.h"
@@ -92,6 +93,8 @@ class Task {
   bool swap_applied() const { return pending_.load(std::memory_order_acquire) == nullptr; }
   // After swap_applied(): takes back the program that was replaced (to free it off the RT path).
   std::unique_ptr<LoadedProgram> collect();
+  // The next block-error report of the task thread, if any (control thread).
+  bool pop_block_error(BlockErrorReport& out) { return block_errors_.pop(out); }
   bool running() const { return thread_.joinable(); }
   // How deep the task thread's stack went (bytes; known once it stopped) and its size.
   size_t stack_high_water() const { return thread_.stack_high_water(); }
@@ -106,6 +109,9 @@ class Task {
   // and at a swap, both cycle boundaries), and one record of them.
   void resolve_trace(const LoadedProgram& p) noexcept;
   void record_trace(uint64_t cycle, int64_t release_ns) noexcept;
+  // Queues one block whose error count grew since it was last reported; bounded
+  // work (one pass over the program's counters), no allocation.
+  void report_block_errors(LoadedProgram& p, int64_t now_ns) noexcept;
 
   TaskParams params_;
   io::ProcessImage& image_;
@@ -125,6 +131,10 @@ class Task {
   LoadedProgram* in_flight_ = nullptr;  // control side: published, not yet collected
 
   std::atomic<bool> stop_{false};
+  // Task thread -> control thread: one producer, one consumer; a full queue
+  // drops the report (the count in the image still says how many).
+  link::BoundedQueue<BlockErrorReport> block_errors_{16};
+  int64_t next_error_report_ns_ = 0;  // task thread: no report before this (see LoadedProgram)
   uint32_t quality_refresh_ = 0;  // task thread: cycles left that still write output qualities
   // Task thread: the trace selection and, per traced value, the output index
   // in this task's region (>= 0) or the input buffer entry it is read into.
