@@ -85,6 +85,7 @@ struct TaskConfig {
   std::vector<std::string> retain_blocks;
   SourcePos retain_pos;
   std::vector<SetpointLimits> setpoint_limits;  // `setpoints:`
+  std::vector<SetpointLimits> channel_ranges;   // `ranges:` engineering ranges of inputs and outputs
 };
 
 struct DriverConfig {

@@ -186,13 +186,15 @@ void parse_safe_outputs(YamlReader& r, const Field& field, TaskConfig& t) {
                     });
 }
 
-// setpoints: {LABEL: {min: number, max: number}, ...}
-void parse_setpoint_limits(YamlReader& r, const Field& field, TaskConfig& t) {
-  for_each_labelled(r, field, "setpoints", "set-point", [&](const std::string& label,
-                                                             SourcePos kp, const YAML::Node& v) {
+// setpoints: {LABEL: {min: number, max: number}, ...}, and ranges: the same
+// for a task's inputs and outputs (`what` is "set-point" or "channel").
+void parse_limit_map(YamlReader& r, const Field& field, const char* key, const std::string& what,
+                     std::vector<SetpointLimits>& into) {
+  for_each_labelled(r, field, key, what.c_str(), [&](const std::string& label,
+                                                      SourcePos kp, const YAML::Node& v) {
     const SourcePos vp = or_else(YamlReader::pos(v), kp);
     if (!v.IsMap()) {
-      r.error(vp, "set-point '" + label + "' expects {min: number, max: number}, got " +
+      r.error(vp, what + " '" + label + "' expects {min: number, max: number}, got " +
                       YamlReader::describe_node(v),
               YamlReader::width(v));
       return;
@@ -204,13 +206,13 @@ void parse_setpoint_limits(YamlReader& r, const Field& field, TaskConfig& t) {
       const SourcePos bp = or_else(YamlReader::pos(b->first), vp);
       const std::string bound = b->first.IsScalar() ? b->first.Scalar() : std::string();
       if (bound != "min" && bound != "max") {
-        r.error(bp, "set-point '" + label + "' takes 'min' and 'max', got " +
+        r.error(bp, what + " '" + label + "' takes 'min' and 'max', got " +
                         YamlReader::describe_node(b->first),
                 YamlReader::width(b->first));
         ok = false;
         continue;
       }
-      auto x = r.real(b->second, bp, "'" + bound + "' of set-point '" + label + "'");
+      auto x = r.real(b->second, bp, "'" + bound + "' of " + what + " '" + label + "'");
       if (!x) {
         ok = false;
         continue;
@@ -219,11 +221,11 @@ void parse_setpoint_limits(YamlReader& r, const Field& field, TaskConfig& t) {
       if (bound == "max") max_pos = or_else(YamlReader::pos(b->second), bp);
     }
     if (ok && lim.min && lim.max && *lim.min > *lim.max) {
-      r.error(max_pos, "set-point '" + label + "': max " + v["max"].Scalar() + " is below min " +
+      r.error(max_pos, what + " '" + label + "': max " + v["max"].Scalar() + " is below min " +
                            v["min"].Scalar());
       ok = false;
     }
-    if (ok) t.setpoint_limits.push_back(std::move(lim));
+    if (ok) into.push_back(std::move(lim));
   });
 }
 
@@ -312,7 +314,8 @@ void parse_task(YamlReader& r, const YAML::Node& node, SourcePos list_pos, Runti
                 YamlReader::width(x->key));
     }
   }
-  if (const Field* x = f.get("setpoints")) parse_setpoint_limits(r, *x, t);
+  if (const Field* x = f.get("setpoints")) parse_limit_map(r, *x, "setpoints", "set-point", t.setpoint_limits);
+  if (const Field* x = f.get("ranges")) parse_limit_map(r, *x, "ranges", "channel", t.channel_ranges);
   cfg.tasks.push_back(std::move(t));
 }
 

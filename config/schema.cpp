@@ -91,6 +91,11 @@ const KeySpec kTaskKeys[] = {
      "`LABEL: {min: lo, max: hi}` for the set-points (asp) of the task's program: `rtplc "
      "set` (and every other writer of set-points) refuses values outside [lo, hi]; the "
      "set-point's init value must lie inside. Either bound may be left out."},
+    {"ranges", ValueType::kLimitMap, false, kNoMin, kNoMax, nullptr, "(no ranges)",
+     "`LABEL: {min: lo, max: hi}`: the engineering range of an input or output of the "
+     "task's program (a transmitter's 0..200 m3/h, a valve's 0..100 %). `rtplc force` "
+     "refuses a value outside it, naming it. Either bound may be left out; set-points "
+     "take theirs from `setpoints`."},
 };
 
 const KeySpec kDriverKeys[] = {
@@ -258,7 +263,9 @@ std::string describe_allowed(const KeySpec& k) {
     case ValueType::kLabelMap:
       return "labels of the task's outputs; finite numbers";
     case ValueType::kLimitMap:
-      return "labels of the task's set-points; finite numbers, min <= max, each optional";
+      return std::string("labels of the task's ") +
+             (std::string_view(k.key) == "ranges" ? "inputs and outputs" : "set-points") +
+             "; finite numbers, min <= max, each optional";
     case ValueType::kName:
       return "1..31 of `A-Z a-z 0-9 _ -`";
     case ValueType::kPath:

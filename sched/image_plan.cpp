@@ -237,6 +237,30 @@ bool plan_image(const config::RuntimeConfig& cfg, const std::string& name,
       }
     }
   }
+  // Engineering ranges name inputs or outputs of their own task, once per label.
+  std::map<std::string, SourcePos> ranges_at;
+  for (size_t t = 0; t < n_tasks; ++t) {
+    for (const config::SetpointLimits& r : cfg.tasks[t].channel_ranges) {
+      const Binding* io = nullptr;
+      bool setpoint = false;
+      for (const Binding& b : images[t].bindings()) {
+        if (r.label != images[t].str(b.label)) continue;
+        if (b.dir == BindingDir::kInput || b.dir == BindingDir::kOutput) io = &b;
+        setpoint |= b.dir == BindingDir::kSetpoint;
+      }
+      if (io == nullptr) {
+        cdiag.error(r.pos, setpoint ? "\"" + r.label + "\" is a set-point: its range goes under `setpoints`"
+                                    : "task " + cfg.tasks[t].name + " has no input or output labelled \"" + r.label + "\"");
+        ok = false;
+        continue;
+      }
+      if (auto [first, fresh] = ranges_at.emplace(r.label, r.pos); !fresh) {
+        cdiag.error(r.pos, "the range of \"" + r.label + "\" is given twice");
+        cdiag.note(first->second, "first given here");
+        ok = false;
+      }
+    }
+  }
   if (descs.size() > kMaxChannels) {
     cdiag.error(SourcePos{}, "more than " + std::to_string(kMaxChannels) + " channels");
     ok = false;

@@ -303,6 +303,7 @@ bool Runtime::build(const config::RuntimeConfig& cfg, LoadReport& report) {
   // 4. Set-points start at their init value, or at the value retained last time.
   for (const config::TaskConfig& tc : cfg.tasks) {
     for (const config::SetpointLimits& lim : tc.setpoint_limits) setpoint_limits_[lim.label] = lim;
+    for (const config::SetpointLimits& r : tc.channel_ranges) channel_ranges_[r.label] = r;
   }
   setpoint_values_.assign(layout.regions[setpoint_region_].capacity, 0.0);
   if (auto r = retain_.load(); !r) {

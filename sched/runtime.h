@@ -215,6 +215,7 @@ class Runtime {
   std::mutex setpoint_mu_;
   std::vector<double> setpoint_values_;  // the set-point region's values
   std::map<std::string, config::SetpointLimits> setpoint_limits_;  // by label
+  std::map<std::string, config::SetpointLimits> channel_ranges_;  // `ranges:` of every task, by label
   std::map<std::string, ForceRecord> forces_;  // by label (control thread); the image's force table says what applies
   ImagePlan plan_;
   std::vector<TraceLease> traces_;  // per task

@@ -1,6 +1,7 @@
 // The operator's verbs on a running runtime (see runtime.h): set-points,
 // swap and rollback, status and the start-up summary. Control thread only.
 #include "sched/runtime.h"
+#include "sched/image_plan.h"
 
 #include <time.h>
 #include <unistd.h>
@@ -122,6 +123,26 @@ Result<std::string> Runtime::force(const std::string& label, double value, uint3
   if (d.kind == static_cast<uint8_t>(Kind::kDigital) && value != 0 && value != 1) {
     return make_error("not forced: \"" + label + "\" is a digital " + dir_name(d.dir) + ": 0 or 1, got " +
                       format_number(value));
+  }
+  // The channel's engineering range, then what every driver sending it can carry:
+  // a force the plant would never see is refused here, not by a driver later.
+  if (const auto r = channel_ranges_.find(label); r != channel_ranges_.end()) {
+    const config::SetpointLimits& lim = r->second;
+    if ((lim.min && value < *lim.min) || (lim.max && value > *lim.max)) {
+      return make_error("not forced: " + format_number(value) + " is outside the range of \"" + label + "\": " +
+                        limits_text(lim.min, lim.max) + " (its `ranges` in the config)");
+    }
+  }
+  if (d.dir == static_cast<uint8_t>(io::ChannelDir::kOutput)) {
+    for (const auto& drv : drivers_) {
+      const std::vector<io::OutputSource>& outs = drv->consumed_outputs();
+      for (uint32_t j = 0; j < outs.size(); ++j) {
+        if (outs[j].region != d.region || outs[j].index != d.index) continue;
+        if (Result<void> ok = drv->can_send(j, value); !ok) {
+          return make_error("not forced: driver " + drv->name() + " sends \"" + label + "\" and " + ok.error());
+        }
+      }
+    }
   }
   const io::ChannelValue before = image_.read_channel(static_cast<uint32_t>(c));
   image_.force(d.region, d.index, value);

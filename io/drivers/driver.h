@@ -132,6 +132,18 @@ class Driver {
   void cycle_now(int64_t now_ns) noexcept { cycle(now_ns); }
   uint64_t cycles() const { return cycles_.load(std::memory_order_relaxed); }
 
+  // The task outputs this driver sends, in the order of its delivery entries.
+  const std::vector<OutputSource>& consumed_outputs() const { return setup_.consumes; }
+  // Whether consumed output j could be sent as `value` (engineering units):
+  // it fits the peer's encoding after the kind's scaling. Asked by a force on
+  // the control thread before anything changes; the default takes any finite
+  // number. The reason names the item and its range.
+  virtual Result<void> can_send(uint32_t j, double value) const {
+    (void)j;
+    (void)value;
+    return {};
+  }
+
  protected:
   // One exchange; runs on the bridge thread. Never blocks, allocates or throws.
   virtual void cycle(int64_t now_ns) noexcept = 0;

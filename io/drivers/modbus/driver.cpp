@@ -77,6 +77,19 @@ Result<void> ModbusDriver::prepare() {
   return {};
 }
 
+Result<void> ModbusDriver::can_send(uint32_t j, double value) const {
+  if (j >= settings_.writes.size()) return {};
+  const ChannelMap& m = settings_.writes[j];
+  // As the bridge encodes it: a bit is any non-zero, a register the scaled raw value.
+  if (m.item.type == ItemType::kBit) return {};
+  const double raw = (value - m.offset) / m.scale;
+  if (fits(m.item, raw)) return {};
+  const Result<void> why = check_value(m.item, raw);
+  return make_error(fmt::format("slave {} item {} cannot carry {}{}: {}", m.slave, to_string(m.item), value,
+                                m.scale != 1 || m.offset != 0 ? fmt::format(" (raw {})", raw) : std::string(),
+                                why ? std::string("out of range") : why.error()));
+}
+
 Result<void> ModbusDriver::on_start() {
   for (auto& l : lines_) {
     if (auto r = l->start(); !r) return make_error(r.error());

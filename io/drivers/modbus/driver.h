@@ -30,6 +30,7 @@ class ModbusDriver final : public io::Driver {
   explicit ModbusDriver(const io::DriverSetup& setup);
   ~ModbusDriver() override;
   Result<void> prepare();
+  Result<void> can_send(uint32_t j, double value) const override;
 
  private:
   struct Write {

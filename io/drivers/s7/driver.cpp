@@ -202,6 +202,17 @@ void S7Driver::cycle_write(uint32_t j, uint32_t k, int64_t now) noexcept {
   put_delivery(k, j, w.last, good ? Quality::kGood : Quality::kBad, now);
 }
 
+Result<void> S7Driver::can_send(uint32_t j, double value) const {
+  if (j >= writes_.size()) return {};
+  const Write& w = writes_[j];
+  uint64_t raw = 0;
+  if (value_to_raw(w.type, (value - w.offset) / w.scale, raw)) return {};
+  return make_error(fmt::format("{} cannot carry {}: it does not fit {} ({}){}", w.what, value, type_name(w.type),
+                                range_text(w.type),
+                                w.scale != 1 || w.offset != 0 ? fmt::format(" after scale {} and offset {}", w.scale, w.offset)
+                                                              : std::string()));
+}
+
 void S7Driver::send(Write& w, double value) noexcept {
   uint64_t raw = 0;
   if (!value_to_raw(w.type, (value - w.offset) / w.scale, raw)) {

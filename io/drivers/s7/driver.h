@@ -52,6 +52,7 @@ class S7Driver final : public io::Driver {
   }
   // Registers PLCs and items with the engine (no network yet). Errors name the item.
   Result<void> prepare();
+  Result<void> can_send(uint32_t j, double value) const override;
 
  private:
   struct Read {
