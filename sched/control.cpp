@@ -413,12 +413,22 @@ Result<std::string> control_request(const std::string& socket_path, const std::s
   bool ok = send_all(fd, line + "\n") && send_all(fd, payload);
   std::string status, body, l;
   ok = ok && read_line(fd, status, timeout_ms);
+  // An answer counts only with its terminating "." line: one cut off (the
+  // runtime died or was stopped mid-answer) is not taken for a whole one.
+  bool whole = false;
   while (ok && read_line(fd, l, timeout_ms)) {
-    if (l == ".") break;
+    if (l == ".") {
+      whole = true;
+      break;
+    }
     body += (l.size() > 1 && l[0] == '.' ? l.substr(1) : l) + "\n";
   }
   close(fd);
   if (!ok) return make_error("no answer from the runtime at " + socket_path);
+  if (!whole) {
+    return make_error("the runtime's answer at " + socket_path +
+                      " was cut off before its end; what it did is unknown: check with `rtplc status`");
+  }
   if (status == "OK") return body;
   return make_error(body.empty() ? "the runtime refused the request" : body);
 }
