@@ -44,6 +44,11 @@ const KeySpec kServerKeys[] = {
      "client is disconnected at once, counted and logged."},
     {"expose", ValueType::kList, true, 1, 4096, "modbus-expose", "",
      "The channels served, each at an item of one of the four tables."},
+    {"writable", ValueType::kList, false, 1, 4096, "a set-point label", "(none: read-only)",
+     "The set-points a client may write, e.g. `[Setpoint]`; each must be exposed in `hr` or "
+     "`coil`. Without it the server is read-only: every write is answered with exception 2. "
+     "Modbus TCP has no authentication, so every client `allow` admits may write these; the "
+     "control socket, by contrast, is its owner's."},
 };
 
 const KeySpec kExposeKeys[] = {
@@ -68,11 +73,11 @@ const SectionSpec kServerSection{
     "A Modbus TCP server for a SCADA or HMI: it serves the exposed channels straight from the "
     "process image, many clients at once, on its own thread below the task band. A read "
     "covering a channel whose quality is not good (or forced) is answered with exception 4, "
-    "so a value we cannot vouch for never reaches SCADA as a number. Set-points exposed in "
-    "holding registers or coils are writable (FC 5, 6, 15, 16) and go through the path of "
-    "`rtplc set`: checked, retained, logged; a value the runtime refuses gets exception 3. "
-    "Nothing else is ever written from the network. Its link row counts clients and "
-    "requests. See docs/modbus.md.",
+    "so a value we cannot vouch for never reaches SCADA as a number. The set-points listed in "
+    "`writable` (exposed in holding registers or coils) may be written (FC 5, 6, 15, 16) and "
+    "go through the path of `rtplc set`: checked, retained, logged; a value the runtime "
+    "refuses gets exception 3. Nothing else is ever written from the network, and without "
+    "`writable` nothing at all. Its link row counts clients and requests. See docs/modbus.md.",
     kServerKeys};
 const SectionSpec kExposeSection{"modbus-expose", "an exposed channel",
                                  "`expose:` entries of a modbus-server driver", "", kExposeKeys};
@@ -231,6 +236,22 @@ void parse_server(YamlReader& r, const Fields& f, DriverConfig& out) {
   if (const Field* x = f.get("expose")) {
     if (auto items = r.list(*x)) {
       for (const YAML::Node& n : *items) parse_item(r, n, x->pos, s);
+    }
+  }
+  if (const Field* w = f.get("writable")) {
+    if (auto items = r.list(*w)) {
+      for (const YAML::Node& n : *items) {
+        const std::string label = scalar_text(n);
+        const SourcePos at = pos_or(n, w->pos);
+        bool exposed = false;
+        for (const ExposeItem& e : s.items) exposed |= e.label == label && modbus::is_writable(e.item.table);
+        if (!exposed) {
+          r.error(at, "'writable' names \"" + label + "\", which no `expose` entry serves in hr or coil");
+          continue;
+        }
+        s.writable.push_back(label);
+        s.writable_pos.push_back(at);
+      }
     }
   }
   // One register or bit, one item; one channel may be exposed at several.

@@ -51,6 +51,10 @@ struct ServerSettings {
   std::vector<AllowRule> allow;  // never empty after parsing (default: 127.0.0.0/8)
   std::string allow_text;        // "127.0.0.0/8" as the link row and logs show it
   std::vector<ExposeItem> items;
+  // The set-points a client may write (by label); none unless listed. Modbus
+  // TCP has no authentication: whoever `allow` lets in may write these.
+  std::vector<std::string> writable;
+  std::vector<SourcePos> writable_pos;
 
   bool allows(uint32_t ip) const;
   bool answers(uint8_t unit) const;

@@ -63,7 +63,16 @@ Result<void> ServerDriver::prepare() {
                                     e.label, modbus::table_name(e.item.table)));
     }
     channel_.push_back(static_cast<uint32_t>(c));
-    writable.push_back(d.dir == static_cast<uint8_t>(io::ChannelDir::kSetpoint) && modbus::is_writable(e.item.table));
+    const bool listed = std::find(settings_.writable.begin(), settings_.writable.end(), e.label) != settings_.writable.end();
+    writable.push_back(listed && modbus::is_writable(e.item.table));
+  }
+  // Only set-points are ever written from the network.
+  for (size_t i = 0; i < settings_.writable.size(); ++i) {
+    const int c = img.find_channel(settings_.writable[i]);
+    if (c >= 0 && img.channel(static_cast<uint32_t>(c)).dir != static_cast<uint8_t>(io::ChannelDir::kSetpoint)) {
+      return make_error(fmt::format("writable entry at line {}: \"{}\" is not a set-point; only set-points are "
+                                    "written from the network", settings_.writable_pos[i].line, settings_.writable[i]));
+    }
   }
   const auto stale_after = static_cast<int64_t>(settings_.stale_after_s * 1e9);
   auto read = [this, stale_after](uint32_t item) {

@@ -107,7 +107,8 @@ class ServerRuntime : public ::testing::Test {
         "      - {label: Setpoint, table: hr, address: 0, type: f32}\n"
         "      - {label: ManiVal, table: hr, address: 4, type: f32}\n"
         "      - {label: Setpoint, table: hr, address: 6, type: i16, scale: 0.1}\n"
-        "      - {label: Enable, table: coil, address: 0}\n");
+        "      - {label: Enable, table: coil, address: 0}\n"
+        "    writable: [Setpoint, Enable]\n");
     ASSERT_NE(rt_, nullptr);
     ASSERT_TRUE(eventually([&] { return quality("ProcVal") == Quality::kGood && value("ManiVal") == 7.5; }));
   }
@@ -234,6 +235,38 @@ TEST_F(ServerRuntime, many_mbpoll_masters_at_once_are_each_answered) {
   for (pid_t pid : pids) waitpid(pid, nullptr, 0);
   EXPECT_TRUE(eventually([&] { return row.polls_offline.load() == 0; }));
   EXPECT_EQ(row.connects.load(), kMasters);
+}
+
+// Writes are off unless the config lists the set-point in `writable`: Modbus
+// TCP has no authentication, and loopback alone admits every local user.
+TEST(ServerRuntimeConfig, a_server_without_writable_refuses_every_write_and_changes_nothing) {
+  if (!have_mbpoll()) GTEST_SKIP() << "mbpoll is not installed (scripts/setup-deps installs it)";
+  RuntimeFixture fx;
+  fx.write("p.fbd", kProgram);
+  const uint16_t port = free_port();
+  auto rt = fx.start("tasks:\n  - {name: loop, program: p.fbd}\n"
+                     "drivers:\n  - kind: modbus-server\n    name: scada\n    port: " + std::to_string(port) +
+                     "\n    expose:\n      - {label: Setpoint, table: hr, address: 0, type: f32}\n");
+  ASSERT_NE(rt, nullptr);
+  const int c = rt->image().find_channel("Setpoint");
+  ASSERT_GE(c, 0);
+  const double before = rt->image().read_channel(static_cast<uint32_t>(c)).value;
+  const Mbpoll w = mbpoll(port, "-t 4:float -r 0 127.0.0.1 60");
+  EXPECT_NE(w.status, 0) << "a write went through: " << w.out;
+  EXPECT_EQ(rt->image().read_channel(static_cast<uint32_t>(c)).value, before);
+  // Reading still works.
+  const Mbpoll r = mbpoll(port, "-t 4:float -r 0 -c 1 127.0.0.1");
+  EXPECT_EQ(r.status, 0) << r.out;
+  rt->stop();
+  // `writable` may name only what is exposed in hr or coil.
+  std::string errors;
+  EXPECT_EQ(fx.load("tasks:\n  - {name: loop, program: p.fbd}\n"
+                    "drivers:\n  - kind: modbus-server\n    name: scada\n    port: 1502\n    expose:\n"
+                    "      - {label: ProcVal, table: ir, address: 0, type: f32}\n    writable: [ProcVal]\n",
+                    &errors),
+            nullptr);
+  EXPECT_NE(errors.find("'writable' names \"ProcVal\", which no `expose` entry serves in hr or coil"),
+            std::string::npos) << errors;
 }
 
 TEST(ServerRuntimeConfig, an_exposed_label_no_program_has_is_refused_with_its_line) {
