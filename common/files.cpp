@@ -224,6 +224,35 @@ Result<void> ensure_private_folder(const std::string& dir) {
   return {};
 }
 
+Result<void> ensure_state_folder(const std::string& dir, bool create) {
+  struct stat st {};
+  if (lstat(dir.c_str(), &st) != 0) {
+    if (errno != ENOENT) return make_error("cannot inspect " + dir + ": " + std::strerror(errno));
+    if (!create) return {};  // `check`: nothing there yet, nothing to refuse
+    if (auto r = make_folders(dir, 0700, 0755); !r) return r;
+    if (lstat(dir.c_str(), &st) != 0) return make_error("cannot inspect " + dir + ": " + std::strerror(errno));
+  }
+  if (S_ISLNK(st.st_mode)) {
+    return make_error("refusing " + dir + ": it is a symbolic link; the runtime's state must live in a real folder "
+                      "(a link would let whoever made it choose what the runtime boots)");
+  }
+  if (!S_ISDIR(st.st_mode)) return make_error("refusing " + dir + ": it is not a folder");
+  if (st.st_uid != geteuid()) {
+    return make_error("refusing " + dir + ": it belongs to uid " + std::to_string(st.st_uid) +
+                      ", not to this user (uid " + std::to_string(geteuid()) +
+                      "), who could replace the programs and set-points the runtime starts with; "
+                      "give runtime.retain_file a folder of this user's own");
+  }
+  if ((st.st_mode & (S_IWGRP | S_IWOTH)) != 0) {
+    char mode[8];
+    std::snprintf(mode, sizeof mode, "%04o", static_cast<unsigned>(st.st_mode & 07777));
+    return make_error("refusing " + dir + ": other users may write to it (mode " + mode +
+                      "), and so replace the programs and set-points the runtime starts with; "
+                      "give runtime.retain_file a folder of the runtime's own (created 0700 when missing)");
+  }
+  return {};
+}
+
 FileLock& FileLock::operator=(FileLock&& o) noexcept {
   if (this != &o) {
     if (fd_ >= 0) close(fd_);

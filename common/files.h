@@ -63,6 +63,14 @@ Result<void> write_file_atomically(const std::string& path, mode_t mode,
 // would let that user replace our socket and read our commands.
 Result<void> ensure_private_folder(const std::string& dir);
 
+// The folder of the runtime's state (retain file, block state, program store:
+// what the runtime boots from). Created 0700 (parents 0755) when missing and
+// `create`; refused when it is a symbolic link, belongs to another user (root
+// may use root's), or other users may write to it: whoever can write there
+// chooses the program and the set-points the runtime starts with. Group or
+// world *read* is left to the operator (deploy may share it with a group).
+Result<void> ensure_state_folder(const std::string& dir, bool create);
+
 // An exclusive lock on a file held for the life of the object (flock): how a
 // runtime knows no other runtime of the same name runs, whatever a shared-memory
 // object claims. The file holds the owner's pid for messages.

@@ -128,6 +128,12 @@ std::unique_ptr<Runtime> Runtime::load(const config::RuntimeConfig& cfg, const R
     report.ok = false;
     return nullptr;
   }
+  // The state folder: what the runtime boots from must be nobody else's to write.
+  if (auto r = ensure_state_folder(folder_of(rt->retain_.path()), !opt.check_only); !r) {
+    report.files[0].diags.error(cfg.retain_pos, "retain folder: " + r.error());
+    report.ok = false;
+    return nullptr;
+  }
   auto lock = opt.check_only ? Result<FileLock>(FileLock{}) : FileLock::acquire(folder + "/" + rt->name_ + ".lock");
   if (!lock) {
     report.files[0].diags.error(cfg.name_pos, "runtime '" + rt->name_ + "' is " + lock.error() +

@@ -102,6 +102,39 @@ TEST(WriteFileAtomically, leaves_no_temporary_file_when_the_target_is_a_folder) 
   EXPECT_NE(stat((dir + ".tmp").c_str(), &st), 0);
 }
 
+TEST(StateFolder, is_created_private_and_refused_when_a_link_or_writable_by_others) {
+  test::Scratch s("rtplc-files");
+  const std::string made = s.path("state/rtplc");
+  ASSERT_TRUE(ensure_state_folder(made, true));
+  struct stat st{};
+  ASSERT_EQ(stat(made.c_str(), &st), 0);
+  EXPECT_EQ(st.st_mode & 0777, 0700u);
+  // `check` creates nothing.
+  EXPECT_TRUE(ensure_state_folder(s.path("not-yet"), false));
+  EXPECT_NE(stat(s.path("not-yet").c_str(), &st), 0);
+  // A link planted where the state folder is expected.
+  ASSERT_EQ(symlink(made.c_str(), s.path("link").c_str()), 0);
+  Result<void> r = ensure_state_folder(s.path("link"), true);
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("symbolic link"), std::string::npos) << r.error();
+  // A folder others may write to (a shared /tmp is 1777).
+  const std::string shared = s.path("shared");
+  ASSERT_EQ(mkdir(shared.c_str(), 0700), 0);
+  ASSERT_EQ(chmod(shared.c_str(), 01777), 0);
+  r = ensure_state_folder(shared, true);
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("other users may write to it (mode 1777)"), std::string::npos) << r.error();
+  // Group-readable is the operator's choice (deploy may share it with a group).
+  ASSERT_EQ(chmod(shared.c_str(), 0750), 0);
+  EXPECT_TRUE(ensure_state_folder(shared, true));
+  if (geteuid() == 0) {
+    ASSERT_EQ(chown(shared.c_str(), 65534, 65534), 0);
+    r = ensure_state_folder(shared, true);
+    ASSERT_FALSE(r);
+    EXPECT_NE(r.error().find("belongs to uid 65534"), std::string::npos) << r.error();
+  }
+}
+
 TEST(SameFile, is_true_for_one_file_by_two_names_only) {
   test::Scratch s("rtplc-files");
   const std::string a = s.write("a.fbd", "x");

@@ -6,6 +6,8 @@
 // The second user is uid 65534 (nobody), used by forking and dropping root.
 #include <fcntl.h>
 #include <gtest/gtest.h>
+
+#include <fstream>
 #include <sys/mman.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
@@ -98,6 +100,24 @@ TEST(OperatingSafely, a_second_runtime_of_the_same_name_is_refused_by_its_lock) 
   a.reset();  // its lock goes with it
   auto c = fx.load(kTask, &errors, opt);
   EXPECT_NE(c, nullptr) << errors;
+}
+
+TEST(OperatingSafely, a_retain_folder_other_users_may_write_to_is_refused_before_anything_is_read) {
+  RuntimeFixture fx;
+  fx.write("p.fbd", kProgram);
+  const std::string shared = fx.dir() + "/shared";
+  ASSERT_EQ(mkdir(shared.c_str(), 0700), 0);
+  ASSERT_EQ(chmod(shared.c_str(), 01777), 0);
+  // What another user could have planted there: a retained set-point.
+  {
+    std::ofstream(shared + "/r.retain") << "Setpoint 99\n";
+  }
+  sched::RuntimeOptions opt;
+  opt.retain_override = shared + "/r.retain";
+  std::string errors;
+  EXPECT_EQ(fx.load(kTask, &errors, opt), nullptr);
+  EXPECT_NE(errors.find("retain folder: refusing " + shared + ": other users may write to it"), std::string::npos)
+      << errors;
 }
 
 TEST(OperatingSafely, a_socket_folder_another_user_could_enter_is_refused) {
