@@ -109,7 +109,9 @@ void require_program(const std::string& path, const char* cmd, bool config_ok) {
             "`rtplc run` take configurations";
       break;
     case InputKind::kTaskImage:
-      why = "is a compiled task image (.img), not FBD source; give the .fbd it was compiled from";
+      // Verified on load wherever a program is accepted; only compiling it again makes no sense.
+      if (std::strcmp(cmd, "compile") != 0) return;
+      why = "is already a compiled task image (.img); give the program it was compiled from";
       break;
     case InputKind::kProgram:
       return;

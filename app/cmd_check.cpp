@@ -123,6 +123,11 @@ void run_check(const CheckArgs& a) {
     run_check_config(a);
     return;
   }
+  if (a.explain && input_kind(a.file) == InputKind::kTaskImage) {
+    std::fprintf(stderr, "rtplc check: --explain needs the program's source; the task image %s keeps only "
+                 "what runs (check verifies it)\n", a.file.c_str());
+    throw CLI::RuntimeError(kExitUsage);
+  }
   lang::CompileResult r = lang::compile_file(a.file, options_from(a));
   if (!report(a.file, r, a.werror)) throw CLI::RuntimeError(kExitFailure);
   const ImageHeader& h = r.image->header();
@@ -241,6 +246,11 @@ void add_check_commands(CLI::App& app) {
 
   CLI::App* compile = app.add_subcommand(
       "compile", "Compile an FBD or SFC file to a verified task image file (.img).");
+  compile->footer("A task image is accepted wherever a program is: `rtplc check F.img`, `rtplc sim F.img`,\n"
+                  "a task's `program: F.img`, `rtplc swap TASK F.img`. It is verified on every load, runs at\n"
+                  "the period it was compiled for (its parameters are prepared for it), and has no source\n"
+                  "(so no --explain and no positions in errors). Examples:\n"
+                  "  rtplc compile examples/seed_pid.fbd -o pid.img\n  rtplc sim pid.img --duration 10");
   compile->add_option("file", args->file, "control algorithm file (.fbd), SFC program (.sfc) or PLCopen XML project (.xml)")->required();
   compile->add_option("--entry", args->entry, "PLCopen XML: the task, program instance or program to compile (default: the project's only one)");
   compile->add_option("-o,--output", args->output, "image file (default: FILE with .img)");

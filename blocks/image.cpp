@@ -1,6 +1,8 @@
 // Serialisation and verification of task images (see image.h).
 #include "blocks/image.h"
 
+#include <cstddef>
+
 #include <cmath>
 #include <cstring>
 #include <string>
@@ -110,6 +112,8 @@ Result<TaskImage> ImageBuilder::finish() const {
   copy(h.off_bindings, bindings.data(), bindings.size() * sizeof(Binding));
   copy(h.off_blocks, blocks.data(), blocks.size() * sizeof(BlockInfo));
   copy(h.off_strings, pool.data(), pool.size());
+  const uint32_t check = image_body_check(img.bytes());
+  std::memcpy(base + offsetof(ImageHeader, body_check), &check, sizeof check);
 
   Result<void> v = verify_image(img.bytes());
   if (!v) return make_error("internal error, the compiler built an invalid image: " + v.error());
@@ -123,6 +127,13 @@ Result<TaskImage> TaskImage::from_bytes(std::span<const std::byte> bytes) {
   img.words_ = std::make_unique<uint64_t[]>(align8(bytes.size()) / 8);
   std::memcpy(img.words_.get(), bytes.data(), bytes.size());
   return img;
+}
+
+uint32_t image_body_check(std::span<const std::byte> bytes) {
+  if (bytes.size() <= sizeof(ImageHeader)) return 0;
+  const uint64_t h = fnv1a64(std::string_view(reinterpret_cast<const char*>(bytes.data()) + sizeof(ImageHeader),
+                                              bytes.size() - sizeof(ImageHeader)));
+  return static_cast<uint32_t>(h ^ (h >> 32));
 }
 
 Result<void> verify_image(std::span<const std::byte> bytes) {

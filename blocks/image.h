@@ -32,7 +32,7 @@
 namespace rtplc {
 
 inline constexpr char kImageMagic[8] = {'R', 'T', 'P', 'L', 'C', 'I', 'M', 'G'};
-inline constexpr uint32_t kImageVersion = 2;
+inline constexpr uint32_t kImageVersion = 3;  // 3: body_check (was reserved)
 
 // Instruction flags.
 inline constexpr uint16_t kInstrDelayed0 = 1u << 0;  // input i reads last cycle's value
@@ -130,7 +130,7 @@ struct ImageHeader {
   uint32_t n_io_in;
   uint32_t n_io_out;
   uint32_t n_strings;    // bytes in the string pool
-  uint32_t reserved;
+  uint32_t body_check;   // FNV-1a of the bytes after the header, folded to 32 bits (image_body_check)
   uint64_t off_instr;
   uint64_t off_runs;
   uint64_t off_params;
@@ -190,6 +190,13 @@ class TaskImage {
 // every instruction's opcode, operand indices, parameter and state ranges, run
 // coverage, binding and debug indices, and string termination.
 Result<void> verify_image(std::span<const std::byte> bytes);
+
+// The check value of an image's body (everything after the header). The
+// compiler stores it in the header; a loader of image *files* compares it, so
+// a byte changed after compiling (a disk, a copy, a hand) is refused as
+// damaged, whatever the structural verifier would make of it. verify_image
+// itself does not look at it: the structure is checked on its own merits.
+uint32_t image_body_check(std::span<const std::byte> bytes);
 
 // Assembles an image from the compiler's tables (lang/compiler.cpp is the user).
 class ImageBuilder {

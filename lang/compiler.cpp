@@ -11,7 +11,11 @@
 #include "lang/compiler.h"
 
 #include "common/files.h"
+#include "common/text.h"
 
+#include <cstring>
+#include <span>
+#include <vector>
 #include <algorithm>
 #include <cmath>
 #include <fstream>
@@ -344,11 +348,63 @@ CompileResult compile_as(std::string_view source, const CompileOptions& options,
 
 }  // namespace
 
+bool is_task_image(std::string_view source) {
+  return source.size() >= sizeof kImageMagic && std::memcmp(source.data(), kImageMagic, sizeof kImageMagic) == 0;
+}
+
+namespace {
+
+// A compiled task image (`rtplc compile -o F.img`) where a program is expected:
+// verified as the runtime verifies every image, never trusted because of its
+// magic. Its parameters were prepared for the period it was compiled with, so
+// it runs at that period only.
+CompileResult load_task_image(std::string_view bytes, const CompileOptions& options) {
+  CompileResult r;
+  std::vector<uint64_t> aligned((bytes.size() + 7) / 8);
+  std::memcpy(aligned.data(), bytes.data(), bytes.size());
+  const std::span<const std::byte> span(reinterpret_cast<const std::byte*>(aligned.data()), bytes.size());
+  if (bytes.size() > sizeof(ImageHeader)) {
+    ImageHeader h;
+    std::memcpy(&h, bytes.data(), sizeof h);
+    if (h.version == kImageVersion && h.body_check != image_body_check(span)) {
+      r.diags.error(SourcePos{}, "the task image is damaged: its check value does not match its contents "
+                                 "(changed after it was compiled); compile its source again");
+      return r;
+    }
+  }
+  Result<TaskImage> img = TaskImage::from_bytes(span);
+  if (!img) {
+    r.diags.error(SourcePos{}, "not a valid task image: " + img.error() + " (compile its source again)");
+    return r;
+  }
+  const double dt = img->period_s();
+  if (options.period_override && std::fabs(*options.period_override - dt) > 1e-9 * dt) {
+    r.diags.error(SourcePos{}, "this task image was compiled for a period of " + format_number(dt) +
+                                   " s and its parameters are prepared for it; it cannot run every " +
+                                   format_number(*options.period_override) +
+                                   " s: compile the source with --period " + format_number(*options.period_override));
+    return r;
+  }
+  if (!options.entry.empty()) {
+    r.diags.error(SourcePos{}, "an entry ('" + options.entry + "') chooses a program of a PLCopen project; a task "
+                               "image is one program already");
+    return r;
+  }
+  r.program.period = dt;
+  r.program.period_from_stime = true;
+  r.program.period_source = "the image";
+  r.image = std::move(img).value();
+  return r;
+}
+
+}  // namespace
+
 bool is_sfc_source(std::string_view source) {
   return sfc::starts_with_sfc_keyword(source);
 }
 
 CompileResult compile_source(std::string_view source, const CompileOptions& options) {
+  if (is_task_image(source)) return load_task_image(source, options);
   const Language l = plcopen::is_plcopen_source(source) ? Language::kPlcopen
                      : is_sfc_source(source)            ? Language::kSfc
                                                         : Language::kFbd;
@@ -374,6 +430,7 @@ CompileResult compile_file(const std::string& path, const CompileOptions& option
     const size_t n = std::char_traits<char>::length(ext);
     return path.size() > n && path.compare(path.size() - n, n, ext) == 0;
   };
+  if (is_task_image(*text)) return load_task_image(*text, o);
   // A Petri net is analysed, not compiled: say so instead of a cascade of
   // FBD errors about XML.
   if (ends_with(".pnml") || text->substr(0, 4096).find("<pnml") != std::string::npos) {

@@ -39,6 +39,10 @@ struct CompileResult {
 // (docs/plcopen.md).
 CompileResult compile_source(std::string_view source, const CompileOptions& options = {});
 
+// True when `source` starts as a compiled task image does (kImageMagic). Every
+// entry point above then loads and verifies it instead of compiling.
+bool is_task_image(std::string_view source);
+
 // True when `source` is an SFC program (its first word, after comments, is SFC).
 bool is_sfc_source(std::string_view source);
 

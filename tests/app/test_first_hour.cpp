@@ -375,5 +375,46 @@ TEST(FirstHour, sim_gives_figures_per_setpoint_step_timed_from_the_step) {
   EXPECT_FALSE(has(r, "rise time")) << r.out;
 }
 
+// ---- 10. compiled images have a use ------------------------------------------------
+
+TEST(FirstHour, a_compiled_image_is_accepted_wherever_a_program_is_and_verified_on_load) {
+  Scratch s("rtplc-first");
+  const std::string img = s.path("pid.img");
+  ToolRun r = run_tool("compile " + kExamples + "/seed_pid.fbd -o " + img);
+  ASSERT_EQ(r.status, 0) << r.out;
+  r = run_tool("check " + img);
+  EXPECT_EQ(r.status, 0) << r.out;
+  EXPECT_TRUE(has(r, "OK, 7 blocks, period 0.1 s")) << r.out;
+  // The same closed loop as from the source.
+  const ToolRun from_img = run_tool("sim " + img + " --duration 5");
+  const ToolRun from_src = run_tool("sim " + kExamples + "/seed_pid.fbd --duration 5");
+  EXPECT_EQ(from_img.status, 0) << from_img.out;
+  EXPECT_EQ(from_img.out.substr(from_img.out.find('\n')), from_src.out.substr(from_src.out.find('\n')));
+  // Its parameters are prepared for its period: another one is refused.
+  r = run_tool("sim " + img + " --period 0.2 --duration 1");
+  EXPECT_EQ(r.status, 1) << r.out;
+  EXPECT_TRUE(has(r, "compiled for a period of 0.1 s")) << r.out;
+  // A damaged image is refused, not run: flip a byte of its code.
+  std::string bytes = slurp(img);
+  ASSERT_GT(bytes.size(), 200u);
+  bytes[bytes.size() / 2] = static_cast<char>(bytes[bytes.size() / 2] ^ 0x5a);
+  const std::string bad = s.write("bad.img", bytes);
+  r = run_tool("check " + bad);
+  EXPECT_EQ(r.status, 1) << r.out;
+  EXPECT_TRUE(has(r, "the task image is damaged")) << r.out;
+  // A config task may name an image, and a runtime may swap to one.
+  s.write("rt.yaml", "runtime:\n  name: fhimg" + std::to_string(getpid()) + "\n  socket: " + s.path("ctl.sock") +
+                         "\n  retain_file: " + s.path("rt.retain") +
+                         "\ntasks:\n  - {name: pid, program: pid.img}\ndrivers:\n  - kind: sim\n");
+  r = run_tool("check " + s.path("rt.yaml"));
+  EXPECT_EQ(r.status, 0) << r.out;
+  r = run_shell(rtplc_binary() + " run " + s.path("rt.yaml") + " --no-lock -q --duration 30 & " +
+                "for i in $(seq 1 300); do " + rtplc_binary() + " status --socket " + s.path("ctl.sock") +
+                " >/dev/null 2>&1 && break; sleep 0.1; done; " + rtplc_binary() + " swap pid " + img + " --socket " +
+                s.path("ctl.sock") + "; " + rtplc_binary() + " stop --socket " + s.path("ctl.sock"));
+  EXPECT_TRUE(has(r, "now running " + img)) << r.out;
+  EXPECT_TRUE(has(r, "stopped")) << r.out;
+}
+
 }  // namespace
 }  // namespace rtplc::test

@@ -100,6 +100,18 @@ TEST(Image, rejects_each_kind_of_corruption) {
   }
 }
 
+TEST(Image, the_body_check_value_matches_a_compiled_image_and_catches_any_changed_byte) {
+  TaskImage img = compiled();
+  EXPECT_EQ(img.header().body_check, image_body_check(img.bytes()));
+  EXPECT_NE(img.header().body_check, 0u);
+  auto bytes = copy_of(img);
+  for (size_t at : {sizeof(ImageHeader), bytes.size() / 2, bytes.size() - 1}) {
+    auto b = bytes;
+    b[at] ^= std::byte{0x01};
+    EXPECT_NE(image_body_check(b), img.header().body_check) << "byte " << at;
+  }
+}
+
 TEST(Image, rejects_a_dely_whose_sample_count_exceeds_its_state) {
   TaskImage img = compiled();
   auto bytes = copy_of(img);
