@@ -493,7 +493,7 @@ bool ProcessImage::read_values(uint32_t r, const uint32_t* src, uint32_t n, doub
     const auto k = static_cast<uint32_t>(pub % kRingSlots);
     const SlotHeader& s = slot(r, k);
     const uint64_t v1 = s.version.load(std::memory_order_acquire);
-    if (v1 & 1) continue;
+    if (v1 != slot_version_after(pub)) continue;  // being written, or already a later publication
     const double* vals = values(r, k);
     for (uint32_t i = 0; i < n; ++i) scratch[i] = load_value(vals + src[i]);
     if (quality_out != nullptr) {
@@ -540,7 +540,7 @@ ChannelValue ProcessImage::read_at(uint32_t r, uint32_t index) const noexcept {
     const auto k = static_cast<uint32_t>(pub % kRingSlots);
     const SlotHeader& s = slot(r, k);
     const uint64_t v1 = s.version.load(std::memory_order_acquire);
-    if (v1 & 1) continue;
+    if (v1 != slot_version_after(pub)) continue;  // being written, or already a later publication
     cv.value = load_value(values(r, k) + d.index);
     cv.quality = static_cast<Quality>(std::atomic_ref<uint8_t>(quality(r, k)[d.index]).load(std::memory_order_acquire));
     cv.timestamp_ns = std::atomic_ref<int64_t>(timestamps(r, k)[d.index]).load(std::memory_order_acquire);

@@ -19,11 +19,19 @@
 //           executor writes its outputs in place the same way)
 //           end_write():   k.version += 1 (even, release); published = n + 1 (release)
 //   reader  n = published (acquire); k = n % kRingSlots; v1 = k.version (acquire);
-//           odd -> retry; copy (acquire loads, so the re-check below cannot move
-//           before them); v2 = k.version; v1 != v2 -> retry
+//           v1 != slot_version_after(n) -> retry; copy (acquire loads, so the
+//           re-check below cannot move before them); v2 = k.version;
+//           v1 != v2 -> retry
 // If a load saw a store of a later write into slot k, that write's odd
 // increment happens-before the re-check, which then differs: a torn copy is
-// never accepted. The writer never waits. A reader only ever reads the last
+// never accepted. Why v1 must be exactly slot_version_after(n) (each write adds
+// 2, slot k is written once per lap, so that value names publication n): a
+// reader that loaded n and was delayed could find slot k already rewritten
+// whole with publication n + kRingSlots, its version even again, while the
+// writer had not yet stored published = n + kRingSlots; it took the newer
+// values, and its next load of `published` (still n + kRingSlots - 1) gave it
+// older ones. Accepting only publication n, with read-read coherence on
+// `published`, means one reader's values never go backwards. The writer never waits. A reader only ever reads the last
 // *completed* slot, so a reader that preempts the writer (a SCHED_FIFO task
 // preempting a driver on the same CPU, the case where a plain seqlock spins
 // forever) reads a slot the writer is not touching; a retry is needed only if
@@ -94,6 +102,9 @@ inline constexpr char kProcessImageMagic[8] = {'R', 'T', 'P', 'L', 'C', 'S', 'H'
 inline constexpr uint32_t kProcessImageVersion = 6;  // 4: the force table; 5: per-task trace rings;
                                                     // 6: per-class delays of planned links
 inline constexpr uint32_t kRingSlots = 4;
+// The version slot n % kRingSlots holds once publication n >= 1 is complete:
+// two per write, and that slot was written once per lap up to n.
+inline constexpr uint64_t slot_version_after(uint64_t n) { return 2 * ((n - 1) / kRingSlots + 1); }
 inline constexpr size_t kLabelBytes = 32;
 
 

@@ -123,6 +123,35 @@ TEST(ProcessImage, attach_refuses_something_that_is_not_an_image) {
 // Writer fills every value of snapshot n with n; readers must only ever see
 // all-equal snapshots, and the snapshot number never goes backwards. All three
 // threads start together (a barrier), so the readers really overlap the writer.
+// The state a delayed reader can meet: it loaded published = 1, and meanwhile
+// the writer rewrote slot 1 whole with publication 5 (version even again) but
+// has not yet stored published = 5. The old protocol took 5 there and then 4 at
+// its next read; a slot whose version names another lap is not publication 1.
+TEST(ProcessImage, a_slot_already_rewritten_a_lap_later_is_not_taken_for_the_loaded_publication) {
+  auto img = ProcessImage::create(layout(unique_name("lap"), 4));
+  ASSERT_TRUE(img.ok());
+  const ProcessImage& im = *img;
+  auto write = [&](double v) {
+    const uint32_t k = im.begin_write(0);
+    for (uint32_t i = 0; i < 4; ++i) store_value(im.values(0, k) + i, v);
+    im.end_write(0, k, 1, 1);
+  };
+  for (double v = 1; v <= 5; ++v) write(v);  // publications 1..5; 5 is in slot 1
+  ASSERT_EQ(im.slot(0, 1).version.load(), slot_version_after(5));
+  // Hold published at 1, as the delayed reader saw it.
+  im.ring(0).published.store(1);
+  const uint32_t src[4] = {0, 1, 2, 3};
+  double out[4] = {};
+  EXPECT_FALSE(im.read_values(0, src, 4, out, 3)) << "took publication " << out[0] << " for publication 1";
+  // Once published says 5, it is read.
+  im.ring(0).published.store(5);
+  ASSERT_TRUE(im.read_values(0, src, 4, out, 3));
+  EXPECT_EQ(out[0], 5);
+  EXPECT_EQ(slot_version_after(1), 2u);
+  EXPECT_EQ(slot_version_after(4), 2u);
+  EXPECT_EQ(slot_version_after(5), 4u);
+}
+
 TEST(ProcessImage, readers_never_see_a_torn_snapshot) {
   constexpr uint32_t kCap = 64;
   auto img = ProcessImage::create(layout(unique_name("ring"), kCap));
