@@ -103,6 +103,26 @@ BusCounters CanDriver::counters() const {
   return c;
 }
 
+Result<void> CanDriver::can_send(uint32_t j, double value) const {
+  uint32_t first = 0;
+  for (const FrameMap& fm : settings_.transmit) {
+    if (j < first + fm.signals.size()) {
+      const SignalMap& sig = fm.signals[j - first];
+      uint8_t data[8] = {};
+      if (pack(sig.layout, value, data)) return {};
+      const char* enc = sig.layout.encoding == Encoding::kFloat      ? "float"
+                        : sig.layout.encoding == Encoding::kUnsigned ? "unsigned"
+                                                                     : "signed";
+      return make_error(fmt::format("its signal {} in frame {} cannot carry {}: {} {}-byte value after scale {} and "
+                                    "offset {}",
+                                    sig.channel, id_text(fm.id, fm.extended), value, enc, sig.layout.length,
+                                    sig.layout.scale, sig.layout.offset));
+    }
+    first += static_cast<uint32_t>(fm.signals.size());
+  }
+  return {};
+}
+
 Result<void> CanDriver::on_start() {
   return start_io();
 }

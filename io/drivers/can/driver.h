@@ -94,6 +94,9 @@ class CanDriver final : public io::Driver, private fieldbus::LinkSender {
   // Opens the port and starts the I/O thread (on_start does; tests call it
   // alone and drive the bridge with cycle_now() at times of their choosing).
   Result<void> start_io();
+  // Whether a transmit signal (consumed output j) can carry `value` after its
+  // scale and offset in its bytes and encoding (what pack() accepts).
+  Result<void> can_send(uint32_t j, double value) const override;
   // Tests: the bus counters as the I/O thread last published them.
   BusCounters counters() const;
   uint64_t rx_timeouts() const { return rx_timeouts_.load(std::memory_order_relaxed); }

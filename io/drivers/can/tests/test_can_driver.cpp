@@ -88,6 +88,23 @@ Frame frame(uint32_t id, std::initializer_list<uint8_t> bytes) {
   return f;
 }
 
+TEST(CanDriver, says_which_values_a_transmit_signal_cannot_carry) {
+  Rig r;
+  // Output 0: signed 2 bytes at scale 0.1 (-3276.8 .. 3276.7).
+  EXPECT_TRUE(r.driver->can_send(0, 100.5).ok());
+  Result<void> no = r.driver->can_send(0, 5000);
+  ASSERT_FALSE(no.ok());
+  EXPECT_NE(no.error().find("p0.d1.c0 in frame 201 cannot carry 5000"), std::string::npos) << no.error();
+  EXPECT_NE(no.error().find("signed 2-byte"), std::string::npos) << no.error();
+  // Output 1: one unsigned byte.
+  EXPECT_TRUE(r.driver->can_send(1, 255).ok());
+  EXPECT_FALSE(r.driver->can_send(1, 256).ok());
+  EXPECT_FALSE(r.driver->can_send(1, -1).ok());
+  // Output 2: a 4-byte float: beyond float's range is refused.
+  EXPECT_TRUE(r.driver->can_send(2, 1e30).ok());
+  EXPECT_FALSE(r.driver->can_send(2, 1e300).ok());
+}
+
 TEST(CanDriver, filters_the_socket_to_the_receive_ids) {
   Rig r;
   ASSERT_TRUE(r.driver->start_io().ok());

@@ -98,6 +98,22 @@ TEST_F(ModbusRuntime, values_flow_from_the_slave_through_the_task_back_to_the_sl
   EXPECT_GT(ls.errors.load(), 0u);  // the exception answers
 }
 
+TEST_F(ModbusRuntime, a_force_the_register_cannot_carry_is_refused_naming_the_item) {
+  std::string cfg = config(a_.port(), b_.port());
+  const std::string f32 = "address: 10, type: f32, word_order: low_first";
+  ASSERT_NE(cfg.find(f32), std::string::npos);
+  cfg.replace(cfg.find(f32), f32.size(), "address: 10, scale: 0.5");  // u16 raw = value / 0.5
+  rt_ = fx_.start(cfg);
+  ASSERT_NE(rt_, nullptr);
+  Result<std::string> r = rt_->force("Out", 40000, 0);  // raw 80000 > 65535
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().find("driver mb sends \"Out\" and slave a item hr:10"), std::string::npos) << r.error();
+  EXPECT_NE(r.error().find("cannot carry 40000 (raw 80000)"), std::string::npos) << r.error();
+  EXPECT_TRUE(rt_->forces().empty());
+  r = rt_->force("Out", 100, 0);
+  EXPECT_TRUE(r.ok()) << r.error();
+}
+
 TEST_F(ModbusRuntime, a_killed_slave_turns_exactly_its_channels_bad_and_recovers_with_outputs_resent) {
   rt_ = fx_.start(config(a_.port(), b_.port()));
   ASSERT_NE(rt_, nullptr);
