@@ -274,7 +274,15 @@ void GpioDriver::cycle(int64_t now) noexcept {
     }
     double v = 0;
     Quality q = Quality::kBad;
-    const bool vouched = read_output(t.index, v, q) && (q == Quality::kGood || q == Quality::kForced);
+    if (!read_output(t.index, v, q)) {
+      // No consistent snapshot this cycle (the task is writing its region): not
+      // a reason to move the line. Keep what was driven, say it as it was.
+      put_delivery(k, t.index, t.last_set < 0 ? 0.0 : t.last_set,
+                   t.vouched && t.last_err == 0 ? Quality::kGood : Quality::kBad, now);
+      continue;
+    }
+    const bool vouched = q == Quality::kGood || q == Quality::kForced;
+    t.vouched = vouched;
     const int level = vouched ? (v != 0 ? 1 : 0) : m.safe;
     if (level != t.last_set || t.last_err != 0) {
       t.last_err = ops_.set(t.line, level);

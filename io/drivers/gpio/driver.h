@@ -71,6 +71,7 @@ class GpioDriver final : public io::Driver {
     int last_set = -1;      // outputs: the level driven last (-1: none yet)
     int last_err = 0;
     bool failing = false;
+    bool vouched = false;   // outputs: the level driven last was the task's own, good value
     EdgeState seen;         // the I/O thread's state as the bridge last read it
   };
 

@@ -192,6 +192,31 @@ TEST(GpioDriver, drives_the_safe_level_when_the_task_cannot_vouch_for_an_output)
   EXPECT_EQ(r.entry(5), std::make_pair(1.0, Quality::kBad));
 }
 
+// A snapshot the bridge could not read consistently (here: the ring as a reader
+// meets it while the task laps it) is no reason to move an output: the line
+// keeps the level driven last instead of jumping to its safe level.
+TEST(GpioDriver, keeps_the_level_it_drove_when_a_cycle_cannot_read_the_outputs) {
+  Rig r;
+  ASSERT_TRUE(r.driver->start_io().ok());
+  for (int i = 0; i < 5; ++i) r.outputs(1, 1);  // publications 1..5 of the task region
+  r.driver->cycle_now(kernel_rt::monotonic_now_ns());
+  ASSERT_EQ(r.chips.level("gpiochip0", 4), 1);
+  ASSERT_EQ(r.chips.level("gpiochip0", 5), 0);  // active-low
+  // `published` as a delayed reader sees it while slot 1 already holds a later lap.
+  r.image.ring(0).published.store(1);
+  const uint64_t sets = r.chips.sets();
+  r.driver->cycle_now(kernel_rt::monotonic_now_ns());
+  EXPECT_EQ(r.chips.level("gpiochip0", 4), 1) << "driven to its safe level on a read miss";
+  EXPECT_EQ(r.chips.level("gpiochip0", 5), 0);
+  EXPECT_EQ(r.chips.sets(), sets);
+  EXPECT_EQ(r.entry(4), std::make_pair(1.0, Quality::kGood));
+  // The next consistent snapshot applies as usual.
+  r.image.ring(0).published.store(5);
+  r.outputs(0, 1);
+  r.driver->cycle_now(kernel_rt::monotonic_now_ns());
+  EXPECT_EQ(r.chips.level("gpiochip0", 4), 0);
+}
+
 TEST(GpioDriver, a_failing_set_is_bad_and_retried) {
   Rig r;
   ASSERT_TRUE(r.driver->start_io().ok());
