@@ -1,6 +1,8 @@
 // The runtime's log output (see log_output.h).
 #include "app/log_output.h"
 
+#include "common/files.h"
+
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/stat.h>
@@ -19,20 +21,6 @@ namespace {
 // older one, each at most this size.
 constexpr size_t kMaxFallbackBytes = size_t{16} << 20;
 
-// Writes all of [p, p+n) to fd; returns 0, or the errno that stopped it.
-int write_all(int fd, const char* p, size_t n) {
-  while (n > 0) {
-    const ssize_t w = ::write(fd, p, n);
-    if (w < 0) {
-      if (errno == EINTR) continue;
-      return errno;
-    }
-    p += w;
-    n -= static_cast<size_t>(w);
-  }
-  return 0;
-}
-
 }  // namespace
 
 RuntimeLogSink::RuntimeLogSink(int fd, std::string fallback_path)
@@ -48,9 +36,9 @@ void RuntimeLogSink::sink_it_(const spdlog::details::log_msg& msg) {
   if (fd_ >= 0) {
     const bool loud = color_ && msg.level >= spdlog::level::warn;
     const char* on = msg.level >= spdlog::level::err ? "\x1b[31m" : "\x1b[33m";
-    int e = loud ? write_all(fd_, on, std::strlen(on)) : 0;
-    if (e == 0) e = write_all(fd_, line.data(), line.size());
-    if (e == 0 && loud) e = write_all(fd_, "\x1b[0m", 4);
+    int e = loud ? write_fully(fd_, on, std::strlen(on)) : 0;
+    if (e == 0) e = write_fully(fd_, line.data(), line.size());
+    if (e == 0 && loud) e = write_fully(fd_, "\x1b[0m", 4);
     if (e == 0) return;
     // EAGAIN cannot happen on a blocking fd; anything else means the output
     // is gone or broken for good: move the log, keep this line.
@@ -90,7 +78,7 @@ void RuntimeLogSink::write_fallback(const char* p, size_t n) {
     struct stat st{};
     fallback_bytes_ = fstat(fallback_fd_, &st) == 0 ? static_cast<size_t>(st.st_size) : 0;
   }
-  if (write_all(fallback_fd_, p, n) == 0) fallback_bytes_ += n;
+  if (write_fully(fallback_fd_, p, n) == 0) fallback_bytes_ += n;
 }
 
 std::shared_ptr<RuntimeLogSink> install_runtime_log(const std::string& fallback_path) {

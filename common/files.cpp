@@ -25,6 +25,13 @@ const char* kind_of(mode_t m) {
   return "not a regular file";
 }
 
+// "1777", as chmod takes it.
+std::string mode_text(mode_t m) {
+  char mode[8];
+  std::snprintf(mode, sizeof mode, "%04o", static_cast<unsigned>(m & 07777));
+  return mode;
+}
+
 std::string size_text(size_t bytes) {
   if (bytes >= (size_t{1} << 20) && bytes % (size_t{1} << 20) == 0) return std::to_string(bytes >> 20) + " MiB";
   if (bytes >= 1024 && bytes % 1024 == 0) return std::to_string(bytes >> 10) + " KiB";
@@ -120,19 +127,21 @@ Result<void> make_folders(const std::string& dir, mode_t mode, mode_t parent_mod
   return {};
 }
 
-namespace {
-bool write_all(int fd, const std::string& s) {
-  size_t done = 0;
-  while (done < s.size()) {
-    const ssize_t n = ::write(fd, s.data() + done, s.size() - done);
-    if (n < 0) {
+int write_fully(int fd, const char* data, size_t n) {
+  while (n > 0) {
+    const ssize_t w = ::write(fd, data, n);
+    if (w < 0) {
       if (errno == EINTR) continue;
-      return false;
+      return errno;
     }
-    done += static_cast<size_t>(n);
+    data += w;
+    n -= static_cast<size_t>(w);
   }
-  return true;
+  return 0;
 }
+
+namespace {
+bool write_all(int fd, std::string_view s) { return write_fully(fd, s.data(), s.size()) == 0; }
 }  // namespace
 
 Result<void> write_file_atomically(const std::string& path, const std::string& text, mode_t mode) {
@@ -165,7 +174,7 @@ Result<void> write_file_atomically(const std::string& path, mode_t mode,
       written = write_all(fd, pending);
       pending.clear();
       if (!written) return false;
-      if (piece.size() > kChunk) return written = write_all(fd, std::string(piece));
+      if (piece.size() > kChunk) return written = write_all(fd, piece);
     }
     pending.append(piece);
     return true;
@@ -205,8 +214,7 @@ Result<void> ensure_private_folder(const std::string& dir) {
                       "another path");
   }
   if ((st.st_mode & 077) != 0) {
-    char mode[8];
-    std::snprintf(mode, sizeof mode, "%04o", static_cast<unsigned>(st.st_mode & 07777));
+    const std::string mode = mode_text(st.st_mode);
     // A folder others may write to (/tmp, /var/tmp, a shared drop folder) is
     // shared on purpose: never advise changing it, advise a folder of our own.
     if ((st.st_mode & (S_ISVTX | S_IWGRP | S_IWOTH)) != 0) {
@@ -244,9 +252,7 @@ Result<void> ensure_state_folder(const std::string& dir, bool create) {
                       "give runtime.retain_file a folder of this user's own");
   }
   if ((st.st_mode & (S_IWGRP | S_IWOTH)) != 0) {
-    char mode[8];
-    std::snprintf(mode, sizeof mode, "%04o", static_cast<unsigned>(st.st_mode & 07777));
-    return make_error("refusing " + dir + ": other users may write to it (mode " + mode +
+    return make_error("refusing " + dir + ": other users may write to it (mode " + mode_text(st.st_mode) +
                       "), and so replace the programs and set-points the runtime starts with; "
                       "give runtime.retain_file a folder of the runtime's own (created 0700 when missing)");
   }

@@ -34,6 +34,10 @@ bool is_missing_file_error(const std::string& error);
 // name the path.
 std::string file_error_reason(const std::string& path, const std::string& error);
 
+// Writes all of [data, data + n) to `fd`, retrying short writes and EINTR;
+// returns 0, or the errno that stopped it (EPIPE, ENOSPC, ...).
+int write_fully(int fd, const char* data, size_t n);
+
 // Whether `a` and `b` name the same existing file (same device and inode), so
 // a command never writes its output over its own input.
 bool same_file(const std::string& a, const std::string& b);

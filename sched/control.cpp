@@ -68,7 +68,6 @@ std::string frame(bool ok, const std::string& body) {
   return out + ".\n";
 }
 
-int64_t realtime_ns() { return kernel_rt::realtime_now_ns(); }
 
 std::vector<std::string> split(const std::string& s) {
   std::vector<std::string> v;
@@ -315,7 +314,7 @@ std::string ControlServer::execute(const std::vector<std::string>& w, const std:
   Result<std::string> res = make_error("unknown request '" + verb +
                                        "' (ping, status, set, swap, rollback, force, unforce, unforce_all, "
                                        "trace, trace-keep, trace-end, stop)");
-  const std::string who = " by uid " + std::to_string(uid) + " at " + format_utc(realtime_ns());
+  const std::string who = " by uid " + std::to_string(uid) + " at " + format_utc(kernel_rt::realtime_now_ns());
   if (verb == "ping" && w.size() == 1) {
     res = std::string("pong ") + rt_.name();
   } else if (verb == "status" && w.size() == 1) {
