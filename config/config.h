@@ -100,6 +100,8 @@ struct DriverConfig {
   SourcePos priority_pos;
   std::optional<unsigned> cpu;
   SourcePos cpu_pos;
+  std::optional<double> max_age_s;  // unset: the kind's claims say (ChannelClaim::max_age_ns)
+  SourcePos max_age_pos;
   // The kind's own settings, as the kind's own plain struct (no YAML), made by
   // its parser and read only by its own code: e.g. the sim driver's
   // std::any_cast<const sim::Settings>(&d.settings).

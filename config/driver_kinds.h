@@ -28,6 +28,10 @@ struct ChannelClaim {
   std::string key;
   std::string label;  // how messages and the monitor name it when no program does: "plant.p0.d0.c0"
   SourcePos pos;      // the config entry that makes the claim
+  // Inputs: the age after which the driver no longer vouches for a good value
+  // (io::judge_quality), e.g. three polls of its peer; 0 lets the runtime use
+  // three driver periods. The driver's `max_age:` key overrides both.
+  int64_t max_age_ns = 0;
 };
 
 // What a driver exchanges, derived from its parsed settings alone.

@@ -372,6 +372,10 @@ void parse_driver(YamlReader& r, const YAML::Node& node, SourcePos list_pos, Run
     d.cpu_pos = x->pos;
     if (auto v = r.integer(*x)) d.cpu = static_cast<unsigned>(*v);
   }
+  if (const Field* x = f.get("max_age")) {
+    d.max_age_pos = x->pos;
+    if (auto v = r.duration(*x)) d.max_age_s = *v;
+  }
   if (kind) kind->parse(r, f, d);
   cfg.drivers.push_back(std::move(d));
 }

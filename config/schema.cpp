@@ -111,6 +111,11 @@ const KeySpec kDriverKeys[] = {
      "the driver preempts the tasks."},
     {"cpu", ValueType::kInteger, false, 0, kMaxCpu, nullptr, "(not pinned)",
      "The CPU the driver's thread is pinned to."},
+    {"max_age", ValueType::kDuration, false, 0.001, 3600, nullptr, "the kind's (a few of its polls)",
+     "How old a good input of this driver may be before every consumer (tasks, drivers, the "
+     "monitor, modbus-server) takes it as stale: a frozen peer, a starved line thread or a "
+     "driver that stopped publishing shows within this age. By default each kind declares its "
+     "own (three of its poll or frame periods; three driver periods where it has none)."},
 };
 
 const SectionSpec kTop{"top", "the config", "Top level", "", kTopKeys};

@@ -465,9 +465,13 @@ void ProcessImage::apply_forces(uint32_t r, uint32_t k) const noexcept {
   if (fr.n_forced.load(std::memory_order_acquire) == 0) return;
   const ForceEntry* e = reinterpret_cast<const ForceEntry*>(static_cast<const char*>(base_) + fr.entries_offset);
   double* vals = values(r, k);
+  uint8_t* q = quality(r, k);
   for (uint32_t i = 0; i < fr.capacity; ++i) {
     if (e[i].forced.load(std::memory_order_acquire) != 1) continue;
     store_value(vals + i, std::bit_cast<double>(e[i].value_bits.load(std::memory_order_acquire)));
+    // The status travels in the same snapshot as the value: no reader can pair
+    // a forced value with its source's quality, or the source's with `forced`.
+    std::atomic_ref<uint8_t>(q[i]).store(static_cast<uint8_t>(Quality::kForced), std::memory_order_release);
   }
 }
 
@@ -486,7 +490,7 @@ void ProcessImage::end_write(uint32_t r, uint32_t k, int64_t now_ns, uint64_t cy
 
 bool ProcessImage::read_values(uint32_t r, const uint32_t* src, uint32_t n, double* scratch,
                                uint32_t max_tries, uint64_t* published_seen,
-                               Quality* quality_out) const noexcept {
+                               Quality* quality_out, int64_t* times) const noexcept {
   for (uint32_t t = 0; t < max_tries; ++t) {
     const uint64_t pub = ring(r).published.load(std::memory_order_acquire);
     if (pub == 0) return false;  // nothing written yet
@@ -502,6 +506,14 @@ bool ProcessImage::read_values(uint32_t r, const uint32_t* src, uint32_t n, doub
         quality_out[i] = static_cast<Quality>(std::atomic_ref<uint8_t>(q[src[i]]).load(std::memory_order_acquire));
       }
     }
+    if (times != nullptr) {
+      const int64_t* ts = timestamps(r, k);
+      const int64_t written = s.written_ns.load(std::memory_order_acquire);
+      for (uint32_t i = 0; i < n; ++i) {
+        const int64_t t_i = std::atomic_ref<const int64_t>(ts[src[i]]).load(std::memory_order_acquire);
+        times[i] = t_i != 0 ? t_i : written;
+      }
+    }
     if (s.version.load(std::memory_order_relaxed) == v1) {
       if (published_seen) *published_seen = pub;
       return true;
@@ -513,6 +525,9 @@ bool ProcessImage::read_values(uint32_t r, const uint32_t* src, uint32_t n, doub
 ChannelValue ProcessImage::read_channel(uint32_t c) const noexcept {
   const ChannelDesc& d = channel(c);
   ChannelValue cv = read_at(d.region, d.index);
+  if (cv.fresh) {
+    cv.quality = judge_quality(cv.quality, cv.value, cv.timestamp_ns, kernel_rt::monotonic_now_ns(), d.max_age_ns);
+  }
   const ForcedValue f = forced(d.region, d.index);
   const uint64_t pub = ring(d.region).published.load(std::memory_order_acquire);
   const bool safe = slot(d.region, static_cast<uint32_t>(pub % kRingSlots)).region_state.load(std::memory_order_relaxed) != 0;

@@ -78,14 +78,18 @@
 // What a forced entry means: the region's writer publishes the forced value
 // in place of its own (a driver's input, a task's output), so every task that
 // reads the input, every driver that sends the output and every tool sees it.
-// The slot's quality stays the writer's; readers mark the value forced from
-// the table. A stopped task's safe values win: end_write() skips the forces of
-// a snapshot whose region_state is 1 (outputs at their safe values).
+// end_write() stamps the slot's quality `forced` beside the forced value, in the
+// same snapshot, so a reader never pairs a forced value with its source's
+// quality (or a source value with `forced`). Every writer therefore puts every
+// quality of its region in every snapshot: after an unforce the next snapshot
+// carries the source's own again. A stopped task's safe values win: end_write()
+// skips the forces of a snapshot whose region_state is 1 (outputs at their safe values).
 #pragma once
 
 #include <sys/types.h>
 
 #include <atomic>
+#include <bit>
 #include <cstring>
 #include <cstddef>
 #include <cstdint>
@@ -99,8 +103,9 @@
 namespace rtplc::io {
 
 inline constexpr char kProcessImageMagic[8] = {'R', 'T', 'P', 'L', 'C', 'S', 'H', 'M'};
-inline constexpr uint32_t kProcessImageVersion = 6;  // 4: the force table; 5: per-task trace rings;
-                                                    // 6: per-class delays of planned links
+inline constexpr uint32_t kProcessImageVersion = 7;  // 4: the force table; 5: per-task trace rings;
+                                                    // 6: per-class delays of planned links;
+                                                    // 7: ChannelDesc::max_age_ns
 inline constexpr uint32_t kRingSlots = 4;
 // The version slot n % kRingSlots holds once publication n >= 1 is complete:
 // two per write, and that slot was written once per lap up to n.
@@ -123,8 +128,9 @@ struct ChannelDesc {
   uint8_t has_delivery;     // outputs: a driver reports how their sending goes
   uint16_t delivery_region; // ... in this region (the driver's),
   uint32_t delivery_index;  // ... at this index: quality bad while it cannot send
+  int64_t max_age_ns;       // inputs: a good value older than this is stale (judge_quality); 0 never
 };
-static_assert(sizeof(ChannelDesc) == 96);
+static_assert(sizeof(ChannelDesc) == 104);
 
 struct RegionDesc {
   char name[kLabelBytes];  // "task:loop1", "driver:plant", "setpoints"
@@ -420,8 +426,11 @@ class ProcessImage {
   // snapshot; on false its contents are meaningless — callers copy from scratch
   // only on success, so their own values stay those of the last good read.
   // Used on the RT path with a small bound.
+  // `times`, when not null, receives each value's timestamp (its snapshot's
+  // time where the writer keeps none), for judge_quality.
   bool read_values(uint32_t r, const uint32_t* src, uint32_t n, double* scratch, uint32_t max_tries,
-                   uint64_t* published_seen = nullptr, Quality* quality = nullptr) const noexcept;
+                   uint64_t* published_seen = nullptr, Quality* quality = nullptr,
+                   int64_t* times = nullptr) const noexcept;
 
   const std::string& object_name() const { return object_; }
 
@@ -437,5 +446,24 @@ class ProcessImage {
 
 // Seconds since a CLOCK_MONOTONIC timestamp.
 double age_s(int64_t monotonic_ns);
+
+// The one freshness rule: what a value stored with quality `stored` at
+// `timestamp_ns` is worth at `now_ns` for a channel whose driver vouches for
+// `max_age_ns` (ChannelDesc::max_age_ns). Every consumer judges through it —
+// tasks (sched::read_group), drivers sending outputs, the monitor, stats and
+// modbus-server — so a frozen peer, a starved line thread or a driver that
+// stopped publishing makes a value stale within its age everywhere at once.
+//   not a finite number          -> bad (unless forced: a force is finite by check)
+//   good, older than max_age_ns  -> stale (max_age_ns 0: never by age)
+//   otherwise                    -> as stored
+// A timestamp of 0 (a writer that keeps none) is judged by its snapshot's time.
+inline Quality judge_quality(Quality stored, double value, int64_t timestamp_ns, int64_t now_ns,
+                             int64_t max_age_ns) noexcept {
+  if (stored == Quality::kForced) return stored;
+  const uint64_t bits = std::bit_cast<uint64_t>(value);
+  if ((bits & 0x7FF0000000000000ull) == 0x7FF0000000000000ull) return Quality::kBad;
+  if (stored == Quality::kGood && max_age_ns > 0 && now_ns - timestamp_ns > max_age_ns) return Quality::kStale;
+  return stored;
+}
 
 }  // namespace rtplc::io

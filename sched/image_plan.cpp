@@ -21,6 +21,16 @@ io::ChannelDesc channel_desc(const std::string& label, const std::string& key, i
   return d;
 }
 
+int64_t input_max_age_ns(const config::DriverConfig& dc, const config::ChannelClaim& claim) {
+  if (dc.max_age_s) return static_cast<int64_t>(*dc.max_age_s * 1e9);
+  if (claim.max_age_ns > 0) return claim.max_age_ns;
+  return 3 * static_cast<int64_t>(dc.period_s * 1e9);
+}
+
+int64_t output_max_age_ns(int64_t task_period_ns) {
+  return std::max<int64_t>(3 * task_period_ns, 1000000000);
+}
+
 std::string limits_text(const std::optional<double>& min, const std::optional<double>& max) {
   if (min && max) return "[" + format_number(*min) + ", " + format_number(*max) + "]";
   if (min) return ">= " + format_number(*min);
@@ -78,6 +88,7 @@ bool plan_image(const config::RuntimeConfig& cfg, const std::string& name,
     uint32_t region;
     uint32_t index;
     std::string label;
+    int64_t max_age_ns;
   };
   std::map<std::string, Produced> produced;  // input channels a driver writes
   const int driver_prio = std::min(cfg.band_hi + 1, config::kMaxFifoPriority);
@@ -93,7 +104,7 @@ bool plan_image(const config::RuntimeConfig& cfg, const std::string& name,
     layout.n_links += c.links;
     for (uint32_t i = 0; i < c.provides.size(); ++i) {
       // Two sources of one input were refused when the config loaded.
-      produced.emplace(c.provides[i].key, Produced{dp.region, i, c.provides[i].label});
+      produced.emplace(c.provides[i].key, Produced{dp.region, i, c.provides[i].label, input_max_age_ns(dc, c.provides[i])});
     }
     const size_t capacity = c.provides.size() + c.consumes.size();
     layout.regions.push_back({"driver:" + dc.name, io::RegionKind::kDriver, static_cast<uint32_t>(d),
@@ -141,6 +152,7 @@ bool plan_image(const config::RuntimeConfig& cfg, const std::string& name,
         by_key[key] = static_cast<uint32_t>(descs.size());
         descs.push_back(channel_desc(label, key, io::ChannelDir::kOutput, static_cast<uint8_t>(b.kind),
                                      static_cast<uint32_t>(t), b.io_index));
+        descs.back().max_age_ns = output_max_age_ns(img.header().period_ns);
       } else if (existing == by_key.end()) {
         io::ChannelDesc d = channel_desc(label, key, io::ChannelDir::kInput, static_cast<uint8_t>(b.kind), 0, 0);
         if (b.dir == BindingDir::kSetpoint) {
@@ -152,6 +164,7 @@ bool plan_image(const config::RuntimeConfig& cfg, const std::string& name,
         } else if (auto pr = produced.find(key); pr != produced.end()) {
           d.region = static_cast<uint16_t>(pr->second.region);
           d.index = pr->second.index;
+          d.max_age_ns = pr->second.max_age_ns;
         } else {
           d.region = static_cast<uint16_t>(out.unwired_region);
           d.index = n_unwired++;
@@ -175,6 +188,7 @@ bool plan_image(const config::RuntimeConfig& cfg, const std::string& name,
       const Produced& pr = produced[p.key];
       by_key[p.key] = static_cast<uint32_t>(descs.size());
       descs.push_back(channel_desc(pr.label, p.key, io::ChannelDir::kInput, 0, pr.region, pr.index));
+      descs.back().max_age_ns = pr.max_age_ns;
     }
     for (uint32_t j = 0; j < c.consumes.size(); ++j) {
       const config::ChannelClaim& q = c.consumes[j];
@@ -186,7 +200,7 @@ bool plan_image(const config::RuntimeConfig& cfg, const std::string& name,
         continue;
       }
       io::ChannelDesc& o = descs[it->second];
-      dp.consumes.push_back({o.region, o.index});
+      dp.consumes.push_back({o.region, o.index, o.max_age_ns});
       if (!o.has_delivery) {
         // The first driver that sends an output reports how its delivery goes.
         o.has_delivery = 1;
@@ -219,15 +233,23 @@ bool plan_image(const config::RuntimeConfig& cfg, const std::string& name,
       for (const Binding& b : images[t].bindings()) {
         if (b.dir == BindingDir::kSetpoint && lim.label == images[t].str(b.label)) sp = &b;
       }
-      if (sp == nullptr) {
-        cdiag.error(lim.pos, "task " + cfg.tasks[t].name + " has no set-point labelled \"" + lim.label + "\"");
-        ok = false;
-        continue;
-      }
       if (auto [first, fresh] = limits_at.emplace(lim.label, lim.pos); !fresh) {
         cdiag.error(lim.pos, "the limits of set-point \"" + lim.label + "\" are given twice");
         cdiag.note(first->second, "first given here");
         ok = false;
+        continue;
+      }
+      if (sp == nullptr) {
+        bool other = false;  // the label names an input or output: a mistake
+        for (const Binding& b : images[t].bindings()) other |= lim.label == images[t].str(b.label);
+        if (other) {
+          cdiag.error(lim.pos, "\"" + lim.label + "\" is not a set-point of task " + cfg.tasks[t].name);
+          ok = false;
+        } else {
+          // Limits for a set-point a later program (a hot swap) adds.
+          cdiag.warning(lim.pos, "task " + cfg.tasks[t].name + " has no set-point labelled \"" + lim.label +
+                                     "\" yet: its limits apply once a swapped-in program adds it");
+        }
         continue;
       }
       if ((lim.min && sp->init < *lim.min) || (lim.max && sp->init > *lim.max)) {

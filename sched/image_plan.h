@@ -72,6 +72,14 @@ bool plan_image(const config::RuntimeConfig& cfg, const std::string& name,
 std::string limits_text(const std::optional<double>& min, const std::optional<double>& max);
 
 // A channel table entry; init and retain are set by the caller for set-points.
+// The age after which an input of driver `dc` is stale: its `max_age:`, else
+// its kind's claim, else three driver periods (io::judge_quality).
+int64_t input_max_age_ns(const config::DriverConfig& dc, const config::ChannelClaim& claim);
+
+// The age after which a task's output is stale: three of its periods, and at
+// least a second (a task that stopped writing, its runtime frozen).
+int64_t output_max_age_ns(int64_t task_period_ns);
+
 io::ChannelDesc channel_desc(const std::string& label, const std::string& key, io::ChannelDir dir,
                              uint8_t kind, uint32_t region, uint32_t index);
 

@@ -12,6 +12,7 @@
 
 #include "blocks/executor.h"
 #include "blocks/image.h"
+#include "blocks/status.h"
 #include "io/process_image.h"
 #include "sched/state_snapshot.h"
 
@@ -28,11 +29,23 @@ struct InputGroup {
   // One consistent snapshot lands here first and is copied to the inputs only
   // when it validated, so a missed read leaves every input at its last good value.
   std::vector<double> scratch;  // src.size()
-  // `good` blocks: quality_dst[j] receives 1 or 0 for the channel src[quality_pos[j]],
-  // from the same snapshot (qualities land in quality_scratch, src.size(), first).
+  // The qualities of the same snapshot (src.size()), and its channels' times.
+  std::vector<Quality> quality_scratch;
+  std::vector<int64_t> time_scratch;
+  // Per src: the channel's maximum age (io::judge_quality; 0: never stale).
+  std::vector<int64_t> max_age_ns;
+  // `good` blocks: quality_dst[j] receives 1 or 0 for the channel src[quality_pos[j]].
   std::vector<uint32_t> quality_pos;
   std::vector<uint32_t> quality_dst;
-  std::vector<Quality> quality_scratch;
+
+  // Sizes the buffers read_group fills once src, dst and max_age_ns are known
+  // (a channel left without an age is never stale by age).
+  void size_buffers() {
+    scratch.assign(src.size(), 0.0);
+    quality_scratch.assign(src.size(), Quality::kBad);
+    time_scratch.assign(src.size(), 0);
+    max_age_ns.resize(src.size(), 0);
+  }
 };
 
 // What the swap keeps from the program it replaces, matched by (block name, opcode).
@@ -61,6 +74,7 @@ struct LoadedProgram {
 
   TaskImage image;
   TaskArena arena;
+  StatusLane lane;  // the statuses of the arena's values (blocks/status.h)
   std::vector<InputGroup> inputs;
   // The task's output region index of each image output. When it is the
   // identity (always, unless a swap left holes) the executor writes the region
@@ -80,7 +94,18 @@ struct LoadedProgram {
   // Quality of every index of the task's output region under this program:
   // good where it writes an output, bad elsewhere (holes, dropped outputs).
   std::vector<uint8_t> output_quality;
+  // What the task writes as each output's quality: output_quality made worse
+  // by the status lane's verdict on each output (task thread).
+  std::vector<uint8_t> region_quality;
   Migration migration;
+  // Channels this program adds (a swap): planned by Runtime::make_program, in
+  // the image only once the swap can no longer be refused.
+  struct NewChannel {
+    io::ChannelDesc desc;
+    std::string key;
+    double setpoint_value = 0;  // set-points: what it starts at
+  };
+  std::vector<NewChannel> new_channels;
   // The retained blocks' state, copied by the task every few cycles for the
   // control thread to persist (state_snapshot.h).
   StateSnapshot snapshot;
@@ -112,11 +137,13 @@ struct BlockErrorReport {
   char block[16] = {};  // the block as written: "div", "epi"
 };
 
-// Copies one input group's values from its region into `io_in`: one
+// Copies one input group's values from its region into `io_in`, and each
+// value's status as io::judge_quality says at `now_ns` into `in_status`: one
 // consistent snapshot (at most `max_tries` attempts) lands in g.scratch and is
 // copied only once it validated. False on a miss: io_in is untouched, so the
 // task runs on last cycle's inputs, never on values mixed from two snapshots.
-bool read_group(const io::ProcessImage& image, InputGroup& g, double* io_in, uint32_t max_tries) noexcept;
+bool read_group(const io::ProcessImage& image, InputGroup& g, double* io_in, uint8_t* in_status,
+                int64_t now_ns, uint32_t max_tries) noexcept;
 
 // Builds the migration from `old_image` (running with `old_arena`) to `next`:
 // a block keeps its output and state when a block of the same name and opcode

@@ -356,6 +356,10 @@ bool Runtime::build(const config::RuntimeConfig& cfg, LoadReport& report) {
       cdiag.error(cfg.tasks[t].pos, prog.error());
       return false;
     }
+    {
+      std::lock_guard setpoints(setpoint_mu_);
+      commit_new_channels(t, **prog);
+    }
     TaskParams p;
     p.name = cfg.tasks[t].name;
     p.period_ns = periods[t];
@@ -415,6 +419,7 @@ Result<std::unique_ptr<LoadedProgram>> Runtime::make_program(uint32_t t, TaskIma
   auto p = std::make_unique<LoadedProgram>();
   p->image = std::move(image);
   p->arena.resize_for(p->image);
+  p->lane.resize_for(p->image);
   // A swapped-in program retains the blocks its task's `retain` selects; a
   // listed name it no longer has is simply not there (checked at load only).
   p->snapshot.prepare(retained_blocks(p->image, config_.tasks[t].retain_all, config_.tasks[t].retain_blocks));
@@ -428,7 +433,22 @@ Result<std::unique_ptr<LoadedProgram>> Runtime::make_program(uint32_t t, TaskIma
                       " this task's region can hold; restart the runtime to grow it");
   }
   std::map<uint32_t, size_t> group_of;  // region -> index in p->inputs
-  std::vector<std::string>& out_keys = task_output_keys_[t];
+  // Channels this program adds (a swap) are planned here and enter the image
+  // only in commit_new_channels(), once nothing can refuse the program: a
+  // refused swap leaves no channel, set-point or label behind.
+  auto planned = [&](const std::string& key) -> const io::ChannelDesc* {
+    for (const LoadedProgram::NewChannel& n : p->new_channels) {
+      if (n.key == key) return &n.desc;
+    }
+    return nullptr;
+  };
+  auto label_taken = [&](const std::string& label) {
+    if (image_.find_channel(label) >= 0) return true;
+    for (const LoadedProgram::NewChannel& n : p->new_channels) {
+      if (label == n.desc.label) return true;
+    }
+    return false;
+  };
   for (const Binding& b : p->image.bindings()) {
     if (b.dir == BindingDir::kQuality) continue;  // after every value input, below
     const std::string key = binding_key(b);
@@ -452,50 +472,58 @@ Result<std::unique_ptr<LoadedProgram>> Runtime::make_program(uint32_t t, TaskIma
         continue;
       }
       // A new output (hot swap): a new channel in this task's spare room.
-      if (image_.find_channel(label) >= 0) {
-        return make_error("label \"" + label + "\" already names another channel");
-      }
-      auto added = image_.add_channel(
-          channel_desc(label, key, io::ChannelDir::kOutput, static_cast<uint8_t>(b.kind), t, b.io_index));
-      if (!added) return make_error(added.error());
-      channel_by_key_[key] = *added;
-      if (out_keys.size() <= b.io_index) out_keys.resize(b.io_index + 1);
-      out_keys[b.io_index] = key;
+      if (label_taken(label)) return make_error("label \"" + label + "\" already names another channel");
+      LoadedProgram::NewChannel n;
+      n.desc = channel_desc(label, key, io::ChannelDir::kOutput, static_cast<uint8_t>(b.kind), t, b.io_index);
+      n.desc.max_age_ns = output_max_age_ns(p->image.header().period_ns);
+      n.key = key;
+      p->new_channels.push_back(std::move(n));
       continue;
     }
-    if (it == channel_by_key_.end()) {
+    const io::ChannelDesc* dp = it != channel_by_key_.end() ? &image_.channel(it->second) : planned(key);
+    if (dp == nullptr) {
       // A new input or set-point (hot swap).
       io::ChannelDesc d = channel_desc(label, key, io::ChannelDir::kInput, static_cast<uint8_t>(b.kind), 0, 0);
-      if (image_.find_channel(label) >= 0) {
-        return make_error("label \"" + label + "\" already names another channel");
-      }
-      uint32_t used = 0;
+      if (label_taken(label)) return make_error("label \"" + label + "\" already names another channel");
       const uint32_t region = b.dir == BindingDir::kSetpoint ? setpoint_region_ : unwired_region_;
+      uint32_t used = 0;
       for (uint32_t c = 0; c < image_.channel_count(); ++c) used += image_.channel(c).region == region;
+      for (const LoadedProgram::NewChannel& n : p->new_channels) used += n.desc.region == region;
       if (used >= image_.region(region).capacity) {
         return make_error("no room for new channel " + key + "; restart the runtime to add it");
       }
       d.region = static_cast<uint16_t>(region);
       d.index = used;
+      LoadedProgram::NewChannel n;
       if (b.dir == BindingDir::kSetpoint) {
         d.dir = static_cast<uint8_t>(io::ChannelDir::kSetpoint);
         d.init = b.init;
         d.retain = 1;
-        setpoint_values_[used] = retain_.has(label) ? retain_.get(label) : b.init;
+        // The same checks as a boot set-point's: its kind and its limits
+        // (the config's `setpoints` may name labels a later program adds).
+        auto start = new_setpoint_value(label, static_cast<Kind>(b.kind), b.init);
+        if (!start) return make_error(start.error());
+        n.setpoint_value = *start;
       } else {
         d.dir = static_cast<uint8_t>(io::ChannelDir::kInput);
       }
-      auto added = image_.add_channel(d);
-      if (!added) return make_error(added.error());
-      it = channel_by_key_.emplace(key, *added).first;
-      if (b.dir == BindingDir::kSetpoint) publish_setpoints();
+      n.desc = d;
+      n.key = key;
+      p->new_channels.push_back(std::move(n));
+      dp = &p->new_channels.back().desc;
     }
-    const io::ChannelDesc& d = image_.channel(it->second);
+    const io::ChannelDesc& d = *dp;
     if (d.kind != static_cast<uint8_t>(b.kind)) {
       return make_error("channel " + key + " is " + (d.kind ? "digital" : "analog") +
                         " in the running image");
     }
-    if (b.dir == BindingDir::kSetpoint) p->arena.io_in[b.io_index] = setpoint_values_[d.index];
+    if (b.dir == BindingDir::kSetpoint) {
+      double v = d.index < setpoint_values_.size() ? setpoint_values_[d.index] : 0.0;
+      for (const LoadedProgram::NewChannel& n : p->new_channels) {
+        if (n.key == key) v = n.setpoint_value;
+      }
+      p->arena.io_in[b.io_index] = v;
+    }
     if (d.region == unwired_region_) continue;  // nobody writes it: stays 0
     auto g = group_of.find(d.region);
     if (g == group_of.end()) {
@@ -510,6 +538,7 @@ Result<std::unique_ptr<LoadedProgram>> Runtime::make_program(uint32_t t, TaskIma
     if (std::find(ig.dst.begin(), ig.dst.end(), b.io_index) == ig.dst.end()) {
       ig.src.push_back(d.index);
       ig.dst.push_back(b.io_index);
+      ig.max_age_ns.push_back(d.max_age_ns);
     }
   }
   // `good` blocks: the quality of a channel the program also reads as a value
@@ -519,8 +548,9 @@ Result<std::unique_ptr<LoadedProgram>> Runtime::make_program(uint32_t t, TaskIma
     if (b.dir != BindingDir::kQuality) continue;
     const std::string key = binding_key(b);
     auto it = channel_by_key_.find(key);
-    if (it == channel_by_key_.end()) return make_error("internal: quality of " + key + " has no channel");
-    const io::ChannelDesc& d = image_.channel(it->second);
+    const io::ChannelDesc* dp = it != channel_by_key_.end() ? &image_.channel(it->second) : planned(key);
+    if (dp == nullptr) return make_error("internal: quality of " + key + " has no channel");
+    const io::ChannelDesc& d = *dp;
     auto g = group_of.find(d.region);
     if (g == group_of.end()) continue;  // unwired
     InputGroup& ig = p->inputs[g->second];
@@ -529,10 +559,11 @@ Result<std::unique_ptr<LoadedProgram>> Runtime::make_program(uint32_t t, TaskIma
     ig.quality_pos.push_back(static_cast<uint32_t>(at - ig.src.begin()));
     ig.quality_dst.push_back(b.io_index);
   }
-  for (InputGroup& ig : p->inputs) {
-    ig.scratch.assign(ig.src.size(), 0.0);
-    if (!ig.quality_dst.empty()) ig.quality_scratch.assign(ig.src.size(), Quality::kBad);
+  // What `good` loads is a status, known even when the value is not: good itself.
+  for (const Binding& b : p->image.bindings()) {
+    if (b.dir == BindingDir::kQuality) p->lane.in[b.io_index] = static_cast<uint8_t>(Lane::kGood);
   }
+  for (InputGroup& ig : p->inputs) ig.size_buffers();
   const uint32_t n_out = p->image.header().n_io_out;
   p->output_slots.resize(n_out);
   p->safe_values.assign(n_out, 0.0);
@@ -550,6 +581,7 @@ Result<std::unique_ptr<LoadedProgram>> Runtime::make_program(uint32_t t, TaskIma
     p->safe_values[b.io_index] = safe_value_of(p->image.str(b.label));
     p->output_quality[b.io_index] = static_cast<uint8_t>(Quality::kGood);
   }
+  p->region_quality = p->output_quality;
   if (running != nullptr) {
     // An output the running program writes and this one does not would keep
     // its last value in the image, looking current, and drivers would go on
@@ -601,6 +633,49 @@ Result<std::unique_ptr<LoadedProgram>> Runtime::make_program(uint32_t t, TaskIma
     return make_error("--drop-output applies to a swap only");
   }
   return p;
+}
+
+Result<double> Runtime::new_setpoint_value(const std::string& label, Kind kind, double init) const {
+  const auto lim = setpoint_limits_.find(label);
+  auto outside = [&](double v) {
+    return lim != setpoint_limits_.end() &&
+           ((lim->second.min && v < *lim->second.min) || (lim->second.max && v > *lim->second.max));
+  };
+  auto unfit = [&](double v) { return !std::isfinite(v) || (kind == Kind::kDigital && v != 0 && v != 1); };
+  if (unfit(init)) {
+    return make_error("set-point \"" + label + "\" is digital: its init value must be 0 or 1, not " + format_number(init));
+  }
+  if (outside(init)) {
+    return make_error("set-point \"" + label + "\" starts at " + format_number(init) +
+                      " (its init value in the program), outside its `setpoints` limits " +
+                      limits_text(lim->second.min, lim->second.max));
+  }
+  // A value retained from an earlier run of a program with this label, if it still fits.
+  if (retain_.has(label)) {
+    const double kept = retain_.get(label);
+    if (!unfit(kept) && !outside(kept)) return kept;
+  }
+  return init;
+}
+
+void Runtime::commit_new_channels(uint32_t t, LoadedProgram& p) {
+  std::vector<std::string>& out_keys = task_output_keys_[t];
+  bool setpoints = false;
+  for (const LoadedProgram::NewChannel& n : p.new_channels) {
+    // Checked when planned (room, label, kind); the table has room for them.
+    auto added = image_.add_channel(n.desc);
+    if (!added) continue;
+    channel_by_key_[n.key] = *added;
+    if (n.desc.dir == static_cast<uint8_t>(io::ChannelDir::kOutput)) {
+      if (out_keys.size() <= n.desc.index) out_keys.resize(n.desc.index + 1);
+      out_keys[n.desc.index] = n.key;
+    } else if (n.desc.dir == static_cast<uint8_t>(io::ChannelDir::kSetpoint)) {
+      if (n.desc.index < setpoint_values_.size()) setpoint_values_[n.desc.index] = n.setpoint_value;
+      setpoints = true;
+    }
+  }
+  p.new_channels.clear();
+  if (setpoints) publish_setpoints();
 }
 
 void Runtime::publish_setpoints() {

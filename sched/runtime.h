@@ -166,6 +166,14 @@ class Runtime {
                                                       std::string source, std::string file,
                                                       const LoadedProgram* running,
                                                       const std::vector<std::string>& drop_outputs = {});
+  // What a set-point a swap adds starts at: its retained value if that fits its
+  // kind and `setpoints` limits, else its init value; an init value that does
+  // not fit refuses the program. Caller holds setpoint_mu_.
+  Result<double> new_setpoint_value(const std::string& label, Kind kind, double init) const;
+  // The channels make_program() planned enter the image, the label table and
+  // the set-point region (caller holds setpoint_mu_): only once nothing can
+  // refuse the program any more.
+  void commit_new_channels(uint32_t task, LoadedProgram& p);
   void publish_setpoints();
   void restore_state(const config::RuntimeConfig& cfg, DiagnosticList& cdiag);
   struct TraceLease {

@@ -265,12 +265,18 @@ Result<std::string> Runtime::swap(const std::string& task, const std::string& so
     return make_error("not swapped, the program has errors:\n" + r.diags.render(file_label, source));
   }
   const int64_t compiled = kernel_rt::monotonic_now_ns();
+  if (t->swap_in_flight()) return make_error("not swapped: a swap of task " + task + " is already in progress");
   auto next = make_program(t->index(), std::move(*r.image), source, file_label, &t->active(), drop_outputs);
   if (!next) return make_error("not swapped: " + next.error());
   // On disk before the task takes it: once the operator sees OK, a restart
   // (or kill -9) runs this code.
   auto kept = programs_.push(task, source, "swap " + file_label);
   if (!kept) return make_error("not swapped: cannot keep the program for restarts: " + kept.error());
+  {
+    // Nothing refuses the swap from here on: its new channels enter the image.
+    std::lock_guard setpoints(setpoint_mu_);
+    commit_new_channels(t->index(), **next);
+  }
   auto res = install(*t, std::move(next).value(), true);
   if (!res) {
     (void)programs_.pop(task);
@@ -316,8 +322,13 @@ Result<std::string> Runtime::rollback(const std::string& task, const std::vector
   if (t->index() < task_entries_.size()) o.entry = task_entries_[t->index()];
   lang::CompileResult r = lang::compile_source(source, o);
   if (!r.ok()) return make_error("not rolled back, the previous program no longer compiles:\n" + r.diags.render(label, source));
+  if (t->swap_in_flight()) return make_error("not rolled back: a swap of task " + task + " is already in progress");
   auto next = make_program(t->index(), std::move(*r.image), source, label, &t->active(), drop_outputs);
   if (!next) return make_error("not rolled back: " + next.error());
+  {
+    std::lock_guard setpoints(setpoint_mu_);
+    commit_new_channels(t->index(), **next);
+  }
   auto res = install(*t, std::move(next).value(), false);
   if (!res) return res;
   if (h.size() >= 2) {

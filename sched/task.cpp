@@ -83,29 +83,30 @@ std::unique_ptr<LoadedProgram> Task::collect() {
   return previous;
 }
 
-bool read_group(const io::ProcessImage& image, InputGroup& g, double* io_in, uint32_t max_tries) noexcept {
+bool read_group(const io::ProcessImage& image, InputGroup& g, double* io_in, uint8_t* in_status,
+                int64_t now_ns, uint32_t max_tries) noexcept {
   uint64_t seen = 0;
   const auto n = static_cast<uint32_t>(g.src.size());
-  // Qualities are copied only for a group some `good` block reads.
-  Quality* q = g.quality_dst.empty() ? nullptr : g.quality_scratch.data();
-  if (!image.read_values(g.region, g.src.data(), n, g.scratch.data(), max_tries, &seen, q)) return false;
+  if (!image.read_values(g.region, g.src.data(), n, g.scratch.data(), max_tries, &seen, g.quality_scratch.data(),
+                         g.time_scratch.data())) {
+    return false;
+  }
   g.seen = seen;
-  for (uint32_t i = 0; i < n; ++i) io_in[g.dst[i]] = g.scratch[i];
-  if (g.quality_dst.empty()) return true;
-  // A forced value is vouched for by the operator: the slot keeps its writer's
-  // quality, the force table says it is forced (one load when nothing is).
-  const bool any_forced = image.force_region(g.region).n_forced.load(std::memory_order_acquire) != 0;
+  for (uint32_t i = 0; i < n; ++i) {
+    io_in[g.dst[i]] = g.scratch[i];
+    // One rule for every consumer (io::judge_quality); a forced value carries
+    // `forced` in the snapshot itself (process_image.h, "Forcing").
+    const Quality q = io::judge_quality(g.quality_scratch[i], g.scratch[i], g.time_scratch[i], now_ns, g.max_age_ns[i]);
+    g.quality_scratch[i] = q;
+    in_status[g.dst[i]] = static_cast<uint8_t>(lane_of(q));
+  }
   for (size_t j = 0; j < g.quality_dst.size(); ++j) {
-    const uint32_t pos = g.quality_pos[j];
-    const Quality qj = g.quality_scratch[pos];
-    const bool forced =
-        any_forced && image.force_entry(g.region, g.src[pos]).forced.load(std::memory_order_acquire) != 0;
-    io_in[g.quality_dst[j]] = forced || qj == Quality::kGood || qj == Quality::kForced ? 1.0 : 0.0;
+    io_in[g.quality_dst[j]] = lane_of(g.quality_scratch[g.quality_pos[j]]) == Lane::kGood ? 1.0 : 0.0;
   }
   return true;
 }
 
-void Task::read_inputs(LoadedProgram& p) noexcept {
+void Task::read_inputs(LoadedProgram& p, int64_t now_ns) noexcept {
   for (InputGroup& g : p.inputs) {
     if (g.setpoints) {
       // Set-points change when an operator types; most cycles skip them.
@@ -114,7 +115,7 @@ void Task::read_inputs(LoadedProgram& p) noexcept {
     }
     // Three tries: a fourth would only be needed if the writer finished three
     // more snapshots while we copied one; then we keep last cycle's inputs.
-    if (!read_group(image_, g, p.arena.io_in.data(), 3) &&
+    if (!read_group(image_, g, p.arena.io_in.data(), p.lane.in.data(), now_ns, 3) &&
         image_.ring(g.region).published.load(std::memory_order_relaxed) != 0) {
       info_->input_misses.fetch_add(1, std::memory_order_relaxed);
     }
@@ -142,13 +143,26 @@ void Task::write_outputs(LoadedProgram& p, bool safe) noexcept {
     }
   }
   for (const LoadedProgram::Dropped& d : p.dropped) io::store_value(slot + d.index, d.safe_value);
-  if (quality_refresh_ > 0) {
-    // Qualities change only with the program: each ring slot takes them once.
-    --quality_refresh_;
-    uint8_t* q = image_.quality(region_, k);
-    for (size_t i = 0; i < p.output_quality.size(); ++i) {
-      std::atomic_ref<uint8_t>(q[i]).store(p.output_quality[i], std::memory_order_release);
+  if (safe) {
+    // Safe values are what the runtime means to send: vouched for as such.
+    p.region_quality = p.output_quality;
+    p.lane.settled = false;
+  } else if (p.lane.needs_pass(p.arena.total_errors)) {
+    // Some value may not be good: each output's quality is its program's
+    // (holes, dropped outputs: bad) made worse by the status of what computed it.
+    propagate_status(p.image, p.arena, p.lane);
+    for (size_t i = 0; i < p.output_slots.size(); ++i) {
+      const uint32_t at = p.output_slots[i];
+      if (at >= p.region_quality.size() || i >= p.lane.out.size()) continue;
+      p.region_quality[at] = static_cast<uint8_t>(
+          worse(static_cast<Quality>(p.output_quality[at]), quality_of(static_cast<Lane>(p.lane.out[i]))));
     }
+  }
+  // Every quality in every snapshot: the ring's four slots each hold their
+  // own, and a force's stamp must not outlive the force (process_image.h).
+  uint8_t* q = image_.quality(region_, k);
+  for (size_t i = 0; i < p.region_quality.size(); ++i) {
+    std::atomic_ref<uint8_t>(q[i]).store(p.region_quality[i], std::memory_order_release);
   }
   image_.slot(region_, k).region_state.store(safe ? 1 : 0, std::memory_order_relaxed);
   image_.end_write(region_, k, kernel_rt::monotonic_now_ns(), p.arena.cycles);
@@ -220,7 +234,6 @@ void Task::record_trace(uint64_t cycle, int64_t release_ns) noexcept {
 void Task::run() noexcept {
   const int64_t period = params_.period_ns;
   int64_t release = first_release_;
-  quality_refresh_ = io::kRingSlots;
   bool stopped = false;  // by the watchdog: outputs safe, code not run until a swap
   uint64_t faults_before = 0;
   uint64_t cycle = 0;
@@ -241,7 +254,6 @@ void Task::run() noexcept {
       swapped = true;
       if (next->migration.active) apply_migration(next->migration, current_->arena, next->arena);
       for (InputGroup& g : next->inputs) g.seen = 0;  // refresh every input now
-      quality_refresh_ = io::kRingSlots;
       until_snapshot = 1;  // the new program's layout: snapshot it in this cycle
       retired_.store(current_, std::memory_order_release);
       current_ = next;
@@ -259,7 +271,7 @@ void Task::run() noexcept {
     if (trace_.pick_up() || swapped) resolve_trace(*current_);
 
     if (!stopped) {
-      read_inputs(*current_);
+      read_inputs(*current_, wake);
       write_outputs(*current_, false);
       info_->block_errors.store(current_->arena.total_errors, std::memory_order_relaxed);
       if (current_->arena.total_errors != current_->errors_reported_total && wake >= next_error_report_ns_) {

@@ -89,6 +89,8 @@ class Task {
   LoadedProgram& last_run() { return *current_; }
   // Hands a prepared program to the task thread. Returns false if a swap is still in flight.
   bool publish(std::unique_ptr<LoadedProgram> next);
+  // A program published and not yet collected (control thread).
+  bool swap_in_flight() const { return in_flight_ != nullptr; }
   // True once the task thread has taken the last published program.
   bool swap_applied() const { return pending_.load(std::memory_order_acquire) == nullptr; }
   // After swap_applied(): takes back the program that was replaced (to free it off the RT path).
@@ -103,7 +105,7 @@ class Task {
 
  private:
   void run() noexcept;
-  void read_inputs(LoadedProgram& p) noexcept;
+  void read_inputs(LoadedProgram& p, int64_t now_ns) noexcept;
   void write_outputs(LoadedProgram& p, bool safe) noexcept;
   // Where each traced value is found for program `p` (at a selection pick-up
   // and at a swap, both cycle boundaries), and one record of them.
@@ -135,7 +137,6 @@ class Task {
   // drops the report (the count in the image still says how many).
   link::BoundedQueue<BlockErrorReport> block_errors_{16};
   int64_t next_error_report_ns_ = 0;  // task thread: no report before this (see LoadedProgram)
-  uint32_t quality_refresh_ = 0;  // task thread: cycles left that still write output qualities
   // Task thread: the trace selection and, per traced value, the output index
   // in this task's region (>= 0) or the input buffer entry it is read into.
   io::TraceWriter trace_;

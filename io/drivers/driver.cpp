@@ -63,13 +63,14 @@ void Driver::run() noexcept {
   on_stop();
 }
 
-bool Driver::read_output(uint32_t j, double& value, Quality& quality) const noexcept {
+bool Driver::read_output(uint32_t j, double& value, Quality& quality, int64_t now_ns) const noexcept {
   const OutputSource& src = setup_.consumes[j];
   double v = 0;
   Quality q = Quality::kBad;
-  if (!setup_.image->read_values(src.region, &src.index, 1, &v, 8, nullptr, &q)) return false;
+  int64_t t = 0;
+  if (!setup_.image->read_values(src.region, &src.index, 1, &v, 8, nullptr, &q, &t)) return false;
   value = v;
-  quality = q;
+  quality = judge_quality(q, v, t, now_ns, src.max_age_ns);
   return true;
 }
 

@@ -60,6 +60,7 @@ namespace rtplc::io {
 struct OutputSource {
   uint32_t region = 0;
   uint32_t index = 0;
+  int64_t max_age_ns = 0;  // the channel's (io::judge_quality)
 };
 
 // Something a driver wants in the log (a link went down or came back, the peer
@@ -154,9 +155,10 @@ class Driver {
   // After the bridge thread ended (control thread): stop the kind's own threads.
   virtual void on_joined() noexcept {}
 
-  // Consumed output j: its value and the task's quality of it. False when no
-  // consistent snapshot could be read (keep what was sent last).
-  bool read_output(uint32_t j, double& value, Quality& quality) const noexcept;
+  // Consumed output j: its value and the task's quality of it, judged by the
+  // one freshness rule at `now_ns`. False when no consistent snapshot could be
+  // read (keep what was sent last).
+  bool read_output(uint32_t j, double& value, Quality& quality, int64_t now_ns) const noexcept;
 
   // One snapshot of the driver's region per cycle.
   uint32_t begin_snapshot() const noexcept { return setup_.image->begin_write(setup_.region); }

@@ -223,13 +223,14 @@ TEST(ProcessImage, a_missed_input_read_leaves_the_inputs_as_they_were) {
     g.src.push_back(i);
     g.dst.push_back(kCap - 1 - i);
   }
-  g.scratch.assign(kCap, 0.0);
+  g.size_buffers();
   std::vector<double> in(kCap, -1.0);  // -1: never read
+  std::vector<uint8_t> status(kCap, 0);
   uint64_t misses = 0, hits = 0;
   go = true;
   for (int attempt = 0; attempt < 20000; ++attempt) {
     const std::vector<double> before = in;
-    if (sched::read_group(im, g, in.data(), 1)) {
+    if (sched::read_group(im, g, in.data(), status.data(), 0, 1)) {
       ++hits;
       for (uint32_t i = 1; i < kCap; ++i) ASSERT_EQ(in[i], in[0]) << "inputs from two snapshots";
     } else {

@@ -301,13 +301,48 @@ std::string load_errors(RuntimeFixture& fx, const std::string& limits) {
   return errors;
 }
 
-TEST(SetpointLimits, a_limit_that_names_no_set_point_of_the_task_is_an_error_at_its_label) {
+TEST(SetpointLimits, a_limit_that_names_an_output_is_an_error_at_its_label) {
   RuntimeFixture fx;
-  const std::string e = load_errors(fx, "{SetPoint: {min: 0}}");
-  // Line 9 of the file (the fixture puts a 4-line runtime section first), column of the label.
-  EXPECT_NE(e.find(".yaml:9:17: error: task pid has no set-point labelled \"SetPoint\""), std::string::npos) << e;
   const std::string out = load_errors(fx, "{ManiVal: {max: 1}}");
-  EXPECT_NE(out.find("no set-point labelled \"ManiVal\""), std::string::npos) << out;
+  // Line 9 of the file (the fixture puts a 4-line runtime section first), column of the label.
+  EXPECT_NE(out.find(".yaml:9:17: error: \"ManiVal\" is not a set-point of task pid"), std::string::npos) << out;
+}
+
+// The seed loop plus a set-point NewSP it adds to the error.
+const char* kLoopWithNewSp =
+    "%%\nF1 = dai(p0, d0, c0, \"ProcVal\")\nF2 = asp(d0, c0, 50, \"Setpoint\")\n"
+    "F9 = asp(d0, c5, 3, \"NewSP\")\nF3 = sub(F2, F1, 1)\nF10 = add(F3, F9)\nF4 = epi(F10, 4, 3)\n"
+    "dao(F4, p0, d0, c0, \"ManiVal\")\ndao(F3, p0, d0, c1, \"Error\")\n"
+    "D5 = dsp(d0, c1, 0, \"Enable\")\nddo(D5, p0, d1, c0, \"Lamp\")\nEND\n";
+
+TEST(SetpointLimits, limits_apply_to_a_set_point_a_swap_adds) {
+  RuntimeFixture fx;
+  fx.write("loop.fbd", kLoop);
+  auto rt = fx.start("tasks:\n  - name: pid\n    program: loop.fbd\n    period: 10ms\n"
+                     "    setpoints: {NewSP: {min: 0, max: 10}}\ndrivers:\n  - kind: sim\n");
+  ASSERT_NE(rt, nullptr);
+  ASSERT_TRUE(rt->swap("pid", kLoopWithNewSp, "new.fbd").ok());
+  auto r = rt->set_value("NewSP", 42);
+  ASSERT_FALSE(r.ok()) << "a swap-added set-point skipped its limits";
+  EXPECT_NE(r.error().find("NewSP"), std::string::npos) << r.error();
+  EXPECT_TRUE(rt->set_value("NewSP", 5).ok());
+  rt->stop();
+}
+
+TEST(SetpointLimits, a_swap_whose_new_set_point_starts_outside_its_limits_is_refused_and_adds_nothing) {
+  RuntimeFixture fx;
+  fx.write("loop.fbd", kLoop);
+  auto rt = fx.start("tasks:\n  - name: pid\n    program: loop.fbd\n    period: 10ms\n"
+                     "    setpoints: {NewSP: {min: 5, max: 10}}\ndrivers:\n  - kind: sim\n");
+  ASSERT_NE(rt, nullptr);
+  const uint32_t channels = rt->image().channel_count();
+  auto r = rt->swap("pid", kLoopWithNewSp, "new.fbd");  // NewSP starts at 3
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().find("outside its `setpoints` limits"), std::string::npos) << r.error();
+  EXPECT_EQ(rt->image().channel_count(), channels);
+  EXPECT_LT(rt->image().find_channel("NewSP"), 0);
+  EXPECT_FALSE(rt->set_value("NewSP", 7).ok()) << "a refused swap left its set-point behind";
+  rt->stop();
 }
 
 TEST(SetpointLimits, bad_limits_are_errors_with_their_position) {

@@ -25,7 +25,13 @@ const char* kProgram =
     "%%\nstime(0.02)\nF1 = prr(p1, d0, c0, \"Level\")\nD2 = good(F1)\n"
     "F3 = asp(d0, c0, -5, \"Fallback\")\nF4 = amux(F3, F1, D2)\n"
     "dao(F4, p0, d0, c9, \"Safe\")\nddo(D2, p0, d0, c8, \"LevelOk\")\n"
-    "F5 = dai(p0, d3, c0, \"Unfed\")\nD6 = good(F5)\nddo(D6, p0, d0, c7, \"UnfedOk\")\nEND\n";
+    "F5 = dai(p0, d3, c0, \"Unfed\")\nD6 = good(F5)\nddo(D6, p0, d0, c7, \"UnfedOk\")\n"
+    "F7 = sub(F1, F3, 1)\ndao(F7, p0, d0, c6, \"FromLevel\")\nEND\n";
+
+Quality quality_of_label(sched::Runtime& rt, const char* label) {
+  const int c = rt.image().find_channel(label);
+  return c < 0 ? Quality::kBad : rt.image().read_channel(static_cast<uint32_t>(c)).quality;
+}
 
 std::string config(uint16_t port) {
   return "tasks:\n  - {name: t, program: p.fbd}\n"
@@ -53,6 +59,11 @@ TEST(QualityInPrograms, a_program_switches_to_its_safe_branch_while_an_input_is_
   ASSERT_TRUE(eventually([&] { return channel_value(*rt, "LevelOk") == 0; }));
   EXPECT_TRUE(eventually([&] { return channel_value(*rt, "Safe") == -5; })) << channel_value(*rt, "Safe");
   EXPECT_EQ(channel_value(*rt, "Level"), 2.5);
+  // What is computed from the bad input is not good; the fallback the program
+  // took is (the status of the branch taken, blocks/status.h).
+  EXPECT_TRUE(eventually([&] { return quality_of_label(*rt, "FromLevel") == Quality::kBad; }))
+      << quality_name(quality_of_label(*rt, "FromLevel"));
+  EXPECT_EQ(quality_of_label(*rt, "Safe"), Quality::kGood);
 
   // An operator forcing the bad input vouches for it: the program takes it.
   ASSERT_TRUE(rt->force("Level", 3.0, 0).ok());
@@ -65,6 +76,7 @@ TEST(QualityInPrograms, a_program_switches_to_its_safe_branch_while_an_input_is_
   ASSERT_TRUE(slave.restart().ok());
   EXPECT_TRUE(eventually([&] { return channel_value(*rt, "LevelOk") == 1 && channel_value(*rt, "Safe") == 4.0; }))
       << channel_value(*rt, "LevelOk") << " " << channel_value(*rt, "Safe");
+  EXPECT_TRUE(eventually([&] { return quality_of_label(*rt, "FromLevel") == Quality::kGood; }));
   rt->stop();
 }
 

@@ -100,11 +100,13 @@ TEST(WrongData, a_swap_taken_but_never_collected_leaks_no_program) {
     ASSERT_TRUE(copy.ok());
     next->image = std::move(copy).value();
     next->arena.resize_for(next->image);
+    next->lane.resize_for(next->image);
     next->inputs = cur.inputs;
     next->output_slots = cur.output_slots;
     next->outputs_in_place = cur.outputs_in_place;
     next->safe_values = cur.safe_values;
     next->output_quality = cur.output_quality;
+    next->region_quality = cur.output_quality;
     ASSERT_TRUE(t.publish(std::move(next)));
     for (int i = 0; i < 400 && !t.swap_applied(); ++i) sleep_s(0.005);
     ASSERT_TRUE(t.swap_applied());

@@ -488,7 +488,10 @@ DriverClaims can_claims(const DriverConfig& d) {
   const CanSettings& s = settings_of(d);
   DriverClaims c;
   for (const FrameMap& fm : s.receive) {
-    for (const SignalMap& m : fm.signals) c.provides.push_back(claim(d, m, BindingDir::kInput));
+    for (const SignalMap& m : fm.signals) {
+      c.provides.push_back(claim(d, m, BindingDir::kInput));
+      c.provides.back().max_age_ns = static_cast<int64_t>(fm.timeout_s * 1e9);  // the frame's timeout
+    }
   }
   for (const FrameMap& fm : s.transmit) {
     for (const SignalMap& m : fm.signals) c.consumes.push_back(claim(d, m, BindingDir::kOutput));

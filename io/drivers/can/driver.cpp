@@ -289,14 +289,17 @@ void CanDriver::receive(uint32_t k, int64_t now) noexcept {
     RxTrack& t = rx_track_[i];
     const FrameMap& fm = settings_.receive[i];
     (void)rx_[i].try_load(t.last);  // a miss keeps the last sample
-    const bool fresh = t.last.count > 0 && now - t.last.at_ns <= seconds_to_ns(fm.timeout_s);
+    // The frame's age by the one rule every consumer of its channels applies
+    // (its claim's max age is the frame's timeout): here only to say so in the log.
+    const bool fresh = t.last.count > 0 && io::judge_quality(Quality::kGood, 0.0, t.last.at_ns, now,
+                                                             seconds_to_ns(fm.timeout_s)) == Quality::kGood;
     if (fresh && t.stale && t.seen) {
       log(io::LinkEvent::Level::kInfo, Line("frame {} is received again", id_text(fm.id, fm.extended)).text);
     }
     if (!fresh && !t.stale) {
       rx_timeouts_.fetch_add(1, std::memory_order_relaxed);
       log(io::LinkEvent::Level::kWarning,
-          Line("frame {} not received for {} ms: its channels are bad", id_text(fm.id, fm.extended),
+          Line("frame {} not received for {} ms: its channels are stale", id_text(fm.id, fm.extended),
                std::llround(fm.timeout_s * 1e3))
               .text);
     }
@@ -304,7 +307,8 @@ void CanDriver::receive(uint32_t k, int64_t now) noexcept {
     t.stale = !fresh;
     for (uint32_t s = 0; s < fm.signals.size(); ++s) {
       const double v = t.last.count > 0 ? unpack(fm.signals[s].layout, t.last.data) : 0.0;
-      const Quality q = fresh && std::isfinite(v) ? Quality::kGood : Quality::kBad;
+      // Good as received, at the frame's time: readers judge its age.
+      const Quality q = t.last.count > 0 ? Quality::kGood : Quality::kBad;
       put_input(k, t.first + s, v, q, t.last.at_ns);
     }
   }
@@ -319,7 +323,7 @@ bool CanDriver::pack_frame(uint32_t i, uint8_t (&data)[8]) noexcept {
   for (uint32_t s = 0; s < fm.signals.size(); ++s) {
     double v = 0;
     Quality q = Quality::kBad;
-    if (!read_output(t.first + s, v, q) || (q != Quality::kGood && q != Quality::kForced)) {
+    if (!read_output(t.first + s, v, q, kernel_rt::monotonic_now_ns()) || (q != Quality::kGood && q != Quality::kForced)) {
       sendable = false;
       continue;
     }

@@ -119,6 +119,7 @@ Result<void> GpioDriver::start_io() {
       s.level = v > 0 ? 1 : 0;
       s.ok = v >= 0 ? 1 : 0;
       s.last_ns = kernel_rt::monotonic_now_ns();
+      s.alive_ns = s.last_ns;  // read just now
       edges_[static_cast<size_t>(t.edge_slot)].store(s);
       t.seen = s;
       event_lines_.push_back(t.line);
@@ -192,11 +193,9 @@ void GpioDriver::io_loop() noexcept {
     failing = false;
     for (size_t e = 0; e < n; ++e) {
       const LineMap& m = settings_.lines[event_track_[e]];
-      bool changed = false;
       if (r > 0 && ready[e]) {
         EdgeEvent evs[16];
         const int got = ops_.read_events(event_lines_[e], evs, 16);
-        changed = true;
         if (got < 0) {
           ++st[e].errors;
           st[e].ok = 0;
@@ -230,9 +229,10 @@ void GpioDriver::io_loop() noexcept {
           kernel_rt::monotonic_now_ns() - raw_at[e] >= m.debounce_ns) {
         st[e].level = raw[e];
         st[e].last_ns = raw_at[e];
-        changed = true;
       }
-      if (changed) edges_[e].store(st[e]);
+      // Every pass, changed or not: the bridge stamps the value with alive_ns.
+      st[e].alive_ns = kernel_rt::monotonic_now_ns();
+      edges_[e].store(st[e]);
     }
   }
 }
@@ -253,7 +253,7 @@ void GpioDriver::cycle(int64_t now) noexcept {
       (void)edges_[static_cast<size_t>(t.edge_slot)].try_load(t.seen);  // a miss keeps the last state
       const EdgeState& s = t.seen;
       const double v = m.role == Role::kCounter ? static_cast<double>(s.count) : s.level;
-      put_input(k, t.index, v, s.ok ? Quality::kGood : Quality::kBad, m.role == Role::kCounter ? now : s.last_ns);
+      put_input(k, t.index, v, s.ok && s.alive_ns != 0 ? Quality::kGood : Quality::kBad, s.alive_ns);
       continue;
     }
     if (m.role == Role::kInput) {
@@ -274,7 +274,7 @@ void GpioDriver::cycle(int64_t now) noexcept {
     }
     double v = 0;
     Quality q = Quality::kBad;
-    if (!read_output(t.index, v, q)) {
+    if (!read_output(t.index, v, q, now)) {
       // No consistent snapshot this cycle (the task is writing its region): not
       // a reason to move the line. Keep what was driven, say it as it was.
       put_delivery(k, t.index, t.last_set < 0 ? 0.0 : t.last_set,

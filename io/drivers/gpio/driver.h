@@ -45,6 +45,8 @@ struct EdgeState {
   uint64_t ignored = 0;   // edges inside the debounce time, or of the other kind
   uint64_t errors = 0;    // failed event reads / waits
   int64_t last_ns = 0;    // kernel timestamp of the last counted pulse / accepted level
+  int64_t alive_ns = 0;   // when the I/O thread last looked at the line (the value's time:
+                          // a starved or stuck thread makes it stale, io::judge_quality)
   uint8_t level = 0;      // the (debounced) logical level
   uint8_t ok = 1;         // 0: the last wait or read failed
 };

@@ -502,8 +502,16 @@ DriverClaims modbus_claims(const DriverConfig& d) {
   const ModbusSettings& s = settings_of(d);
   DriverClaims c;
   claim_maps(c, s.reads, s.writes, [&](const ChannelMap& m, bool write) {
-    return ChannelClaim{write ? write_key(m) : read_key(m), fmt::format("{}.{}.{}", d.name, m.device, m.channel),
-                        m.channel_pos};
+    ChannelClaim cl{write ? write_key(m) : read_key(m), fmt::format("{}.{}.{}", d.name, m.device, m.channel),
+                    m.channel_pos};
+    // Vouched for three polls: a slave frozen mid-answer, or a line too busy
+    // to poll it, turns its values stale for every consumer (io::judge_quality).
+    for (const SlaveConfig& sl : s.slaves) {
+      if (sl.name != m.slave) continue;
+      const double poll = m.poll_s > 0 ? m.poll_s : sl.poll_s;
+      cl.max_age_ns = static_cast<int64_t>(3 * poll * 1e9);
+    }
+    return cl;
   });
   c.links = static_cast<uint32_t>(s.slaves.size());
   return c;

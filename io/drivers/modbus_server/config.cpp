@@ -35,10 +35,6 @@ const KeySpec kServerKeys[] = {
      "At most this many clients at once; one more is disconnected at once and counted."},
     {"timeout", ValueType::kDuration, false, 0.1, 86400, nullptr, "60s",
      "A client that sends nothing this long is disconnected (it may reconnect)."},
-    {"stale_after", ValueType::kDuration, false, 0.01, 3600, nullptr, "1s",
-     "An input or output whose writer (its driver, or its task: then three task periods at "
-     "least) has not refreshed it for this long is stale, answered with exception 4. Keep it "
-     "above the exposed drivers' periods."},
     {"allow", ValueType::kList, false, 1, 256, "IPv4 address or network (10.0.0.0/24)", "127.0.0.0/8",
      "The client addresses and networks served, e.g. `[127.0.0.1, 10.0.0.0/24]`; any other "
      "client is disconnected at once, counted and logged."},
@@ -186,9 +182,6 @@ void parse_server(YamlReader& r, const Fields& f, DriverConfig& out) {
   }
   if (const Field* t = f.get("timeout")) {
     if (auto v = r.duration(*t)) s.timeout_s = *v;
-  }
-  if (const Field* t = f.get("stale_after")) {
-    if (auto v = r.duration(*t)) s.stale_after_s = *v;
   }
   if (const Field* u = f.get("units")) {
     if (auto items = r.list(*u)) {

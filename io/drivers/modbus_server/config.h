@@ -44,10 +44,6 @@ struct ServerSettings {
   std::vector<uint8_t> units;  // answered; empty: every unit id
   uint32_t max_clients = 16;
   double timeout_s = 60;       // a client silent this long is disconnected
-  // An input or output whose region's writer (its driver or task) has not
-  // completed a snapshot for this long is stale (set-points are exempt: their
-  // region is written only when one changes).
-  double stale_after_s = 1.0;
   std::vector<AllowRule> allow;  // never empty after parsing (default: 127.0.0.0/8)
   std::string allow_text;        // "127.0.0.0/8" as the link row and logs show it
   std::vector<ExposeItem> items;

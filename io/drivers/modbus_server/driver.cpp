@@ -11,29 +11,6 @@
 
 namespace rtplc::modbus_server {
 
-Quality served_quality(const io::ProcessImage& img, const io::ChannelDesc& d, const io::ChannelValue& v,
-                       int64_t now_ns, int64_t stale_after_ns) {
-  if (!v.fresh) return Quality::kBad;
-  if (d.dir == static_cast<uint8_t>(io::ChannelDir::kSetpoint) ||
-      img.region(d.region).kind == static_cast<uint8_t>(io::RegionKind::kSetpoints)) {
-    return v.quality;
-  }
-  // The region's latest completed snapshot: `published` with acquire, so the
-  // slot's written_ns is at least the one that snapshot completed with (the
-  // writer refilling that slot meanwhile only makes it newer).
-  const uint64_t pub = img.ring(d.region).published.load(std::memory_order_acquire);
-  if (pub == 0) return Quality::kBad;
-  const int64_t written =
-      img.slot(d.region, static_cast<uint32_t>(pub % io::kRingSlots)).written_ns.load(std::memory_order_relaxed);
-  // A slow task writes seldom but is not stale: three of its periods at least.
-  const io::RegionDesc& rd = img.region(d.region);
-  if (rd.kind == static_cast<uint8_t>(io::RegionKind::kTask) && rd.owner < img.header().n_tasks) {
-    stale_after_ns = std::max(stale_after_ns, 3 * img.task_info(rd.owner).period_ns);
-  }
-  if (now_ns - written > stale_after_ns) return worse(v.quality, Quality::kStale);
-  return v.quality;
-}
-
 ServerDriver::ServerDriver(const io::DriverSetup& setup)
     : io::Driver(setup, "mbserver"), settings_(settings_of(*setup.config)) {}
 
@@ -74,12 +51,11 @@ Result<void> ServerDriver::prepare() {
                                     "written from the network", settings_.writable_pos[i].line, settings_.writable[i]));
     }
   }
-  const auto stale_after = static_cast<int64_t>(settings_.stale_after_s * 1e9);
-  auto read = [this, stale_after](uint32_t item) {
-    const io::ProcessImage& image = *setup().image;
-    const io::ChannelValue v = image.read_channel(channel_[item]);
-    return ItemReading{v.value, served_quality(image, image.channel(channel_[item]), v,
-                                               kernel_rt::monotonic_now_ns(), stale_after)};
+  auto read = [this](uint32_t item) {
+    // read_channel judges the age by the one rule (io::judge_quality); a
+    // reading that was not consistent is bad.
+    const io::ChannelValue v = setup().image->read_channel(channel_[item]);
+    return ItemReading{v.value, v.fresh ? v.quality : Quality::kBad};
   };
   auto write = [this](uint32_t item, double value) -> Result<std::string> {
     if (!setup().set_point) return make_error("no runtime behind this driver sets set-points");

@@ -29,15 +29,6 @@
 
 namespace rtplc::modbus_server {
 
-// The quality a server answers with for one reading of channel `d`: the
-// image's (an output's folded with its delivery), bad when the reading was not
-// consistent, and stale when d is an input or output whose region's writer has
-// completed no snapshot for `stale_after_ns` (for a task's outputs: at least
-// three of its periods), a driver or task that stopped writing, whose last
-// quality would otherwise look good forever. Set-points are never stale.
-Quality served_quality(const io::ProcessImage& img, const io::ChannelDesc& d, const io::ChannelValue& v,
-                       int64_t now_ns, int64_t stale_after_ns);
-
 class ServerDriver final : public io::Driver {
  public:
   explicit ServerDriver(const io::DriverSetup& setup);

@@ -230,7 +230,12 @@ DriverClaims s7_claims(const DriverConfig& d) {
   const S7DriverSettings& s = settings_of(d);
   DriverClaims c;
   claim_maps(c, s.reads, s.writes, [&](const S7ChannelMap& m, bool write) {
-    return ChannelClaim{write ? write_key(m) : read_key(m), d.name + "." + m.channel, m.channel_pos};
+    ChannelClaim cl{write ? write_key(m) : read_key(m), d.name + "." + m.channel, m.channel_pos};
+    // Vouched for three polls of its PLC (io::judge_quality).
+    for (const S7PlcConfig& plc : s.plcs) {
+      if (plc.name == m.plc) cl.max_age_ns = static_cast<int64_t>(3 * plc.poll_s * 1e9);
+    }
+    return cl;
   });
   c.links = static_cast<uint32_t>(s.plcs.size());
   return c;

@@ -142,9 +142,9 @@ void S7Driver::cycle(int64_t now) noexcept {
   for (Read& r : reads_) {
     Sample s;
     if (engine_.try_read(r.item, s)) r.last = s;  // a miss keeps the last sample, ageing
-    Quality q = r.last.quality_at(now);
-    // A value we cannot vouch for is never good: a REAL that is NaN or Inf.
-    if (!std::isfinite(r.last.value)) q = Quality::kBad;
+    // The PLC's word with its time: every reader judges the age (and a REAL
+    // that is NaN or Inf) by the one rule, io::judge_quality.
+    const Quality q = r.last.quality;
     put_input(k, r.index, r.last.value, q, r.last.timestamp_ns);
     const bool refused = r.last.return_code != 0 && r.last.return_code != 0xFF;
     if (refused && !r.refusal_logged) {
@@ -189,7 +189,7 @@ void S7Driver::cycle_write(uint32_t j, uint32_t k, int64_t now) noexcept {
   }
   double value = 0;
   Quality q = Quality::kBad;
-  const bool got = read_output(j, value, q);
+  const bool got = read_output(j, value, q, now);
   const bool sendable = got && (q == Quality::kGood || q == Quality::kForced);
   if (sendable) {
     const bool changed = !w.sent || value != w.last;

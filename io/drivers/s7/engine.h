@@ -26,6 +26,7 @@
 #include <string>
 
 #include "common/quality.h"
+#include "io/process_image.h"
 #include "io/link/latency_buckets.h"
 #include "common/result.h"
 #include "io/drivers/s7/address.h"
@@ -64,16 +65,13 @@ struct Sample {
   double value = 0;          // engineering value
   uint64_t raw = 0;          // bit pattern as read
   int64_t timestamp_ns = 0;  // CLOCK_MONOTONIC when the reply arrived; 0 = never read
-  int64_t stale_after_ns = 0;
-  Quality quality = Quality::kBad;
+  int64_t max_age_ns = 0;    // three of its poll periods
+  Quality quality = Quality::kBad;  // as the last reply said; its age is judged by the reader
   uint8_t return_code = 0;   // the PLC's item return code of the last read (0xFF ok)
 
-  // Good turns stale when no fresh value arrived for a few poll periods.
+  // What the sample is worth at `now_ns`, by the one freshness rule.
   Quality quality_at(int64_t now_ns) const {
-    if (quality == Quality::kGood && timestamp_ns != 0 && now_ns - timestamp_ns > stale_after_ns) {
-      return Quality::kStale;
-    }
-    return quality;
+    return io::judge_quality(quality, value, timestamp_ns, now_ns, max_age_ns);
   }
 };
 

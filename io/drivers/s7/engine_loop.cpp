@@ -138,7 +138,7 @@ void Engine::Impl::process_commands(int64_t now) {
         p.items.push_back(c.id);
         p.plan_dirty = true;
         Sample s;
-        s.stale_after_ns = 3 * static_cast<int64_t>(p.cfg.poll_period_ms) * kMs;
+        s.max_age_ns = 3 * static_cast<int64_t>(p.cfg.poll_period_ms) * kMs;
         samples[c.id].store(s);
         if (p.state == PlcState::kReady && p.next_poll == TimerHeap::kNever) p.next_poll = now;
         reschedule(p, c.plc);
@@ -573,7 +573,7 @@ void Engine::Impl::pump(Plc& p, int64_t now) {
 void Engine::Impl::publish_item(ItemId id, const ItemResult& r, int64_t now, int64_t period_ns) {
   Sample s = samples[id].writer_value();
   s.return_code = r.return_code;
-  s.stale_after_ns = 3 * period_ns;
+  s.max_age_ns = 3 * period_ns;
   if (r.ok()) {
     const ItemConfig& cfg = items[id].cfg;
     s.raw = r.raw;

@@ -18,7 +18,7 @@ void SimDriver::cycle(int64_t now_ns) noexcept {
     double u = 0;
     Quality q = Quality::kBad;
     // A task mid-write never blocks us: we read its last completed snapshot.
-    const bool got = read_output(i, u, q);
+    const bool got = read_output(i, u, q, now_ns);
     const bool usable = got && (q == Quality::kGood || q == Quality::kForced);
     if (usable) p.input = u;  // else: hold the last input
     if (!first_) {

@@ -123,7 +123,7 @@ TEST(CanDriver, fails_clearly_when_the_interface_is_missing) {
   EXPECT_NE(s.error().find("can driver 'epc': CAN interface 'missing' does not exist"), std::string::npos) << s.error();
 }
 
-TEST(CanDriver, publishes_received_signals_and_marks_them_bad_after_the_timeout) {
+TEST(CanDriver, publishes_received_signals_that_turn_stale_after_the_timeout) {
   Rig r;
   ASSERT_TRUE(r.driver->start_io().ok());
   const int64_t t0 = kernel_rt::monotonic_now_ns();
@@ -138,11 +138,18 @@ TEST(CanDriver, publishes_received_signals_and_marks_them_bad_after_the_timeout)
   EXPECT_EQ(r.entry(0).second, Quality::kGood);
   EXPECT_EQ(r.entry(1).first, 7.0);
   EXPECT_EQ(r.entry(1).second, Quality::kGood);
-  // The drive goes quiet: after the frame's timeout its channels are bad, with their last values.
-  r.driver->cycle_now(t1 + 101 * kMs);
+  // The drive goes quiet: after the frame's timeout (its channels' max age)
+  // every reader judges them stale, with their last values and the frame's time.
+  const int64_t later = t1 + 101 * kMs;
+  r.driver->cycle_now(later);
   EXPECT_DOUBLE_EQ(r.entry(0).first, -10.0);
-  EXPECT_EQ(r.entry(0).second, Quality::kBad);
-  EXPECT_EQ(r.entry(1).second, Quality::kBad);
+  double v = 0;
+  Quality q = Quality::kBad;
+  int64_t at = 0;
+  const uint32_t idx = 0;
+  ASSERT_TRUE(r.image.read_values(1, &idx, 1, &v, 8, nullptr, &q, &at));
+  EXPECT_EQ(io::judge_quality(q, v, at, later, 100 * kMs), Quality::kStale);
+  EXPECT_EQ(io::judge_quality(q, v, at, t1, 100 * kMs), Quality::kGood);
   EXPECT_EQ(r.driver->rx_timeouts(), 1u);
   EXPECT_TRUE(r.logged("frame 181 not received for 100 ms"));
   EXPECT_EQ(r.driver->counters().frames_rx, 1u);

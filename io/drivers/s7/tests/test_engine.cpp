@@ -233,8 +233,8 @@ TEST(Engine, marks_values_stale_when_fresh_ones_stop_coming) {
   silent.blackhole = FakeBehavior::Blackhole::kAcceptSilent;
   rig.fake.set_behavior(rig.eps[0], silent);
   const Sample s = rig.engine.read(w);
-  EXPECT_EQ(s.quality_at(s.timestamp_ns + s.stale_after_ns / 2), Quality::kGood);
-  EXPECT_EQ(s.quality_at(s.timestamp_ns + s.stale_after_ns + 1), Quality::kStale);
+  EXPECT_EQ(s.quality_at(s.timestamp_ns + s.max_age_ns / 2), Quality::kGood);
+  EXPECT_EQ(s.quality_at(s.timestamp_ns + s.max_age_ns + 1), Quality::kStale);
 }
 
 // Healthy PLCs beside a never-accepting, a silent and three faulty ones: each healthy

@@ -1,0 +1,86 @@
+// The status lane's pass (see status.h).
+#include "blocks/status.h"
+
+#include <algorithm>
+
+namespace rtplc {
+
+StatusRule op_status_rule(Op op) {
+  switch (op) {
+    case Op::LoadA:
+    case Op::LoadD:
+      return StatusRule::kLoad;
+    case Op::StoreA:
+    case Op::StoreD:
+      return StatusRule::kStore;
+    case Op::ConstA:
+    case Op::ConstD:
+      return StatusRule::kSource;
+    case Op::Amux:
+      return StatusRule::kSelect;
+    default:
+      return StatusRule::kWorst;
+  }
+}
+
+void StatusLane::resize_for(const TaskImage& image) {
+  const ImageHeader& h = image.header();
+  // Nothing is vouched for before the first read of the inputs.
+  in.assign(h.n_io_in, static_cast<uint8_t>(Lane::kBad));
+  values.assign(h.n_values, static_cast<uint8_t>(Lane::kGood));
+  out.assign(h.n_io_out, static_cast<uint8_t>(Lane::kBad));
+  errors_seen.assign(h.n_instr, 0);
+  errors_at_pass = 0;
+  settled = false;
+}
+
+bool propagate_status(const TaskImage& image, const TaskArena& arena, StatusLane& lane) noexcept {
+  const std::span<const Instr> code = image.code();
+  if (lane.values.size() != arena.values.size() || lane.errors_seen.size() != code.size() ||
+      arena.errors.size() != code.size()) {
+    return true;  // not sized for this image: nothing can be vouched for
+  }
+  uint8_t* st = lane.values.data();
+  const double* v = arena.values.data();
+  uint8_t worst_value = 0;
+  bool any_output_not_good = false;
+  for (size_t i = 0; i < code.size(); ++i) {
+    const Instr& I = code[i];
+    uint8_t s = 0;
+    switch (op_status_rule(I.op)) {
+      case StatusRule::kLoad:
+        s = lane.in[I.in[0]];
+        break;
+      case StatusRule::kStore:
+        lane.out[I.out] = st[I.in[0]];
+        any_output_not_good |= st[I.in[0]] != 0;
+        continue;
+      case StatusRule::kSource:
+        break;
+      case StatusRule::kSelect: {
+        const uint8_t sa = st[I.in[0]], sb = st[I.in[1]], ssel = st[I.in[2]];
+        uint8_t branch = std::max(sa, sb);
+        // The selector's value as the block read it: a delayed selector's slot
+        // already holds this cycle's value, so then both branches count.
+        if ((I.flags & kInstrDelayed2) == 0) branch = v[I.in[2]] != 0.0 ? sb : sa;
+        s = std::max(ssel, branch);
+        break;
+      }
+      case StatusRule::kWorst:
+        for (uint32_t k = 0; k < I.n_in && k < 3; ++k) s = std::max(s, st[I.in[k]]);
+        break;
+    }
+    // A block that erred this cycle held its last value: usable, not current.
+    if (arena.errors[i] != lane.errors_seen[i]) {
+      lane.errors_seen[i] = arena.errors[i];
+      s = std::max(s, static_cast<uint8_t>(Lane::kUncertain));
+    }
+    st[I.out] = s;
+    worst_value = std::max(worst_value, s);
+  }
+  lane.errors_at_pass = arena.total_errors;
+  lane.settled = worst_value == 0 && !any_output_not_good;
+  return any_output_not_good;
+}
+
+}  // namespace rtplc
