@@ -46,7 +46,7 @@ rtplc_up run.log "the runtime"
 # (replaces gpio-sim-lib.sh's value(): here a label's value in the monitor)
 value() { mon "$1" 4; }
 quality() { mon "$1" 5; }
-[ "$(quality Speed)" = "bad" ] || fail "Speed is $(quality Speed) before any frame came"
+[ "$(quality Speed)" = "stale" ] || fail "Speed is $(quality Speed) before any frame came"
 
 # The drive reports 300.0 rpm (3000 = 0x0BB8, little-endian, 0.1 rpm) and ready.
 # cangen sends it every 10 ms for 3 s (one process: steadier than a cansend loop
@@ -80,12 +80,13 @@ head -6 dump.txt
 grep -q 'in/EPC/p0.d1.c0=300' dump.txt || fail "can dump did not decode the speed"
 grep -q 'out/EPC/p0.d1.c1=1' dump.txt || fail "can dump did not decode the enable bit"
 
-# 3. The drive stops talking: after 100 ms the speed is bad (its last value
-# kept) and the program drops Enable on the bus.
+# 3. The drive stops talking: after 100 ms (the frame timeout, which is the
+# channel's max age) the speed is stale, its last value kept, and the program
+# drops Enable on the bus.
 kill $PEER; wait $PEER || true
 sleep 0.5
 rtplc monitor --once
-[ "$(quality Speed)" = "bad" ] || fail "Speed is $(quality Speed) 0.5 s after the drive went quiet"
+[ "$(quality Speed)" = "stale" ] || fail "Speed is $(quality Speed) 0.5 s after the drive went quiet"
 awk -v v="$(value Speed)" 'BEGIN { exit !(v > 299.9 && v < 300.1) }' || fail "Speed lost its last value: $(value Speed)"
 [ "$(value Enable)" = "0" ] || fail "Enable is $(value Enable) with a bad speed"
 tail -1 tx.log | grep -Eq '201#[0-9A-F]{4}00' || { tail -3 tx.log; fail "the last frame does not carry Enable 0"; }
