@@ -12,6 +12,8 @@
 
 #include "app/arguments.h"
 #include "app/commands.h"
+#include "common/text.h"
+#include "config/config.h"
 #include "io/process_image.h"
 #include "kernel_rt/rt_kernel.h"
 #include "sched/stats_histfile.h"
@@ -20,6 +22,16 @@
 
 namespace rtplc::app {
 namespace {
+
+// An output's on_bad policy, beside its writer: what its drivers send while
+// it is not good (config::OnBad).
+std::string on_bad_text(const io::ChannelDesc& d) {
+  if (d.dir != static_cast<uint8_t>(io::ChannelDir::kOutput)) return "";
+  const auto p = static_cast<config::OnBad>(d.on_bad);
+  std::string t = std::string(", on bad: ") + config::on_bad_name(p);
+  if (p == config::OnBad::kSafe) t += " " + format_number(d.safe_value);
+  return t;
+}
 
 // Faster refreshes only burn a CPU the tasks may need (and flood a terminal).
 constexpr double kMinRefresh_s = 0.05;
@@ -155,7 +167,7 @@ void run_monitor(const ViewArgs& a) {
                                                                          : quality_name(v.quality);
       const std::string writer = std::string(unwired ? "(no driver)" : r.name) +
                                  (v.forced && v.quality != Quality::kForced ? " (FORCED)" : "") +
-                                 (unsent ? " (no driver sends it)" : "");
+                                 (unsent ? " (no driver sends it)" : "") + on_bad_text(d);
       std::snprintf(line, sizeof line, "  %-20s %-9s %-24s %14s  %-7s %8s  %s\n", d.label, dir, d.key,
                     fmt_value(v.value, d.kind).c_str(), quality, age, writer.c_str());
       out += line;

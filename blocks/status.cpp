@@ -18,6 +18,12 @@ StatusRule op_status_rule(Op op) {
       return StatusRule::kSource;
     case Op::Amux:
       return StatusRule::kSelect;
+    case Op::And2:
+    case Op::And3:
+      return StatusRule::kAnd;
+    case Op::Or2:
+    case Op::Or3:
+      return StatusRule::kOr;
     default:
       return StatusRule::kWorst;
   }
@@ -64,6 +70,20 @@ bool propagate_status(const TaskImage& image, const TaskArena& arena, StatusLane
         // already holds this cycle's value, so then both branches count.
         if ((I.flags & kInstrDelayed2) == 0) branch = v[I.in[2]] != 0.0 ? sb : sa;
         s = std::max(ssel, branch);
+        break;
+      }
+      case StatusRule::kAnd:
+      case StatusRule::kOr: {
+        // The value a good input must have to decide the result by itself.
+        const bool decisive = op_status_rule(I.op) == StatusRule::kOr;
+        bool decided = false;
+        for (uint32_t k = 0; k < I.n_in && k < 3; ++k) {
+          s = std::max(s, st[I.in[k]]);
+          // (a delayed input read last cycle's value, which its slot no longer holds)
+          const bool delayed = (I.flags & (kInstrDelayed0 << k)) != 0;
+          decided |= !delayed && st[I.in[k]] == 0 && (v[I.in[k]] != 0.0) == decisive;
+        }
+        if (decided) s = 0;
         break;
       }
       case StatusRule::kWorst:

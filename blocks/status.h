@@ -18,6 +18,10 @@
 //             yields good outputs while the fallback is good
 //   source    constants, and `good(x)` itself (the quality is known even
 //             when the value is not): always good
+//   and / or  a good input that decides the result alone (a good 0 into
+//             an and, a good 1 into an or) makes it good whatever the
+//             others are, so `and(Ready, good(Speed))` is a good 0 when the
+//             speed is lost and a drive sees Enable drop; else worst
 // A block's state (an integrator, a filter) does not remember a bad past:
 // its output is as good as the inputs of this cycle. A delayed reference
 // reads last cycle's status, as it reads last cycle's value.
@@ -55,7 +59,7 @@ inline Quality quality_of(Lane s) {
   return s == Lane::kGood ? Quality::kGood : s == Lane::kUncertain ? Quality::kStale : Quality::kBad;
 }
 
-enum class StatusRule : uint8_t { kWorst, kSelect, kSource, kLoad, kStore };
+enum class StatusRule : uint8_t { kWorst, kSelect, kSource, kLoad, kStore, kAnd, kOr };
 StatusRule op_status_rule(Op op);
 
 // The statuses of one task's values, beside its TaskArena.

@@ -46,6 +46,18 @@ enum class OverrunPolicy : uint8_t {
 const char* to_string(OverrunPolicy p);
 
 // One value a stopped task's output takes (by the output's label).
+// What the drivers that send an output do while its status is not good
+// (docs/runtime.md, "Status of values"): keep what the peer has (hold, the
+// default), send the task's safe value for it, or send the computed value anyway.
+enum class OnBad : uint8_t { kHold = 0, kSafe = 1, kSend = 2 };
+const char* on_bad_name(OnBad p);
+
+struct OnBadPolicy {
+  std::string label;
+  OnBad policy = OnBad::kHold;
+  SourcePos pos;  // of the label
+};
+
 struct SafeOutput {
   std::string label;
   double value = 0;
@@ -79,6 +91,7 @@ struct TaskConfig {
   uint32_t watchdog = 0;  // consecutive overruns before the stop; 0 = never
   SourcePos watchdog_pos;
   std::vector<SafeOutput> safe_outputs;
+  std::vector<OnBadPolicy> on_bad;  // outputs not listed: hold
   // Retained block state (docs/runtime.md, "Retained block state"): every
   // block (the default), none, or the blocks named in retain_blocks.
   bool retain_all = true;

@@ -186,6 +186,22 @@ void parse_safe_outputs(YamlReader& r, const Field& field, TaskConfig& t) {
                     });
 }
 
+// on_bad: {LABEL: hold|safe|send, ...}
+void parse_on_bad(YamlReader& r, const Field& field, TaskConfig& t) {
+  for_each_labelled(r, field, "on_bad", "output", [&](const std::string& label, SourcePos kp, const YAML::Node& v) {
+    const SourcePos vp = or_else(YamlReader::pos(v), kp);
+    const std::string text = v.IsScalar() ? v.Scalar() : std::string();
+    for (OnBad p : {OnBad::kHold, OnBad::kSafe, OnBad::kSend}) {
+      if (text == on_bad_name(p)) {
+        t.on_bad.push_back(OnBadPolicy{label, p, kp});
+        return;
+      }
+    }
+    r.error(vp, "on_bad of '" + label + "' expects hold, safe or send, got " + YamlReader::describe_node(v),
+            YamlReader::width(v));
+  });
+}
+
 // setpoints: {LABEL: {min: number, max: number}, ...}, and ranges: the same
 // for a task's inputs and outputs (`what` is "set-point" or "channel").
 void parse_limit_map(YamlReader& r, const Field& field, const char* key, const std::string& what,
@@ -305,12 +321,15 @@ void parse_task(YamlReader& r, const YAML::Node& node, SourcePos list_pos, Runti
   }
   t.retain_pos = t.pos;
   if (const Field* x = f.get("retain")) parse_retain(r, *x, t);
+  if (const Field* x = f.get("on_bad")) parse_on_bad(r, *x, t);
   if (const Field* x = f.get("safe_outputs")) {
     parse_safe_outputs(r, *x, t);
-    if (t.watchdog == 0 && !t.safe_outputs.empty()) {
+    const bool used_on_bad = std::any_of(t.on_bad.begin(), t.on_bad.end(),
+                                         [](const OnBadPolicy& p) { return p.policy == OnBad::kSafe; });
+    if (t.watchdog == 0 && !t.safe_outputs.empty() && !used_on_bad) {
       r.warning(x->key_pos,
                 "these safe outputs are never applied: with watchdog 0 the task is never "
-                "stopped; set 'watchdog' or 'overrun: stop'",
+                "stopped and no output is 'on_bad: safe'; set 'watchdog' or 'overrun: stop'",
                 YamlReader::width(x->key));
     }
   }
@@ -601,6 +620,18 @@ LoadResult load_config(const std::string& path, const LoadOptions& options) {
     res.diags.error({}, std::string("cannot read the config file: ") + e.what());
     return res;
   }
+}
+
+const char* on_bad_name(OnBad p) {
+  switch (p) {
+    case OnBad::kSafe:
+      return "safe";
+    case OnBad::kSend:
+      return "send";
+    case OnBad::kHold:
+      break;
+  }
+  return "hold";
 }
 
 }  // namespace rtplc::config

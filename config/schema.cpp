@@ -83,6 +83,11 @@ const KeySpec kTaskKeys[] = {
      "values; 0 never stops it."},
     {"safe_outputs", ValueType::kLabelMap, false, kNoMin, kNoMax, nullptr, "every output 0",
      "`LABEL: value` for the outputs of a stopped task; outputs not listed go to 0."},
+    {"on_bad", ValueType::kLabelMap, false, kNoMin, kNoMax, nullptr, "every output hold",
+     "`LABEL: hold|safe|send`: what the drivers sending an output do while its status is "
+     "not good (computed from a bad or stale input, or before the inputs are up): `hold` "
+     "keeps what the peer has (no write, a CAN signal keeps its last bytes), `safe` sends "
+     "its `safe_outputs` value, `send` sends the computed value anyway."},
     {"retain", ValueType::kBlockSelection, false, kNoMin, kNoMax, nullptr, "all",
      "Which blocks keep their state (integrators, counters, timers, filters, delays, SFC steps) "
      "across a restart, also after `kill -9`: `all`, `none`, or a list of block names "

@@ -103,9 +103,10 @@
 namespace rtplc::io {
 
 inline constexpr char kProcessImageMagic[8] = {'R', 'T', 'P', 'L', 'C', 'S', 'H', 'M'};
-inline constexpr uint32_t kProcessImageVersion = 7;  // 4: the force table; 5: per-task trace rings;
+inline constexpr uint32_t kProcessImageVersion = 8;  // 4: the force table; 5: per-task trace rings;
                                                     // 6: per-class delays of planned links;
-                                                    // 7: ChannelDesc::max_age_ns
+                                                    // 7: ChannelDesc::max_age_ns;
+                                                    // 8: ChannelDesc::on_bad, safe_value
 inline constexpr uint32_t kRingSlots = 4;
 // The version slot n % kRingSlots holds once publication n >= 1 is complete:
 // two per write, and that slot was written once per lap up to n.
@@ -129,8 +130,11 @@ struct ChannelDesc {
   uint16_t delivery_region; // ... in this region (the driver's),
   uint32_t delivery_index;  // ... at this index: quality bad while it cannot send
   int64_t max_age_ns;       // inputs: a good value older than this is stale (judge_quality); 0 never
+  uint8_t on_bad;           // outputs: config::OnBad, what drivers send while it is not good
+  uint8_t pad[7];
+  double safe_value;        // outputs: what `on_bad: safe` sends (the task's safe_outputs value)
 };
-static_assert(sizeof(ChannelDesc) == 104);
+static_assert(sizeof(ChannelDesc) == 120);
 
 struct RegionDesc {
   char name[kLabelBytes];  // "task:loop1", "driver:plant", "setpoints"

@@ -27,6 +27,15 @@ int64_t input_max_age_ns(const config::DriverConfig& dc, const config::ChannelCl
   return 3 * static_cast<int64_t>(dc.period_s * 1e9);
 }
 
+void set_output_policy(const config::TaskConfig& task, const std::string& label, io::ChannelDesc& d) {
+  for (const config::OnBadPolicy& p : task.on_bad) {
+    if (p.label == label) d.on_bad = static_cast<uint8_t>(p.policy);
+  }
+  for (const config::SafeOutput& so : task.safe_outputs) {
+    if (so.label == label) d.safe_value = so.value;
+  }
+}
+
 int64_t output_max_age_ns(int64_t task_period_ns) {
   return std::max<int64_t>(3 * task_period_ns, 1000000000);
 }
@@ -153,6 +162,7 @@ bool plan_image(const config::RuntimeConfig& cfg, const std::string& name,
         descs.push_back(channel_desc(label, key, io::ChannelDir::kOutput, static_cast<uint8_t>(b.kind),
                                      static_cast<uint32_t>(t), b.io_index));
         descs.back().max_age_ns = output_max_age_ns(img.header().period_ns);
+        set_output_policy(cfg.tasks[t], label, descs.back());
       } else if (existing == by_key.end()) {
         io::ChannelDesc d = channel_desc(label, key, io::ChannelDir::kInput, static_cast<uint8_t>(b.kind), 0, 0);
         if (b.dir == BindingDir::kSetpoint) {
@@ -200,7 +210,7 @@ bool plan_image(const config::RuntimeConfig& cfg, const std::string& name,
         continue;
       }
       io::ChannelDesc& o = descs[it->second];
-      dp.consumes.push_back({o.region, o.index, o.max_age_ns});
+      dp.consumes.push_back({o.region, o.index, o.max_age_ns, o.on_bad, o.safe_value});
       if (!o.has_delivery) {
         // The first driver that sends an output reports how its delivery goes.
         o.has_delivery = 1;
@@ -210,8 +220,18 @@ bool plan_image(const config::RuntimeConfig& cfg, const std::string& name,
     }
   }
 
-  // Safe outputs name outputs of their own task.
+  // Safe outputs and on_bad policies name outputs of their own task.
   for (size_t t = 0; t < n_tasks; ++t) {
+    for (const config::OnBadPolicy& p : cfg.tasks[t].on_bad) {
+      bool found = false;
+      for (const Binding& b : images[t].bindings()) {
+        found |= b.dir == BindingDir::kOutput && p.label == images[t].str(b.label);
+      }
+      if (!found) {
+        cdiag.error(p.pos, "task " + cfg.tasks[t].name + " has no output labelled \"" + p.label + "\"");
+        ok = false;
+      }
+    }
     for (const config::SafeOutput& so : cfg.tasks[t].safe_outputs) {
       bool found = false;
       for (const Binding& b : images[t].bindings()) {

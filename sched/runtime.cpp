@@ -476,6 +476,7 @@ Result<std::unique_ptr<LoadedProgram>> Runtime::make_program(uint32_t t, TaskIma
       LoadedProgram::NewChannel n;
       n.desc = channel_desc(label, key, io::ChannelDir::kOutput, static_cast<uint8_t>(b.kind), t, b.io_index);
       n.desc.max_age_ns = output_max_age_ns(p->image.header().period_ns);
+      set_output_policy(config_.tasks[t], label, n.desc);
       n.key = key;
       p->new_channels.push_back(std::move(n));
       continue;

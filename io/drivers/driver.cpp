@@ -2,6 +2,8 @@
 // (see driver.h).
 #include "io/drivers/driver.h"
 
+#include <cmath>
+
 #include <algorithm>
 #include <vector>
 
@@ -72,6 +74,22 @@ bool Driver::read_output(uint32_t j, double& value, Quality& quality, int64_t no
   value = v;
   quality = judge_quality(q, v, t, now_ns, src.max_age_ns);
   return true;
+}
+
+SendDecision Driver::output_to_send(uint32_t j, double& value, int64_t now_ns) const noexcept {
+  Quality q = Quality::kBad;
+  if (!read_output(j, value, q, now_ns)) return SendDecision::kNoRead;
+  if (q == Quality::kGood || q == Quality::kForced) return SendDecision::kSend;
+  const OutputSource& src = setup_.consumes[j];
+  switch (src.on_bad) {
+    case 1:  // safe
+      value = src.safe_value;
+      return SendDecision::kSend;
+    case 2:  // send: the engineer chose the computed value whatever its status
+      return std::isfinite(value) ? SendDecision::kSend : SendDecision::kHold;
+    default:
+      return SendDecision::kHold;
+  }
 }
 
 void Driver::describe_link(uint32_t l, std::string_view link_name, std::string_view peer) const {

@@ -61,6 +61,15 @@ struct OutputSource {
   uint32_t region = 0;
   uint32_t index = 0;
   int64_t max_age_ns = 0;  // the channel's (io::judge_quality)
+  uint8_t on_bad = 0;      // the channel's config::OnBad (0 hold, 1 safe, 2 send)
+  double safe_value = 0;   // what `safe` sends
+};
+
+// What a driver does with one consumed output this cycle (Driver::output_to_send).
+enum class SendDecision : uint8_t {
+  kSend,    // send `value`: good or forced, or the policy says what to send instead
+  kHold,    // not good and its policy is hold: keep what the peer has
+  kNoRead,  // no consistent snapshot this cycle: keep what was sent last
 };
 
 // Something a driver wants in the log (a link went down or came back, the peer
@@ -159,6 +168,11 @@ class Driver {
   // one freshness rule at `now_ns`. False when no consistent snapshot could be
   // read (keep what was sent last).
   bool read_output(uint32_t j, double& value, Quality& quality, int64_t now_ns) const noexcept;
+  // Consumed output j through its `on_bad` policy, the one rule every kind
+  // applies: good or forced -> send it; else hold (keep what the peer has),
+  // safe (send its safe value) or send (the value anyway). `value` is what to
+  // send when kSend.
+  SendDecision output_to_send(uint32_t j, double& value, int64_t now_ns) const noexcept;
 
   // One snapshot of the driver's region per cycle.
   uint32_t begin_snapshot() const noexcept { return setup_.image->begin_write(setup_.region); }

@@ -4,6 +4,8 @@
 // fallback yields a good output while the fallback is good; a block that
 // erred holds an uncertain value; a delayed reference reads last cycle's status.
 #include <gtest/gtest.h>
+#include <fstream>
+#include <sstream>
 
 #include "blocks/status.h"
 #include "tests/support/fbd_harness.h"
@@ -15,7 +17,8 @@ using testing::FbdHarness;
 
 class Lane_ {
  public:
-  explicit Lane_(const std::string& body) : h_(body) {
+  explicit Lane_(const std::string& body) : Lane_(FbdHarness(body)) {}
+  explicit Lane_(FbdHarness&& h) : h_(std::move(h)) {
     if (!h_.ok()) return;
     lane_.resize_for(h_.image());
     for (const Binding& b : h_.image().bindings()) {
@@ -136,6 +139,53 @@ TEST(StatusLane, a_selector_carries_the_status_of_the_branch_it_took) {
   l.status("Sel", Lane::kUncertain);
   l.step();
   EXPECT_EQ(l.out("Y"), Lane::kUncertain) << "an uncertain selector makes its choice uncertain";
+}
+
+TEST(StatusLane, a_good_input_that_decides_an_and_or_an_or_makes_it_good) {
+  // examples/drive.fbd: Enable = and(Ready, good(Speed), Run). With the drive
+  // silent Ready is stale, but good(Speed) is a good 0: Enable is a good 0,
+  // which a drive must be sent, not a held 1.
+  Lane_ l("D1 = ddi(p0, d0, c0, \"Ready\")\nF2 = dai(p0, d0, c1, \"Speed\")\nD3 = good(F2)\n"
+          "D4 = ddi(p0, d0, c2, \"Run\")\nD5 = and(D1, D3, D4)\nddo(D5, p0, d0, c0, \"Enable\")\n"
+          "D6 = or(D1, D4)\nddo(D6, p0, d0, c1, \"Any\")\n");
+  ASSERT_TRUE(l.ok());
+  l.set("Ready", 1);
+  l.set("Run", 1);
+  l.status("Speed", Lane::kGood);
+  l.step();
+  EXPECT_EQ(l.value("Enable"), 1);
+  EXPECT_EQ(l.out("Enable"), Lane::kGood);
+  l.status("Ready", Lane::kUncertain);
+  l.status("Speed", Lane::kUncertain);
+  l.step();
+  EXPECT_EQ(l.value("Enable"), 0);
+  EXPECT_EQ(l.out("Enable"), Lane::kGood) << "a good 0 decides an and";
+  EXPECT_EQ(l.out("Any"), Lane::kGood) << "a good 1 decides an or";
+  l.status("Speed", Lane::kGood);
+  l.step();
+  EXPECT_EQ(l.out("Enable"), Lane::kUncertain) << "every good input is 1: the stale Ready decides";
+  l.set("Run", 0);
+  l.step();
+  EXPECT_EQ(l.out("Any"), Lane::kUncertain) << "no good 1 into the or";
+  EXPECT_EQ(l.out("Enable"), Lane::kGood);
+}
+
+TEST(StatusLane, DriveExample) {
+  std::ifstream f(std::string(RTPLC_SOURCE_DIR) + "/examples/drive.fbd");
+  std::stringstream ss; ss << f.rdbuf();
+  Lane_ l(FbdHarness(ss.str(), 0.02, true, true));
+  ASSERT_TRUE(l.ok());
+  l.set("Ready", 1); l.set("Run", 1); l.set("Speed", 300);
+  l.status("Speed", Lane::kGood);
+  l.step(); l.step();
+  EXPECT_EQ(l.out("Enable"), Lane::kGood);
+  EXPECT_EQ(l.out("Torque"), Lane::kGood);
+  l.status("Speed", Lane::kUncertain);
+  l.status("Ready", Lane::kUncertain);
+  l.step(); l.step();
+  EXPECT_EQ(l.value("Enable"), 0);
+  EXPECT_EQ(l.out("Enable"), Lane::kGood);
+  EXPECT_EQ(l.out("Torque"), Lane::kUncertain);
 }
 
 TEST(StatusLane, a_block_that_erred_holds_an_uncertain_value) {

@@ -46,7 +46,7 @@ rtplc_up run.log "the runtime"
 # (replaces gpio-sim-lib.sh's value(): here a label's value in the monitor)
 value() { mon "$1" 4; }
 quality() { mon "$1" 5; }
-[ "$(quality Speed)" = "stale" ] || fail "Speed is $(quality Speed) before any frame came"
+[ "$(quality Speed)" = "bad" ] || fail "Speed is $(quality Speed) before any frame came"
 
 # The drive reports 300.0 rpm (3000 = 0x0BB8, little-endian, 0.1 rpm) and ready.
 # cangen sends it every 10 ms for 3 s (one process: steadier than a cansend loop

@@ -26,18 +26,19 @@ const char* kProgram =
     "F3 = asp(d0, c0, -5, \"Fallback\")\nF4 = amux(F3, F1, D2)\n"
     "dao(F4, p0, d0, c9, \"Safe\")\nddo(D2, p0, d0, c8, \"LevelOk\")\n"
     "F5 = dai(p0, d3, c0, \"Unfed\")\nD6 = good(F5)\nddo(D6, p0, d0, c7, \"UnfedOk\")\n"
-    "F7 = sub(F1, F3, 1)\ndao(F7, p0, d0, c6, \"FromLevel\")\nEND\n";
+    "F7 = sub(F1, F3, 1)\ndao(F7, p0, d0, c6, \"FromLevel\")\n"
+    "D8 = dsp(d0, c1, 1, \"Run\")\nD9 = and(D8, D2)\nddo(D9, p0, d0, c5, \"Enable\")\nEND\n";
 
 Quality quality_of_label(sched::Runtime& rt, const char* label) {
   const int c = rt.image().find_channel(label);
   return c < 0 ? Quality::kBad : rt.image().read_channel(static_cast<uint32_t>(c)).quality;
 }
 
-std::string config(uint16_t port) {
+std::string config(uint16_t port, const char* timeout = "100ms") {
   return "tasks:\n  - {name: t, program: p.fbd}\n"
          "drivers:\n  - kind: modbus\n    name: mb\n    period: 10ms\n    slaves:\n"
          "      - {name: a, address: 127.0.0.1, port: " + std::to_string(port) +
-         ", poll: 20ms, timeout: 100ms, retries: 0}\n"
+         ", poll: 20ms, timeout: " + timeout + ", retries: 0}\n"
          "    read:\n      - {device: R, channel: p1.d0.c0, slave: a, address: 0, type: f32}\n";
 }
 
@@ -64,6 +65,9 @@ TEST(QualityInPrograms, a_program_switches_to_its_safe_branch_while_an_input_is_
   EXPECT_TRUE(eventually([&] { return quality_of_label(*rt, "FromLevel") == Quality::kBad; }))
       << quality_name(quality_of_label(*rt, "FromLevel"));
   EXPECT_EQ(quality_of_label(*rt, "Safe"), Quality::kGood);
+  // and(Run, good(Level)) is decided by the good 0: a good 0, sent as such.
+  EXPECT_EQ(channel_value(*rt, "Enable"), 0);
+  EXPECT_EQ(quality_of_label(*rt, "Enable"), Quality::kGood);
 
   // An operator forcing the bad input vouches for it: the program takes it.
   ASSERT_TRUE(rt->force("Level", 3.0, 0).ok());
@@ -77,6 +81,29 @@ TEST(QualityInPrograms, a_program_switches_to_its_safe_branch_while_an_input_is_
   EXPECT_TRUE(eventually([&] { return channel_value(*rt, "LevelOk") == 1 && channel_value(*rt, "Safe") == 4.0; }))
       << channel_value(*rt, "LevelOk") << " " << channel_value(*rt, "Safe");
   EXPECT_TRUE(eventually([&] { return quality_of_label(*rt, "FromLevel") == Quality::kGood; }));
+  rt->stop();
+}
+
+TEST(QualityInPrograms, a_silent_slave_makes_what_is_computed_from_it_not_good_within_its_age) {
+  modbus::FakeSlave slave;
+  ASSERT_TRUE(slave.start().ok());
+  slave.put(*modbus::parse_address("hr:0:f32"), 2.5);
+  RuntimeFixture fx;
+  fx.write("p.fbd", kProgram);
+  // A long timeout: the link stays up while the last sample ages past
+  // 3 polls, the channel's max age.
+  auto rt = fx.start(config(slave.port(), "5s"));
+  ASSERT_NE(rt, nullptr);
+  ASSERT_TRUE(eventually([&] { return quality_of_label(*rt, "FromLevel") == Quality::kGood; }));
+  ASSERT_EQ(channel_value(*rt, "Enable"), 1);
+  slave.set_silent(true);  // the socket stays open, no answer comes
+  EXPECT_TRUE(eventually([&] { return quality_of_label(*rt, "Level") == Quality::kStale; }))
+      << quality_name(quality_of_label(*rt, "Level"));
+  EXPECT_TRUE(eventually([&] { return quality_of_label(*rt, "FromLevel") == Quality::kStale; }))
+      << quality_name(quality_of_label(*rt, "FromLevel"));
+  EXPECT_TRUE(eventually([&] { return channel_value(*rt, "Enable") == 0; }));
+  EXPECT_EQ(quality_of_label(*rt, "Enable"), Quality::kGood) << quality_name(quality_of_label(*rt, "Enable"));
+  EXPECT_EQ(quality_of_label(*rt, "Safe"), Quality::kGood);
   rt->stop();
 }
 

@@ -314,17 +314,20 @@ void CanDriver::receive(uint32_t k, int64_t now) noexcept {
   }
 }
 
-bool CanDriver::pack_frame(uint32_t i, uint8_t (&data)[8]) noexcept {
+bool CanDriver::pack_frame(uint32_t i, uint8_t (&data)[8], uint64_t& held) noexcept {
   TxTrack& t = tx_track_[i];
   const FrameMap& fm = settings_.transmit[i];
   std::memcpy(data, t.data, sizeof data);
+  held = 0;
   bool sendable = true;
   bool refused = false;
   for (uint32_t s = 0; s < fm.signals.size(); ++s) {
     double v = 0;
-    Quality q = Quality::kBad;
-    if (!read_output(t.first + s, v, q, kernel_rt::monotonic_now_ns()) || (q != Quality::kGood && q != Quality::kForced)) {
-      sendable = false;
+    if (output_to_send(t.first + s, v, kernel_rt::monotonic_now_ns()) != io::SendDecision::kSend) {
+      // Held (on_bad: hold, or no snapshot this cycle): the signal keeps the
+      // bytes sent last; before a first send there are none to keep.
+      held |= uint64_t{1} << s;
+      sendable = sendable && t.sent;
       continue;
     }
     if (!pack(fm.signals[s].layout, v, data)) {
@@ -337,9 +340,13 @@ bool CanDriver::pack_frame(uint32_t i, uint8_t (&data)[8]) noexcept {
                  id_text(fm.id, fm.extended))
                 .text);
       }
+      continue;
     }
   }
   t.refusal_logged = refused;
+  // A frame whose every signal is held still goes at its period (or its
+  // plan's frame) with the bytes sent last: the peer keeps what it has, and a
+  // drive watching the frame's period does not see a controller gone.
   return sendable;
 }
 
@@ -355,11 +362,12 @@ void CanDriver::transmit_planned(uint32_t k, int64_t now) noexcept {
   for (uint32_t i = 0; i < tx_track_.size(); ++i) {
     TxTrack& t = tx_track_[i];
     const FrameMap& fm = settings_.transmit[i];
-    t.staged_ok = pack_frame(i, t.staged);
+    uint64_t held = 0;
+    t.staged_ok = pack_frame(i, t.staged, held);
     const bool delivered = t.staged_ok && up && t.sent && t.last_err == 0;
     for (uint32_t s = 0; s < fm.signals.size(); ++s) {
       put_delivery(k, t.first + s, t.sent ? unpack(fm.signals[s].layout, t.data) : 0.0,
-                   delivered ? Quality::kGood : Quality::kBad, now);
+                   delivered && ((held >> s) & 1) == 0 ? Quality::kGood : Quality::kBad, now);
     }
     if (fm.tx_class == FrameMap::Class::kUrgent && t.staged_ok &&
         (!t.sent || t.force || std::memcmp(t.staged, t.data, sizeof t.data) != 0)) {
@@ -461,11 +469,12 @@ void CanDriver::transmit(uint32_t k, int64_t now) noexcept {
       }
     }
     uint8_t data[8];
-    const bool sendable = pack_frame(i, data);
+    uint64_t held = 0;
+    const bool sendable = pack_frame(i, data, held);
     const bool delivered = sendable && up && t.sent && t.last_err == 0;
     for (uint32_t s = 0; s < fm.signals.size(); ++s) {
       put_delivery(k, t.first + s, t.sent ? unpack(fm.signals[s].layout, t.data) : 0.0,
-                   delivered ? Quality::kGood : Quality::kBad, now);
+                   delivered && ((held >> s) & 1) == 0 ? Quality::kGood : Quality::kBad, now);
     }
     if (!sendable) {
       t.force = false;  // nothing we can vouch for to send, not even at stop

@@ -273,17 +273,19 @@ void GpioDriver::cycle(int64_t now) noexcept {
       continue;
     }
     double v = 0;
-    Quality q = Quality::kBad;
-    if (!read_output(t.index, v, q, now)) {
+    const io::SendDecision d = output_to_send(t.index, v, now);
+    if (d == io::SendDecision::kNoRead) {
       // No consistent snapshot this cycle (the task is writing its region): not
       // a reason to move the line. Keep what was driven, say it as it was.
       put_delivery(k, t.index, t.last_set < 0 ? 0.0 : t.last_set,
                    t.vouched && t.last_err == 0 ? Quality::kGood : Quality::kBad, now);
       continue;
     }
-    const bool vouched = q == Quality::kGood || q == Quality::kForced;
+    // Not good: the output's on_bad policy; hold keeps the level driven last
+    // (the line's safe level until something was driven).
+    const bool vouched = d == io::SendDecision::kSend;
     t.vouched = vouched;
-    const int level = vouched ? (v != 0 ? 1 : 0) : m.safe;
+    const int level = vouched ? (v != 0 ? 1 : 0) : t.last_set >= 0 ? t.last_set : m.safe;
     if (level != t.last_set || t.last_err != 0) {
       t.last_err = ops_.set(t.line, level);
       if (t.last_err == 0) {

@@ -139,9 +139,8 @@ void ModbusDriver::cycle(int64_t now) noexcept {
     }
     const bool up = slave_up(w.slave);
     double value = 0;
-    Quality q = Quality::kBad;
-    const bool got = read_output(j, value, q, now);
-    const bool sendable = got && (q == Quality::kGood || q == Quality::kForced);
+    // Not good: its on_bad policy (hold: no write, the slave keeps what it has).
+    const bool sendable = output_to_send(j, value, now) == io::SendDecision::kSend;
     double raw = m.item.type == ItemType::kBit ? (value != 0 ? 1.0 : 0.0) : (value - m.offset) / m.scale;
     if (m.item.type != ItemType::kBit && m.item.type != ItemType::kF32) raw = std::round(raw);
     const bool in_range = fits(m.item, raw);

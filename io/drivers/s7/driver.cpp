@@ -188,9 +188,8 @@ void S7Driver::cycle_write(uint32_t j, uint32_t k, int64_t now) noexcept {
     }
   }
   double value = 0;
-  Quality q = Quality::kBad;
-  const bool got = read_output(j, value, q, now);
-  const bool sendable = got && (q == Quality::kGood || q == Quality::kForced);
+  // Not good: its on_bad policy (hold: no write, the PLC keeps what it has).
+  const bool sendable = output_to_send(j, value, now) == io::SendDecision::kSend;
   if (sendable) {
     const bool changed = !w.sent || value != w.last;
     const bool due = w.mode == config::WriteMode::kEveryCycle || changed || w.resend;

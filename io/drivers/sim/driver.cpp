@@ -16,11 +16,10 @@ void SimDriver::cycle(int64_t now_ns) noexcept {
   for (uint32_t i = 0; i < plants_.size(); ++i) {
     PlantWiring& p = plants_[i];
     double u = 0;
-    Quality q = Quality::kBad;
     // A task mid-write never blocks us: we read its last completed snapshot.
-    const bool got = read_output(i, u, q, now_ns);
-    const bool usable = got && (q == Quality::kGood || q == Quality::kForced);
-    if (usable) p.input = u;  // else: hold the last input
+    // Not good: the output's on_bad policy (hold keeps the plant's last input).
+    const bool usable = output_to_send(i, u, now_ns) == io::SendDecision::kSend;
+    if (usable) p.input = u;
     if (!first_) {
       for (int s = 0; s < steps_; ++s) p.plant->step(p.input, step_s_);
     }

@@ -5,6 +5,8 @@
 // Bridge cycles run at times the test chooses (cycle_now); the I/O thread is
 // real, so a test waits for it by counts (never by durations).
 #include <gtest/gtest.h>
+
+#include <array>
 #include <linux/can/error.h>
 #include <unistd.h>
 
@@ -47,16 +49,24 @@ struct Rig {
   io::LinkEventQueue events;
   std::unique_ptr<CanDriver> driver;
 
-  explicit Rig(const char* yaml = kConfig) {
+  // `on_bad`: the three outputs' policies (config::OnBad), safe values 0.
+  explicit Rig(const char* yaml = kConfig, std::array<uint8_t, 3> on_bad = {0, 0, 0}) {
     cfg = config::parse_config(yaml, "c.yaml", "", config::LoadOptions{false});
     EXPECT_TRUE(cfg.ok()) << cfg.render();
     image = test::driver_image("candrv", "epc", 2, 3);
-    driver = std::make_unique<CanDriver>(test::driver_setup(cfg.config->drivers[0], image, events, 2, 3, 5 * kMs),
-                                         bus.transport());
+    io::DriverSetup setup = test::driver_setup(cfg.config->drivers[0], image, events, 2, 3, 5 * kMs);
+    for (size_t j = 0; j < 3; ++j) setup.consumes[j].on_bad = on_bad[j];
+    driver = std::make_unique<CanDriver>(setup, bus.transport());
   }
 
   void outputs(double a, double b, double c, Quality q = Quality::kGood) {
     test::put_task_outputs(image, {a, b, c}, q);
+  }
+  // One task write with a quality per output.
+  void outputs(std::array<double, 3> v, std::array<Quality, 3> q) {
+    const uint32_t k = image.begin_write(0);
+    for (uint32_t i = 0; i < 3; ++i) image.put(0, k, i, v[i], q[i], 1);
+    image.end_write(0, k, 1, 0);
   }
   std::pair<double, Quality> entry(uint32_t idx) { return test::driver_entry(image, idx); }
   // Waits (by count; the bound only keeps a broken build from hanging) until
@@ -238,6 +248,60 @@ TEST(CanDriver, never_sends_a_frame_with_an_output_it_cannot_vouch_for) {
   EXPECT_EQ(r.entry(4).second, Quality::kGood);
   EXPECT_EQ(r.driver->rejected(), 1u);
   EXPECT_TRUE(r.logged("p0.d1.c1 = 300 does not fit its signal in frame 201"));
+}
+
+// examples/drive.fbd with the drive silent: Torque (from the stale speed) is
+// not good, Enable (a good 0) is. Hold keeps Torque's last bytes in the frame
+// and sends Enable 0 at once; a frame whose every signal is held keeps its
+// period with its last bytes (the peer keeps what it has).
+TEST(CanDriver, holds_a_signal_it_cannot_vouch_for_at_its_last_bytes_and_sends_the_others) {
+  Rig r;
+  ASSERT_TRUE(r.driver->start_io().ok());
+  const int64_t t0 = kernel_rt::monotonic_now_ns();
+  r.outputs({-1.5, 1, 2.5}, {Quality::kGood, Quality::kGood, Quality::kGood});
+  r.driver->cycle_now(t0);
+  ASSERT_TRUE(r.wait_sent(2));
+  r.outputs({-9, 0, 2.5}, {Quality::kStale, Quality::kGood, Quality::kBad});
+  r.driver->cycle_now(t0 + 20 * kMs);
+  ASSERT_TRUE(r.wait_sent(3));
+  r.driver->cycle_now(t0 + 25 * kMs);
+  const auto sent = r.bus.sent();
+  const Frame& f = sent.back();
+  ASSERT_EQ(f.id, 0x201u);
+  EXPECT_EQ(f.data[0], 0xF1) << "Torque keeps its last bytes (-1.5)";
+  EXPECT_EQ(f.data[2], 0) << "Enable 0 is sent";
+  EXPECT_EQ(r.entry(2).second, Quality::kBad) << "the held signal is not delivered";
+  EXPECT_EQ(r.entry(3).second, Quality::kGood);
+  // Every signal held: 0x201 keeps its period with the bytes sent last.
+  r.outputs({-9, 1, 2.5}, {Quality::kStale, Quality::kStale, Quality::kBad});
+  const size_t before = r.bus.sent_count();
+  for (int i = 2; i < 6; ++i) r.driver->cycle_now(t0 + i * 20 * kMs);  // 40..100 ms: 4 periods
+  ASSERT_TRUE(r.wait_sent(before + 4));
+  std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  const auto all = r.bus.sent();
+  size_t n201 = 0;
+  Frame g;
+  for (size_t i = before; i < all.size(); ++i) {
+    if (all[i].id == 0x201u) ++n201, g = all[i];
+  }
+  EXPECT_EQ(n201, 4u);
+  EXPECT_EQ(g.data[0], 0xF1);
+  EXPECT_EQ(g.data[2], 0) << "Enable keeps the 0 sent last";
+}
+
+TEST(CanDriver, sends_the_safe_value_or_the_value_anyway_by_policy) {
+  Rig r(kConfig, {1, 2, 0});  // Torque safe (0), Enable send
+  ASSERT_TRUE(r.driver->start_io().ok());
+  r.outputs({-1.5, 1, 2.5}, {Quality::kStale, Quality::kBad, Quality::kGood});
+  const int64_t t0 = kernel_rt::monotonic_now_ns();
+  r.driver->cycle_now(t0);
+  ASSERT_TRUE(r.wait_sent(2));
+  for (const Frame& f : r.bus.sent()) {
+    if (f.id != 0x201u) continue;
+    EXPECT_EQ(f.data[0], 0);
+    EXPECT_EQ(f.data[1], 0);
+    EXPECT_EQ(f.data[2], 1);
+  }
 }
 
 TEST(CanDriver, counts_bus_off_and_restart_and_reports_the_bus_down_meanwhile) {

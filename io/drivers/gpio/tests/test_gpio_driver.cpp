@@ -6,6 +6,8 @@
 // entry. Bridge cycles run when the test says (cycle_now); the I/O thread is
 // real, so a test waits for it by counts (never by durations).
 #include <gtest/gtest.h>
+
+#include <array>
 #include <unistd.h>
 
 #include <cerrno>
@@ -49,13 +51,19 @@ struct Rig {
   io::LinkEventQueue events;
   std::unique_ptr<GpioDriver> driver;
 
-  explicit Rig(const char* yaml = kConfig) {
+  // `on_bad`/`safe`: the two outputs' policies (config::OnBad) and safe values.
+  explicit Rig(const char* yaml = kConfig, std::array<uint8_t, 2> on_bad = {0, 0},
+               std::array<double, 2> safe = {0, 0}) {
     chips.add_chip("gpiochip0", "gpio-fake.0", 8, {"", "BTN", "", "", "", "LAMP"});
     cfg = config::parse_config(yaml, "c.yaml", "", config::LoadOptions{false});
     EXPECT_TRUE(cfg.ok()) << cfg.render();
     image = test::driver_image("gpiodrv", "dio", 4, 2);
-    driver = std::make_unique<GpioDriver>(test::driver_setup(cfg.config->drivers[0], image, events, 4, 2, 1 * kMs),
-                                          chips.ops());
+    io::DriverSetup setup = test::driver_setup(cfg.config->drivers[0], image, events, 4, 2, 1 * kMs);
+    for (size_t j = 0; j < 2; ++j) {
+      setup.consumes[j].on_bad = on_bad[j];
+      setup.consumes[j].safe_value = safe[j];
+    }
+    driver = std::make_unique<GpioDriver>(setup, chips.ops());
   }
 
   void outputs(double a, double b, Quality q = Quality::kGood) { test::put_task_outputs(image, {a, b}, q); }
@@ -177,19 +185,34 @@ TEST(GpioDriver, drives_outputs_only_when_they_change) {
   EXPECT_EQ(r.chips.sets(), sets + 2);
 }
 
-TEST(GpioDriver, drives_the_safe_level_when_the_task_cannot_vouch_for_an_output) {
-  Rig r;
-  ASSERT_TRUE(r.driver->start_io().ok());
-  r.outputs(1, 0);
-  r.driver->cycle_now(kernel_rt::monotonic_now_ns());
-  EXPECT_EQ(r.chips.level("gpiochip0", 4), 1);
-  EXPECT_EQ(r.chips.level("gpiochip0", 5), 1);
-  r.outputs(1, 0, Quality::kBad);
-  r.driver->cycle_now(kernel_rt::monotonic_now_ns());
-  EXPECT_EQ(r.chips.level("gpiochip0", 4), 0);  // safe 0
-  EXPECT_EQ(r.chips.level("gpiochip0", 5), 0);  // safe 1, active-low
-  EXPECT_EQ(r.entry(4), std::make_pair(0.0, Quality::kBad));
-  EXPECT_EQ(r.entry(5), std::make_pair(1.0, Quality::kBad));
+// An output the task cannot vouch for (computed from a bad input) goes by
+// its on_bad policy: hold keeps the level driven last, safe drives the task's
+// safe value, send drives the computed value anyway.
+TEST(GpioDriver, acts_on_an_output_the_task_cannot_vouch_for_by_its_policy) {
+  {
+    Rig r;  // hold, the default
+    ASSERT_TRUE(r.driver->start_io().ok());
+    r.outputs(1, 0);
+    r.driver->cycle_now(kernel_rt::monotonic_now_ns());
+    EXPECT_EQ(r.chips.level("gpiochip0", 4), 1);
+    EXPECT_EQ(r.chips.level("gpiochip0", 5), 1);  // active-low
+    r.outputs(0, 1, Quality::kBad);
+    r.driver->cycle_now(kernel_rt::monotonic_now_ns());
+    EXPECT_EQ(r.chips.level("gpiochip0", 4), 1) << "held";
+    EXPECT_EQ(r.chips.level("gpiochip0", 5), 1) << "held";
+    EXPECT_EQ(r.entry(4), std::make_pair(1.0, Quality::kBad)) << "what the line has, not vouched for";
+  }
+  {
+    Rig r(kConfig, {1, 2}, {0, 0});  // first safe (0), second send
+    ASSERT_TRUE(r.driver->start_io().ok());
+    r.outputs(1, 0);
+    r.driver->cycle_now(kernel_rt::monotonic_now_ns());
+    r.outputs(1, 1, Quality::kStale);
+    r.driver->cycle_now(kernel_rt::monotonic_now_ns());
+    EXPECT_EQ(r.chips.level("gpiochip0", 4), 0) << "its safe value";
+    EXPECT_EQ(r.chips.level("gpiochip0", 5), 0) << "the computed 1, active-low";
+    EXPECT_EQ(r.entry(4).first, 0.0);
+  }
 }
 
 // A snapshot the bridge could not read consistently (here: the ring as a reader
