@@ -36,24 +36,31 @@ void StatusLane::resize_for(const TaskImage& image) {
   values.assign(h.n_values, static_cast<uint8_t>(Lane::kGood));
   out.assign(h.n_io_out, static_cast<uint8_t>(Lane::kBad));
   errors_seen.assign(h.n_instr, 0);
+  rule.resize(h.n_instr);
+  const std::span<const Instr> code = image.code();
+  for (size_t i = 0; i < code.size() && i < rule.size(); ++i) rule[i] = static_cast<uint8_t>(op_status_rule(code[i].op));
   errors_at_pass = 0;
   settled = false;
+  in_dirty = true;
 }
 
 bool propagate_status(const TaskImage& image, const TaskArena& arena, StatusLane& lane) noexcept {
   const std::span<const Instr> code = image.code();
   if (lane.values.size() != arena.values.size() || lane.errors_seen.size() != code.size() ||
-      arena.errors.size() != code.size()) {
+      arena.errors.size() != code.size() || lane.rule.size() != code.size()) {
     return true;  // not sized for this image: nothing can be vouched for
   }
   uint8_t* st = lane.values.data();
   const double* v = arena.values.data();
   uint8_t worst_value = 0;
   bool any_output_not_good = false;
+  // Error counters only move when their sum does: most passes skip them.
+  const bool erred = arena.total_errors != lane.errors_at_pass;
+  lane.in_dirty = false;
   for (size_t i = 0; i < code.size(); ++i) {
     const Instr& I = code[i];
     uint8_t s = 0;
-    switch (op_status_rule(I.op)) {
+    switch (static_cast<StatusRule>(lane.rule[i])) {
       case StatusRule::kLoad:
         s = lane.in[I.in[0]];
         break;
@@ -75,7 +82,7 @@ bool propagate_status(const TaskImage& image, const TaskArena& arena, StatusLane
       case StatusRule::kAnd:
       case StatusRule::kOr: {
         // The value a good input must have to decide the result by itself.
-        const bool decisive = op_status_rule(I.op) == StatusRule::kOr;
+        const bool decisive = static_cast<StatusRule>(lane.rule[i]) == StatusRule::kOr;
         bool decided = false;
         for (uint32_t k = 0; k < I.n_in && k < 3; ++k) {
           s = std::max(s, st[I.in[k]]);
@@ -91,7 +98,7 @@ bool propagate_status(const TaskImage& image, const TaskArena& arena, StatusLane
         break;
     }
     // A block that erred this cycle held its last value: usable, not current.
-    if (arena.errors[i] != lane.errors_seen[i]) {
+    if (erred && arena.errors[i] != lane.errors_seen[i]) {
       lane.errors_seen[i] = arena.errors[i];
       s = std::max(s, static_cast<uint8_t>(Lane::kUncertain));
     }

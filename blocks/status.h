@@ -28,8 +28,8 @@
 //
 // Cost: the lane runs after the value pass only in cycles that need it: some
 // input is not good, a block counted an error, or the last pass left a value
-// that is not good. A task whose inputs are all good pays one scan of its
-// input statuses (see StatusLane::needs_pass). bench/executor measures both.
+// that is not good. A task whose inputs are all good pays one test of a flag
+// its reader sets (StatusLane::needs_pass). bench/executor measures both.
 #pragma once
 
 #include <cstdint>
@@ -68,21 +68,25 @@ struct StatusLane {
   explicit StatusLane(const TaskImage& image) { resize_for(image); }
   void resize_for(const TaskImage& image);
 
-  // Whether this cycle needs a pass (false: every status is good and stays so).
+  // Whether this cycle needs a pass (false: every status is good and stays
+  // so). O(1): whoever writes `in` sets `in_dirty` when it writes a status
+  // that is not good (set_in, sched::read_group).
   bool needs_pass(uint64_t total_errors) const {
-    if (!settled || total_errors != errors_at_pass) return true;
-    for (uint8_t s : in) {
-      if (s != 0) return true;
-    }
-    return false;
+    return !settled || in_dirty || total_errors != errors_at_pass;
+  }
+  void set_in(uint32_t i, uint8_t s) {
+    in[i] = s;
+    in_dirty = in_dirty || s != 0;
   }
 
   std::vector<uint8_t> in;      // per input-buffer entry (Binding::io_index), set by the reader
   std::vector<uint8_t> values;  // per value slot
   std::vector<uint8_t> out;     // per output-buffer entry
   std::vector<uint64_t> errors_seen;  // per instruction: its error count at the last pass
+  std::vector<uint8_t> rule;  // per instruction: its StatusRule, looked up once
   uint64_t errors_at_pass = 0;
-  bool settled = false;  // the last pass found every value good
+  bool settled = false;   // the last pass found every value good
+  bool in_dirty = true;   // an input status that is not good was written since the last pass
 };
 
 // One pass in schedule order over the values `arena` holds after a cycle.

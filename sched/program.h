@@ -142,8 +142,9 @@ struct BlockErrorReport {
 // consistent snapshot (at most `max_tries` attempts) lands in g.scratch and is
 // copied only once it validated. False on a miss: io_in is untouched, so the
 // task runs on last cycle's inputs, never on values mixed from two snapshots.
+// A status that is not good sets `*any_not_good` (StatusLane::in_dirty).
 bool read_group(const io::ProcessImage& image, InputGroup& g, double* io_in, uint8_t* in_status,
-                int64_t now_ns, uint32_t max_tries) noexcept;
+                int64_t now_ns, uint32_t max_tries, bool* any_not_good = nullptr) noexcept;
 
 // Builds the migration from `old_image` (running with `old_arena`) to `next`:
 // a block keeps its output and state when a block of the same name and opcode

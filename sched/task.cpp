@@ -84,7 +84,7 @@ std::unique_ptr<LoadedProgram> Task::collect() {
 }
 
 bool read_group(const io::ProcessImage& image, InputGroup& g, double* io_in, uint8_t* in_status,
-                int64_t now_ns, uint32_t max_tries) noexcept {
+                int64_t now_ns, uint32_t max_tries, bool* any_not_good) noexcept {
   uint64_t seen = 0;
   const auto n = static_cast<uint32_t>(g.src.size());
   if (!image.read_values(g.region, g.src.data(), n, g.scratch.data(), max_tries, &seen, g.quality_scratch.data(),
@@ -98,7 +98,9 @@ bool read_group(const io::ProcessImage& image, InputGroup& g, double* io_in, uin
     // `forced` in the snapshot itself (process_image.h, "Forcing").
     const Quality q = io::judge_quality(g.quality_scratch[i], g.scratch[i], g.time_scratch[i], now_ns, g.max_age_ns[i]);
     g.quality_scratch[i] = q;
-    in_status[g.dst[i]] = static_cast<uint8_t>(lane_of(q));
+    const auto s = static_cast<uint8_t>(lane_of(q));
+    in_status[g.dst[i]] = s;
+    if (s != 0 && any_not_good != nullptr) *any_not_good = true;
   }
   for (size_t j = 0; j < g.quality_dst.size(); ++j) {
     io_in[g.quality_dst[j]] = lane_of(g.quality_scratch[g.quality_pos[j]]) == Lane::kGood ? 1.0 : 0.0;
@@ -115,7 +117,7 @@ void Task::read_inputs(LoadedProgram& p, int64_t now_ns) noexcept {
     }
     // Three tries: a fourth would only be needed if the writer finished three
     // more snapshots while we copied one; then we keep last cycle's inputs.
-    if (!read_group(image_, g, p.arena.io_in.data(), p.lane.in.data(), now_ns, 3) &&
+    if (!read_group(image_, g, p.arena.io_in.data(), p.lane.in.data(), now_ns, 3, &p.lane.in_dirty) &&
         image_.ring(g.region).published.load(std::memory_order_relaxed) != 0) {
       info_->input_misses.fetch_add(1, std::memory_order_relaxed);
     }

@@ -1,7 +1,9 @@
 // Executor throughput on a generated 10,000-block program against hand-written
 // C++ doing the same arithmetic on plain arrays, in the same binary and run; and
 // the compile time of that program. Prints ns per block for both, the ratio,
-// and the compile time (targets: ratio <= 2.0, compile <= 50 ms).
+// and the compile time (targets: ratio <= 2.0, compile <= 50 ms); and the cost
+// of the status lane (blocks/status.h) against the same executor without it
+// (target: at most 5% slower while the inputs are good).
 //
 //   build/release/bench/bench_executor            (scripts/bench executor runs it)
 #include <benchmark/benchmark.h>
@@ -17,6 +19,7 @@
 
 #include "bench/support/loop_program.h"
 #include "blocks/executor.h"
+#include "blocks/status.h"
 #include "lang/compiler.h"
 
 namespace {
@@ -115,6 +118,34 @@ void run_executor(benchmark::State& state, ExecutorBody body) {
       benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
 }
 
+// The executor with the status lane as a task runs it (sched/task.cpp): every
+// cycle asks needs_pass and runs propagate_status when it says so. `good`:
+// every input good, the task's usual state (a scan of the input statuses);
+// otherwise one input stays stale, so the whole pass runs every cycle (the
+// worst case: a loop of the plant whose measurement is lost).
+void run_with_status(benchmark::State& state, bool all_good) {
+  Fixture& f = fixture();
+  const ExecContext ctx = make_context(f.image, f.arena);
+  const ExecutorBody body =
+      std::strcmp(executor_variant(), "avx2") == 0 ? ExecutorBody::kAvx2 : ExecutorBody::kBaseline;
+  StatusLane lane(f.image);
+  std::fill(lane.in.begin(), lane.in.end(), static_cast<uint8_t>(Lane::kGood));
+  if (!all_good && !lane.in.empty()) lane.set_in(0, static_cast<uint8_t>(Lane::kUncertain));
+  uint64_t passes = 0;
+  for (auto _ : state) {
+    execute_cycle_on(body, ctx);
+    if (!all_good) lane.set_in(0, static_cast<uint8_t>(Lane::kUncertain));  // as its reader would
+    if (lane.needs_pass(f.arena.total_errors)) {
+      propagate_status(f.image, f.arena, lane);
+      ++passes;
+    }
+    benchmark::ClobberMemory();
+  }
+  state.counters["passes"] = static_cast<double>(passes);
+}
+void BM_ExecutorStatusGood(benchmark::State& state) { run_with_status(state, true); }
+void BM_ExecutorStatusPass(benchmark::State& state) { run_with_status(state, false); }
+
 void BM_Reference(benchmark::State& state) {
   Reference ref(kLoops);
   for (auto _ : state) {
@@ -146,6 +177,8 @@ void BM_ExecutorBaseline(benchmark::State& state) { run_executor(state, Executor
 
 BENCHMARK(BM_Executor)->Unit(benchmark::kMicrosecond)->MinTime(0.3);
 BENCHMARK(BM_ExecutorBaseline)->Unit(benchmark::kMicrosecond)->MinTime(0.3);
+BENCHMARK(BM_ExecutorStatusGood)->Unit(benchmark::kMicrosecond)->MinTime(0.3);
+BENCHMARK(BM_ExecutorStatusPass)->Unit(benchmark::kMicrosecond)->MinTime(0.3);
 BENCHMARK(BM_Reference)->Unit(benchmark::kMicrosecond)->MinTime(0.3);
 BENCHMARK(BM_Compile)->Unit(benchmark::kMillisecond)->MinTime(1.0);
 
@@ -210,6 +243,8 @@ int main(int argc, char** argv) {
   const double base = rep.ns_per_iter["BM_ExecutorBaseline"] / blocks;
   const double ref = rep.ns_per_iter["BM_Reference"] / blocks;
   const double compile_ms = rep.ns_per_iter["BM_Compile"] / 1e6;
+  const double st_good = rep.ns_per_iter["BM_ExecutorStatusGood"] / blocks;
+  const double st_pass = rep.ns_per_iter["BM_ExecutorStatusPass"] / blocks;
   std::printf("\n== rtplc executor vs hand-written C++ (%zu loops, %.0f blocks, %u runs, medians of 9, interleaved) ==\n",
               kLoops, blocks, fixture().image.header().n_runs);
   std::printf("  executor        %7.3f ns/block  (%8.1f us per cycle, %s body)\n", exec,
@@ -220,6 +255,10 @@ int main(int argc, char** argv) {
     std::printf("  baseline body   %7.3f ns/block  ratio %.2f (what a CPU without AVX2 gets)\n", base,
                 base / ref);
   }
+  std::printf("  status lane     %7.3f ns/block  ratio %.3f to status off (inputs good; target <= 1.05)\n",
+              st_good, st_good / exec);
+  std::printf("                  %7.3f ns/block  ratio %.3f to status off (an input stale: the pass every cycle)\n",
+              st_pass, st_pass / exec);
   std::printf("  compile         %7.2f ms for the %.0f-block file (target <= 50 ms)\n", compile_ms, blocks);
   std::printf("  results         bit-identical to the reference after 2000 cycles (both bodies)\n");
   return 0;

@@ -29,13 +29,13 @@ class Lane_ {
   bool ok() const { return h_.ok(); }
   void set_all(Lane s) {
     for (const Binding& b : h_.image().bindings()) {
-      if (b.dir == BindingDir::kInput || b.dir == BindingDir::kSetpoint) lane_.in[b.io_index] = static_cast<uint8_t>(s);
+      if (b.dir == BindingDir::kInput || b.dir == BindingDir::kSetpoint) lane_.set_in(b.io_index, static_cast<uint8_t>(s));
     }
   }
   void status(std::string_view label, Lane s) {
     for (const Binding& b : h_.image().bindings()) {
       if ((b.dir == BindingDir::kInput || b.dir == BindingDir::kSetpoint) && label == h_.image().str(b.label)) {
-        lane_.in[b.io_index] = static_cast<uint8_t>(s);
+        lane_.set_in(b.io_index, static_cast<uint8_t>(s));
         // The `good` block of the same channel sees what the task would load.
         for (const Binding& q : h_.image().bindings()) {
           if (q.dir == BindingDir::kQuality && binding_key(q) == binding_key(b)) {
