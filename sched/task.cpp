@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "kernel_rt/clock.h"
+#include "kernel_rt/cycle_scope.h"
 #include "kernel_rt/memory.h"
 
 namespace rtplc::sched {
@@ -248,6 +249,7 @@ void Task::run() noexcept {
       kernel_rt::sleep_until_ns(release);
     }
     const int64_t wake = kernel_rt::monotonic_now_ns();
+    const kernel_rt::CycleScope no_allocation;  // to the end of this cycle
     if (params_.count_faults) faults_before = kernel_rt::minor_faults_this_thread();
 
     // Swap boundary: the new program runs in this very cycle.

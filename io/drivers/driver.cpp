@@ -10,6 +10,7 @@
 #include "common/registry.h"
 #include "common/text.h"
 #include "kernel_rt/clock.h"
+#include "kernel_rt/cycle_scope.h"
 #include "kernel_rt/periodic.h"
 
 namespace rtplc::io {
@@ -58,11 +59,19 @@ void Driver::run() noexcept {
   while (!stop_.load(std::memory_order_relaxed)) {
     kernel_rt::sleep_until_ns(release);
     const int64_t now = kernel_rt::monotonic_now_ns();
-    cycle(now);
+    {
+      const kernel_rt::CycleScope no_allocation;
+      cycle(now);
+    }
     cycles_.fetch_add(1, std::memory_order_relaxed);
     release = kernel_rt::next_release(release, setup_.period_ns, now);
   }
   on_stop();
+}
+
+void Driver::cycle_now(int64_t now_ns) noexcept {
+  const kernel_rt::CycleScope no_allocation;
+  cycle(now_ns);
 }
 
 bool Driver::read_output(uint32_t j, double& value, Quality& quality, int64_t now_ns) const noexcept {

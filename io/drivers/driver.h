@@ -42,6 +42,8 @@
 #include <string_view>
 #include <vector>
 
+#include <fmt/format.h>
+
 #include "common/quality.h"
 #include "common/result.h"
 #include "config/config.h"
@@ -70,6 +72,18 @@ enum class SendDecision : uint8_t {
   kSend,    // send `value`: good or forced, or the policy says what to send instead
   kHold,    // not good and its policy is hold: keep what the peer has
   kNoRead,  // no consistent snapshot this cycle: keep what was sent last
+};
+
+// A log line formatted without allocating: what a bridge's cycle() logs
+// (kernel_rt/cycle_scope.h). Arguments must not allocate either: texts a
+// kind needs (an item's name) are made once at construction.
+struct LogLine {
+  char text[160];
+  template <typename... Args>
+  explicit LogLine(fmt::format_string<Args...> f, Args&&... args) {
+    const auto r = fmt::format_to_n(text, sizeof text - 1, f, std::forward<Args>(args)...);
+    *r.out = '\0';
+  }
 };
 
 // Something a driver wants in the log (a link went down or came back, the peer
@@ -139,7 +153,7 @@ class Driver {
   // Waits for the bridge thread (which runs on_stop() last) and ends the kind's machinery.
   void join();
   // Runs one cycle on the calling thread (tests drive a driver this way).
-  void cycle_now(int64_t now_ns) noexcept { cycle(now_ns); }
+  void cycle_now(int64_t now_ns) noexcept;
   uint64_t cycles() const { return cycles_.load(std::memory_order_relaxed); }
 
   // The task outputs this driver sends, in the order of its delivery entries.

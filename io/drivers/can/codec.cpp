@@ -40,6 +40,22 @@ std::string frame_text(const Frame& f) {
   return s;
 }
 
+IdChars id_chars(uint32_t id, bool extended) noexcept {
+  IdChars t{};
+  const auto r = extended ? fmt::format_to_n(t.s, sizeof t.s - 1, "{:08X}x", id)
+                          : fmt::format_to_n(t.s, sizeof t.s - 1, "{:03X}", id);
+  *r.out = '\0';
+  return t;
+}
+
+FrameChars frame_chars(const Frame& f) noexcept {
+  FrameChars t{};
+  char* out = f.extended ? fmt::format_to_n(t.s, 10, "{:08X}#", f.id).out : fmt::format_to_n(t.s, 10, "{:03X}#", f.id).out;
+  for (unsigned i = 0; i < f.len && i < 8; ++i) out = fmt::format_to_n(out, 2, "{:02X}", f.data[i]).out;
+  *out = '\0';
+  return t;
+}
+
 double unpack(const SignalLayout& s, const uint8_t* data) noexcept {
   const uint64_t raw = read_raw(s, data);
   double v = 0;

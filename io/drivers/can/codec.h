@@ -25,6 +25,15 @@ struct Frame {
 std::string id_text(uint32_t id, bool extended);
 // "123#11223344", cansend's notation.
 std::string frame_text(const Frame& f);
+// The same texts in fixed buffers, for a bridge's cycle (no allocation).
+struct IdChars {
+  char s[12];
+};
+struct FrameChars {
+  char s[32];
+};
+IdChars id_chars(uint32_t id, bool extended) noexcept;
+FrameChars frame_chars(const Frame& f) noexcept;
 
 enum class Encoding : uint8_t { kUnsigned, kSigned, kFloat };
 enum class ByteOrder : uint8_t { kLittle, kBig };  // little: Intel (first byte least significant)

@@ -26,15 +26,7 @@ int64_t seconds_to_ns(double s) {
   return static_cast<int64_t>(std::llround(s * 1e9));
 }
 
-// A log line formatted without allocating (the bridge logs from its cycle).
-struct Line {
-  char text[160];
-  template <typename... Args>
-  explicit Line(fmt::format_string<Args...> f, Args&&... args) {
-    const auto r = fmt::format_to_n(text, sizeof text - 1, f, std::forward<Args>(args)...);
-    *r.out = '\0';
-  }
-};
+using Line = io::LogLine;
 
 }  // namespace
 
@@ -188,7 +180,7 @@ void CanDriver::io_loop() noexcept {
         if (err == ENETDOWN) c.up = 0;
         if (!send_failing) {
           log(io::LinkEvent::Level::kError,
-              Line("sending {} failed: {}", frame_text(job.f), std::strerror(err)).text);
+              Line("sending {} failed: {}", frame_chars(job.f).s, std::strerror(err)).text);
         }
         send_failing = true;
       }
@@ -239,7 +231,7 @@ void CanDriver::io_loop() noexcept {
             if (!short_logged[i]) {
               short_logged[i] = true;
               log(io::LinkEvent::Level::kError,
-                  Line("frame {} has {} data bytes, its signals need {}; ignored", id_text(f.id, f.extended), f.len,
+                  Line("frame {} has {} data bytes, its signals need {}; ignored", id_chars(f.id, f.extended).s, f.len,
                        fm.length)
                       .text);
             }
@@ -294,12 +286,12 @@ void CanDriver::receive(uint32_t k, int64_t now) noexcept {
     const bool fresh = t.last.count > 0 && io::judge_quality(Quality::kGood, 0.0, t.last.at_ns, now,
                                                              seconds_to_ns(fm.timeout_s)) == Quality::kGood;
     if (fresh && t.stale && t.seen) {
-      log(io::LinkEvent::Level::kInfo, Line("frame {} is received again", id_text(fm.id, fm.extended)).text);
+      log(io::LinkEvent::Level::kInfo, Line("frame {} is received again", id_chars(fm.id, fm.extended).s).text);
     }
     if (!fresh && !t.stale) {
       rx_timeouts_.fetch_add(1, std::memory_order_relaxed);
       log(io::LinkEvent::Level::kWarning,
-          Line("frame {} not received for {} ms: its channels are stale", id_text(fm.id, fm.extended),
+          Line("frame {} not received for {} ms: its channels are stale", id_chars(fm.id, fm.extended).s,
                std::llround(fm.timeout_s * 1e3))
               .text);
     }
@@ -337,7 +329,7 @@ bool CanDriver::pack_frame(uint32_t i, uint8_t (&data)[8], uint64_t& held) noexc
         rejected_.fetch_add(1, std::memory_order_relaxed);
         log(io::LinkEvent::Level::kError,
             Line("{} = {} does not fit its signal in frame {}; the frame is not sent", fm.signals[s].channel, v,
-                 id_text(fm.id, fm.extended))
+                 id_chars(fm.id, fm.extended).s)
                 .text);
       }
       continue;
@@ -401,7 +393,7 @@ int CanDriver::send_now(uint32_t i) noexcept {
   if (err != 0) {
     ++planned_failed_;
     if (!planned_failure_logged_) {
-      log(io::LinkEvent::Level::kError, Line("sending {} failed: {}", frame_text(f), std::strerror(err)).text);
+      log(io::LinkEvent::Level::kError, Line("sending {} failed: {}", frame_chars(f).s, std::strerror(err)).text);
     }
     planned_failure_logged_ = true;
     return err;

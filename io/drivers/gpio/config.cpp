@@ -233,6 +233,14 @@ std::string line_text(const LineMap& m) {
   return m.line_name.empty() ? fmt::format("line {}", m.offset) : fmt::format("line '{}'", m.line_name);
 }
 
+LineChars line_chars(const LineMap& m) noexcept {
+  LineChars t{};
+  const auto r = m.line_name.empty() ? fmt::format_to_n(t.s, sizeof t.s - 1, "line {}", m.offset)
+                                     : fmt::format_to_n(t.s, sizeof t.s - 1, "line '{}'", m.line_name);
+  *r.out = '\0';
+  return t;
+}
+
 const GpioSettings& settings_of(const DriverConfig& d) { return settings_as<GpioSettings>(d); }
 
 const DriverKind kConfigKind{

@@ -49,6 +49,11 @@ struct GpioSettings {
 const GpioSettings& settings_of(const config::DriverConfig& d);
 // "line 3" or "line 'START'" for messages.
 std::string line_text(const LineMap& m);
+// The same in a fixed buffer, for the bridge's cycle (no allocation).
+struct LineChars {
+  char s[48];
+};
+LineChars line_chars(const LineMap& m) noexcept;
 
 extern const config::DriverKind kConfigKind;
 

@@ -16,15 +16,7 @@ namespace {
 constexpr int64_t kStatusPeriodNs = 100000000;
 constexpr int64_t kMs = 1000000;
 
-// A log line formatted without allocating (the bridge logs from its cycle).
-struct Line {
-  char text[160];
-  template <typename... Args>
-  explicit Line(fmt::format_string<Args...> f, Args&&... args) {
-    const auto r = fmt::format_to_n(text, sizeof text - 1, f, std::forward<Args>(args)...);
-    *r.out = '\0';
-  }
-};
+using Line = io::LogLine;
 
 const char* role_text(Role r) {
   return r == Role::kInput ? "inputs" : r == Role::kOutput ? "outputs" : "counters";
@@ -262,11 +254,11 @@ void GpioDriver::cycle(int64_t now) noexcept {
         ++chip_errors_[t.chip];
         io_errors_.fetch_add(1, std::memory_order_relaxed);
         if (!t.failing) {
-          log(io::LinkEvent::Level::kError, Line("reading {} {} failed: {}", m.chip, line_text(m).c_str(),
+          log(io::LinkEvent::Level::kError, Line("reading {} {} failed: {}", m.chip, line_chars(m).s,
                                                  std::strerror(-v)).text);
         }
       } else if (t.failing) {
-        log(io::LinkEvent::Level::kInfo, Line("reading {} {} works again", m.chip, line_text(m).c_str()).text);
+        log(io::LinkEvent::Level::kInfo, Line("reading {} {} works again", m.chip, line_chars(m).s).text);
       }
       t.failing = v < 0;
       put_input(k, t.index, v > 0 ? 1.0 : 0.0, v < 0 ? Quality::kBad : Quality::kGood, now);
@@ -290,13 +282,13 @@ void GpioDriver::cycle(int64_t now) noexcept {
       t.last_err = ops_.set(t.line, level);
       if (t.last_err == 0) {
         t.last_set = level;
-        if (t.failing) log(io::LinkEvent::Level::kInfo, Line("driving {} {} works again", m.chip, line_text(m).c_str()).text);
+        if (t.failing) log(io::LinkEvent::Level::kInfo, Line("driving {} {} works again", m.chip, line_chars(m).s).text);
         t.failing = false;
       } else {
         ++chip_errors_[t.chip];
         io_errors_.fetch_add(1, std::memory_order_relaxed);
         if (!t.failing) {
-          log(io::LinkEvent::Level::kError, Line("driving {} {} failed: {}", m.chip, line_text(m).c_str(),
+          log(io::LinkEvent::Level::kError, Line("driving {} {} failed: {}", m.chip, line_chars(m).s,
                                                  std::strerror(t.last_err)).text);
         }
         t.failing = true;

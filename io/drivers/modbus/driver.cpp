@@ -1,6 +1,8 @@
 // The modbus driver's bridge thread and its kind (see driver.h).
 #include "io/drivers/modbus/driver.h"
 
+#include "common/text.h"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -69,6 +71,7 @@ Result<void> ModbusDriver::prepare() {
   reads_.assign(s.reads.size(), ItemSample{});
   for (const ChannelMap& m : s.writes) {
     Write w;
+    copy_text(w.what, sizeof w.what, to_string(m.item));
     w.slave = slave_index(m.slave);
     w.line = line_of[w.slave];
     writes_.push_back(w);
@@ -132,7 +135,9 @@ void ModbusDriver::cycle(int64_t now) noexcept {
           if (out.exception != 0 && !w.refusal_logged) {
             w.refusal_logged = true;
             log(io::LinkEvent::Level::kError,
-                fmt::format("slave {}: write of {} refused: {}", m.slave, to_string(m.item), exception_text(out.exception)));
+                io::LogLine("slave {}: write of {} refused: {} (exception {})", m.slave, w.what,
+                            exception_name(out.exception), out.exception)
+                    .text);
           }
         }
       }
@@ -154,8 +159,9 @@ void ModbusDriver::cycle(int64_t now) noexcept {
       if (changed) {
         ++track_[w.slave].rejected;
         log(io::LinkEvent::Level::kError,
-            fmt::format("slave {}: {} = {} is out of range for {}; not sent", m.slave, to_string(m.item), value,
-                        type_name(m.item.type)));
+            io::LogLine("slave {}: {} = {} is out of range for {}; not sent", m.slave, w.what, value,
+                        type_name(m.item.type))
+                .text);
       }
       w.last = value;
       w.sent = true;

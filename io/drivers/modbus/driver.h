@@ -34,6 +34,7 @@ class ModbusDriver final : public io::Driver {
 
  private:
   struct Write {
+    char what[48] = {};  // "hr:2:f32", for the log without allocating
     uint32_t line = 0;
     uint32_t slave = 0;
     double last = 0;

@@ -1,6 +1,8 @@
 // The s7 driver's bridge thread and its kind (see driver.h).
 #include "io/drivers/s7/driver.h"
 
+#include "common/text.h"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -115,6 +117,7 @@ Result<void> S7Driver::prepare() {
     w.scale = settings_.writes[i].scale;
     w.offset = settings_.writes[i].offset;
     w.what = "PLC " + settings_.writes[i].plc + " item " + settings_.writes[i].item;
+    copy_text(w.range, sizeof w.range, range_text(w.type));
     writes_.push_back(std::move(w));
   }
   return {};
@@ -150,7 +153,9 @@ void S7Driver::cycle(int64_t now) noexcept {
     if (refused && !r.refusal_logged) {
       r.refusal_logged = true;
       log(io::LinkEvent::Level::kError,
-          fmt::format("{}: read refused by the PLC: {}", r.what, item_error_message(r.last.return_code)));
+          io::LogLine("{}: read refused by the PLC: {} (0x{:02X})", r.what, item_error_name(r.last.return_code),
+                      r.last.return_code)
+              .text);
     } else if (!refused && q == Quality::kGood) {
       r.refusal_logged = false;
     }
@@ -183,7 +188,9 @@ void S7Driver::cycle_write(uint32_t j, uint32_t k, int64_t now) noexcept {
       if (refused && !w.refusal_logged) {
         w.refusal_logged = true;
         log(io::LinkEvent::Level::kError,
-            fmt::format("{}: write refused by the PLC: {}", w.what, item_error_message(res.return_code)));
+            io::LogLine("{}: write refused by the PLC: {} (0x{:02X})", w.what, item_error_name(res.return_code),
+                        res.return_code)
+                .text);
       }
     }
   }
@@ -222,8 +229,12 @@ void S7Driver::send(Write& w, double value) noexcept {
     if (!w.range_logged) {
       w.range_logged = true;
       log(io::LinkEvent::Level::kError,
-          fmt::format("{}: {} does not fit {} ({}); not sent, the PLC keeps {} (once per item)", w.what, value,
-                      type_name(w.type), range_text(w.type), w.sent ? fmt::format("{}", w.last) : "its value"));
+          w.sent ? io::LogLine("{}: {} does not fit {} ({}); not sent, the PLC keeps {} (once per item)", w.what,
+                               value, type_name(w.type), w.range, w.last)
+                       .text
+                 : io::LogLine("{}: {} does not fit {} ({}); not sent, the PLC keeps its value (once per item)",
+                               w.what, value, type_name(w.type), w.range)
+                       .text);
     }
     return;
   }
@@ -289,15 +300,16 @@ void S7Driver::log_link_change(size_t i, const PlcStatus& st) noexcept {
   const PlcTrack& t = track_[i];
   const std::string& name = settings_.plcs[i].name;
   // Changes the rate limit held back: say how many, so a flapping link shows.
-  const std::string held =
-      t.unlogged > 1 ? fmt::format(" ({} link changes since the last message)", t.unlogged) : std::string();
+  const io::LogLine held = t.unlogged > 1 ? io::LogLine(" ({} link changes since the last message)", t.unlogged)
+                                          : io::LogLine("");
   if (st.state == PlcState::kReady) {
     log(io::LinkEvent::Level::kInfo,
-        fmt::format("PLC {} connected (PDU {}, {} parallel jobs){}", name, st.pdu_size, st.amq, held));
+        io::LogLine("PLC {} connected (PDU {}, {} parallel jobs){}", name, st.pdu_size, st.amq, held.text).text);
   } else {
     log(io::LinkEvent::Level::kWarning,
-        fmt::format("PLC {} disconnected: {}; its channels are bad until it is back{}", name,
-                    st.last_error[0] ? st.last_error : "connection lost", held));
+        io::LogLine("PLC {} disconnected: {}; its channels are bad until it is back{}", name,
+                    st.last_error[0] ? st.last_error : "connection lost", held.text)
+            .text);
   }
 }
 

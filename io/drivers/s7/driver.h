@@ -63,6 +63,7 @@ class S7Driver final : public io::Driver {
     std::string what;     // "PLC f01 item DB1.DBD8:REAL"
   };
   struct Write {
+    char range[48] = {};  // range_text(type), made once: the cycle logs without allocating
     ItemId item;
     config::WriteMode mode;
     uint32_t plc;  // index into plcs_

@@ -433,7 +433,7 @@ void encode_error_reply(Bytes& out, uint16_t pdu_ref, uint16_t error) {
   patch_tpkt_length(out, start);
 }
 
-std::string item_error_message(uint8_t rc) {
+const char* item_error_name(uint8_t rc) {
   const char* what = nullptr;
   switch (rc) {
     case 0xFF: what = "ok"; break;
@@ -446,8 +446,10 @@ std::string item_error_message(uint8_t rc) {
     case 0x0A: what = "object does not exist (no such DB or area)"; break;
     default: what = "unknown item error"; break;
   }
-  return fmt::format("{} (0x{:02X})", what, rc);
+  return what;
 }
+
+std::string item_error_message(uint8_t rc) { return fmt::format("{} (0x{:02X})", item_error_name(rc), rc); }
 
 std::string header_error_message(uint16_t error) {
   switch (error) {

@@ -224,6 +224,7 @@ inline constexpr size_t max_read_bytes(size_t pdu) { return pdu > 18 ? pdu - 18 
 
 // "object does not exist (0x0A)": what an item return code means.
 std::string item_error_message(uint8_t return_code);
+const char* item_error_name(uint8_t return_code);  // the message without its code
 // The meaning of a header error class/code pair, with a hint where we know one.
 std::string header_error_message(uint16_t error);
 std::string area_name(Area a);

@@ -19,6 +19,7 @@
 #include "io/drivers/can/driver.h"
 #include "io/drivers/can/fake_bus.h"
 #include "kernel_rt/clock.h"
+#include "tests/support/alloc_counter.h"
 #include "tests/support/driver_test.h"
 
 namespace rtplc::can {
@@ -398,6 +399,34 @@ TEST(FakeBus, drops_frames_beyond_a_ports_receive_limit_and_counts_them) {
   ASSERT_EQ(port->recv(f, kMs, &err), RecvResult::kFrame);
   EXPECT_EQ(f.data[0], 4);
   EXPECT_EQ(bus.rx_dropped(), 1u);
+}
+
+// Real-time hygiene (kernel_rt/cycle_scope.h): the bridge's cycles allocate
+// nothing through every fault they log: a frame timeout and its return, held
+// outputs, a value that does not fit, the bus off and back.
+TEST(CanDriver, its_cycles_allocate_nothing_whatever_the_faults) {
+  Rig r;
+  ASSERT_TRUE(r.driver->start_io().ok());
+  const int64_t t0 = kernel_rt::monotonic_now_ns();
+  r.outputs(1, 2, 3);
+  r.driver->cycle_now(t0);  // the first cycle may size what it keeps
+  ASSERT_TRUE(r.wait_sent(2));
+  testing::AllocationCounter count;
+  r.bus.inject(frame(0x181, {0x9C, 0xFF, 7}));
+  ASSERT_TRUE(r.wait_received(1));
+  int64_t t = t0;
+  for (int i = 1; i < 60; ++i) {
+    t = t0 + i * 5 * kMs;
+    if (i == 10) r.outputs(1, 300, 3);                    // does not fit: refused, logged
+    if (i == 20) r.outputs(1, 2, 3, Quality::kStale);     // held
+    if (i == 30) r.bus.inject_error(CAN_ERR_BUSOFF);
+    if (i == 35) r.bus.inject_error(CAN_ERR_RESTARTED);
+    if (i == 40) r.bus.inject(frame(0x181, {1, 0, 1}));  // received again after the timeout
+    r.driver->cycle_now(t);
+  }
+  EXPECT_EQ(count.in_cycles(), 0u) << "first allocation on thread '" << count.first_thread() << "'";
+  EXPECT_GE(r.driver->rx_timeouts(), 1u);
+  EXPECT_EQ(r.driver->rejected(), 1u);
 }
 
 }  // namespace

@@ -21,6 +21,7 @@
 #include "io/drivers/gpio/driver.h"
 #include "io/drivers/gpio/fake_chip.h"
 #include "kernel_rt/clock.h"
+#include "tests/support/alloc_counter.h"
 #include "tests/support/driver_test.h"
 
 namespace rtplc::gpio {
@@ -335,6 +336,26 @@ TEST(FakeChips, drops_edges_beyond_a_lines_event_limit_and_counts_them) {
   EXPECT_EQ(evs[0].ts_ns, 100);
   EXPECT_EQ(chips.events_dropped(), 2u);
   ops.release(*line);
+}
+
+// Real-time hygiene (kernel_rt/cycle_scope.h): the bridge's cycles allocate
+// nothing through every fault they log: reads and sets failing and working
+// again, outputs the task cannot vouch for.
+TEST(GpioDriver, its_cycles_allocate_nothing_whatever_the_faults) {
+  Rig r;
+  ASSERT_TRUE(r.driver->start_io().ok());
+  r.outputs(1, 0);
+  r.driver->cycle_now(kernel_rt::monotonic_now_ns());
+  testing::AllocationCounter count;
+  for (int i = 0; i < 40; ++i) {
+    if (i == 5) r.chips.fail_io(EIO), r.outputs(0, 1);  // a set that fails, and reads
+    if (i == 10) r.chips.fail_io(0);
+    if (i == 15) r.outputs(0, 1, Quality::kBad);
+    if (i == 20) r.outputs(i % 2, 1);
+    r.driver->cycle_now(kernel_rt::monotonic_now_ns());
+  }
+  EXPECT_EQ(count.in_cycles(), 0u) << "first allocation on thread '" << count.first_thread() << "'";
+  EXPECT_TRUE(r.logged("driving gpiochip0 line 4 failed"));
 }
 
 }  // namespace
