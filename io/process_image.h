@@ -49,8 +49,9 @@
 // runtime writes the new ChannelDesc, then stores n_channels with release;
 // readers load n_channels with acquire and read only entries below it.
 //
-// Liveness: the runtime's control thread stores `heartbeat_ns` (CLOCK_MONOTONIC,
-// relaxed: one word, read alone) a few times a second. A tool judges a runtime
+// Liveness: the runtime's heartbeat thread (its control thread before start)
+// stores `heartbeat_ns` (CLOCK_MONOTONIC, relaxed: one word, read alone, one
+// writer at a time) ten times a second, whatever the control thread is doing. A tool judges a runtime
 // dead when its pid is gone, when that pid now belongs to another process (its
 // start time differs from `owner_start_ticks`), or when the heartbeat is old.
 //
@@ -389,7 +390,7 @@ class ProcessImage {
 
   // Whether the runtime that owns this image still runs (see "Liveness" above).
   Liveness liveness() const;
-  // The runtime: stores the heartbeat (control thread, a few times a second).
+  // The runtime: stores the heartbeat (its heartbeat thread, ten times a second).
   void beat() const noexcept;
 
   // Appends a channel description (runtime, before start). Returns its index.

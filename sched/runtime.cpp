@@ -734,7 +734,31 @@ Result<std::vector<std::string>> Runtime::start() {
     }
   }
   started_ = true;
+  start_heartbeat();
   return notices;
+}
+
+void Runtime::start_heartbeat() {
+  if (!image_.valid() || !image_.writable() || beat_thread_.joinable()) return;
+  beat_stop_.store(false, std::memory_order_relaxed);
+  kernel_rt::ThreadSpec spec;
+  spec.name = "rtplc:beat";
+  auto t = kernel_rt::start_thread(spec, [this] {
+    // A tenth of a second between beats, far inside kHeartbeatTimeoutNs.
+    int64_t next = kernel_rt::monotonic_now_ns();
+    while (!beat_stop_.load(std::memory_order_relaxed)) {
+      image_.beat();
+      next += 100000000;
+      kernel_rt::sleep_until_ns(next);
+    }
+  });
+  // Without the thread the control thread's tick() still beats.
+  if (t) beat_thread_ = std::move(*t);
+}
+
+void Runtime::stop_heartbeat() {
+  beat_stop_.store(true, std::memory_order_relaxed);
+  if (beat_thread_.joinable()) beat_thread_.join();
 }
 
 void Runtime::stop() {
@@ -752,12 +776,13 @@ void Runtime::stop() {
   // Tasks have set their outputs safe: each driver's last cycle sends those.
   for (auto& d : drivers_) d->request_stop();
   for (auto& d : drivers_) d->join();
+  stop_heartbeat();
   if (image_.valid() && image_.writable()) image_.header().state.store(2, std::memory_order_release);
   started_ = false;
 }
 
 void Runtime::tick(const std::function<void(bool, const std::string&)>& log) {
-  if (image_.valid() && image_.writable()) image_.beat();
+  if (image_.valid() && image_.writable() && !beat_thread_.joinable()) image_.beat();  // before start
   if (started_) {
     const int64_t now = kernel_rt::monotonic_now_ns();
     if (now - last_persist_ns_ >= retain_every_ns_) {

@@ -24,6 +24,7 @@
 #include "io/drivers/driver.h"
 #include "io/process_image.h"
 #include "kernel_rt/rt_process.h"
+#include "kernel_rt/rt_thread.h"
 #include "sched/image_plan.h"
 #include "sched/program_store.h"
 #include "sched/retain.h"
@@ -187,6 +188,14 @@ class Runtime {
   void report_block_errors(const std::function<void(bool, const std::string&)>& log);
   bool clear_trace(uint32_t task);
   Result<std::string> install(Task& t, std::unique_ptr<LoadedProgram> next, bool keep_previous);
+
+  // The heartbeat in the image, from a thread of its own (SCHED_OTHER): a
+  // control thread that waits for a slow task's swap boundary, or writes a
+  // file, never makes the tools think the runtime is gone.
+  void start_heartbeat();
+  void stop_heartbeat();
+  std::atomic<bool> beat_stop_{false};
+  kernel_rt::RtThread beat_thread_;
 
   FileLock lock_;  // held while this runtime lives: no second one of its name
   int monitor_gid_ = -1;

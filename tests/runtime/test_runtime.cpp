@@ -276,6 +276,28 @@ TEST(Runtime, rollback_returns_to_the_previous_code_with_its_state) {
   EXPECT_NEAR(rtplc::testing::block_value(p, "F2"), k * 0.002, 1e-9 * k);
 }
 
+// The control thread waits up to a period for a swap's boundary; the tools'
+// liveness check (3 s without a heartbeat: dead) must not fire meanwhile.
+TEST(Runtime, a_swap_on_a_slow_task_does_not_stall_the_heartbeat) {
+  RuntimeFixture fx;
+  fx.write("a.fbd", counting_program(false));
+  auto rt = fx.start("tasks:\n  - {name: slow, program: a.fbd, period: 5s}\n");
+  ASSERT_NE(rt, nullptr);
+  sleep_s(0.2);  // past the first cycle: the swap waits for the next, 5 s on
+  std::atomic<bool> done{false};
+  std::thread swapper([&] {
+    EXPECT_TRUE(rt->swap("slow", counting_program(true), "b.fbd").ok());
+    done = true;
+  });
+  sleep_s(3.6);  // nothing else beats: only the runtime's own heartbeat thread
+  EXPECT_FALSE(done.load()) << "the swap was expected to wait for the 5 s boundary";
+  const io::Liveness l = rt->image().liveness();
+  EXPECT_TRUE(l.alive) << l.why;
+  swapper.join();
+  rt->stop();
+  EXPECT_FALSE(rt->image().liveness().alive) << "a stopped runtime is not alive";
+}
+
 TEST(Runtime, a_malformed_config_or_program_starts_nothing_and_leaves_nothing) {
   RuntimeFixture fx;
   fx.write("bad.fbd", "%%\nF1 = pdi(F2)\nEND\n");
