@@ -1,9 +1,11 @@
 // `rtplc stats` and `rtplc monitor`: read-only views of a running runtime, taken
 // straight from its shared process image (no socket, no effect on the tasks).
 #include <CLI/CLI.hpp>
+#include <fmt/format.h>
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <ctime>
@@ -100,8 +102,64 @@ std::string fmt_value(double v, uint8_t kind) {
   return b;
 }
 
+// `rtplc monitor --once --json`: the same facts as the table, one object.
+// Labels and keys are letters, digits, '_', '-', '.', '/' (nothing to escape).
+std::string monitor_json(const io::ProcessImage& img, const io::Liveness& live, const ViewArgs& a) {
+  const io::ImageHeader& h = img.header();
+  std::string out = fmt::format("{{\n  \"runtime\": \"{}\", \"pid\": {}, \"alive\": {},\n  \"tasks\": [", h.name,
+                                h.pid, live.alive ? "true" : "false");
+  for (uint32_t t = 0; t < h.n_tasks; ++t) {
+    const io::TaskInfo& ti = img.task_info(t);
+    out += fmt::format("{}\n    {{\"name\": \"{}\", \"state\": \"{}\", \"swaps\": {}, \"block_errors\": {}, "
+                       "\"input_misses\": {}}}",
+                       t ? "," : "", ti.name,
+                       live.alive ? io::task_state_name(static_cast<io::TaskState>(ti.state.load())) : "not running",
+                       ti.swaps.load(), ti.block_errors.load(), ti.input_misses.load());
+  }
+  out += h.n_tasks ? "\n  ],\n  \"channels\": [" : "],\n  \"channels\": [";
+  bool first = true;
+  for (uint32_t c = 0; c < img.channel_count(); ++c) {
+    const io::ChannelDesc& d = img.channel(c);
+    if (!a.filter.empty() && !std::strstr(d.label, a.filter.c_str()) && !std::strstr(d.key, a.filter.c_str())) {
+      continue;
+    }
+    const io::ChannelValue v = img.read_channel(c);
+    const io::RegionDesc& r = img.region(d.region);
+    const bool unwired = r.kind == static_cast<uint8_t>(io::RegionKind::kUnwired);
+    const bool output = d.dir == static_cast<uint8_t>(io::ChannelDir::kOutput);
+    const bool unsent = output && d.has_delivery == 0;
+    const char* quality = !live.alive ? "stale" : unwired || !v.fresh ? "bad" : quality_name(v.quality);
+    const std::string value = std::isfinite(v.value) ? fmt::format("{}", v.value) : "null";
+    const std::string age = v.timestamp_ns != 0 ? fmt::format("{:.3f}", io::age_s(v.timestamp_ns)) : "null";
+    out += fmt::format("{}\n    {{\"label\": \"{}\", \"dir\": \"{}\", \"channel\": \"{}\", \"value\": {}, "
+                       "\"quality\": \"{}\", \"age_s\": {}, \"writer\": \"{}\", \"forced\": {}",
+                       first ? "" : ",", d.label, d.dir == 0 ? "input" : output ? "output" : "setpoint", d.key, value,
+                       quality, age, unwired ? "" : r.name, v.forced ? "true" : "false");
+    if (output) {
+      const auto p = static_cast<config::OnBad>(d.on_bad);
+      out += fmt::format(", \"sent_by_a_driver\": {}, \"on_bad\": \"{}\"", unsent ? "false" : "true",
+                         config::on_bad_name(p));
+      if (p == config::OnBad::kSafe) out += fmt::format(", \"safe_value\": {}", d.safe_value);
+    }
+    out += "}";
+    first = false;
+  }
+  out += first ? "]\n}\n" : "\n  ]\n}\n";
+  return sched::with_forced_json(img, sched::with_links_json(img, out));
+}
+
 void run_monitor(const ViewArgs& a) {
   io::ProcessImage img = attach_or_fail(a.name, "monitor");
+  if (a.json) {
+    const io::Liveness live = img.liveness();
+    std::fputs(monitor_json(img, live, a).c_str(), stdout);
+    std::fflush(stdout);
+    if (!live.alive) {
+      std::fprintf(stderr, "rtplc monitor: %s\n", not_running(img, live).c_str());
+      throw CLI::RuntimeError(kExitFailure);
+    }
+    return;
+  }
   const bool tty = isatty(STDOUT_FILENO) != 0 && !a.once;
   for (;;) {
     std::string out;
@@ -205,13 +263,15 @@ void add_stats_commands(CLI::App& app) {
   stats->callback([a] { run_stats(*a); });
 
   CLI::App* mon = app.add_subcommand("monitor", "Live values, quality and age of every channel.");
-  mon->footer("Attaches read-only to the running runtime's process image.\n"
-              "Examples:\n  rtplc monitor\n  rtplc monitor --once --filter SV_");
+  mon->footer("Attaches read-only to the running runtime's process image. Each output shows\n"
+              "its on_bad policy (what its drivers send while it is not good) beside its writer.\n"
+              "Examples:\n  rtplc monitor\n  rtplc monitor --once --filter SV_\n  rtplc monitor --json | jq '.channels[]'");
   mon->add_option("--name", a->name, "runtime name (default rtplc)")->check(runtime_name());
   mon->add_flag("--once", a->once, "print once and exit");
   mon->add_option("--interval", a->interval, "refresh period in seconds (default 1, at least 0.05)")
       ->check(seconds_at_least(kMinRefresh_s));
   mon->add_option("--filter", a->filter, "only channels whose label or address contains this");
+  mon->add_flag("--json", a->json, "print once, machine-readable (tasks, channels, links, forced)");
   mon->callback([a] { run_monitor(*a); });
 }
 

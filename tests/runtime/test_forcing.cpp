@@ -119,6 +119,15 @@ TEST_F(Forcing, a_forced_output_is_what_the_driver_sends_and_the_monitor_shows) 
   EXPECT_NE(json.out.find("\"forced\": [\n    {\"label\": \"ManiVal\", \"dir\": \"output\", \"value\": 7.25}"),
             std::string::npos)
       << json.out;
+  // The monitor's JSON says the same: value, quality forced, the policy.
+  const test::ToolRun mj = test::run_tool("monitor --json --name " + rt_->name() + " --filter ManiVal");
+  EXPECT_EQ(mj.status, 0) << mj.out;
+  EXPECT_NE(mj.out.find("{\"label\": \"ManiVal\", \"dir\": \"output\", \"channel\": \"out/DIO/p0.d0.c0\", "
+                        "\"value\": 7.25, \"quality\": \"forced\""),
+            std::string::npos)
+      << mj.out;
+  EXPECT_NE(mj.out.find("\"forced\": true, \"sent_by_a_driver\": true, \"on_bad\": \"hold\"}"), std::string::npos)
+      << mj.out;
   ASSERT_TRUE(rt_->unforce("ManiVal").ok());
   EXPECT_TRUE(eventually([&] { return sent_value(*rt_, "ManiVal") != 7.25; }));
   EXPECT_FALSE(read_label(*rt_, "ManiVal").forced);

@@ -107,5 +107,36 @@ TEST(QualityInPrograms, a_silent_slave_makes_what_is_computed_from_it_not_good_w
   rt->stop();
 }
 
+TEST(QualityInPrograms, on_bad_policies_are_checked_and_land_in_the_channel_table) {
+  RuntimeFixture fx;
+  fx.write("p.fbd", kProgram);
+  const std::string base = config(9);  // never started: no slave needed
+  std::string errors;
+  auto rt = fx.load(base + "    # \n", &errors);
+  ASSERT_NE(rt, nullptr) << errors;
+  rt.reset();
+  const auto with = [&](const std::string& task_keys) {
+    std::string y = base;
+    y.replace(y.find("program: p.fbd}"), 15, "program: p.fbd, " + task_keys + "}");
+    return y;
+  };
+  errors.clear();
+  EXPECT_EQ(fx.load(with("on_bad: {Safe: drop}"), &errors), nullptr);
+  EXPECT_NE(errors.find("on_bad of 'Safe' expects hold, safe or send, got 'drop'"), std::string::npos) << errors;
+  errors.clear();
+  EXPECT_EQ(fx.load(with("on_bad: {Level: safe}"), &errors), nullptr);
+  EXPECT_NE(errors.find("task t has no output labelled \"Level\""), std::string::npos) << errors;
+  errors.clear();
+  rt = fx.load(with("on_bad: {Safe: safe, FromLevel: send}, safe_outputs: {Safe: -2}, watchdog: 3"), &errors);
+  ASSERT_NE(rt, nullptr) << errors;
+  const io::ChannelDesc& safe = rt->image().channel(static_cast<uint32_t>(rt->image().find_channel("Safe")));
+  EXPECT_EQ(safe.on_bad, static_cast<uint8_t>(config::OnBad::kSafe));
+  EXPECT_EQ(safe.safe_value, -2);
+  const io::ChannelDesc& from = rt->image().channel(static_cast<uint32_t>(rt->image().find_channel("FromLevel")));
+  EXPECT_EQ(from.on_bad, static_cast<uint8_t>(config::OnBad::kSend));
+  const io::ChannelDesc& ok = rt->image().channel(static_cast<uint32_t>(rt->image().find_channel("LevelOk")));
+  EXPECT_EQ(ok.on_bad, static_cast<uint8_t>(config::OnBad::kHold)) << "not listed: hold";
+}
+
 }  // namespace
 }  // namespace rtplc::sched
