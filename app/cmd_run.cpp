@@ -50,6 +50,7 @@ struct ClientArgs {
   std::string file;
   bool rollback = false;
   bool all = false;
+  bool json = false;
   std::vector<std::string> drop_outputs;
 };
 
@@ -261,8 +262,9 @@ void wait_until_stopped(const std::string& socket, const std::string& answer) {
        " s (its lock " + lock + " is held)");
 }
 
-void run_simple(const ClientArgs& a, const char* verb) {
-  auto r = sched::control_request(socket_for(a), verb);
+void run_simple(const ClientArgs& a, const char* request) {
+  auto r = sched::control_request(socket_for(a), request);
+  const std::string verb(request, std::strcspn(request, " "));  // "status json": the command is status
   if (!r) {
     // No answer: if the runtime left its image behind (kill -9, a crash), say
     // that it died and when, rather than only that the socket is silent.
@@ -276,7 +278,7 @@ void run_simple(const ClientArgs& a, const char* verb) {
     fail_client(std::string("rtplc ") + verb, r.error());
   }
   std::fputs(r->c_str(), stdout);
-  if (std::string(verb) == "stop") wait_until_stopped(socket_for(a), *r);
+  if (verb == "stop") wait_until_stopped(socket_for(a), *r);
 }
 
 void run_list() {
@@ -387,7 +389,8 @@ void add_run_commands(CLI::App& app) {
 
   CLI::App* status = app.add_subcommand("status", "Show what the running runtime is doing.");
   add_client_options(status, *cl);
-  status->callback([cl] { run_simple(*cl, "status"); });
+  status->add_flag("--json", cl->json, "the same as one JSON object (tasks, forces, links)");
+  status->callback([cl] { run_simple(*cl, cl->json ? "status json" : "status"); });
 
   CLI::App* stop = app.add_subcommand("stop", "Stop the running runtime (outputs to their safe values).");
   add_client_options(stop, *cl);

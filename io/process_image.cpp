@@ -528,14 +528,11 @@ ChannelValue ProcessImage::read_channel(uint32_t c) const noexcept {
   if (cv.fresh) {
     cv.quality = judge_quality(cv.quality, cv.value, cv.timestamp_ns, kernel_rt::monotonic_now_ns(), d.max_age_ns);
   }
-  const ForcedValue f = forced(d.region, d.index);
-  const uint64_t pub = ring(d.region).published.load(std::memory_order_acquire);
-  const bool safe = slot(d.region, static_cast<uint32_t>(pub % kRingSlots)).region_state.load(std::memory_order_relaxed) != 0;
-  if (f.forced && !safe) {
-    // The value in the region is the operator's, whatever its source's quality.
-    cv.forced = true;
-    cv.quality = Quality::kForced;
-  }
+  // Forced is what the snapshot says (its writer stamped `forced` beside the
+  // forced value, apply_forces), never the force table: between a force and
+  // the writer's next snapshot the value is still the source's, and so is its
+  // status; after an unforce, the same the other way.
+  cv.forced = cv.fresh && cv.quality == Quality::kForced;
   if (d.has_delivery && d.delivery_region < region_count()) {
     // An output is only as good as its delivery: a driver that cannot send it
     // (its peer is gone) says so in its own region.

@@ -319,6 +319,8 @@ std::string ControlServer::execute(const std::vector<std::string>& w, const std:
     res = std::string("pong ") + rt_.name();
   } else if (verb == "status" && w.size() == 1) {
     res = rt_.status();
+  } else if (verb == "status" && w.size() == 2 && w[1] == "json") {
+    res = rt_.status_json();
   } else if (verb == "set" && w.size() == 3) {
     double v = 0;
     if (!parse_number(w[2], v)) {

@@ -117,6 +117,8 @@ class Runtime {
                            const std::vector<std::string>& drop_outputs = {});
   Result<std::string> rollback(const std::string& task, const std::vector<std::string>& drop_outputs = {});
   std::string status() const;
+  // The same facts as one JSON object (`rtplc status --json`).
+  std::string status_json() const;
   // Tracing (`rtplc trace`, trace_ops.cpp): selects up to io::kTraceChannels
   // channels of one task for its trace ring and answers what the tool needs
   // to drain it (see control.h, the trace verbs). The selection is held by a

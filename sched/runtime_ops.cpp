@@ -1,6 +1,8 @@
 // The operator's verbs on a running runtime (see runtime.h): set-points,
 // swap and rollback, status and the start-up summary. Control thread only.
 #include "sched/runtime.h"
+
+#include <fmt/format.h>
 #include "sched/image_plan.h"
 
 #include <time.h>
@@ -394,6 +396,58 @@ std::string Runtime::status() const {
     s += "\n";
   }
   return s;
+}
+
+namespace {
+// A JSON string: quotes, backslashes and control characters escaped.
+std::string json_text(std::string_view t) {
+  std::string out = "\"";
+  for (const char c : t) {
+    if (c == '"' || c == '\\') {
+      out += '\\';
+      out += c;
+    } else if (static_cast<unsigned char>(c) < 0x20) {
+      out += fmt::format("\\u{:04x}", static_cast<unsigned>(static_cast<unsigned char>(c)));
+    } else {
+      out += c;
+    }
+  }
+  return out + "\"";
+}
+}  // namespace
+
+std::string Runtime::status_json() const {
+  std::string s = fmt::format("{{\n  \"runtime\": {}, \"pid\": {}, \"shared_memory\": {}, \"control_socket\": {}, "
+                              "\"retain_file\": {},\n  \"forced\": [",
+                              json_text(name_), getpid(), json_text(image_.object_name()), json_text(socket_path_),
+                              json_text(retain_.path()));
+  bool first = true;
+  for (const auto& [label, rec] : forces_) {
+    s += fmt::format("{}\n    {{\"label\": {}, \"dir\": {}, \"value\": {}, \"since\": {}, \"uid\": {}}}",
+                     first ? "" : ",", json_text(label), json_text(rec.dir), rec.value,
+                     json_text(format_utc(rec.since_realtime_ns)), rec.uid);
+    first = false;
+  }
+  s += first ? "],\n  \"tasks\": [" : "\n  ],\n  \"tasks\": [";
+  first = true;
+  for (const auto& t : tasks_) {
+    const io::TaskInfo& ti = image_.task_info(t->index());
+    const auto* st = static_cast<const CycleStats*>(image_.task_stats(t->index()));
+    const std::string last_error =
+        t->index() < last_block_error_.size() ? last_block_error_[t->index()] : std::string();
+    s += fmt::format(
+        "{}\n    {{\"name\": {}, \"state\": \"{}\", \"file\": {}, \"program\": \"{}\", \"origin\": {}, "
+        "\"period_ns\": {}, \"policy\": \"{}\", \"priority\": {}, \"cycles\": {}, \"overruns\": {}, "
+        "\"swaps\": {}, \"block_errors\": {}, \"last_block_error\": {}}}",
+        first ? "" : ",", json_text(t->params().name),
+        io::task_state_name(static_cast<io::TaskState>(ti.state.load())), json_text(t->active().file),
+        ProgramStore::hash_of(t->active().source), json_text(origins_[t->index()]), t->params().period_ns,
+        ti.fifo ? "FIFO" : "OTHER", ti.fifo ? ti.priority : 0, st->cycles(), st->overruns(), ti.swaps.load(),
+        ti.block_errors.load(), last_error.empty() ? "null" : json_text(last_error));
+    first = false;
+  }
+  s += first ? "]\n}\n" : "\n  ]\n}\n";
+  return with_links_json(image_, s);
 }
 
 std::vector<std::string> Runtime::describe() const {

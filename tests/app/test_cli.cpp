@@ -348,6 +348,32 @@ TEST_F(RunningRuntime, status_by_name_finds_the_socket_its_config_sets) {
   EXPECT_TRUE(WIFEXITED(st) && WEXITSTATUS(st) == 0);
 }
 
+TEST_F(RunningRuntime, status_and_monitor_json_are_the_same_facts_as_json) {
+  ASSERT_TRUE(up_) << "runtime did not come up";
+  ASSERT_EQ(run_tool("force ManiVal 4.5 --socket " + sock_).status, 0);
+  const ToolRun st = run_tool("status --json --socket " + sock_);
+  EXPECT_EQ(st.status, 0) << st.out;
+  EXPECT_TRUE(has(st, "\"runtime\": \"" + name_ + "\"")) << st.out;
+  EXPECT_TRUE(has(st, "\"control_socket\": \"" + sock_ + "\"")) << st.out;
+  EXPECT_TRUE(has(st, "{\"label\": \"ManiVal\", \"dir\": \"output\", \"value\": 4.5, \"since\": ")) << st.out;
+  EXPECT_TRUE(has(st, "{\"name\": \"pid\", \"state\": \"running\", \"file\": ")) << st.out;
+  EXPECT_TRUE(has(st, "\"links\": [")) << st.out;
+  // The force lands with the task's next snapshot (value and status together).
+  ToolRun mon = run_tool("monitor --json --name " + name_);
+  for (int i = 0; i < 50 && !has(mon, "\"value\": 4.5, \"quality\": \"forced\""); ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    mon = run_tool("monitor --json --name " + name_);
+  }
+  EXPECT_EQ(mon.status, 0) << mon.out;
+  EXPECT_TRUE(has(mon, "\"label\": \"ManiVal\", \"dir\": \"output\"")) << mon.out;
+  EXPECT_TRUE(has(mon, "\"value\": 4.5, \"quality\": \"forced\"")) << mon.out;
+  // Both parse as JSON (Debian's python3 reads them).
+  for (const ToolRun* r : {&st, static_cast<const ToolRun*>(&mon)}) {
+    const std::string f = s_.write("out.json", r->out);
+    EXPECT_EQ(std::system(("/usr/bin/python3 -m json.tool " + f + " > /dev/null").c_str()), 0) << r->out;
+  }
+}
+
 TEST_F(RunningRuntime, swap_with_another_stime_says_the_task_keeps_its_period) {
   ASSERT_TRUE(up_) << "runtime did not come up";
   std::ifstream in(prog_);

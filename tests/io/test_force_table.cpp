@@ -4,6 +4,8 @@
 // while the control thread forces and releases concurrently, and a region's
 // writer that preempts the control thread mid-force on its CPU goes on at once.
 #include <gtest/gtest.h>
+
+#include <cstring>
 #include <unistd.h>
 
 #include <atomic>
@@ -47,6 +49,41 @@ std::vector<double> read_all(const ProcessImage& im, uint32_t r, uint32_t cap) {
   std::vector<double> out(cap);
   EXPECT_TRUE(im.read_values(r, src.data(), cap, out.data(), 100));
   return out;
+}
+
+// What a reader shows as forced is what the snapshot holds: the flag comes
+// with the forced value, in the writer's next snapshot, never before it (a
+// source's value shown as forced) and never after the release.
+TEST(ForceTable, a_channel_reads_forced_only_in_the_snapshot_that_holds_the_forced_value) {
+  auto img = ProcessImage::create(layout(unique_name("flag"), 4));
+  ASSERT_TRUE(img.ok()) << img.error();
+  ChannelDesc d{};
+  std::strcpy(d.label, "PV");
+  std::strcpy(d.key, "in/DIO/p0.d0.c2");
+  d.region = 0;
+  d.index = 2;
+  ASSERT_TRUE(img->add_channel(d).ok());
+  const ProcessImage& im = *img;
+  write_all(im, 0, 4, 1.0);
+  im.force(0, 2, 7.5);
+  ChannelValue cv = im.read_channel(0);
+  EXPECT_FALSE(cv.forced) << "the source's value is still what the snapshot holds";
+  EXPECT_EQ(cv.value, 1.0);
+  EXPECT_EQ(cv.quality, Quality::kGood);
+  write_all(im, 0, 4, 1.0);
+  cv = im.read_channel(0);
+  EXPECT_TRUE(cv.forced);
+  EXPECT_EQ(cv.value, 7.5);
+  EXPECT_EQ(cv.quality, Quality::kForced);
+  EXPECT_TRUE(im.unforce(0, 2));
+  cv = im.read_channel(0);
+  EXPECT_TRUE(cv.forced) << "until the writer's next snapshot the value is the forced one";
+  EXPECT_EQ(cv.value, 7.5);
+  write_all(im, 0, 4, 2.0);
+  cv = im.read_channel(0);
+  EXPECT_FALSE(cv.forced);
+  EXPECT_EQ(cv.value, 2.0);
+  EXPECT_EQ(cv.quality, Quality::kGood);
 }
 
 TEST(ForceTable, a_forced_value_replaces_the_writers_own_until_released) {
