@@ -392,6 +392,20 @@ void add_run_commands(CLI::App& app) {
   status->add_flag("--json", cl->json, "the same as one JSON object (tasks, forces, links)");
   status->callback([cl] { run_simple(*cl, cl->json ? "status json" : "status"); });
 
+  CLI::App* audit = app.add_subcommand("audit", "The last operator actions: who set, forced, swapped, stopped what, and when.");
+  audit->footer("Every write through the control socket, accepted or refused, is one line: UTC time,\n"
+                "the caller's uid, the request, and what came of it (old -> new for set and force).\n"
+                "The trail is NAME.audit in the runtime's state folder, bounded to 512 KiB.\n"
+                "Examples:\n  rtplc audit\n  rtplc audit --lines 500 --name plant");
+  auto audit_lines = std::make_shared<int>(50);
+  audit->add_option("--lines", *audit_lines, "how many of the last actions (default 50)")
+      ->check(CLI::Range(1, 100000));
+  add_client_options(audit, *cl);
+  audit->callback([cl, audit_lines] {
+    const std::string req = "audit " + std::to_string(*audit_lines);
+    run_simple(*cl, req.c_str());
+  });
+
   CLI::App* stop = app.add_subcommand("stop", "Stop the running runtime (outputs to their safe values).");
   add_client_options(stop, *cl);
   stop->callback([cl] { run_simple(*cl, "stop"); });

@@ -83,6 +83,10 @@ ControlServer::~ControlServer() { stop(); }
 
 Result<void> ControlServer::start(const std::string& path) {
   path_ = path;
+  // Beside the state file in the runtime's checked state folder: NAME.audit.
+  std::string audit = rt_.state_path();
+  if (audit.size() > 6 && audit.compare(audit.size() - 6, 6, ".state") == 0) audit.resize(audit.size() - 6);
+  audit_ = AuditLog(audit + ".audit");
   sockaddr_un addr{};
   if (path.size() >= sizeof addr.sun_path) return make_error("control socket path too long: " + path);
   // Create the folder chain (e.g. /run/rtplc); the last folder is private.
@@ -311,9 +315,45 @@ static bool parse_number(const std::string& word, double& v) {
 
 std::string ControlServer::execute(const std::vector<std::string>& w, const std::string& source, uint32_t uid) {
   const std::string& verb = w[0];
+  if (verb == "audit" && w.size() <= 2) {
+    size_t n = 50;
+    if (w.size() == 2) {
+      char* end = nullptr;
+      const unsigned long v = std::strtoul(w[1].c_str(), &end, 10);
+      if (*end != '\0' || v == 0 || v > 100000) return frame(false, "audit takes a number of lines, 1 to 100000");
+      n = v;
+    }
+    auto lines = audit_.tail(n);
+    if (!lines) return frame(false, lines.error());
+    std::string body;
+    for (const std::string& l : *lines) body += l + "\n";
+    return frame(true, body.empty() ? "no action recorded yet in " + audit_.path() + "\n" : body);
+  }
+  std::string answer = run_verb(w, source, uid);
+  static const char* const kWrites[] = {"set", "force", "unforce", "unforce_all", "swap", "rollback", "trace", "stop"};
+  for (const char* write : kWrites) {
+    if (verb != write) continue;
+    // One line: when, who, what was asked (a swap's source by its size), what came of it.
+    std::string asked;
+    for (size_t i = 0; i < w.size(); ++i) asked += (i ? " " : "") + w[i];
+    const bool ok = answer.rfind("OK\n", 0) == 0;
+    std::string body = answer.substr(answer.find('\n') + 1);
+    if (body.size() >= 2 && body.compare(body.size() - 2, 2, ".\n") == 0) body.resize(body.size() - 2);  // the frame's end
+    std::string said = one_line(body);
+    if (said.size() > 400) said = said.substr(0, 400) + "...";
+    auto r = audit_.append(format_utc(kernel_rt::realtime_now_ns()) + " uid " + std::to_string(uid) + " " + asked +
+                           (ok ? ": " : ": refused: ") + said);
+    if (!r) log_(true, r.error());
+    break;
+  }
+  return answer;
+}
+
+std::string ControlServer::run_verb(const std::vector<std::string>& w, const std::string& source, uint32_t uid) {
+  const std::string& verb = w[0];
   Result<std::string> res = make_error("unknown request '" + verb +
                                        "' (ping, status, set, swap, rollback, force, unforce, unforce_all, "
-                                       "trace, trace-keep, trace-end, stop)");
+                                       "trace, trace-keep, trace-end, audit, stop)");
   const std::string who = " by uid " + std::to_string(uid) + " at " + format_utc(kernel_rt::realtime_now_ns());
   if (verb == "ping" && w.size() == 1) {
     res = std::string("pong ") + rt_.name();

@@ -11,9 +11,11 @@
 //        force LABEL VALUE, unforce LABEL, unforce_all,
 //        trace LABEL... (answers "trace TOKEN", "task NAME INDEX PERIOD_NS
 //        FIRST_RECORD" and one "column LABEL DIR KIND" per label),
-//        trace-keep TOKEN (renews the lease), trace-end TOKEN.
+//        trace-keep TOKEN (renews the lease), trace-end TOKEN,
+//        audit [N] (the last N lines of the audit trail, sched/audit.h).
 // The server takes each client's uid from the socket (SO_PEERCRED) when it
-// connects; forces are logged with it.
+// connects; forces are logged with it, and every write (set, force, unforce,
+// swap, rollback, trace, stop), accepted or refused, goes to the audit trail.
 //
 // The server's thread is the runtime's control thread: every Runtime method runs
 // on it, one request at a time, so nothing on the control side needs a lock. Its
@@ -28,6 +30,7 @@
 
 #include "common/result.h"
 #include "kernel_rt/rt_thread.h"
+#include "sched/audit.h"
 
 namespace rtplc::sched {
 
@@ -58,10 +61,12 @@ class ControlServer {
   // A request that has arrived whole is executed and its framed answer set.
   RequestState parse_request(const std::string& in, std::string& response, uint32_t uid);
   std::string execute(const std::vector<std::string>& words, const std::string& source, uint32_t uid);
+  std::string run_verb(const std::vector<std::string>& words, const std::string& source, uint32_t uid);
   void watch_tasks();
 
   Runtime& rt_;
   Log log_;
+  AuditLog audit_;
   std::string path_;
   int listen_fd_ = -1;
   kernel_rt::RtThread thread_;

@@ -374,6 +374,26 @@ TEST_F(RunningRuntime, status_and_monitor_json_are_the_same_facts_as_json) {
   }
 }
 
+TEST_F(RunningRuntime, audit_lists_every_write_with_who_old_and_new_refused_too) {
+  ASSERT_TRUE(up_) << "runtime did not come up";
+  EXPECT_EQ(run_tool("set Setpoint 61 --socket " + sock_).status, 0);
+  EXPECT_NE(run_tool("set Setpoint nan --socket " + sock_).status, 0);
+  EXPECT_EQ(run_tool("force ManiVal 2 --socket " + sock_).status, 0);
+  EXPECT_EQ(run_tool("unforce ManiVal --socket " + sock_).status, 0);
+  EXPECT_EQ(run_tool("status --socket " + sock_).status, 0);  // a read: not audited
+  const ToolRun a = run_tool("audit --socket " + sock_);
+  EXPECT_EQ(a.status, 0) << a.out;
+  const std::string uid = " uid " + std::to_string(geteuid()) + " ";
+  EXPECT_TRUE(has(a, uid + "set Setpoint 61: Setpoint = 61 (was 50)")) << a.out;
+  EXPECT_TRUE(has(a, uid + "set Setpoint nan: refused: ")) << a.out;
+  EXPECT_TRUE(has(a, uid + "force ManiVal 2: ManiVal (output) FORCED to 2 (was ")) << a.out;
+  EXPECT_TRUE(has(a, uid + "unforce ManiVal: ManiVal released")) << a.out;
+  EXPECT_FALSE(has(a, "status")) << a.out;
+  const ToolRun last = run_tool("audit --lines 1 --socket " + sock_);
+  EXPECT_TRUE(has(last, "unforce ManiVal")) << last.out;
+  EXPECT_FALSE(has(last, "set Setpoint")) << last.out;
+}
+
 TEST_F(RunningRuntime, swap_with_another_stime_says_the_task_keeps_its_period) {
   ASSERT_TRUE(up_) << "runtime did not come up";
   std::ifstream in(prog_);
