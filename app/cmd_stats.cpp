@@ -102,6 +102,11 @@ std::string fmt_value(double v, uint8_t kind) {
   return b;
 }
 
+// Whether `--filter` keeps a channel: its label or its address contains it.
+bool shown(const io::ChannelDesc& d, const std::string& filter) {
+  return filter.empty() || std::strstr(d.label, filter.c_str()) || std::strstr(d.key, filter.c_str());
+}
+
 // `rtplc monitor --once --json`: the same facts as the table, one object.
 // Labels and keys are letters, digits, '_', '-', '.', '/' (nothing to escape).
 std::string monitor_json(const io::ProcessImage& img, const io::Liveness& live, const ViewArgs& a) {
@@ -120,9 +125,7 @@ std::string monitor_json(const io::ProcessImage& img, const io::Liveness& live, 
   bool first = true;
   for (uint32_t c = 0; c < img.channel_count(); ++c) {
     const io::ChannelDesc& d = img.channel(c);
-    if (!a.filter.empty() && !std::strstr(d.label, a.filter.c_str()) && !std::strstr(d.key, a.filter.c_str())) {
-      continue;
-    }
+    if (!shown(d, a.filter)) continue;
     const io::ChannelValue v = img.read_channel(c);
     const io::RegionDesc& r = img.region(d.region);
     const bool unwired = r.kind == static_cast<uint8_t>(io::RegionKind::kUnwired);
@@ -203,9 +206,7 @@ void run_monitor(const ViewArgs& a) {
     out += line;
     for (uint32_t c = 0; c < img.channel_count(); ++c) {
       const io::ChannelDesc& d = img.channel(c);
-      if (!a.filter.empty() && !std::strstr(d.label, a.filter.c_str()) && !std::strstr(d.key, a.filter.c_str())) {
-        continue;
-      }
+      if (!shown(d, a.filter)) continue;
       const io::ChannelValue v = img.read_channel(c);
       const io::RegionDesc& r = img.region(d.region);
       const char* dir = d.dir == 0 ? "input" : d.dir == 1 ? "output" : "setpoint";

@@ -222,26 +222,15 @@ bool plan_image(const config::RuntimeConfig& cfg, const std::string& name,
 
   // Safe outputs and on_bad policies name outputs of their own task.
   for (size_t t = 0; t < n_tasks; ++t) {
-    for (const config::OnBadPolicy& p : cfg.tasks[t].on_bad) {
-      bool found = false;
+    auto check_output = [&](const std::string& label, SourcePos pos) {
       for (const Binding& b : images[t].bindings()) {
-        found |= b.dir == BindingDir::kOutput && p.label == images[t].str(b.label);
+        if (b.dir == BindingDir::kOutput && label == images[t].str(b.label)) return;
       }
-      if (!found) {
-        cdiag.error(p.pos, "task " + cfg.tasks[t].name + " has no output labelled \"" + p.label + "\"");
-        ok = false;
-      }
-    }
-    for (const config::SafeOutput& so : cfg.tasks[t].safe_outputs) {
-      bool found = false;
-      for (const Binding& b : images[t].bindings()) {
-        found |= b.dir == BindingDir::kOutput && so.label == images[t].str(b.label);
-      }
-      if (!found) {
-        cdiag.error(so.pos, "task " + cfg.tasks[t].name + " has no output labelled \"" + so.label + "\"");
-        ok = false;
-      }
-    }
+      cdiag.error(pos, "task " + cfg.tasks[t].name + " has no output labelled \"" + label + "\"");
+      ok = false;
+    };
+    for (const config::OnBadPolicy& p : cfg.tasks[t].on_bad) check_output(p.label, p.pos);
+    for (const config::SafeOutput& so : cfg.tasks[t].safe_outputs) check_output(so.label, so.pos);
   }
   // Set-point limits name set-points of their own task, hold its init value,
   // and are given once per label (a set-point is one channel, however many
