@@ -170,19 +170,26 @@ TEST(StatusLane, a_good_input_that_decides_an_and_or_an_or_makes_it_good) {
   EXPECT_EQ(l.out("Enable"), Lane::kGood);
 }
 
-TEST(StatusLane, DriveExample) {
+// examples/drive.fbd as shipped: with the drive silent, Enable is a good 0
+// (sent) and Torque, from the stale speed, is not good (held).
+TEST(StatusLane, the_drive_example_drops_enable_as_a_good_0_when_its_speed_goes_stale) {
   std::ifstream f(std::string(RTPLC_SOURCE_DIR) + "/examples/drive.fbd");
-  std::stringstream ss; ss << f.rdbuf();
+  std::stringstream ss;
+  ss << f.rdbuf();
   Lane_ l(FbdHarness(ss.str(), 0.02, true, true));
   ASSERT_TRUE(l.ok());
-  l.set("Ready", 1); l.set("Run", 1); l.set("Speed", 300);
+  l.set("Ready", 1);
+  l.set("Run", 1);
+  l.set("Speed", 300);
   l.status("Speed", Lane::kGood);
-  l.step(); l.step();
+  l.step();
+  l.step();
   EXPECT_EQ(l.out("Enable"), Lane::kGood);
   EXPECT_EQ(l.out("Torque"), Lane::kGood);
   l.status("Speed", Lane::kUncertain);
   l.status("Ready", Lane::kUncertain);
-  l.step(); l.step();
+  l.step();
+  l.step();
   EXPECT_EQ(l.value("Enable"), 0);
   EXPECT_EQ(l.out("Enable"), Lane::kGood);
   EXPECT_EQ(l.out("Torque"), Lane::kUncertain);
