@@ -120,7 +120,8 @@ const KeySpec kDriverKeys[] = {
      "How old a good input of this driver may be before every consumer (tasks, drivers, the "
      "monitor, modbus-server) takes it as stale: a frozen peer, a starved line thread or a "
      "driver that stopped publishing shows within this age. By default each kind declares its "
-     "own (three of its poll or frame periods; three driver periods where it has none)."},
+     "own (three of its poll or frame periods; three driver periods, at least 100 ms, where it "
+     "has none: a fast GPIO loop on a loaded machine is not called stale for a few late cycles)."},
 };
 
 const SectionSpec kTop{"top", "the config", "Top level", "", kTopKeys};

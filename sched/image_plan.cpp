@@ -24,7 +24,9 @@ io::ChannelDesc channel_desc(const std::string& label, const std::string& key, i
 int64_t input_max_age_ns(const config::DriverConfig& dc, const config::ChannelClaim& claim) {
   if (dc.max_age_s) return static_cast<int64_t>(*dc.max_age_s * 1e9);
   if (claim.max_age_ns > 0) return claim.max_age_ns;
-  return 3 * static_cast<int64_t>(dc.period_s * 1e9);
+  // Three driver periods, not less than 100 ms: a 1 ms bridge a loaded machine
+  // runs a few cycles late is not frozen; one that stopped is stale within 0.1 s.
+  return std::max<int64_t>(3 * static_cast<int64_t>(dc.period_s * 1e9), 100000000);
 }
 
 void set_output_policy(const config::TaskConfig& task, const std::string& label, io::ChannelDesc& d) {

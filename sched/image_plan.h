@@ -73,7 +73,7 @@ std::string limits_text(const std::optional<double>& min, const std::optional<do
 
 // A channel table entry; init and retain are set by the caller for set-points.
 // The age after which an input of driver `dc` is stale: its `max_age:`, else
-// its kind's claim, else three driver periods (io::judge_quality).
+// its kind's claim, else three driver periods and at least 100 ms (io::judge_quality).
 int64_t input_max_age_ns(const config::DriverConfig& dc, const config::ChannelClaim& claim);
 
 // The age after which a task's output is stale: three of its periods, and at

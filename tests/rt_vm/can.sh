@@ -149,10 +149,16 @@ grep -q 'vcan0 0A0#' plan.log || fail "no urgent enable frame at all"
 # (Enable 1 needs a task cycle inside the 100 ms the drive is ready: under
 # emulation on a loaded host that is likely, not certain, so only shown.)
 grep -q 'vcan0 0A0#01' plan.log && echo "the urgent enable frame carried 1, then 0" || echo "note: Enable never reached 1 here"
-awk '{ split($3, p, "#"); id = p[1] }
-  id == "201" { if (open && run > 5) bad++; if (run > max && open) max = run; open = 1; run = 0 }
+# A periodic frame the scheduler missed (it counts them, `rtplc stats`; under
+# emulation on a loaded host some are) leaves two T_1 frames between two 0x201:
+# the bound is 5 per T_1 frame that passed, counted from candump's timestamps.
+awk -F'[ ()]+' '{ split($4, p, "#"); id = p[1]; t = $2 + 0 }
+  id == "201" { if (open) { n = int((t - t0) / 0.010 + 0.5); if (n < 1) n = 1;
+                            if (run > 5 * n) bad++; if (run > max) max = run; if (n == 1 && run > max1) max1 = run }
+                open = 1; run = 0; t0 = t }
   id == "5F0" { run++ }
-  END { printf "bulk frames between two periodic frames: at most %d (L_n allows 5)\n", max; exit bad > 0 }' plan.log \
+  END { printf "bulk frames between two periodic frames one T_1 apart: at most %d (L_n allows 5); %d over the bound\n", max1, bad;
+        exit bad > 0 }' plan.log \
   || fail "more than L_n of bulk frames in one T_1 frame"
 # Reassemble the first transfer: the file's bytes, in order.
 size=$(wc -c < drive_params.txt)

@@ -51,7 +51,7 @@ settle 3 1 || fail "idle reads $(value 3) with the button up"
 pull 0 up
 settle 2 1 || fail "lamp reads $(value 2) with the button pressed"
 settle 3 0 || fail "idle reads $(value 3) with the button pressed"
-[ "$(mon Button 5)" = "good" ] || fail "Button is $(mon Button 5)"
+[ "$(mon Button 5)" = "good" ] || { rtplc monitor --once; fail "Button is $(mon Button 5)"; }
 echo "ok: button -> lamp $(value 2), idle $(value 3) (read back from gpio-sim's value)"
 
 # 3. 1,000 rising edges through the pull attribute, 2 ms apart: several per
@@ -76,7 +76,7 @@ until [ "$(mon Pulses 4)" = "1000" ]; do
 done
 rtplc monitor --once
 [ "$(mon Pulses 4)" = "1000" ] || fail "1000 edges counted as $(mon Pulses 4)"
-[ "$(mon Pulses 5)" = "good" ] || fail "Pulses is $(mon Pulses 5)"
+[ "$(mon Pulses 5)" = "good" ] || { rtplc monitor --once; fail "Pulses is $(mon Pulses 5)"; }
 echo "ok: 1000 edges -> Pulses = $(mon Pulses 4)"
 rtplc status
 
