@@ -60,7 +60,8 @@ bool propagate_status(const TaskImage& image, const TaskArena& arena, StatusLane
   for (size_t i = 0; i < code.size(); ++i) {
     const Instr& I = code[i];
     uint8_t s = 0;
-    switch (static_cast<StatusRule>(lane.rule[i])) {
+    const auto rule = static_cast<StatusRule>(lane.rule[i]);
+    switch (rule) {
       case StatusRule::kLoad:
         s = lane.in[I.in[0]];
         break;
@@ -82,7 +83,7 @@ bool propagate_status(const TaskImage& image, const TaskArena& arena, StatusLane
       case StatusRule::kAnd:
       case StatusRule::kOr: {
         // The value a good input must have to decide the result by itself.
-        const bool decisive = static_cast<StatusRule>(lane.rule[i]) == StatusRule::kOr;
+        const bool decisive = rule == StatusRule::kOr;
         bool decided = false;
         for (uint32_t k = 0; k < I.n_in && k < 3; ++k) {
           s = std::max(s, st[I.in[k]]);

@@ -212,7 +212,7 @@ bool plan_image(const config::RuntimeConfig& cfg, const std::string& name,
         continue;
       }
       io::ChannelDesc& o = descs[it->second];
-      dp.consumes.push_back({o.region, o.index, o.max_age_ns, o.on_bad, o.safe_value});
+      dp.consumes.push_back({o.region, o.index, o.max_age_ns, static_cast<config::OnBad>(o.on_bad), o.safe_value});
       if (!o.has_delivery) {
         // The first driver that sends an output reports how its delivery goes.
         o.has_delivery = 1;

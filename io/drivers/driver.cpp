@@ -59,10 +59,7 @@ void Driver::run() noexcept {
   while (!stop_.load(std::memory_order_relaxed)) {
     kernel_rt::sleep_until_ns(release);
     const int64_t now = kernel_rt::monotonic_now_ns();
-    {
-      const kernel_rt::CycleScope no_allocation;
-      cycle(now);
-    }
+    cycle_now(now);
     cycles_.fetch_add(1, std::memory_order_relaxed);
     release = kernel_rt::next_release(release, setup_.period_ns, now);
   }
@@ -91,14 +88,15 @@ SendDecision Driver::output_to_send(uint32_t j, double& value, int64_t now_ns) c
   if (q == Quality::kGood || q == Quality::kForced) return SendDecision::kSend;
   const OutputSource& src = setup_.consumes[j];
   switch (src.on_bad) {
-    case 1:  // safe
+    case config::OnBad::kSafe:
       value = src.safe_value;
       return SendDecision::kSend;
-    case 2:  // send: the engineer chose the computed value whatever its status
+    case config::OnBad::kSend:  // the engineer chose the computed value whatever its status
       return std::isfinite(value) ? SendDecision::kSend : SendDecision::kHold;
-    default:
-      return SendDecision::kHold;
+    case config::OnBad::kHold:
+      break;
   }
+  return SendDecision::kHold;
 }
 
 void Driver::describe_link(uint32_t l, std::string_view link_name, std::string_view peer) const {

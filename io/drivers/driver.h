@@ -63,8 +63,8 @@ struct OutputSource {
   uint32_t region = 0;
   uint32_t index = 0;
   int64_t max_age_ns = 0;  // the channel's (io::judge_quality)
-  uint8_t on_bad = 0;      // the channel's config::OnBad (0 hold, 1 safe, 2 send)
-  double safe_value = 0;   // what `safe` sends
+  config::OnBad on_bad = config::OnBad::kHold;  // the channel's policy while not good
+  double safe_value = 0;                        // what `safe` sends
 };
 
 // What a driver does with one consumed output this cycle (Driver::output_to_send).
@@ -152,7 +152,8 @@ class Driver {
   void request_stop() noexcept { stop_.store(true, std::memory_order_relaxed); }
   // Waits for the bridge thread (which runs on_stop() last) and ends the kind's machinery.
   void join();
-  // Runs one cycle on the calling thread (tests drive a driver this way).
+  // Runs one cycle on the calling thread, inside a kernel_rt::CycleScope (the
+  // bridge thread's loop, and tests that drive a driver themselves).
   void cycle_now(int64_t now_ns) noexcept;
   uint64_t cycles() const { return cycles_.load(std::memory_order_relaxed); }
 

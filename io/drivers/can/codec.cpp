@@ -30,15 +30,9 @@ void write_raw(const SignalLayout& s, uint64_t raw, uint8_t* data) noexcept {
 
 }  // namespace
 
-std::string id_text(uint32_t id, bool extended) {
-  return extended ? fmt::format("{:08X}x", id) : fmt::format("{:03X}", id);
-}
+std::string id_text(uint32_t id, bool extended) { return id_chars(id, extended).s; }
 
-std::string frame_text(const Frame& f) {
-  std::string s = f.extended ? fmt::format("{:08X}#", f.id) : fmt::format("{:03X}#", f.id);
-  for (unsigned i = 0; i < f.len && i < 8; ++i) s += fmt::format("{:02X}", f.data[i]);
-  return s;
-}
+std::string frame_text(const Frame& f) { return frame_chars(f).s; }
 
 IdChars id_chars(uint32_t id, bool extended) noexcept {
   IdChars t{};

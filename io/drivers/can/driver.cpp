@@ -306,7 +306,7 @@ void CanDriver::receive(uint32_t k, int64_t now) noexcept {
   }
 }
 
-bool CanDriver::pack_frame(uint32_t i, uint8_t (&data)[8], uint64_t& held) noexcept {
+bool CanDriver::pack_frame(uint32_t i, int64_t now, uint8_t (&data)[8], uint64_t& held) noexcept {
   TxTrack& t = tx_track_[i];
   const FrameMap& fm = settings_.transmit[i];
   std::memcpy(data, t.data, sizeof data);
@@ -315,7 +315,7 @@ bool CanDriver::pack_frame(uint32_t i, uint8_t (&data)[8], uint64_t& held) noexc
   bool refused = false;
   for (uint32_t s = 0; s < fm.signals.size(); ++s) {
     double v = 0;
-    if (output_to_send(t.first + s, v, kernel_rt::monotonic_now_ns()) != io::SendDecision::kSend) {
+    if (output_to_send(t.first + s, v, now) != io::SendDecision::kSend) {
       // Held (on_bad: hold, or no snapshot this cycle): the signal keeps the
       // bytes sent last; before a first send there are none to keep.
       held |= uint64_t{1} << s;
@@ -355,7 +355,7 @@ void CanDriver::transmit_planned(uint32_t k, int64_t now) noexcept {
     TxTrack& t = tx_track_[i];
     const FrameMap& fm = settings_.transmit[i];
     uint64_t held = 0;
-    t.staged_ok = pack_frame(i, t.staged, held);
+    t.staged_ok = pack_frame(i, now, t.staged, held);
     const bool delivered = t.staged_ok && up && t.sent && t.last_err == 0;
     for (uint32_t s = 0; s < fm.signals.size(); ++s) {
       put_delivery(k, t.first + s, t.sent ? unpack(fm.signals[s].layout, t.data) : 0.0,
@@ -462,7 +462,7 @@ void CanDriver::transmit(uint32_t k, int64_t now) noexcept {
     }
     uint8_t data[8];
     uint64_t held = 0;
-    const bool sendable = pack_frame(i, data, held);
+    const bool sendable = pack_frame(i, now, data, held);
     const bool delivered = sendable && up && t.sent && t.last_err == 0;
     for (uint32_t s = 0; s < fm.signals.size(); ++s) {
       put_delivery(k, t.first + s, t.sent ? unpack(fm.signals[s].layout, t.data) : 0.0,

@@ -142,7 +142,7 @@ class CanDriver final : public io::Driver, private fieldbus::LinkSender {
   // Stages frame i from its outputs; `held` gets a bit per signal kept at its
   // last bytes. False: nothing to send (a signal held before a first send, a value that
   // does not fit).
-  bool pack_frame(uint32_t i, uint8_t (&data)[8], uint64_t& held) noexcept;
+  bool pack_frame(uint32_t i, int64_t now, uint8_t (&data)[8], uint64_t& held) noexcept;
   void transmit_planned(uint32_t k, int64_t now) noexcept;
   int send_now(uint32_t i) noexcept;  // frame i's staged data, from the bridge
   fieldbus::SendOutcome send_periodic(uint32_t slot) noexcept override;

@@ -229,9 +229,7 @@ DriverClaims gpio_claims(const DriverConfig& d) {
 
 }  // namespace
 
-std::string line_text(const LineMap& m) {
-  return m.line_name.empty() ? fmt::format("line {}", m.offset) : fmt::format("line '{}'", m.line_name);
-}
+std::string line_text(const LineMap& m) { return line_chars(m).s; }
 
 LineChars line_chars(const LineMap& m) noexcept {
   LineChars t{};

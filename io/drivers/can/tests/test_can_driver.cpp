@@ -56,7 +56,7 @@ struct Rig {
     EXPECT_TRUE(cfg.ok()) << cfg.render();
     image = test::driver_image("candrv", "epc", 2, 3);
     io::DriverSetup setup = test::driver_setup(cfg.config->drivers[0], image, events, 2, 3, 5 * kMs);
-    for (size_t j = 0; j < 3; ++j) setup.consumes[j].on_bad = on_bad[j];
+    for (size_t j = 0; j < 3; ++j) setup.consumes[j].on_bad = static_cast<config::OnBad>(on_bad[j]);
     driver = std::make_unique<CanDriver>(setup, bus.transport());
   }
 

@@ -61,7 +61,7 @@ struct Rig {
     image = test::driver_image("gpiodrv", "dio", 4, 2);
     io::DriverSetup setup = test::driver_setup(cfg.config->drivers[0], image, events, 4, 2, 1 * kMs);
     for (size_t j = 0; j < 2; ++j) {
-      setup.consumes[j].on_bad = on_bad[j];
+      setup.consumes[j].on_bad = static_cast<config::OnBad>(on_bad[j]);
       setup.consumes[j].safe_value = safe[j];
     }
     driver = std::make_unique<GpioDriver>(setup, chips.ops());
