@@ -393,8 +393,9 @@ void add_run_commands(CLI::App& app) {
   status->callback([cl] { run_simple(*cl, cl->json ? "status json" : "status"); });
 
   CLI::App* audit = app.add_subcommand("audit", "The last operator actions: who set, forced, swapped, stopped what, and when.");
-  audit->footer("Every write through the control socket, accepted or refused, is one line: UTC time,\n"
-                "the caller's uid, the request, and what came of it (old -> new for set and force).\n"
+  audit->footer("Every write through the operator API (CLI, Modbus, ...), accepted or refused, is one\n"
+                "line: UTC time, the caller (uid and name, or the driver), its role, the request, and\n"
+                "what came of it (old -> new for set and force).\n"
                 "The trail is NAME.audit in the runtime's state folder, bounded to 512 KiB.\n"
                 "Examples:\n  rtplc audit\n  rtplc audit --lines 500 --name plant");
   auto audit_lines = std::make_shared<int>(50);
@@ -405,6 +406,13 @@ void add_run_commands(CLI::App& app) {
     const std::string req = "audit " + std::to_string(*audit_lines);
     run_simple(*cl, req.c_str());
   });
+
+  CLI::App* whoami = app.add_subcommand("whoami", "Who the runtime takes you for, and your role on it.");
+  whoami->footer("The runtime's owner and root are admin; others get what the config's\n"
+                 "runtime.operators grants (viewer, operator, engineer, admin; docs/api.md).\n"
+                 "Examples:\n  rtplc whoami --name plant\n  rtplc whoami --socket /run/rtplc/plant.sock");
+  add_client_options(whoami, *cl);
+  whoami->callback([cl] { run_simple(*cl, "whoami"); });
 
   CLI::App* stop = app.add_subcommand("stop", "Stop the running runtime (outputs to their safe values).");
   add_client_options(stop, *cl);

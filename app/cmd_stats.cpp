@@ -18,6 +18,7 @@
 #include "config/config.h"
 #include "io/process_image.h"
 #include "kernel_rt/rt_kernel.h"
+#include "sched/control.h"
 #include "sched/stats_histfile.h"
 #include "sched/stats_render.h"
 #include "sched/stats_source.h"
@@ -61,6 +62,23 @@ std::string not_running(const io::ProcessImage& img, const io::Liveness& l) {
   return sched::not_running_text(img.header().name, l);
 }
 
+// The operator API's own answer (`values`, `stats`) when the runtime answers
+// and lets us ask; "" otherwise (a dead runtime, a monitor_group member
+// without a role): the caller reads the same document out of the image.
+std::string api_json(const ViewArgs& a, const char* op, const char* key) {
+  nlohmann::json req = {{"op", op}, {"args", nlohmann::json::object()}};
+  if (!a.filter.empty()) req["args"]["filter"] = a.filter;
+  auto answer = sched::api_request(sched::control_socket_of(a.name, ""), req, "", 5000);
+  if (!answer || !answer->value("ok", false) || !(*answer)["result"].contains(key)) return "";
+  return (*answer)["result"][key].dump(2) + "\n";
+}
+
+// The image's document in the same layout as the API's.
+std::string pretty(const std::string& json_text) {
+  const nlohmann::json j = nlohmann::json::parse(json_text, nullptr, false);
+  return j.is_discarded() ? json_text : j.dump(2) + "\n";
+}
+
 void run_stats(const ViewArgs& a) {
   io::ProcessImage img = attach_or_fail(a.name, "stats");
   for (;;) {
@@ -72,10 +90,11 @@ void run_stats(const ViewArgs& a) {
         throw CLI::RuntimeError(kExitFailure);
       }
     }
-    std::string text = a.json ? sched::render_json(views, summary) : sched::render_table(views, summary);
-    text = a.json ? sched::with_links_json(img, text) : text + sched::render_links_table(img);
-    text = a.json ? sched::with_forced_json(img, text) : text + sched::render_forced(img);
     const io::Liveness live = img.liveness();
+    std::string via_api = a.json && live.alive ? api_json(a, "stats", "stats") : "";
+    std::string text = a.json ? (via_api.empty() ? pretty(sched::stats_json(img)) : via_api)
+                              : sched::render_table(views, summary) + sched::render_links_table(img) +
+                                    sched::render_forced(img);
     if (a.watch > 0 && !a.json && isatty(STDOUT_FILENO)) std::fputs("\x1b[H\x1b[2J", stdout);
     if (!live.alive && !a.json) text = "# " + not_running(img, live) + "; these are its last figures\n" + text;
     std::fputs(text.c_str(), stdout);
@@ -102,60 +121,12 @@ std::string fmt_value(double v, uint8_t kind) {
   return b;
 }
 
-// Whether `--filter` keeps a channel: its label or its address contains it.
-bool shown(const io::ChannelDesc& d, const std::string& filter) {
-  return filter.empty() || std::strstr(d.label, filter.c_str()) || std::strstr(d.key, filter.c_str());
-}
-
-// `rtplc monitor --once --json`: the same facts as the table, one object.
-// Labels and keys are letters, digits, '_', '-', '.', '/' (nothing to escape).
-std::string monitor_json(const io::ProcessImage& img, const io::Liveness& live, const ViewArgs& a) {
-  const io::ImageHeader& h = img.header();
-  std::string out = fmt::format("{{\n  \"runtime\": \"{}\", \"pid\": {}, \"alive\": {},\n  \"tasks\": [", h.name,
-                                h.pid, live.alive ? "true" : "false");
-  for (uint32_t t = 0; t < h.n_tasks; ++t) {
-    const io::TaskInfo& ti = img.task_info(t);
-    out += fmt::format("{}\n    {{\"name\": \"{}\", \"state\": \"{}\", \"swaps\": {}, \"block_errors\": {}, "
-                       "\"input_misses\": {}}}",
-                       t ? "," : "", ti.name,
-                       live.alive ? io::task_state_name(static_cast<io::TaskState>(ti.state.load())) : "not running",
-                       ti.swaps.load(), ti.block_errors.load(), ti.input_misses.load());
-  }
-  out += h.n_tasks ? "\n  ],\n  \"channels\": [" : "],\n  \"channels\": [";
-  bool first = true;
-  for (uint32_t c = 0; c < img.channel_count(); ++c) {
-    const io::ChannelDesc& d = img.channel(c);
-    if (!shown(d, a.filter)) continue;
-    const io::ChannelValue v = img.read_channel(c);
-    const io::RegionDesc& r = img.region(d.region);
-    const bool unwired = r.kind == static_cast<uint8_t>(io::RegionKind::kUnwired);
-    const bool output = d.dir == static_cast<uint8_t>(io::ChannelDir::kOutput);
-    const bool unsent = output && d.has_delivery == 0;
-    const char* quality = !live.alive ? "stale" : unwired || !v.fresh ? "bad" : quality_name(v.quality);
-    const std::string value = std::isfinite(v.value) ? fmt::format("{}", v.value) : "null";
-    const std::string age = v.timestamp_ns != 0 ? fmt::format("{:.3f}", io::age_s(v.timestamp_ns)) : "null";
-    out += fmt::format("{}\n    {{\"label\": \"{}\", \"dir\": \"{}\", \"channel\": \"{}\", \"value\": {}, "
-                       "\"quality\": \"{}\", \"age_s\": {}, \"writer\": \"{}\", \"forced\": {}",
-                       first ? "" : ",", d.label, d.dir == 0 ? "input" : output ? "output" : "setpoint", d.key, value,
-                       quality, age, unwired ? "" : r.name, v.forced ? "true" : "false");
-    if (output) {
-      const auto p = static_cast<config::OnBad>(d.on_bad);
-      out += fmt::format(", \"sent_by_a_driver\": {}, \"on_bad\": \"{}\"", unsent ? "false" : "true",
-                         config::on_bad_name(p));
-      if (p == config::OnBad::kSafe) out += fmt::format(", \"safe_value\": {}", d.safe_value);
-    }
-    out += "}";
-    first = false;
-  }
-  out += first ? "]\n}\n" : "\n  ]\n}\n";
-  return sched::with_forced_json(img, sched::with_links_json(img, out));
-}
-
 void run_monitor(const ViewArgs& a) {
   io::ProcessImage img = attach_or_fail(a.name, "monitor");
   if (a.json) {
     const io::Liveness live = img.liveness();
-    std::fputs(monitor_json(img, live, a).c_str(), stdout);
+    const std::string via_api = live.alive ? api_json(a, "values", "monitor") : "";
+    std::fputs((via_api.empty() ? pretty(sched::monitor_json(img, live, a.filter)) : via_api).c_str(), stdout);
     std::fflush(stdout);
     if (!live.alive) {
       std::fprintf(stderr, "rtplc monitor: %s\n", not_running(img, live).c_str());
@@ -206,7 +177,7 @@ void run_monitor(const ViewArgs& a) {
     out += line;
     for (uint32_t c = 0; c < img.channel_count(); ++c) {
       const io::ChannelDesc& d = img.channel(c);
-      if (!shown(d, a.filter)) continue;
+      if (!sched::channel_shown(d, a.filter)) continue;
       const io::ChannelValue v = img.read_channel(c);
       const io::RegionDesc& r = img.region(d.region);
       const char* dir = d.dir == 0 ? "input" : d.dir == 1 ? "output" : "setpoint";

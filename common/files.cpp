@@ -201,7 +201,7 @@ Result<void> write_file_atomically(const std::string& path, mode_t mode,
   return {};
 }
 
-Result<void> ensure_private_folder(const std::string& dir) {
+Result<void> ensure_private_folder(const std::string& dir, bool enterable) {
   if (auto r = make_folders(dir, 0700, 0755); !r) return r;
   struct stat st {};
   if (lstat(dir.c_str(), &st) != 0) return make_error("cannot inspect " + dir + ": " + std::strerror(errno));
@@ -212,6 +212,14 @@ Result<void> ensure_private_folder(const std::string& dir) {
                       ", not to this user (uid " + std::to_string(geteuid()) +
                       "); another user could replace what we put there. Remove it, or choose "
                       "another path");
+  }
+  // Ours: 0700 and 0711 are modes we set ourselves (the config's grants decide).
+  if ((st.st_mode & 07777) == 0700 || (st.st_mode & 07777) == 0711) {
+    const mode_t want = enterable ? 0711 : 0700;
+    if ((st.st_mode & 07777) != want && chmod(dir.c_str(), want) != 0) {
+      return make_error("cannot set the mode of " + dir + ": " + std::strerror(errno));
+    }
+    return {};
   }
   if ((st.st_mode & 077) != 0) {
     const std::string mode = mode_text(st.st_mode);
@@ -230,6 +238,13 @@ Result<void> ensure_private_folder(const std::string& dir) {
                       ", chmod 700 " + dir);
   }
   return {};
+}
+
+bool socket_owner_trusted(const std::string& socket_path, uint32_t owner) {
+  const std::string dir = folder_of(socket_path);
+  struct stat st {};
+  return lstat(dir.c_str(), &st) == 0 && S_ISDIR(st.st_mode) && st.st_uid == owner &&
+         (st.st_mode & (S_IWGRP | S_IWOTH)) == 0;
 }
 
 Result<void> ensure_state_folder(const std::string& dir, bool create) {

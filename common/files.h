@@ -65,7 +65,13 @@ Result<void> write_file_atomically(const std::string& path, mode_t mode,
 // link), owned by this process's user, with no rights for group or others.
 // Refuses otherwise, saying whose it is: a folder another local user prepared
 // would let that user replace our socket and read our commands.
-Result<void> ensure_private_folder(const std::string& dir);
+// `enterable`: the folder is (made) 0711 instead, so others can reach a socket
+// in it by name, never list or change it (a runtime that grants roles to others).
+Result<void> ensure_private_folder(const std::string& dir, bool enterable = false);
+// Whether a socket owned by another user `owner` may be trusted: it lies in a
+// folder `owner` owns that nobody else may write (so it is that user's own,
+// not one planted in a shared folder such as /tmp).
+bool socket_owner_trusted(const std::string& socket_path, uint32_t owner);
 
 // The folder of the runtime's state (retain file, block state, program store:
 // what the runtime boots from). Created 0700 (parents 0755) when missing and

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "common/diagnostic.h"
+#include "common/role.h"
 #include "config/values.h"
 
 namespace rtplc::config {
@@ -121,6 +122,15 @@ struct DriverConfig {
   std::any settings;
 };
 
+// One grant of `runtime.operators`: a user (by name or uid) or a group (by
+// name) and the role its members get on the operator API (common/role.h).
+struct OperatorGrant {
+  bool group = false;  // "group:NAME"
+  std::string who;     // user name, uid digits, or group name
+  Role role = Role::kViewer;
+  SourcePos pos;
+};
+
 struct RuntimeConfig {
   std::string file;                        // the config file as named by the caller
   std::string base_dir;                    // relative paths inside it were resolved against this
@@ -134,6 +144,8 @@ struct RuntimeConfig {
   SourcePos programs_pos;
   std::string monitor_group;  // empty: the image is readable by its owner only
   SourcePos monitor_group_pos;
+  std::vector<OperatorGrant> operators;  // `operators:`; the owner and root are admin anyway
+  SourcePos operators_pos;
   int band_lo = kDefaultBandLo;  // SCHED_FIFO band of the tasks, inclusive
   int band_hi = kDefaultBandHi;
   SourcePos band_pos;  // line 0 when the band is the default

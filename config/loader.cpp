@@ -3,6 +3,7 @@
 // problem a diagnostic with its file:line:col. It collects all the problems it
 // can in one pass, never throws and never reads the FBD programs (the runtime
 // compiles them); at most it checks that they exist.
+#include <cctype>
 #include <algorithm>
 #include <map>
 #include <exception>
@@ -57,6 +58,55 @@ uint32_t token_width(std::string_view source, SourcePos p) {
   return static_cast<uint32_t>(std::max<size_t>(n, 1));
 }
 
+// operators: {alice: operator, "1002": viewer, group:plant: engineer}
+void parse_operators(YamlReader& r, const Field& field, RuntimeConfig& cfg) {
+  cfg.operators_pos = field.pos;
+  const YAML::Node& map = field.value;
+  if (!map.IsDefined() || map.IsNull()) return;
+  if (!map.IsMap()) {
+    r.error(field, "'operators' expects a map such as {alice: operator, group:plant: viewer}, got " +
+                       YamlReader::describe_node(map));
+    return;
+  }
+  auto name_ok = [](const std::string& w) {
+    if (w.empty() || w.size() > 32) return false;
+    for (char c : w) {
+      if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.')) return false;
+    }
+    return true;
+  };
+  for (auto it = map.begin(); it != map.end(); ++it) {
+    const SourcePos kp = or_else(YamlReader::pos(it->first), field.pos);
+    const std::string key = it->first.IsScalar() ? it->first.Scalar() : std::string();
+    OperatorGrant g;
+    g.pos = kp;
+    g.group = key.rfind("group:", 0) == 0;
+    g.who = g.group ? key.substr(6) : key;
+    if (!name_ok(g.who)) {
+      r.error(kp, "an operator is a user name, a uid or group:NAME, got " + YamlReader::describe_node(it->first),
+              YamlReader::width(it->first));
+      continue;
+    }
+    const YAML::Node& v = it->second;
+    const SourcePos vp = or_else(YamlReader::pos(v), kp);
+    const auto role = v.IsScalar() ? parse_role(v.Scalar()) : std::nullopt;
+    if (!role) {
+      r.error(vp, "the role of '" + key + "' expects viewer, operator, engineer or admin, got " +
+                      YamlReader::describe_node(v),
+              YamlReader::width(v));
+      continue;
+    }
+    g.role = *role;
+    for (const OperatorGrant& o : cfg.operators) {
+      if (o.group == g.group && o.who == g.who) {
+        r.error(kp, "operator '" + key + "' is given twice", YamlReader::width(it->first));
+        r.note(o.pos, "first given here", static_cast<uint32_t>(key.size()));
+      }
+    }
+    cfg.operators.push_back(std::move(g));
+  }
+}
+
 // runtime: ...
 void parse_runtime(YamlReader& r, const Field& section, RuntimeConfig& cfg) {
   const SectionSpec& s = runtime_section();
@@ -81,6 +131,7 @@ void parse_runtime(YamlReader& r, const Field& section, RuntimeConfig& cfg) {
     cfg.monitor_group_pos = x->pos;
     if (auto v = r.text(*x)) cfg.monitor_group = *v;
   }
+  if (const Field* x = f.get("operators")) parse_operators(r, *x, cfg);
   if (const Field* x = f.get("priority_band")) {
     cfg.band_pos = x->pos;
     if (auto v = r.integer_pair(*x)) {

@@ -43,6 +43,14 @@ const KeySpec kRuntimeKeys[] = {
      "A group whose members may read the process image (`rtplc monitor`, `stats`, an HMI): "
      "the image is then mode 0640 with this group instead of 0600. Nobody but the owner "
      "can write it or use the control socket."},
+    {"operators", ValueType::kLabelMap, false, kNoMin, kNoMax, "viewer|operator|engineer|admin",
+     "(the owner only)",
+     "Who else may use the control socket, and for what: `{WHO: ROLE, ...}` where WHO is a "
+     "user name, a uid, or `group:NAME`, and ROLE is `viewer` (read), `operator` (also "
+     "set-points, within their limits), `engineer` (also force, swap, rollback, trace) or "
+     "`admin` (also stop). The runtime's owner and root are admin. With grants the socket's "
+     "folder is 0711 and the socket 0666: every request is then authorised by the caller's "
+     "uid from the kernel (docs/api.md)."},
     {"priority_band", ValueType::kIntegerPair, false, kMinFifoPriority, kMaxFifoPriority, nullptr,
      "[10, 49]",
      "SCHED_FIFO priorities the tasks may use, `[lo, hi]`; the default stays below the "

@@ -3,6 +3,7 @@
 #include "io/process_image.h"
 
 #include <fcntl.h>
+#include <grp.h>
 #include <signal.h>
 #include <sys/mman.h>
 #include <sys/stat.h>
@@ -171,8 +172,13 @@ Result<ProcessImage> ProcessImage::create(const ImageLayout& layout) {
     const int e = errno;
     close(fd);
     shm_unlink(img.object_.c_str());
-    return make_error("cannot give " + img.object_ + " to group " + std::to_string(layout.monitor_gid) + ": " +
-                      errno_text(e));
+    const group* g = getgrgid(static_cast<gid_t>(layout.monitor_gid));
+    const std::string gname = g != nullptr ? g->gr_name : std::to_string(layout.monitor_gid);
+    return make_error("cannot give " + img.object_ + " to group " + gname + " (runtime.monitor_group): " +
+                      errno_text(e) +
+                      (e == EPERM ? "; a runtime that is not root may only share its image with a group it is a "
+                                    "member of: usermod -aG " + gname + " USER, then log in again"
+                                  : std::string()));
   }
   fchmod(fd, mode);
   if (ftruncate(fd, static_cast<off_t>(total)) != 0) {
@@ -259,11 +265,25 @@ Result<ProcessImage> ProcessImage::attach(const std::string& name) {
     close(fd);
     return make_error(img.object_ + " is too small to be a process image");
   }
-  if (st.st_uid != 0 && st.st_uid != geteuid()) {
+  // Another user's image is trusted only as that user shared it on purpose:
+  // mode 0640 with a group we are in (runtime.monitor_group), so a runtime
+  // that is not root can still be watched by its operators.
+  auto shared_with_us = [&st] {
+    if ((st.st_mode & 0777) != 0640) return false;
+    if (st.st_gid == getegid()) return true;
+    gid_t groups[256];
+    const int n = getgroups(256, groups);
+    for (int i = 0; i < n; ++i) {
+      if (groups[i] == st.st_gid) return true;
+    }
+    return false;
+  };
+  if (st.st_uid != 0 && st.st_uid != geteuid() && !shared_with_us()) {
     close(fd);
     return make_error("refusing " + img.object_ + ": it belongs to uid " + std::to_string(st.st_uid) +
                       ", neither root nor you (uid " + std::to_string(geteuid()) +
-                      "): it is not a runtime you started, and what it shows cannot be trusted");
+                      ") and is not shared with a group of yours (runtime.monitor_group): it is not a "
+                      "runtime you started, and what it shows cannot be trusted");
   }
   const auto size = static_cast<size_t>(st.st_size);
   void* base = mmap(nullptr, size, PROT_READ, MAP_SHARED, fd, 0);

@@ -22,10 +22,14 @@
 namespace rtplc::sched {
 namespace {
 
-constexpr size_t kMaxLine = 4096;
+constexpr size_t kMaxHeader = 64;  // "RTPLC-API 1 JSON_BYTES PAYLOAD_BYTES"
+constexpr size_t kMaxJson = 1u << 20;
 constexpr size_t kMaxClients = 256;
 constexpr int kRequestTimeoutMs = 10000;
 constexpr size_t kMaxSource = 64u << 20;  // the compiler refuses more anyway
+constexpr const char* kMagic = "RTPLC-API";
+
+using nlohmann::json;
 
 bool send_all(int fd, const std::string& s) {
   size_t done = 0;
@@ -40,61 +44,84 @@ bool send_all(int fd, const std::string& s) {
   return true;
 }
 
-bool read_line(int fd, std::string& line, int timeout_ms) {
-  line.clear();
-  const int64_t deadline = kernel_rt::monotonic_now_ns() + int64_t{timeout_ms} * 1000000;
-  for (;;) {
-    if (line.size() > kMaxLine) return false;
-    const int64_t left_ms = (deadline - kernel_rt::monotonic_now_ns()) / 1000000;
-    if (left_ms <= 0) return false;
-    pollfd p{fd, POLLIN, 0};
-    if (poll(&p, 1, static_cast<int>(left_ms)) <= 0) return false;
-    char c;
-    const ssize_t n = recv(fd, &c, 1, 0);
-    if (n <= 0) return false;
-    if (c == '\n') return true;
-    line += c;
-  }
+std::string frame(const json& j, const std::string& payload = "") {
+  // Invalid UTF-8 in a message (a label the caller typed) is replaced, never thrown.
+  const std::string text = j.dump(-1, ' ', false, json::error_handler_t::replace);
+  return std::string(kMagic) + " " + std::to_string(kApiVersion) + " " + std::to_string(text.size()) + " " +
+         std::to_string(payload.size()) + "\n" + text + payload;
 }
 
-std::string frame(bool ok, const std::string& body) {
-  std::string out = ok ? "OK\n" : "ERROR\n";
-  std::istringstream in(body);
-  std::string l;
-  while (std::getline(in, l)) {
-    if (!l.empty() && l[0] == '.') out += '.';
-    out += l + "\n";
-  }
-  return out + ".\n";
+std::string error_frame(const std::string& op, const std::string& code, const std::string& message) {
+  return frame(ApiAnswer::failure(code, message).to_json(op));
 }
 
+// A frame's header: "RTPLC-API VERSION JSON_BYTES PAYLOAD_BYTES".
+struct Header {
+  int version = 0;
+  size_t json_bytes = 0;
+  size_t payload_bytes = 0;
+};
 
-std::vector<std::string> split(const std::string& s) {
-  std::vector<std::string> v;
-  std::istringstream in(s);
-  std::string w;
-  while (in >> w) v.push_back(w);
-  return v;
+Result<Header> parse_header(const std::string& line) {
+  std::istringstream in(line);
+  std::string magic, version, jb, pb, extra;
+  in >> magic >> version >> jb >> pb;
+  if (magic != kMagic || (in >> extra)) {
+    return make_error("this is an rtplc control socket: it takes frames \"RTPLC-API 1 JSON_BYTES "
+                      "PAYLOAD_BYTES\\n\" then the JSON request (docs/api.md)");
+  }
+  auto number = [](const std::string& w, size_t& out) {
+    if (w.empty() || w.size() > 12 || w.find_first_not_of("0123456789") != std::string::npos) return false;
+    out = std::stoull(w);
+    return true;
+  };
+  Header h;
+  size_t v = 0;
+  if (!number(version, v) || !number(jb, h.json_bytes) || !number(pb, h.payload_bytes)) {
+    return make_error("malformed frame header '" + line.substr(0, 60) + "'");
+  }
+  h.version = static_cast<int>(v);
+  return h;
 }
 
 }  // namespace
 
-ControlServer::~ControlServer() { stop(); }
+
+ControlServer::ControlServer(Runtime& rt, Log log) : rt_(rt), log_(std::move(log)), api_(rt.api()) {
+  api_.set_log(log_);
+}
+
+ControlServer::~ControlServer() {
+  stop();
+  api_.set_log(nullptr);
+}
 
 Result<void> ControlServer::start(const std::string& path) {
   path_ = path;
-  // Beside the state file in the runtime's checked state folder: NAME.audit.
-  std::string audit = rt_.state_path();
-  if (audit.size() > 6 && audit.compare(audit.size() - 6, 6, ".state") == 0) audit.resize(audit.size() - 6);
-  audit_ = AuditLog(audit + ".audit");
   sockaddr_un addr{};
   if (path.size() >= sizeof addr.sun_path) return make_error("control socket path too long: " + path);
-  // Create the folder chain (e.g. /run/rtplc); the last folder is private.
-  if (auto r = ensure_private_folder(folder_of(path)); !r) return r;
+  // Create the folder chain (e.g. /run/rtplc); the last folder is private,
+  // or, when the config grants roles to others, enterable by them (0711).
+  const bool shared = !rt_.grants().empty();
+  if (auto r = ensure_private_folder(folder_of(path), shared); !r) return r;
+  if (shared) {
+    // The grants help only if others can walk the path to the socket.
+    for (std::string dir = folder_of(folder_of(path)); dir.size() > 1; dir = folder_of(dir)) {
+      struct stat st {};
+      if (stat(dir.c_str(), &st) == 0 && (st.st_mode & S_IXOTH) == 0) {
+        log_(true, "runtime.operators grants roles, but " + dir +
+                       " is closed to other users, so they cannot reach the socket " + path +
+                       "; set runtime.socket to a path they can reach (e.g. /run/rtplc-" + rt_.name() + "/" +
+                       rt_.name() + ".sock as root, or a folder of yours under /home)");
+        break;
+      }
+      if (dir == folder_of(dir)) break;
+    }
+  }
   // A socket left by a dead runtime: connecting fails, so remove it. A live one
   // answers: then another runtime owns the name.
   if (access(path.c_str(), F_OK) == 0) {
-    if (control_request(path, "ping", "", 500).ok()) {
+    if (api_request(path, json{{"op", "ping"}}, "", 500).ok()) {
       return make_error("a runtime already listens on " + path);
     }
     unlink(path.c_str());
@@ -112,7 +139,7 @@ Result<void> ControlServer::start(const std::string& path) {
     listen_fd_ = -1;
     return make_error("cannot listen on " + path + ": " + std::strerror(e));
   }
-  chmod(path.c_str(), 0600);
+  chmod(path.c_str(), shared ? 0666 : 0600);  // shared: every request is authorised by its uid
   fcntl(listen_fd_, F_SETFL, fcntl(listen_fd_, F_GETFL) | O_NONBLOCK);
   kernel_rt::ThreadSpec spec;
   spec.name = "rtplc:control";
@@ -149,7 +176,7 @@ void ControlServer::run() {
     size_t sent = 0;
     int64_t deadline = 0;
     bool answered = false;
-    uint32_t uid = 0;  // the peer's, from SO_PEERCRED
+    Caller caller;  // from SO_PEERCRED
   };
   std::vector<Client> clients;
   std::vector<pollfd> fds;
@@ -172,7 +199,7 @@ void ControlServer::run() {
         const int fd = accept4(listen_fd_, nullptr, nullptr, SOCK_CLOEXEC | SOCK_NONBLOCK);
         if (fd < 0) break;
         if (clients.size() >= kMaxClients) {
-          const std::string busy = frame(false, "too many clients are connected to this runtime; try again");
+          const std::string busy = error_frame("", "busy", "too many clients are connected to this runtime; try again");
           [[maybe_unused]] const ssize_t w = send(fd, busy.data(), busy.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
           close(fd);
           continue;
@@ -186,7 +213,9 @@ void ControlServer::run() {
         }
         Client c;
         c.fd = fd;
-        c.uid = cred.uid;
+        c.caller.uid = cred.uid;
+        c.caller.who = OperatorApi::name_of_uid(cred.uid);
+        c.caller.role = api_.role_of_uid(cred.uid, cred.gid);
         c.deadline = now + int64_t{kRequestTimeoutMs} * 1000000;
         clients.push_back(std::move(c));
       }
@@ -203,14 +232,14 @@ void ControlServer::run() {
         } else {
           c.in.append(buf, static_cast<size_t>(got));
           std::string response;
-          switch (parse_request(c.in, response, c.uid)) {
+          switch (parse_request(c.in, response, c.caller)) {
             case RequestState::kIncomplete: break;
             case RequestState::kComplete:
             case RequestState::kBad: answer(c, response); break;
           }
         }
       }
-      if (!c.answered && now > c.deadline) answer(c, frame(false, "the request did not arrive whole in time"));
+      if (!c.answered && now > c.deadline) answer(c, error_frame("", "bad_request", "the request did not arrive whole in time"));
       if (c.answered && c.sent < c.out.size()) {
         const ssize_t w = send(c.fd, c.out.data() + c.sent, c.out.size() - c.sent, MSG_NOSIGNAL | MSG_DONTWAIT);
         if (w > 0) c.sent += static_cast<size_t>(w);
@@ -230,32 +259,41 @@ void ControlServer::run() {
 }
 
 ControlServer::RequestState ControlServer::parse_request(const std::string& in, std::string& response,
-                                                        uint32_t uid) {
+                                                        const Caller& caller) {
   const size_t nl = in.find('\n');
   if (nl == std::string::npos) {
-    if (in.size() > kMaxLine) {
-      response = frame(false, "malformed request: expected one line");
+    if (in.size() > kMaxHeader) {
+      response = error_frame("", "bad_request", parse_header(in.substr(0, kMaxHeader)).ok()
+                                                    ? "malformed frame header: too long"
+                                                    : parse_header(in.substr(0, in.find(' '))).error());
       return RequestState::kBad;
     }
     return RequestState::kIncomplete;
   }
-  const std::vector<std::string> w = split(in.substr(0, nl));
-  if (w.empty()) {
-    response = frame(false, "empty request");
+  auto h = parse_header(in.substr(0, nl));
+  if (!h) {
+    response = error_frame("", "bad_request", h.error());
     return RequestState::kBad;
   }
-  std::string body;
-  if (w[0] == "swap" && w.size() >= 4) {
-    char* end = nullptr;
-    const unsigned long long want = std::strtoull(w[3].c_str(), &end, 10);
-    if (*end != '\0' || want > kMaxSource) {
-      response = frame(false, "bad source size");
-      return RequestState::kBad;
-    }
-    if (in.size() - nl - 1 < want) return RequestState::kIncomplete;
-    body = in.substr(nl + 1, want);
+  if (h->version != kApiVersion) {
+    response = error_frame("", "version", "this runtime speaks operator API version " + std::to_string(kApiVersion) +
+                                              ", the request is version " + std::to_string(h->version));
+    return RequestState::kBad;
   }
-  response = execute(w, body, uid);
+  if (h->json_bytes > kMaxJson || h->payload_bytes > kMaxSource) {
+    response = error_frame("", "bad_request", "request too large");
+    return RequestState::kBad;
+  }
+  if (in.size() - nl - 1 < h->json_bytes + h->payload_bytes) return RequestState::kIncomplete;
+  const json request = json::parse(in.substr(nl + 1, h->json_bytes), nullptr, false);
+  if (request.is_discarded()) {
+    response = error_frame("", "bad_request", "the request is not valid JSON");
+    return RequestState::kBad;
+  }
+  const std::string op = request.is_object() && request.contains("op") && request["op"].is_string()
+                             ? request["op"].get<std::string>()
+                             : std::string();
+  response = frame(api_.call(caller, request, in.substr(nl + 1 + h->json_bytes, h->payload_bytes)).to_json(op));
   return RequestState::kComplete;
 }
 
@@ -276,9 +314,52 @@ void ControlServer::watch_tasks() {
   }
 }
 
-// "drop=A,B" -> {"A", "B"}: the outputs a swap may leave out (--drop-output).
-static std::vector<std::string> drop_list(const std::string& word) {
-  std::vector<std::string> out;
+std::string control_socket_of(const std::string& name, const std::string& socket_override) {
+  if (!socket_override.empty()) return socket_override;
+  if (auto img = io::ProcessImage::attach(name); img.ok()) {
+    const io::ImageHeader& h = img->header();
+    const size_t n = strnlen(h.socket_path, sizeof h.socket_path);
+    if (n > 0 && n < sizeof h.socket_path) return std::string(h.socket_path, n);
+  }
+  return default_socket_path(name);
+}
+
+namespace {
+
+bool read_exact(int fd, std::string& out, size_t n, int64_t deadline) {
+  out.clear();
+  char buf[65536];
+  while (out.size() < n) {
+    const int64_t left_ms = (deadline - kernel_rt::monotonic_now_ns()) / 1000000;
+    if (left_ms <= 0) return false;
+    pollfd p{fd, POLLIN, 0};
+    if (poll(&p, 1, static_cast<int>(left_ms)) <= 0) return false;
+    const ssize_t got = recv(fd, buf, std::min(sizeof buf, n - out.size()), 0);
+    if (got <= 0) return false;
+    out.append(buf, static_cast<size_t>(got));
+  }
+  return true;
+}
+
+bool read_header_line(int fd, std::string& line, int64_t deadline) {
+  line.clear();
+  for (;;) {
+    if (line.size() > kMaxHeader) return false;
+    const int64_t left_ms = (deadline - kernel_rt::monotonic_now_ns()) / 1000000;
+    if (left_ms <= 0) return false;
+    pollfd p{fd, POLLIN, 0};
+    if (poll(&p, 1, static_cast<int>(left_ms)) <= 0) return false;
+    char c;
+    const ssize_t n = recv(fd, &c, 1, 0);
+    if (n <= 0) return false;
+    if (c == '\n') return true;
+    line += c;
+  }
+}
+
+// "drop=A,B" -> ["A", "B"]: the outputs a swap may leave out (--drop-output).
+json drop_list(const std::string& word) {
+  json out = json::array();
   std::string cur;
   for (char c : word.substr(5)) {
     if (c == ',') {
@@ -292,152 +373,25 @@ static std::vector<std::string> drop_list(const std::string& word) {
   return out;
 }
 
-// Answer lines joined for one log line: "a; b", no trailing separator.
-static std::string one_line(const std::string& text) {
-  std::string out;
-  size_t from = 0;
-  while (from < text.size()) {
-    size_t nl = text.find('\n', from);
-    if (nl == std::string::npos) nl = text.size();
-    if (nl > from) out += (out.empty() ? "" : "; ") + text.substr(from, nl - from);
-    from = nl + 1;
-  }
-  return out;
+std::vector<std::string> split(const std::string& s) {
+  std::vector<std::string> v;
+  std::istringstream in(s);
+  std::string w;
+  while (in >> w) v.push_back(w);
+  return v;
 }
 
-// A number as the operator typed it; "nan" and "inf" parse, so the verb can
-// refuse them with its own reason (and the range of a set-point).
-static bool parse_number(const std::string& word, double& v) {
-  char* end = nullptr;
-  v = std::strtod(word.c_str(), &end);
-  return end != word.c_str() && *end == '\0';
-}
+}  // namespace
 
-std::string ControlServer::execute(const std::vector<std::string>& w, const std::string& source, uint32_t uid) {
-  const std::string& verb = w[0];
-  if (verb == "audit" && w.size() <= 2) {
-    size_t n = 50;
-    if (w.size() == 2) {
-      char* end = nullptr;
-      const unsigned long v = std::strtoul(w[1].c_str(), &end, 10);
-      if (*end != '\0' || v == 0 || v > 100000) return frame(false, "audit takes a number of lines, 1 to 100000");
-      n = v;
-    }
-    auto lines = audit_.tail(n);
-    if (!lines) return frame(false, lines.error());
-    std::string body;
-    for (const std::string& l : *lines) body += l + "\n";
-    return frame(true, body.empty() ? "no action recorded yet in " + audit_.path() + "\n" : body);
-  }
-  std::string answer = run_verb(w, source, uid);
-  static const char* const kWrites[] = {"set", "force", "unforce", "unforce_all", "swap", "rollback", "trace", "stop"};
-  for (const char* write : kWrites) {
-    if (verb != write) continue;
-    // One line: when, who, what was asked (a swap's source by its size), what came of it.
-    std::string asked;
-    for (size_t i = 0; i < w.size(); ++i) asked += (i ? " " : "") + w[i];
-    const bool ok = answer.rfind("OK\n", 0) == 0;
-    std::string body = answer.substr(answer.find('\n') + 1);
-    if (body.size() >= 2 && body.compare(body.size() - 2, 2, ".\n") == 0) body.resize(body.size() - 2);  // the frame's end
-    std::string said = one_line(body);
-    if (said.size() > 400) said = said.substr(0, 400) + "...";
-    auto r = audit_.append(format_utc(kernel_rt::realtime_now_ns()) + " uid " + std::to_string(uid) + " " + asked +
-                           (ok ? ": " : ": refused: ") + said);
-    if (!r) log_(true, r.error());
-    break;
-  }
-  return answer;
-}
-
-std::string ControlServer::run_verb(const std::vector<std::string>& w, const std::string& source, uint32_t uid) {
-  const std::string& verb = w[0];
-  Result<std::string> res = make_error("unknown request '" + verb +
-                                       "' (ping, status, set, swap, rollback, force, unforce, unforce_all, "
-                                       "trace, trace-keep, trace-end, audit, stop)");
-  const std::string who = " by uid " + std::to_string(uid) + " at " + format_utc(kernel_rt::realtime_now_ns());
-  if (verb == "ping" && w.size() == 1) {
-    res = std::string("pong ") + rt_.name();
-  } else if (verb == "status" && w.size() == 1) {
-    res = rt_.status();
-  } else if (verb == "status" && w.size() == 2 && w[1] == "json") {
-    res = rt_.status_json();
-  } else if (verb == "set" && w.size() == 3) {
-    double v = 0;
-    if (!parse_number(w[2], v)) {
-      res = make_error("'" + w[2] + "' is not a number");
-    } else {
-      res = rt_.set_value(w[1], v);
-      if (res) log_(false, "set " + *res + who);
-    }
-  } else if (verb == "force" && w.size() == 3) {
-    double v = 0;
-    if (!parse_number(w[2], v)) {
-      res = make_error("not forced: '" + w[2] + "' is not a number");
-    } else {
-      res = rt_.force(w[1], v, uid);
-      log_(true, "FORCE " + w[1] + " = " + w[2] + who + (res ? ": " + *res : ": refused: " + res.error()));
-    }
-  } else if (verb == "unforce" && w.size() == 2) {
-    res = rt_.unforce(w[1]);
-    if (res) log_(true, "UNFORCE " + w[1] + who + ": " + *res);
-  } else if (verb == "unforce_all" && w.size() == 1) {
-    res = rt_.unforce_all();
-    if (res) {
-      log_(true, "UNFORCE --all" + who + ": " + one_line(*res));
-    }
-  } else if (verb == "swap" && (w.size() == 4 || (w.size() == 5 && w[4].rfind("drop=", 0) == 0))) {
-    res = rt_.swap(w[1], source, w[2], w.size() == 5 ? drop_list(w[4]) : std::vector<std::string>{});
-    // One log line per swap: its first two answer lines (compiled, installed).
-    if (res) {
-      std::string said = one_line(res->substr(0, res->find('\n', res->find('\n') + 1)));
-      log_(false, "swap of " + w[1] + who + ": " + said);
-    } else {
-      log_(true, "swap of " + w[1] + who + " refused: " + res.error().substr(0, res.error().find('\n')));
-    }
-  } else if (verb == "rollback" && (w.size() == 2 || (w.size() == 3 && w[2].rfind("drop=", 0) == 0))) {
-    res = rt_.rollback(w[1], w.size() == 3 ? drop_list(w[2]) : std::vector<std::string>{});
-    if (res) log_(false, "rollback of " + w[1] + who + ": " + res->substr(0, res->find('\n')));
-  } else if (verb == "trace" && w.size() >= 2) {
-    res = rt_.trace_start(std::vector<std::string>(w.begin() + 1, w.end()));
-    if (res) {
-      std::string labels;
-      for (size_t i = 1; i < w.size(); ++i) labels += (i > 1 ? ", " : "") + w[i];
-      log_(false, res->substr(0, res->find('\n')) + " started: " + labels);
-    }
-  } else if (verb == "trace-keep" && w.size() == 2) {
-    res = rt_.trace_keep(w[1]);
-  } else if (verb == "trace-end" && w.size() == 2) {
-    res = rt_.trace_end(w[1]);
-    if (res) log_(false, "trace " + w[1] + " ended by its reader");
-  } else if (verb == "stop" && w.size() == 1) {
-    log_(false, "stop requested" + who);
-    stop_requested_.store(true, std::memory_order_release);
-    res = std::string("stopping runtime ") + rt_.name();
-  } else if (verb == "set" || verb == "swap" || verb == "rollback" || verb == "force" || verb == "unforce" ||
-             verb == "unforce_all" || verb == "trace" || verb == "trace-keep" || verb == "trace-end") {
-    res = make_error("wrong number of arguments for '" + verb + "'");
-  }
-  return res ? frame(true, *res) : frame(false, res.error());
-}
-
-std::string control_socket_of(const std::string& name, const std::string& socket_override) {
-  if (!socket_override.empty()) return socket_override;
-  if (auto img = io::ProcessImage::attach(name); img.ok()) {
-    const io::ImageHeader& h = img->header();
-    const size_t n = strnlen(h.socket_path, sizeof h.socket_path);
-    if (n > 0 && n < sizeof h.socket_path) return std::string(h.socket_path, n);
-  }
-  return default_socket_path(name);
-}
-
-Result<std::string> control_request(const std::string& socket_path, const std::string& line,
-                                    const std::string& payload, int timeout_ms) {
+Result<json> api_request(const std::string& socket_path, const json& request, const std::string& payload,
+                         int timeout_ms) {
   sockaddr_un addr{};
   if (socket_path.size() >= sizeof addr.sun_path) return make_error("socket path too long");
   // Talk only to a socket root or we own: a socket another user put in our way
   // would receive our commands (and could answer anything).
   struct stat st {};
-  if (lstat(socket_path.c_str(), &st) == 0 && st.st_uid != 0 && st.st_uid != geteuid()) {
+  if (lstat(socket_path.c_str(), &st) == 0 && st.st_uid != 0 && st.st_uid != geteuid() &&
+      !socket_owner_trusted(socket_path, st.st_uid)) {
     return make_error("refusing the control socket " + socket_path + ": it belongs to uid " +
                       std::to_string(st.st_uid) + ", neither root nor you");
   }
@@ -451,27 +405,101 @@ Result<std::string> control_request(const std::string& socket_path, const std::s
     return make_error("cannot reach the runtime at " + socket_path + " (" + std::strerror(e) +
                       "); is `rtplc run` running, and are you allowed to use its socket?");
   }
-  bool ok = send_all(fd, line + "\n") && send_all(fd, payload);
-  std::string status, body, l;
-  ok = ok && read_line(fd, status, timeout_ms);
-  // An answer counts only with its terminating "." line: one cut off (the
-  // runtime died or was stopped mid-answer) is not taken for a whole one.
-  bool whole = false;
-  while (ok && read_line(fd, l, timeout_ms)) {
-    if (l == ".") {
-      whole = true;
-      break;
-    }
-    body += (l.size() > 1 && l[0] == '.' ? l.substr(1) : l) + "\n";
-  }
+  const int64_t deadline = kernel_rt::monotonic_now_ns() + int64_t{timeout_ms} * 1000000;
+  const bool sent = send_all(fd, frame(request, payload));
+  std::string line, text, ignored;
+  bool got_header = sent && read_header_line(fd, line, deadline);
+  auto h = got_header ? parse_header(line) : Result<Header>(make_error("no answer"));
+  // An answer counts only whole: one cut off (the runtime died or was stopped
+  // mid-answer) is not taken for a whole one.
+  const bool whole = h.ok() && h->json_bytes <= kMaxJson * 64 && read_exact(fd, text, h->json_bytes, deadline) &&
+                     read_exact(fd, ignored, h->payload_bytes, deadline);
   close(fd);
-  if (!ok) return make_error("no answer from the runtime at " + socket_path);
+  if (!got_header) return make_error("no answer from the runtime at " + socket_path);
+  if (!h) return make_error("the peer at " + socket_path + " does not speak the rtplc operator API: " + h.error());
   if (!whole) {
     return make_error("the runtime's answer at " + socket_path +
                       " was cut off before its end; what it did is unknown: check with `rtplc status`");
   }
-  if (status == "OK") return body;
-  return make_error(body.empty() ? "the runtime refused the request" : body);
+  json answer = json::parse(text, nullptr, false);
+  if (answer.is_discarded() || !answer.is_object()) {
+    return make_error("the runtime at " + socket_path + " answered something that is not a JSON object");
+  }
+  return answer;
+}
+
+Result<json> request_of_words(const std::string& line) {
+  const std::vector<std::string> w = split(line);
+  if (w.empty()) return make_error("empty request");
+  const std::string& verb = w[0];
+  auto wrong = [&] { return make_error("wrong number of arguments for '" + verb + "'"); };
+  json args = json::object();
+  std::string op = verb;
+  if (verb == "ping" || verb == "whoami" || verb == "unforce_all" || verb == "stop" || verb == "stats") {
+    if (w.size() != 1) return wrong();
+  } else if (verb == "status") {
+    if (w.size() > 2 || (w.size() == 2 && w[1] != "json")) return wrong();
+  } else if (verb == "values") {
+    if (w.size() > 2) return wrong();
+    if (w.size() == 2) args["filter"] = w[1];
+  } else if (verb == "set" || verb == "force") {
+    if (w.size() != 3) return wrong();
+    args["label"] = w[1];
+    char* end = nullptr;
+    const double v = std::strtod(w[2].c_str(), &end);
+    // What is not a plain number goes as typed: the runtime refuses it with its reason.
+    if (end != w[2].c_str() && *end == '\0' && std::isfinite(v)) args["value"] = v;
+    else args["value"] = w[2];
+  } else if (verb == "unforce") {
+    if (w.size() != 2) return wrong();
+    args["label"] = w[1];
+  } else if (verb == "swap") {
+    if (w.size() != 4 && !(w.size() == 5 && w[4].rfind("drop=", 0) == 0)) return wrong();
+    args["task"] = w[1];
+    args["name"] = w[2];
+    if (w.size() == 5) args["drop_outputs"] = drop_list(w[4]);
+  } else if (verb == "rollback") {
+    if (w.size() != 2 && !(w.size() == 3 && w[2].rfind("drop=", 0) == 0)) return wrong();
+    args["task"] = w[1];
+    if (w.size() == 3) args["drop_outputs"] = drop_list(w[2]);
+  } else if (verb == "trace") {
+    if (w.size() < 2) return wrong();
+    args["labels"] = std::vector<std::string>(w.begin() + 1, w.end());
+  } else if (verb == "trace-keep" || verb == "trace-end") {
+    if (w.size() != 2) return wrong();
+    op = verb == "trace-keep" ? "trace_keep" : "trace_end";
+    args["token"] = w[1];
+  } else if (verb == "audit") {
+    if (w.size() > 2) return wrong();
+    if (w.size() == 2) {
+      char* end = nullptr;
+      const long long n = std::strtoll(w[1].c_str(), &end, 10);
+      if (*end != '\0' || end == w[1].c_str()) return make_error("audit takes a number of lines, 1 to 100000");
+      args["lines"] = n;
+    }
+  } else {
+    op = verb;  // the runtime names the ops it knows
+  }
+  return json{{"op", op}, {"args", args}};
+}
+
+Result<std::string> control_request(const std::string& socket_path, const std::string& line,
+                                    const std::string& payload, int timeout_ms) {
+  auto request = request_of_words(line);
+  if (!request) return make_error(request.error());
+  auto answer = api_request(socket_path, *request, payload, timeout_ms);
+  if (!answer) return make_error(answer.error());
+  const json& a = *answer;
+  if (!a.value("ok", false)) {
+    const json e = a.contains("error") && a["error"].is_object() ? a["error"] : json::object();
+    const std::string m = e.value("message", std::string());
+    return make_error(m.empty() ? "the runtime refused the request" : m);
+  }
+  const json r = a.contains("result") && a["result"].is_object() ? a["result"] : json::object();
+  if (line == "status json" && r.contains("status")) return r["status"].dump(2) + "\n";
+  std::string text = r.value("text", std::string());
+  if (!text.empty() && text.back() != '\n') text += '\n';
+  return text;
 }
 
 }  // namespace rtplc::sched

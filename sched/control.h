@@ -1,21 +1,17 @@
 // The runtime's control channel (spec runtime.md, "Hot swap": local only, a Unix
-// socket with mode 0600 — loading code is the most privileged act in a PLC).
+// socket — loading code is the most privileged act in a PLC). It carries the
+// operator API (operator_api.h; docs/api.md), one request per connection:
+//   frame     RTPLC-API 1 JSON_BYTES PAYLOAD_BYTES\n<JSON><PAYLOAD>
+// both ways: "1" is the API version, the JSON a request {"op", "args"} or an
+// answer {"v", "ok", "op", "result" | "error"}, the payload the source of a
+// swap (bytes as they are, no escaping; 0 otherwise). A frame of another
+// version is answered with the error code "version" and the version spoken.
 //
-// Any number of clients at once (an event loop; see ControlServer::run).
-// Wire format, one request per connection:
-//   request   VERB [ARG ...]\n            (ARGs are separated by single spaces)
-//             swap TASK NAME BYTES\n<BYTES of source text>
-//   response  OK\n or ERROR\n, then the body, then a line holding only "."
-//             (a body line that starts with "." is sent with one more ".")
-// Verbs: ping, status, set LABEL VALUE, swap, rollback TASK, stop,
-//        force LABEL VALUE, unforce LABEL, unforce_all,
-//        trace LABEL... (answers "trace TOKEN", "task NAME INDEX PERIOD_NS
-//        FIRST_RECORD" and one "column LABEL DIR KIND" per label),
-//        trace-keep TOKEN (renews the lease), trace-end TOKEN,
-//        audit [N] (the last N lines of the audit trail, sched/audit.h).
-// The server takes each client's uid from the socket (SO_PEERCRED) when it
-// connects; forces are logged with it, and every write (set, force, unforce,
-// swap, rollback, trace, stop), accepted or refused, goes to the audit trail.
+// The server takes each client's uid and gid from the socket (SO_PEERCRED)
+// when it connects and asks the API for its role: the owner and root are admin,
+// others what `runtime.operators` grants. Without grants the socket is 0600 in
+// a 0700 folder; with grants it is 0666 in a 0711 folder (others may reach it
+// by name, not list or change the folder), and the role decides each request.
 //
 // The server's thread is the runtime's control thread: every Runtime method runs
 // on it, one request at a time, so nothing on the control side needs a lock. Its
@@ -30,7 +26,7 @@
 
 #include "common/result.h"
 #include "kernel_rt/rt_thread.h"
-#include "sched/audit.h"
+#include "sched/operator_api.h"
 
 namespace rtplc::sched {
 
@@ -44,7 +40,7 @@ class ControlServer {
   // ("FORCE ...", "UNFORCE ...", with the peer's uid and the UTC time).
   using Log = std::function<void(bool error, const std::string& line)>;
 
-  ControlServer(Runtime& rt, Log log) : rt_(rt), log_(std::move(log)) {}
+  ControlServer(Runtime& rt, Log log);
   ~ControlServer();
   ControlServer(const ControlServer&) = delete;
   ControlServer& operator=(const ControlServer&) = delete;
@@ -53,25 +49,22 @@ class ControlServer {
   Result<void> start(const std::string& path);
   void stop();
   // True once a client asked the runtime to stop.
-  bool stop_requested() const { return stop_requested_.load(std::memory_order_acquire); }
+  bool stop_requested() const { return api_.stop_requested(); }
 
  private:
   enum class RequestState { kIncomplete, kComplete, kBad };
   void run();
   // A request that has arrived whole is executed and its framed answer set.
-  RequestState parse_request(const std::string& in, std::string& response, uint32_t uid);
-  std::string execute(const std::vector<std::string>& words, const std::string& source, uint32_t uid);
-  std::string run_verb(const std::vector<std::string>& words, const std::string& source, uint32_t uid);
+  RequestState parse_request(const std::string& in, std::string& response, const Caller& caller);
   void watch_tasks();
 
   Runtime& rt_;
   Log log_;
-  AuditLog audit_;
+  OperatorApi& api_;  // the runtime's
   std::string path_;
   int listen_fd_ = -1;
   kernel_rt::RtThread thread_;
   std::atomic<bool> quit_{false};
-  std::atomic<bool> stop_requested_{false};
   std::vector<uint8_t> last_state_;
 };
 
@@ -80,9 +73,21 @@ class ControlServer {
 // owned by anyone but root or us, so the path is trusted), else the default.
 std::string control_socket_of(const std::string& name, const std::string& socket_override);
 
-// Client side (the rtplc commands). Sends one request and returns the body; an
-// ERROR response becomes an error carrying the body.
+// Client side. Sends one request and returns the runtime's answer object
+// (ok or not); an error only when no whole answer came (the socket is not
+// there, the runtime died mid-answer, the time ran out).
+Result<nlohmann::json> api_request(const std::string& socket_path, const nlohmann::json& request,
+                                   const std::string& payload = "", int timeout_ms = 30000);
+
+// The rtplc commands' words as a typed request: "set SP 42", "force L V",
+// "unforce L", "unforce_all", "swap TASK NAME BYTES [drop=A,B]" (payload: the
+// source), "rollback TASK [drop=A,B]", "trace L...", "trace-keep TOKEN",
+// "trace-end TOKEN", "audit [N]", "status [json]", "ping", "whoami", "stop".
+// Returns the answer's text ("status json": the status object as JSON text);
+// a refusal becomes an error carrying its message.
 Result<std::string> control_request(const std::string& socket_path, const std::string& line,
                                     const std::string& payload = "", int timeout_ms = 30000);
+// The same words as the request object (what control_request sends).
+Result<nlohmann::json> request_of_words(const std::string& line);
 
 }  // namespace rtplc::sched

@@ -2,6 +2,7 @@
 #include "sched/runtime.h"
 
 #include <grp.h>
+#include <pwd.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -107,6 +108,7 @@ std::unique_ptr<Runtime> Runtime::load(const config::RuntimeConfig& cfg, const R
                                                          : default_retain_path(rt->state_name_));
   rt->programs_ = ProgramStore(folder_of(rt->retain_.path()) + "/" + rt->state_name_ + ".programs");
   rt->state_path_ = folder_of(rt->retain_.path()) + "/" + rt->state_name_ + ".state";
+  rt->api_ = std::make_unique<OperatorApi>(*rt);
   rt->retain_every_ns_ = std::llround(cfg.retain_every_s * 1e9);
   rt->lock_memory_ = cfg.lock_memory && opt.lock_memory;
   rt->cpu_dma_latency_ = cfg.cpu_dma_latency;
@@ -123,7 +125,7 @@ std::unique_ptr<Runtime> Runtime::load(const config::RuntimeConfig& cfg, const R
   // folder (the socket's, which must be private to us), never by a pid in
   // shared memory that anyone could have written.
   const std::string folder = folder_of(rt->socket_path_);
-  if (auto r = ensure_private_folder(folder); !r) {
+  if (auto r = ensure_private_folder(folder, !cfg.operators.empty()); !r) {
     report.files[0].diags.error(cfg.socket_pos, "control socket folder: " + r.error());
     report.ok = false;
     return nullptr;
@@ -150,6 +152,31 @@ std::unique_ptr<Runtime> Runtime::load(const config::RuntimeConfig& cfg, const R
       return nullptr;
     }
     rt->monitor_gid_ = static_cast<int>(g->gr_gid);
+  }
+  // runtime.operators: names to ids now, so a typo fails the start, not a request.
+  for (const config::OperatorGrant& o : cfg.operators) {
+    Grant g{o.group, 0, o.role};
+    const bool digits = !o.who.empty() && o.who.find_first_not_of("0123456789") == std::string::npos;
+    if (o.group) {
+      const group* gr = getgrnam(o.who.c_str());
+      if (gr == nullptr) {
+        report.files[0].diags.error(o.pos, "operators: no group named '" + o.who + "' on this machine");
+        report.ok = false;
+        return nullptr;
+      }
+      g.id = static_cast<uint32_t>(gr->gr_gid);
+    } else if (digits && o.who.size() <= 9) {
+      g.id = static_cast<uint32_t>(std::stoul(o.who));
+    } else {
+      const passwd* pw = getpwnam(o.who.c_str());
+      if (pw == nullptr) {
+        report.files[0].diags.error(o.pos, "operators: no user named '" + o.who + "' on this machine");
+        report.ok = false;
+        return nullptr;
+      }
+      g.id = static_cast<uint32_t>(pw->pw_uid);
+    }
+    rt->grants_.push_back(g);
   }
   // Drivers keep pointers into their config entries: the runtime owns a copy.
   rt->config_ = cfg;
@@ -399,7 +426,15 @@ bool Runtime::create_drivers(const config::RuntimeConfig& cfg, DiagnosticList& c
     setup.helper_priority = dp.helper_priority;
     setup.cpu = dc.cpu ? static_cast<int>(*dc.cpu) : -1;
     setup.events = &events_;
-    setup.set_point = [this](const std::string& label, double value) { return set_value(label, value); };
+    // A driver that writes set-points (an HMI over Modbus) is a caller of the
+    // operator API of its own, with the operator's role: set-points within
+    // their limits, audited, saved coalesced (no fsync per network write).
+    setup.set_point = [this, who = "driver " + dc.name + " (" + dc.kind + ")"](const std::string& label, double value) -> Result<std::string> {
+      const ApiAnswer a = api_->set_point(Caller{who, static_cast<uint32_t>(geteuid()), Role::kOperator}, label, value,
+                                          false);
+      if (!a.ok) return make_error(a.message);
+      return a.result.value("text", std::string());
+    };
     auto drv = io::find_driver_kind(dc.kind)->create(setup);
     if (!drv) {
       cdiag.error(dc.pos, "driver " + dc.name + ": " + drv.error());
@@ -776,6 +811,8 @@ void Runtime::stop() {
   // Tasks have set their outputs safe: each driver's last cycle sends those.
   for (auto& d : drivers_) d->request_stop();
   for (auto& d : drivers_) d->join();
+  // The drivers are joined: no more network writes; save the last of them.
+  if (std::string err; !flush_setpoints(&err) && stop_state_error_.empty()) stop_state_error_ = err;
   stop_heartbeat();
   if (image_.valid() && image_.writable()) image_.header().state.store(2, std::memory_order_release);
   started_ = false;
@@ -797,6 +834,12 @@ void Runtime::tick(const std::function<void(bool, const std::string&)>& log) {
         persist_error_said_.clear();
       }
     }
+  }
+  if (std::string err; !flush_setpoints(&err)) {
+    if (err != flush_error_said_) log(true, err);
+    flush_error_said_ = err;
+  } else {
+    flush_error_said_.clear();
   }
   expire_traces(log);
   report_block_errors(log);

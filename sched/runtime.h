@@ -19,6 +19,7 @@
 
 #include "common/diagnostic.h"
 #include "common/files.h"
+#include "common/role.h"
 #include "common/result.h"
 #include "config/config.h"
 #include "io/drivers/driver.h"
@@ -26,6 +27,7 @@
 #include "kernel_rt/rt_process.h"
 #include "kernel_rt/rt_thread.h"
 #include "sched/image_plan.h"
+#include "sched/operator_api.h"
 #include "sched/program_store.h"
 #include "sched/retain.h"
 #include "sched/state_file.h"
@@ -95,8 +97,15 @@ class Runtime {
   // outside the set-point's configured limits (task key `setpoints`), the
   // range named; every writer of set-points goes through here. Also called by
   // drivers' non-RT threads through DriverSetup::set_point (an HMI writing over
-  // Modbus): it holds setpoint_mu_, as make_program() does.
-  Result<std::string> set_value(const std::string& label, double value);
+  // Modbus): it holds setpoint_mu_, as make_program() does. `durable`: a
+  // retained value is on disk before the answer; otherwise (a Modbus write)
+  // it is saved by the next tick() with every other change since, one fsync
+  // for them all. `was`, when given, receives the value before.
+  Result<std::string> set_value(const std::string& label, double value, bool durable = true,
+                                double* was = nullptr);
+  // Saves retained set-points that set_value(durable = false) changed; tick()
+  // and stop() call it. False with `error` set when the file could not be written.
+  bool flush_setpoints(std::string* error = nullptr);
   // Forces an input (what every task reads) or an output (what every driver
   // sends) to `value` until unforced; `uid` is who asked (for the record).
   // Not kept across a restart. Refuses set-points (use set_value), inputs no
@@ -135,6 +144,15 @@ class Runtime {
 
   const std::string& name() const { return name_; }
   const std::string& socket_path() const { return socket_path_; }
+  // `runtime.operators`, resolved to uids and gids when the runtime loaded.
+  struct Grant {
+    bool group = false;
+    uint32_t id = 0;
+    Role role = Role::kViewer;
+  };
+  const std::vector<Grant>& grants() const { return grants_; }
+  // The operator API every caller goes through (operator_api.h).
+  OperatorApi& api() { return *api_; }
   const std::string& retain_path() const { return retain_.path(); }
   // The retained block state (state_file.h): NAME.state beside the retain file.
   const std::string& state_path() const { return state_path_; }
@@ -242,6 +260,10 @@ class Runtime {
   bool started_ = false;
   // Retained block state (control thread only).
   std::string state_path_;
+  std::vector<Grant> grants_;
+  std::unique_ptr<OperatorApi> api_;
+  std::string flush_error_said_;
+  bool setpoints_unsaved_ = false;  // under setpoint_mu_: set_value(durable = false) awaits flush_setpoints()
   std::string state_name_;  // the runtime the state file belongs to
   int64_t retain_every_ns_ = 1000000000;
   int64_t last_persist_ns_ = 0;

@@ -50,7 +50,7 @@ void active_steps(const LoadedProgram& old, const Migration& m, std::vector<std:
 // ---------------------------------------------------------------------------
 // Operator verbs
 
-Result<std::string> Runtime::set_value(const std::string& label, double value) {
+Result<std::string> Runtime::set_value(const std::string& label, double value, bool durable, double* was) {
   std::lock_guard setpoints(setpoint_mu_);
   const int c = image_.find_channel(label);
   if (c < 0) return make_error("no channel is labelled \"" + label + "\"");
@@ -77,17 +77,36 @@ Result<std::string> Runtime::set_value(const std::string& label, double value) {
                       "\": " + limits_text(lo, hi) + where);
   }
   const double before = setpoint_values_[d.index];
-  if (d.retain) {
+  if (was != nullptr) *was = before;
+  if (d.retain && durable) {
     // On disk first: once the operator sees OK, the value survives a crash.
+    // (Saving the whole store also saves what coalesced writes left unsaved.)
     RetainStore next = retain_;
     next.set(label, value);
     if (auto r = next.save(); !r) return make_error("not changed: cannot retain it: " + r.error());
     retain_.set(label, value);  // not a move-assignment: others read retain_.path() unlocked
+    setpoints_unsaved_ = false;
+  } else if (d.retain) {
+    retain_.set(label, value);
+    setpoints_unsaved_ = true;
   }
   setpoint_values_[d.index] = value;
   publish_setpoints();
   return label + " = " + format_number(value) + " (was " + format_number(before) + ")" +
-         (d.retain ? ", retained in " + retain_.path() : "");
+         (d.retain ? (durable ? ", retained in " : ", to be retained in ") + retain_.path() : "");
+}
+
+// One save for every coalesced write since the last: a SCADA writing a
+// set-point ten times a second costs one fsync per tick, not ten.
+bool Runtime::flush_setpoints(std::string* error) {
+  std::lock_guard setpoints(setpoint_mu_);
+  if (!setpoints_unsaved_) return true;
+  if (auto r = retain_.save(); !r) {
+    if (error != nullptr) *error = "set-points written over the network are not retained yet: " + r.error();
+    return false;  // still unsaved: the next tick tries again
+  }
+  setpoints_unsaved_ = false;
+  return true;
 }
 
 std::string format_utc(int64_t realtime_ns) {

@@ -9,12 +9,16 @@
 #include <sys/utsname.h>
 #include <time.h>
 
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <ctime>
 #include <string>
 
+#include <fmt/format.h>
+
 #include "common/text.h"
+#include "config/config.h"
 #include "kernel_rt/rt_kernel.h"
 #include "sched/jitter.h"
 
@@ -289,6 +293,59 @@ std::string with_forced_json(const io::ProcessImage& img, const std::string& jso
   std::string out = json.substr(0, close);
   while (!out.empty() && (out.back() == '\n' || out.back() == ' ')) out.pop_back();
   return out + items + "}\n";
+}
+
+// Whether `--filter` keeps a channel: its label or its address contains it.
+bool channel_shown(const io::ChannelDesc& d, const std::string& filter) {
+  return filter.empty() || std::strstr(d.label, filter.c_str()) || std::strstr(d.key, filter.c_str());
+}
+
+// Labels and keys are letters, digits, '_', '-', '.', '/' (nothing to escape).
+std::string monitor_json(const io::ProcessImage& img, const io::Liveness& live, const std::string& filter) {
+  const io::ImageHeader& h = img.header();
+  std::string out = fmt::format("{{\n  \"runtime\": \"{}\", \"pid\": {}, \"alive\": {},\n  \"tasks\": [", h.name,
+                                h.pid, live.alive ? "true" : "false");
+  for (uint32_t t = 0; t < h.n_tasks; ++t) {
+    const io::TaskInfo& ti = img.task_info(t);
+    out += fmt::format("{}\n    {{\"name\": \"{}\", \"state\": \"{}\", \"swaps\": {}, \"block_errors\": {}, "
+                       "\"input_misses\": {}}}",
+                       t ? "," : "", ti.name,
+                       live.alive ? io::task_state_name(static_cast<io::TaskState>(ti.state.load())) : "not running",
+                       ti.swaps.load(), ti.block_errors.load(), ti.input_misses.load());
+  }
+  out += h.n_tasks ? "\n  ],\n  \"channels\": [" : "],\n  \"channels\": [";
+  bool first = true;
+  for (uint32_t c = 0; c < img.channel_count(); ++c) {
+    const io::ChannelDesc& d = img.channel(c);
+    if (!channel_shown(d, filter)) continue;
+    const io::ChannelValue v = img.read_channel(c);
+    const io::RegionDesc& r = img.region(d.region);
+    const bool unwired = r.kind == static_cast<uint8_t>(io::RegionKind::kUnwired);
+    const bool output = d.dir == static_cast<uint8_t>(io::ChannelDir::kOutput);
+    const bool unsent = output && d.has_delivery == 0;
+    const char* quality = !live.alive ? "stale" : unwired || !v.fresh ? "bad" : quality_name(v.quality);
+    const std::string value = std::isfinite(v.value) ? fmt::format("{}", v.value) : "null";
+    const std::string age = v.timestamp_ns != 0 ? fmt::format("{:.3f}", io::age_s(v.timestamp_ns)) : "null";
+    out += fmt::format("{}\n    {{\"label\": \"{}\", \"dir\": \"{}\", \"channel\": \"{}\", \"value\": {}, "
+                       "\"quality\": \"{}\", \"age_s\": {}, \"writer\": \"{}\", \"forced\": {}",
+                       first ? "" : ",", d.label, d.dir == 0 ? "input" : output ? "output" : "setpoint", d.key, value,
+                       quality, age, unwired ? "" : r.name, v.forced ? "true" : "false");
+    if (output) {
+      const auto p = static_cast<config::OnBad>(d.on_bad);
+      out += fmt::format(", \"sent_by_a_driver\": {}, \"on_bad\": \"{}\"", unsent ? "false" : "true",
+                         config::on_bad_name(p));
+      if (p == config::OnBad::kSafe) out += fmt::format(", \"safe_value\": {}", d.safe_value);
+    }
+    out += "}";
+    first = false;
+  }
+  out += first ? "]\n}\n" : "\n  ]\n}\n";
+  return with_forced_json(img, with_links_json(img, out));
+}
+
+std::string stats_json(const io::ProcessImage& img) {
+  const auto views = read_task_stats(img);
+  return with_forced_json(img, with_links_json(img, render_json(views, summary_of(img, views))));
 }
 
 }  // namespace rtplc::sched

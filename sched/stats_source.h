@@ -79,4 +79,15 @@ std::string render_forced(const io::ProcessImage& image);
 // The stats JSON object with a "forced" array added.
 std::string with_forced_json(const io::ProcessImage& image, const std::string& json);
 
+// Whether a `--filter` keeps a channel: its label or its address contains it.
+bool channel_shown(const io::ChannelDesc& d, const std::string& filter);
+// `rtplc monitor --json` and the operator API's `values`: the same facts as the
+// monitor's table (tasks, channels with value, quality, age, forced and an
+// output's on_bad policy, links, forced), one JSON object. Labels and keys are
+// letters, digits, '_', '-', '.', '/': nothing to escape.
+std::string monitor_json(const io::ProcessImage& img, const io::Liveness& live, const std::string& filter);
+// `rtplc stats --json` and the operator API's `stats`: the tasks' timing
+// statistics, links and forced channels as one JSON object.
+std::string stats_json(const io::ProcessImage& img);
+
 }  // namespace rtplc::sched

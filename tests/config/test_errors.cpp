@@ -64,7 +64,7 @@ TEST(ConfigErrors, unknown_key_far_from_any_lists_the_known_ones) {
   LoadResult r = parse("runtime:\n  colour: blue\ntasks: [{program: a.fbd}]\n");
   EXPECT_TRUE(has_diag(r, 2, 3,
                        "unknown key 'colour' in the runtime section; expected one of: name, "
-                       "socket, retain_file, programs, monitor_group, priority_band, cpu_dma_latency, lock_memory"));
+                       "socket, retain_file, programs, monitor_group, operators, priority_band, cpu_dma_latency, lock_memory"));
 }
 
 TEST(ConfigErrors, unknown_top_level_and_plant_keys) {

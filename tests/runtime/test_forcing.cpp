@@ -6,6 +6,7 @@
 // set-point's configured range (and non-finite ones) naming the range; the CLI
 // exits non-zero on every refusal.
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 #include <unistd.h>
 
 #include <chrono>
@@ -116,18 +117,23 @@ TEST_F(Forcing, a_forced_output_is_what_the_driver_sends_and_the_monitor_shows) 
   const test::ToolRun stats = test::run_tool("stats --name " + rt_->name());
   EXPECT_NE(stats.out.find("FORCED: 1 channel: ManiVal (output) = 7.25"), std::string::npos) << stats.out;
   const test::ToolRun json = test::run_tool("stats --json --name " + rt_->name());
-  EXPECT_NE(json.out.find("\"forced\": [\n    {\"label\": \"ManiVal\", \"dir\": \"output\", \"value\": 7.25}"),
-            std::string::npos)
-      << json.out;
+  const nlohmann::json sj = nlohmann::json::parse(json.out, nullptr, false);
+  ASSERT_TRUE(sj.is_object() && sj["forced"].is_array() && sj["forced"].size() == 1) << json.out;
+  EXPECT_EQ(sj["forced"][0], (nlohmann::json{{"label", "ManiVal"}, {"dir", "output"}, {"value", 7.25}})) << json.out;
   // The monitor's JSON says the same: value, quality forced, the policy.
   const test::ToolRun mj = test::run_tool("monitor --json --name " + rt_->name() + " --filter ManiVal");
   EXPECT_EQ(mj.status, 0) << mj.out;
-  EXPECT_NE(mj.out.find("{\"label\": \"ManiVal\", \"dir\": \"output\", \"channel\": \"out/DIO/p0.d0.c0\", "
-                        "\"value\": 7.25, \"quality\": \"forced\""),
-            std::string::npos)
-      << mj.out;
-  EXPECT_NE(mj.out.find("\"forced\": true, \"sent_by_a_driver\": true, \"on_bad\": \"hold\"}"), std::string::npos)
-      << mj.out;
+  const nlohmann::json m = nlohmann::json::parse(mj.out, nullptr, false);
+  ASSERT_TRUE(m.is_object() && m["channels"].is_array() && m["channels"].size() == 1) << mj.out;
+  const nlohmann::json& c = m["channels"][0];
+  EXPECT_EQ(c["label"], "ManiVal");
+  EXPECT_EQ(c["dir"], "output");
+  EXPECT_EQ(c["channel"], "out/DIO/p0.d0.c0");
+  EXPECT_EQ(c["value"], 7.25);
+  EXPECT_EQ(c["quality"], "forced");
+  EXPECT_EQ(c["forced"], true);
+  EXPECT_EQ(c["sent_by_a_driver"], true);
+  EXPECT_EQ(c["on_bad"], "hold");
   ASSERT_TRUE(rt_->unforce("ManiVal").ok());
   EXPECT_TRUE(eventually([&] { return sent_value(*rt_, "ManiVal") != 7.25; }));
   EXPECT_FALSE(read_label(*rt_, "ManiVal").forced);
@@ -218,6 +224,7 @@ TEST_F(Forcing, the_control_socket_logs_each_force_with_the_peer_uid_and_the_tim
   auto st = control_request(rt_->socket_path(), "status");
   ASSERT_TRUE(st.ok());
   const std::string uid = "by uid " + std::to_string(geteuid());
+  const std::string who = "by " + OperatorApi::name_of_uid(geteuid());
   EXPECT_NE(st->find("FORCED input ProcVal = 12.5 since 20"), std::string::npos) << *st;
   EXPECT_NE(st->find(uid), std::string::npos) << *st;
   ASSERT_TRUE(control_request(rt_->socket_path(), "unforce ProcVal").ok());
@@ -226,7 +233,7 @@ TEST_F(Forcing, the_control_socket_logs_each_force_with_the_peer_uid_and_the_tim
   std::lock_guard<std::mutex> g(m);
   auto has = [&](const std::string& a, const std::string& b) {
     for (const std::string& l : lines) {
-      if (l.find(a) != std::string::npos && l.find(b) != std::string::npos && l.find(uid + " at 20") != std::string::npos &&
+      if (l.find(a) != std::string::npos && l.find(b) != std::string::npos && l.find(who + " at 20") != std::string::npos &&
           l.find("Z") != std::string::npos)
         return true;
     }

@@ -6,6 +6,7 @@
 // an output, never gets a number for a channel gone bad, and many masters at
 // once are each answered. Tests skip, saying why, when mbpoll is missing.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <fcntl.h>
 #include <netinet/in.h>
@@ -154,7 +155,8 @@ TEST_F(ServerRuntime, a_set_point_written_by_mbpoll_is_taken_and_retained_like_r
   const Mbpoll w = mbpoll(port_, "-t 4:float -r 0 127.0.0.1 60");
   ASSERT_EQ(w.status, 0) << w.out;
   EXPECT_EQ(value("Setpoint"), 60);
-  EXPECT_NE(retained().find("Setpoint"), std::string::npos) << retained();
+  // Retained with the control thread's next save (its tick).
+  ASSERT_TRUE(rt_->flush_setpoints());
   EXPECT_NE(retained().find("Setpoint 60\n"), std::string::npos) << retained();
   // The loop follows: 60 - 42.5.
   EXPECT_TRUE(eventually([&] { return value("ManiVal") == 17.5; })) << value("ManiVal");
@@ -177,12 +179,43 @@ TEST_F(ServerRuntime, rtplc_set_and_scada_writes_at_once_leave_the_image_and_the
   });
   for (int i = 0; i < 5; ++i) EXPECT_EQ(mbpoll(port_, "-t 4:float -r 0 127.0.0.1 77").status, 0);
   operator_thread.join();
+  ASSERT_TRUE(rt_->flush_setpoints());
   const double now = value("Setpoint");
   EXPECT_TRUE(now == 40 || now == 77) << now;
   const std::string kept = retained();
   const std::string expect = now == 40 ? "Setpoint 40\n" : "Setpoint 77\n";
   EXPECT_NE(kept.find(expect), std::string::npos) << kept << " vs " << now;
   EXPECT_TRUE(eventually([&] { return server_row().writes_acked.load() == 5; }));  // the row follows a cycle later
+}
+
+// Network writes are not fsynced one by one: a SCADA writing a set-point many
+// times a second costs one save per control tick. The retain file is replaced
+// (a new inode) by each save, so its inode tells how many happened.
+TEST_F(ServerRuntime, set_point_writes_over_modbus_are_saved_together_not_one_fsync_each) {
+  ASSERT_TRUE(rt_->flush_setpoints());
+  ASSERT_TRUE(rt_->set_value("Setpoint", 51).ok());  // durable: on disk now
+  struct stat before {};
+  ASSERT_EQ(stat(rt_->retain_path().c_str(), &before), 0);
+  for (int v = 61; v <= 65; ++v) {
+    ASSERT_EQ(mbpoll(port_, "-t 4:float -r 0 127.0.0.1 " + std::to_string(v)).status, 0);
+  }
+  EXPECT_EQ(value("Setpoint"), 65);
+  struct stat mid {};
+  ASSERT_EQ(stat(rt_->retain_path().c_str(), &mid), 0);
+  EXPECT_EQ(mid.st_ino, before.st_ino) << "a Modbus write saved the retain file on its own";
+  EXPECT_NE(retained().find("Setpoint 51\n"), std::string::npos) << retained();
+  ASSERT_TRUE(rt_->flush_setpoints());  // what the control thread's tick does
+  struct stat after {};
+  ASSERT_EQ(stat(rt_->retain_path().c_str(), &after), 0);
+  EXPECT_NE(after.st_ino, before.st_ino);
+  EXPECT_NE(retained().find("Setpoint 65\n"), std::string::npos) << retained();
+  // Every write is in the audit trail, as the driver's own caller.
+  std::ifstream audit(rt_->api().audit().path());
+  std::stringstream trail;
+  trail << audit.rdbuf();
+  EXPECT_NE(trail.str().find("driver scada (modbus-server) [operator] set label=Setpoint value=63: Setpoint = 63 (was 62)"),
+            std::string::npos)
+      << trail.str();
 }
 
 TEST_F(ServerRuntime, a_write_to_an_output_is_refused_and_the_output_stays_the_tasks) {
