@@ -70,13 +70,9 @@ std::string api_json(const ViewArgs& a, const char* op, const char* key) {
   if (!a.filter.empty()) req["args"]["filter"] = a.filter;
   auto answer = sched::api_request(sched::control_socket_of(a.name, ""), req, "", 5000);
   if (!answer || !answer->value("ok", false) || !(*answer)["result"].contains(key)) return "";
-  return (*answer)["result"][key].dump(2) + "\n";
-}
-
-// The image's document in the same layout as the API's.
-std::string pretty(const std::string& json_text) {
-  const nlohmann::json j = nlohmann::json::parse(json_text, nullptr, false);
-  return j.is_discarded() ? json_text : j.dump(2) + "\n";
+  // The answer's text is the document as the runtime rendered it (its object
+  // beside it is the same, parsed): printed as is, the layout of the image's.
+  return (*answer)["result"].value("text", std::string());
 }
 
 void run_stats(const ViewArgs& a) {
@@ -92,7 +88,7 @@ void run_stats(const ViewArgs& a) {
     }
     const io::Liveness live = img.liveness();
     std::string via_api = a.json && live.alive ? api_json(a, "stats", "stats") : "";
-    std::string text = a.json ? (via_api.empty() ? pretty(sched::stats_json(img)) : via_api)
+    std::string text = a.json ? (via_api.empty() ? sched::stats_json(img) : via_api)
                               : sched::render_table(views, summary) + sched::render_links_table(img) +
                                     sched::render_forced(img);
     if (a.watch > 0 && !a.json && isatty(STDOUT_FILENO)) std::fputs("\x1b[H\x1b[2J", stdout);
@@ -126,7 +122,7 @@ void run_monitor(const ViewArgs& a) {
   if (a.json) {
     const io::Liveness live = img.liveness();
     const std::string via_api = live.alive ? api_json(a, "values", "monitor") : "";
-    std::fputs((via_api.empty() ? pretty(sched::monitor_json(img, live, a.filter)) : via_api).c_str(), stdout);
+    std::fputs((via_api.empty() ? sched::monitor_json(img, live, a.filter) : via_api).c_str(), stdout);
     std::fflush(stdout);
     if (!live.alive) {
       std::fprintf(stderr, "rtplc monitor: %s\n", not_running(img, live).c_str());
