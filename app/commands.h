@@ -22,6 +22,7 @@ void add_trace_command(CLI::App& app);
 void add_doctor_command(CLI::App& app);
 void add_fieldbus_command(CLI::App& app);  // fieldbus plan
 void add_analyze_command(CLI::App& app);   // analyze (Petri nets)
+void add_web_command(CLI::App& app);       // web, web user
 // Driver kinds add their own commissioning commands (io/drivers/driver.h).
 void add_driver_commands(CLI::App& app);
 

@@ -59,6 +59,7 @@ int main(int argc, char** argv) {
   rtplc::app::add_analyze_command(app);
   rtplc::app::add_driver_commands(app);
   rtplc::app::add_fieldbus_command(app);
+  rtplc::app::add_web_command(app);
 
   if (argc > 1 && unknown_command(app, argv[1])) return rtplc::app::kExitUsage;
   try {

@@ -203,6 +203,36 @@ ApiAnswer OperatorApi::call(const Caller& caller, const json& request, const std
   const std::string op = op_field->get<std::string>();
   const OpSpec* spec = spec_of(op);
   if (spec == nullptr) return ApiAnswer::failure("unknown_op", "unknown op '" + op + "' (one of " + op_list() + ")");
+  // A front end that runs as the runtime's owner (the web console) asks on
+  // behalf of the user it authenticated: {"as": {"via": "web", "user": "alice",
+  // "role": "operator"}}. Only an admin peer may; the role is the lower of both.
+  Caller eff = caller;
+  if (const json* as = arg(request, "as")) {
+    if (!role_allows(caller.role, Role::kAdmin)) {
+      ApiAnswer a = ApiAnswer::failure("forbidden", caller.who + " may not ask on behalf of another user");
+      record(caller, op, op + " (on behalf of another user)", a);
+      return a;
+    }
+    const json* user = arg(*as, "user");
+    const json* role = arg(*as, "role");
+    const json* via = arg(*as, "via");
+    auto printable = [](const json* v) {
+      if (v == nullptr || !v->is_string()) return false;
+      const std::string& t = v->get_ref<const std::string&>();
+      if (t.empty() || t.size() > 64) return false;
+      for (char c : t) {
+        if (static_cast<unsigned char>(c) <= ' ' || c == 0x7f) return false;
+      }
+      return true;
+    };
+    Role claimed = Role::kNone;
+    if (role != nullptr && role->is_string()) claimed = parse_role(role->get<std::string>()).value_or(Role::kNone);
+    if (!printable(user) || !printable(via) || claimed == Role::kNone) {
+      return ApiAnswer::failure("bad_request", "\"as\" takes {\"via\": NAME, \"user\": NAME, \"role\": ROLE}");
+    }
+    eff.who = via->get<std::string>() + " " + user->get<std::string>();
+    eff.role = role_allows(caller.role, claimed) ? claimed : caller.role;
+  }
   const json* args_field = arg(request, "args");
   const json args = args_field != nullptr ? *args_field : json::object();
   if (!args.is_object()) return ApiAnswer::failure("bad_request", "\"args\" must be an object");
@@ -215,14 +245,14 @@ ApiAnswer OperatorApi::call(const Caller& caller, const json& request, const std
   }
   if (op == "swap") asked += " (" + std::to_string(payload.size()) + " bytes of source)";
   ApiAnswer a;
-  if (!role_allows(caller.role, spec->role)) {
-    a = ApiAnswer::failure("forbidden", caller.who + " is " + (caller.role == Role::kNone ? "not an operator" : std::string("a ") + role_name(caller.role)) +
+  if (!role_allows(eff.role, spec->role)) {
+    a = ApiAnswer::failure("forbidden", eff.who + " is " + (eff.role == Role::kNone ? "not an operator" : std::string("a ") + role_name(eff.role)) +
                                              " of runtime " + rt_.name() + "; '" + op + "' needs the role " +
                                              role_name(spec->role) + " (runtime.operators in its config)");
   } else {
-    a = run(caller, op, args, payload);
+    a = run(eff, op, args, payload);
   }
-  if (spec->write || a.code == "forbidden") record(caller, op, asked, a);
+  if (spec->write || a.code == "forbidden") record(eff, op, asked, a);
   return a;
 }
 

@@ -7,6 +7,10 @@
 //   {"v": 1, "ok": true,  "op": NAME, "result": {..., "text": "what the CLI prints"}}
 //   {"v": 1, "ok": false, "op": NAME, "error": {"code": CODE, "message": "..."}}
 // with CODE one of bad_request, unknown_op, forbidden, refused, version, busy.
+// A front end running as the runtime's owner (the web console) adds
+// "as": {"via": "web", "user": NAME, "role": ROLE} to ask on behalf of the
+// user it authenticated: the caller is then "web NAME" with the lower of the
+// two roles, in the audit trail as such.
 //
 //   op           role      args                                  result (besides text)
 //   ping         viewer    -                                     name, api

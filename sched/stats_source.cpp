@@ -296,6 +296,12 @@ std::string with_forced_json(const io::ProcessImage& img, const std::string& jso
 }
 
 // Whether `--filter` keeps a channel: its label or its address contains it.
+const char* shown_quality(const io::ProcessImage& img, uint32_t c, const io::ChannelValue& v, const io::Liveness& live) {
+  const io::RegionDesc& r = img.region(img.channel(c).region);
+  const bool unwired = r.kind == static_cast<uint8_t>(io::RegionKind::kUnwired);
+  return !live.alive ? "stale" : unwired || !v.fresh ? "bad" : quality_name(v.quality);
+}
+
 bool channel_shown(const io::ChannelDesc& d, const std::string& filter) {
   return filter.empty() || std::strstr(d.label, filter.c_str()) || std::strstr(d.key, filter.c_str());
 }
@@ -323,7 +329,7 @@ std::string monitor_json(const io::ProcessImage& img, const io::Liveness& live, 
     const bool unwired = r.kind == static_cast<uint8_t>(io::RegionKind::kUnwired);
     const bool output = d.dir == static_cast<uint8_t>(io::ChannelDir::kOutput);
     const bool unsent = output && d.has_delivery == 0;
-    const char* quality = !live.alive ? "stale" : unwired || !v.fresh ? "bad" : quality_name(v.quality);
+    const char* quality = shown_quality(img, c, v, live);
     const std::string value = std::isfinite(v.value) ? fmt::format("{}", v.value) : "null";
     const std::string age = v.timestamp_ns != 0 ? fmt::format("{:.3f}", io::age_s(v.timestamp_ns)) : "null";
     out += fmt::format("{}\n    {{\"label\": \"{}\", \"dir\": \"{}\", \"channel\": \"{}\", \"value\": {}, "

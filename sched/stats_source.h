@@ -79,6 +79,11 @@ std::string render_forced(const io::ProcessImage& image);
 // The stats JSON object with a "forced" array added.
 std::string with_forced_json(const io::ProcessImage& image, const std::string& json);
 
+// The status a viewer is shown for channel `c` read as `v`: "stale" for every
+// value of a runtime that is not running, "bad" for an input no driver
+// provides or a reading that was not consistent, else the value's own
+// (good, bad, uncertain, forced; common/quality.h).
+const char* shown_quality(const io::ProcessImage& img, uint32_t c, const io::ChannelValue& v, const io::Liveness& live);
 // Whether a `--filter` keeps a channel: its label or its address contains it.
 bool channel_shown(const io::ChannelDesc& d, const std::string& filter);
 // `rtplc monitor --json` and the operator API's `values`: the same facts as the

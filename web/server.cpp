@@ -1,0 +1,505 @@
+// The web console's server (see server.h; routes and their roles in docs/web.md).
+#include "web/server.h"
+
+#include <httplib.h>
+#include <pwd.h>
+#include <sodium.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <nlohmann/json.hpp>
+
+#include "io/process_image.h"
+#include "kernel_rt/clock.h"
+#include "kernel_rt/rt_thread.h"
+#include "sched/control.h"
+#include "sched/stats_source.h"
+#include "web/ui_assets.h"
+
+namespace rtplc::web {
+namespace {
+
+using nlohmann::json;
+
+constexpr const char* kCookie = "rtplc_session";
+constexpr int kMaxFailures = 5;          // failed logins per address ...
+constexpr int64_t kFailureWindowNs = 60'000'000'000;  // ... per minute
+constexpr size_t kMaxBody = 16u << 20;   // a swap's source and some JSON
+
+std::string random_token() {
+  unsigned char b[32];
+  randombytes_buf(b, sizeof b);
+  char hex[sizeof b * 2 + 1];
+  sodium_bin2hex(hex, sizeof hex, b, sizeof b);
+  return hex;
+}
+
+// Compares two tokens in constant time.
+bool same_token(const std::string& a, const std::string& b) {
+  return a.size() == b.size() && sodium_memcmp(a.data(), b.data(), a.size()) == 0;
+}
+
+std::string cookie_value(const httplib::Request& req, const std::string& name) {
+  const std::string all = req.get_header_value("Cookie");
+  size_t at = 0;
+  while (at < all.size()) {
+    size_t end = all.find(';', at);
+    if (end == std::string::npos) end = all.size();
+    std::string part = all.substr(at, end - at);
+    while (!part.empty() && part.front() == ' ') part.erase(part.begin());
+    if (part.rfind(name + "=", 0) == 0) return part.substr(name.size() + 1);
+    at = end + 1;
+  }
+  return "";
+}
+
+void reply(httplib::Response& res, int status, const json& body) {
+  res.status = status;
+  res.set_content(body.dump(-1, ' ', false, json::error_handler_t::replace), "application/json");
+}
+
+void fail(httplib::Response& res, int status, const std::string& code, const std::string& message) {
+  reply(res, status, json{{"ok", false}, {"error", {{"code", code}, {"message", message}}}});
+}
+
+// The API's error codes as HTTP statuses.
+int status_of(const std::string& code) {
+  if (code == "forbidden") return 403;
+  if (code == "bad_request") return 400;
+  if (code == "unknown_op") return 404;
+  if (code == "refused") return 409;
+  if (code == "busy") return 503;
+  return 502;
+}
+
+std::string owner_name() {
+  const passwd* pw = getpwuid(geteuid());
+  return pw != nullptr ? pw->pw_name : "uid" + std::to_string(geteuid());
+}
+
+}  // namespace
+
+bool is_loopback(const std::string& host) {
+  return host == "localhost" || host == "::1" || host.rfind("127.", 0) == 0;
+}
+
+WebConsole::WebConsole(WebOptions opt)
+    : opt_(std::move(opt)), users_(opt_.users_path.empty() ? default_users_path(opt_.runtime_name) : opt_.users_path) {}
+
+WebConsole::~WebConsole() { stop(); }
+
+std::string WebConsole::origin() const {
+  // A link for people: a wildcard address becomes this machine's name.
+  std::string host = opt_.host;
+  if (host == "0.0.0.0" || host == "::") {
+    char name[256] = {};
+    host = gethostname(name, sizeof name - 1) == 0 && name[0] ? name : "localhost";
+  }
+  return std::string(opt_.tls_cert.empty() ? "http://" : "https://") +
+         (host.find(':') != std::string::npos ? "[" + host + "]" : host) + ":" + std::to_string(port_);
+}
+
+// The origin the browser reached us at (its Host header): a page of ours sends
+// exactly this as its Origin; a page of any other site cannot.
+std::string WebConsole::origin_of(const httplib::Request& req) const {
+  return std::string(opt_.tls_cert.empty() ? "http://" : "https://") + req.get_header_value("Host");
+}
+
+Result<void> WebConsole::start() {
+  if (sodium_init() < 0) return make_error("libsodium could not be initialised");
+  const bool tls = !opt_.tls_cert.empty() || !opt_.tls_key.empty();
+  if (tls && (opt_.tls_cert.empty() || opt_.tls_key.empty())) {
+    return make_error("TLS needs both --tls-cert and --tls-key");
+  }
+  if (!tls && !is_loopback(opt_.host)) {
+    return make_error("--listen " + opt_.host + " reaches beyond this machine: that needs TLS (--tls-cert FILE "
+                      "--tls-key FILE), or listen on 127.0.0.1 and reach it through an SSH tunnel");
+  }
+  socket_ = sched::control_socket_of(opt_.runtime_name, opt_.socket);
+  if (tls) {
+    for (const std::string& f : {opt_.tls_cert, opt_.tls_key}) {
+      if (access(f.c_str(), R_OK) != 0) return make_error("cannot read " + f);
+    }
+    auto s = std::make_unique<httplib::SSLServer>(opt_.tls_cert.c_str(), opt_.tls_key.c_str());
+    if (!s->is_valid()) {
+      return make_error("cannot use " + opt_.tls_cert + " and " + opt_.tls_key +
+                        " as a certificate and its key (PEM files that belong together)");
+    }
+    http_ = std::move(s);
+  } else {
+    http_ = std::make_unique<httplib::Server>();
+  }
+  // A thread per connection (a live stream holds one): up to 64 at once.
+  http_->new_task_queue = [] { return new httplib::ThreadPool(64); };
+  http_->set_payload_max_length(kMaxBody);
+  http_->set_read_timeout(10, 0);
+  http_->set_write_timeout(5, 0);  // a client that stops reading frees its thread
+  http_->set_keep_alive_timeout(5);
+  routes();
+  if (opt_.port == 0) {
+    port_ = http_->bind_to_any_port(opt_.host);
+  } else {
+    port_ = http_->bind_to_port(opt_.host, opt_.port) ? opt_.port : -1;
+  }
+  if (port_ <= 0) {
+    return make_error("cannot listen on " + opt_.host + ":" + std::to_string(opt_.port) +
+                      " (in use, or not an address of this machine; --listen HOST:PORT chooses another)");
+  }
+  kernel_rt::ThreadSpec spec;  // an ordinary thread: the console is below every task
+  spec.name = "rtplc:web-sample";
+  auto t = kernel_rt::start_thread(spec, [this] { sample_loop(); });
+  if (!t) return make_error("sampler thread: " + t.error());
+  sampler_ = std::move(t).value();
+  return {};
+}
+
+void WebConsole::run() {
+  if (http_) http_->listen_after_bind();
+}
+
+void WebConsole::stop() {
+  quit_.store(true);
+  snap_cv_.notify_all();
+  if (http_) http_->stop();
+  if (sampler_.joinable()) sampler_.join();
+}
+
+std::string WebConsole::login_link() {
+  const std::string token = random_token();
+  std::lock_guard lock(mu_);
+  link_tokens_[token] = kernel_rt::monotonic_now_ns() + int64_t{opt_.link_minutes} * 60'000'000'000;
+  return origin() + "/login?token=" + token;
+}
+
+bool WebConsole::login_throttled(const std::string& addr, bool failed_now) {
+  std::lock_guard lock(mu_);
+  std::vector<int64_t>& f = failures_[addr];
+  const int64_t now = kernel_rt::monotonic_now_ns();
+  f.erase(std::remove_if(f.begin(), f.end(), [now](int64_t t) { return now - t > kFailureWindowNs; }), f.end());
+  if (failed_now) f.push_back(now);
+  return static_cast<int>(f.size()) >= kMaxFailures;
+}
+
+const WebConsole::Session* WebConsole::session_of(const httplib::Request& req, std::string* token) {
+  const std::string t = cookie_value(req, kCookie);
+  if (t.empty()) return nullptr;
+  const int64_t now = kernel_rt::monotonic_now_ns();
+  auto it = sessions_.find(t);
+  if (it == sessions_.end()) return nullptr;
+  if (now - it->second.last_used_ns > int64_t{opt_.session_idle_minutes} * 60'000'000'000) {
+    sessions_.erase(it);
+    return nullptr;
+  }
+  it->second.last_used_ns = now;
+  if (token != nullptr) *token = t;
+  return &it->second;
+}
+
+// Deny by default: a route names the role it needs; the request must carry a
+// live session of at least that role, and a state-changing one also its CSRF
+// token and no Origin but ours.
+int WebConsole::guard(const httplib::Request& req, httplib::Response& res, Role need, bool state_changing,
+                      Session* out) {
+  const std::string from = req.get_header_value("Origin");
+  if (!from.empty() && from != origin_of(req)) {
+    fail(res, 403, "forbidden", "requests from " + from + " are refused: this console serves " + origin_of(req) + " only");
+    return 403;
+  }
+  std::lock_guard lock(mu_);
+  const Session* s = session_of(req);
+  if (s == nullptr) {
+    fail(res, 401, "unauthenticated", "log in first");
+    return 401;
+  }
+  if (!role_allows(s->role, need)) {
+    fail(res, 403, "forbidden",
+         s->user + " is a " + role_name(s->role) + "; this needs the role " + role_name(need));
+    return 403;
+  }
+  if (state_changing && !same_token(req.get_header_value("X-CSRF-Token"), s->csrf)) {
+    fail(res, 403, "forbidden", "missing or wrong X-CSRF-Token (GET /api/session gives it)");
+    return 403;
+  }
+  *out = *s;
+  return 0;
+}
+
+// One route, one operator API op, on behalf of the session's user.
+void WebConsole::api(const httplib::Request& req, httplib::Response& res, const std::string& op, Role need) {
+  const bool post = req.method == "POST";
+  Session s;
+  if (guard(req, res, need, post, &s) != 0) return;
+  json body = json::object();
+  if (post) {
+    body = json::parse(req.body, nullptr, false);
+    if (!body.is_object()) return fail(res, 400, "bad_request", "the body must be a JSON object");
+  }
+  json args = json::object();
+  std::string payload;
+  auto copy = [&](const char* key, bool required) -> bool {
+    if (body.contains(key)) {
+      args[key] = body[key];
+      return true;
+    }
+    if (required) fail(res, 400, "bad_request", std::string("'") + key + "' is missing");
+    return !required;
+  };
+  if (op == "set" || op == "force") {
+    if (!copy("label", true) || !copy("value", true)) return;
+  } else if (op == "unforce") {
+    if (!copy("label", true)) return;
+  } else if (op == "swap") {
+    if (!copy("task", true)) return;
+    if (!body.contains("source") || !body["source"].is_string()) {
+      return fail(res, 400, "bad_request", "'source' must be the program's text");
+    }
+    payload = body["source"].get<std::string>();
+    args["name"] = body.contains("name") && body["name"].is_string() ? body["name"].get<std::string>() : "web-upload";
+    copy("drop_outputs", false);
+  } else if (op == "rollback") {
+    if (!copy("task", true)) return;
+    copy("drop_outputs", false);
+  } else if (op == "audit") {
+    const std::string n = req.get_param_value("lines");
+    if (!n.empty()) {
+      char* end = nullptr;
+      const long v = std::strtol(n.c_str(), &end, 10);
+      if (*end != '\0') return fail(res, 400, "bad_request", "lines must be a number");
+      args["lines"] = v;
+    }
+  }
+  const json request = {{"op", op}, {"args", args}, {"as", {{"via", "web"}, {"user", s.user}, {"role", role_name(s.role)}}}};
+  auto answer = sched::api_request(socket_, request, payload, op == "swap" ? 60000 : 10000);
+  if (!answer) return fail(res, 502, "unreachable", answer.error());
+  if (answer->value("ok", false)) return reply(res, 200, *answer);
+  const std::string code = (*answer)["error"].value("code", "refused");
+  reply(res, status_of(code), *answer);
+}
+
+void WebConsole::routes() {
+  httplib::Headers headers = {
+      {"Content-Security-Policy", "default-src 'self'; frame-ancestors 'none'; base-uri 'none'; form-action 'self'"},
+      {"X-Content-Type-Options", "nosniff"},
+      {"Referrer-Policy", "no-referrer"},
+      {"X-Frame-Options", "DENY"},
+      {"Cache-Control", "no-store"},
+  };
+  if (!opt_.tls_cert.empty()) headers.emplace("Strict-Transport-Security", "max-age=31536000");
+  http_->set_default_headers(headers);
+
+  for (size_t i = 0; i < kUiAssetCount; ++i) {
+    const UiAsset& a = kUiAssets[i];
+    const std::string path = std::string(a.path) == "/index.html" ? "/" : a.path;
+    http_->Get(path, [a](const httplib::Request&, httplib::Response& res) { res.set_content(a.body, a.type); });
+  }
+
+  http_->Post("/api/login", [this](const httplib::Request& req, httplib::Response& res) {
+    const std::string from = req.get_header_value("Origin");
+    if (!from.empty() && from != origin_of(req)) return fail(res, 403, "forbidden", "requests from " + from + " are refused");
+    if (login_throttled(req.remote_addr, false)) {
+      return fail(res, 429, "throttled", "too many failed logins from " + req.remote_addr + "; wait a minute");
+    }
+    const json body = json::parse(req.body, nullptr, false);
+    const std::string user = body.is_object() && body.contains("user") && body["user"].is_string() ? body["user"].get<std::string>() : "";
+    const std::string pass = body.is_object() && body.contains("password") && body["password"].is_string()
+                                 ? body["password"].get<std::string>()
+                                 : "";
+    const auto role = UserFile::valid_name(user) ? users_.check(user, pass) : std::nullopt;
+    if (!role) {
+      login_throttled(req.remote_addr, true);
+      return fail(res, 401, "unauthenticated", "wrong user name or password");
+    }
+    Session s{user, *role, random_token(), kernel_rt::monotonic_now_ns()};
+    const std::string token = random_token();
+    {
+      std::lock_guard lock(mu_);
+      sessions_[token] = s;
+    }
+    res.set_header("Set-Cookie", std::string(kCookie) + "=" + token + "; Path=/; HttpOnly; SameSite=Strict" +
+                                     (opt_.tls_cert.empty() ? "" : "; Secure"));
+    reply(res, 200, json{{"ok", true}, {"user", s.user}, {"role", role_name(s.role)}, {"csrf", s.csrf}});
+  });
+
+  // The owner's one-time link: an admin session, once, within link_minutes.
+  http_->Get("/login", [this](const httplib::Request& req, httplib::Response& res) {
+    const std::string t = req.get_param_value("token");
+    bool ok = false;
+    std::string session_token;
+    {
+      std::lock_guard lock(mu_);
+      for (auto it = link_tokens_.begin(); it != link_tokens_.end(); ++it) {
+        if (!same_token(it->first, t)) continue;
+        ok = kernel_rt::monotonic_now_ns() < it->second;
+        link_tokens_.erase(it);  // used or expired: gone either way
+        break;
+      }
+      if (ok) {
+        session_token = random_token();
+        sessions_[session_token] = Session{owner_name(), Role::kAdmin, random_token(), kernel_rt::monotonic_now_ns()};
+      }
+    }
+    if (!ok) {
+      res.status = 401;
+      res.set_content("This login link is used up, expired or wrong. Run `rtplc web` again for a new one, "
+                      "or log in with a user name (rtplc web user add).\n",
+                      "text/plain");
+      return;
+    }
+    res.set_header("Set-Cookie", std::string(kCookie) + "=" + session_token + "; Path=/; HttpOnly; SameSite=Strict" +
+                                     (opt_.tls_cert.empty() ? "" : "; Secure"));
+    res.set_redirect("/", 303);
+  });
+
+  http_->Post("/api/logout", [this](const httplib::Request& req, httplib::Response& res) {
+    Session s;
+    if (guard(req, res, Role::kViewer, true, &s) != 0) return;
+    {
+      std::lock_guard lock(mu_);
+      sessions_.erase(cookie_value(req, kCookie));
+    }
+    res.set_header("Set-Cookie", std::string(kCookie) + "=; Path=/; HttpOnly; SameSite=Strict; Max-Age=0");
+    reply(res, 200, json{{"ok", true}});
+  });
+
+  http_->Get("/api/session", [this](const httplib::Request& req, httplib::Response& res) {
+    Session s;
+    if (guard(req, res, Role::kViewer, false, &s) != 0) return;
+    reply(res, 200, json{{"ok", true}, {"user", s.user}, {"role", role_name(s.role)}, {"csrf", s.csrf},
+                         {"runtime", opt_.runtime_name}});
+  });
+
+  http_->Get("/api/status", [this](const httplib::Request& req, httplib::Response& res) {
+    api(req, res, "status", Role::kViewer);
+  });
+  http_->Get("/api/stats", [this](const httplib::Request& req, httplib::Response& res) {
+    api(req, res, "stats", Role::kViewer);
+  });
+  http_->Get("/api/audit", [this](const httplib::Request& req, httplib::Response& res) {
+    api(req, res, "audit", Role::kViewer);
+  });
+  http_->Post("/api/set", [this](const httplib::Request& req, httplib::Response& res) {
+    api(req, res, "set", Role::kOperator);
+  });
+  http_->Post("/api/force", [this](const httplib::Request& req, httplib::Response& res) {
+    api(req, res, "force", Role::kEngineer);
+  });
+  http_->Post("/api/unforce", [this](const httplib::Request& req, httplib::Response& res) {
+    api(req, res, "unforce", Role::kEngineer);
+  });
+  http_->Post("/api/swap", [this](const httplib::Request& req, httplib::Response& res) {
+    api(req, res, "swap", Role::kEngineer);
+  });
+  http_->Post("/api/rollback", [this](const httplib::Request& req, httplib::Response& res) {
+    api(req, res, "rollback", Role::kEngineer);
+  });
+
+  // Every channel with its description and current value, from the image.
+  http_->Get("/api/channels", [this](const httplib::Request& req, httplib::Response& res) {
+    Session s;
+    if (guard(req, res, Role::kViewer, false, &s) != 0) return;
+    auto img = io::ProcessImage::attach(opt_.runtime_name);
+    if (!img) return fail(res, 502, "unreachable", img.error());
+    const std::string text = sched::monitor_json(*img, img->liveness(), req.get_param_value("filter"));
+    res.set_content(text, "application/json");
+  });
+
+  // The live stream: server-sent events, one `data:` line per snapshot with
+  // the subscribed channels (all when `channels` is empty).
+  http_->Get("/api/live", [this](const httplib::Request& req, httplib::Response& res) {
+    Session s;
+    if (guard(req, res, Role::kViewer, false, &s) != 0) return;
+    std::vector<std::string> wanted;
+    const std::string list = req.get_param_value("channels");
+    for (size_t at = 0; at < list.size();) {
+      size_t end = list.find(',', at);
+      if (end == std::string::npos) end = list.size();
+      if (end > at) wanted.push_back(list.substr(at, end - at));
+      at = end + 1;
+    }
+    const std::string token = cookie_value(req, kCookie);
+    res.set_header("X-Accel-Buffering", "no");
+    res.set_chunked_content_provider(
+        "text/event-stream", [this, wanted, token, last = uint64_t{0}](size_t, httplib::DataSink& sink) mutable {
+          std::shared_ptr<const Snapshot> snap;
+          {
+            std::unique_lock lock(snap_mu_);
+            snap_cv_.wait_for(lock, std::chrono::seconds(1), [&] { return quit_.load() || (snap_ && snap_->seq != last); });
+            if (quit_.load()) return false;
+            snap = snap_;
+          }
+          {
+            std::lock_guard lock(mu_);
+            if (sessions_.find(token) == sessions_.end()) return false;  // logged out
+          }
+          if (!snap || snap->seq == last) return sink.write(": idle\n\n", 9);  // keeps proxies and the browser patient
+          last = snap->seq;
+          json values = json::array();
+          for (const Snapshot::Value& v : snap->values) {
+            if (!wanted.empty() && std::find(wanted.begin(), wanted.end(), v.label) == wanted.end()) continue;
+            values.push_back({{"label", v.label},
+                              {"value", std::isfinite(v.value) ? json(v.value) : json(nullptr)},
+                              {"quality", v.quality},
+                              {"age_s", v.age_s >= 0 ? json(v.age_s) : json(nullptr)},
+                              {"forced", v.forced}});
+          }
+          const json frame = {{"seq", snap->seq}, {"alive", snap->alive}, {"runtime", snap->runtime}, {"values", values}};
+          const std::string line = "data: " + frame.dump() + "\n\n";
+          return sink.write(line.data(), line.size());
+        });
+  });
+
+  http_->set_error_handler([](const httplib::Request& req, httplib::Response& res) {
+    if (res.status == 404 && req.path.rfind("/api/", 0) == 0) fail(res, 404, "not_found", "no route " + req.path);
+  });
+}
+
+void WebConsole::sample_loop() {
+  std::unique_ptr<io::ProcessImage> img;
+  uint64_t seq = 0;
+  const auto period_ns = static_cast<int64_t>(1e9 / std::max(0.5, opt_.sample_hz));
+  int64_t next = kernel_rt::monotonic_now_ns();
+  int64_t last_attach_ns = 0;
+  while (!quit_.load()) {
+    auto snap = std::make_shared<Snapshot>();
+    snap->seq = ++seq;
+    snap->runtime = opt_.runtime_name;
+    snap->taken_ns = kernel_rt::monotonic_now_ns();
+    io::Liveness live;
+    if (img) live = img->liveness();
+    // A runtime that restarted has a new image: attach again while ours is dead.
+    if ((!img || !live.alive) && snap->taken_ns - last_attach_ns > 1'000'000'000) {
+      last_attach_ns = snap->taken_ns;
+      if (auto a = io::ProcessImage::attach(opt_.runtime_name); a.ok()) {
+        img = std::make_unique<io::ProcessImage>(std::move(a).value());
+        live = img->liveness();
+      }
+    }
+    if (img) {
+      snap->alive = live.alive;
+      snap->values.reserve(img->channel_count());
+      for (uint32_t c = 0; c < img->channel_count(); ++c) {
+        const io::ChannelValue v = img->read_channel(c);
+        Snapshot::Value out;
+        out.label = img->channel(c).label;
+        out.value = v.value;
+        out.quality = sched::shown_quality(*img, c, v, live);
+        out.age_s = v.timestamp_ns != 0 ? io::age_s(v.timestamp_ns) : -1;
+        out.forced = v.forced;
+        snap->values.push_back(std::move(out));
+      }
+    }
+    {
+      std::lock_guard lock(snap_mu_);
+      snap_ = std::move(snap);
+    }
+    snap_cv_.notify_all();
+    next += period_ns;
+    const int64_t wait_ns = std::max<int64_t>(0, next - kernel_rt::monotonic_now_ns());
+    std::unique_lock lock(snap_mu_);
+    snap_cv_.wait_for(lock, std::chrono::nanoseconds(wait_ns), [this] { return quit_.load(); });
+  }
+}
+
+}  // namespace rtplc::web

@@ -1,0 +1,237 @@
+// The rtplc console's front end: plain DOM, no framework, every text set as
+// text (never as HTML). It talks only to the console's own routes (docs/web.md).
+'use strict';
+
+const $ = (id) => document.getElementById(id);
+let session = null;       // {user, role, csrf, runtime}
+let channels = new Map(); // label -> {row, desc}
+let live = null;
+let lastFrame = 0;
+const ROLES = ['viewer', 'operator', 'engineer', 'admin'];
+const may = (role) => session && ROLES.indexOf(session.role) >= ROLES.indexOf(role);
+
+async function call(method, path, body) {
+  const opt = { method, headers: {}, credentials: 'same-origin' };
+  if (method === 'POST') {
+    opt.headers['Content-Type'] = 'application/json';
+    if (session) opt.headers['X-CSRF-Token'] = session.csrf;
+    opt.body = JSON.stringify(body || {});
+  }
+  const res = await fetch(path, opt);
+  let data = null;
+  try { data = await res.json(); } catch (e) { data = { ok: false, error: { message: res.statusText } }; }
+  if (res.status === 401 && path !== '/api/login') showLogin();
+  return { status: res.status, data };
+}
+
+function el(tag, text, cls) {
+  const e = document.createElement(tag);
+  if (text !== undefined && text !== null) e.textContent = String(text);
+  if (cls) e.className = cls;
+  return e;
+}
+
+function showLogin() {
+  session = null;
+  if (live) { live.close(); live = null; }
+  $('console').hidden = true;
+  $('logout').hidden = true;
+  $('who').textContent = '';
+  $('login').hidden = false;
+}
+
+async function start() {
+  const s = await call('GET', '/api/session');
+  if (s.status !== 200) return showLogin();
+  session = s.data;
+  $('login').hidden = true;
+  $('console').hidden = false;
+  $('logout').hidden = false;
+  $('who').textContent = session.user + ' (' + session.role + ')';
+  $('runtime').textContent = session.runtime;
+  document.querySelectorAll('.op').forEach((f) => { f.hidden = false; });
+  $('set-form').hidden = !may('operator');
+  $('force-form').hidden = !may('engineer');
+  $('swap-form').hidden = !may('engineer');
+  await loadChannels();
+  await loadStatus();
+  openLive();
+}
+
+function fmt(v) {
+  if (v === null || v === undefined) return '-';
+  if (typeof v !== 'number') return String(v);
+  return Math.abs(v) >= 1e6 || (v !== 0 && Math.abs(v) < 1e-3) ? v.toExponential(4) : String(Math.round(v * 1e6) / 1e6);
+}
+
+async function loadChannels() {
+  const r = await call('GET', '/api/channels');
+  if (r.status !== 200) return;
+  const body = $('channels').tBodies[0];
+  body.replaceChildren();
+  channels.clear();
+  const sets = $('set-label'), forces = $('force-label');
+  sets.replaceChildren(); forces.replaceChildren();
+  for (const c of r.data.channels) {
+    const tr = el('tr');
+    tr.dataset.testid = 'channel-' + c.label;
+    const cells = {
+      label: el('td', c.label), dir: el('td', c.dir), addr: el('td', c.channel),
+      value: el('td', fmt(c.value), 'num'), quality: el('td', c.quality), age: el('td', '', 'num'),
+      writer: el('td', c.writer + (c.on_bad ? ', on bad: ' + c.on_bad : '')),
+    };
+    cells.value.dataset.testid = 'value-' + c.label;
+    cells.quality.dataset.testid = 'quality-' + c.label;
+    Object.values(cells).forEach((td) => tr.appendChild(td));
+    body.appendChild(tr);
+    channels.set(c.label, { row: tr, cells, desc: c });
+    if (c.dir === 'setpoint') sets.appendChild(el('option', c.label));
+    else forces.appendChild(el('option', c.label));
+  }
+  filter();
+}
+
+async function loadStatus() {
+  const [r, t] = await Promise.all([call('GET', '/api/status'), call('GET', '/api/stats')]);
+  if (r.status !== 200 || t.status !== 200) { setStale(true); return; }
+  const st = r.data.result.status, stats = t.data.result.stats;
+  const timing = new Map((stats.tasks || []).map((x) => [x.name, x]));
+  const us = (ns) => fmt(ns / 1000);
+  const cards = $('tasks');
+  cards.replaceChildren();
+  const tasks = $('swap-task');
+  const chosen = tasks.value;
+  tasks.replaceChildren();
+  for (const task of st.tasks || []) {
+    const c = el('div', null, 'card');
+    c.dataset.testid = 'task-' + task.name;
+    c.appendChild(el('h3', task.name));
+    const facts = el('div', null, 'facts');
+    const x = timing.get(task.name);
+    const lines = ['state ' + task.state + ', period ' + fmt(task.period_ns / 1e6) + ' ms',
+      'program ' + (task.file || '?') + (task.program ? ' (' + String(task.program).slice(0, 12) + ', ' + task.origin + ')' : '')];
+    if (x) {
+      lines.push('wake last/p99/max ' + [x.wake_ns.last, x.wake_ns.p99, x.wake_ns.max].map(us).join(' / ') + ' us');
+      lines.push('exec last/p99/max ' + [x.exec_ns.last, x.exec_ns.p99, x.exec_ns.max].map(us).join(' / ') + ' us');
+      lines.push('overruns ' + x.overruns + ' of ' + x.cycles + ' cycles');
+    }
+    for (const l of lines) facts.appendChild(el('div', l));
+    c.appendChild(facts);
+    cards.appendChild(c);
+    tasks.appendChild(el('option', task.name));
+  }
+  if (chosen) tasks.value = chosen;
+  const forced = st.forced || [];
+  $('forces').hidden = forced.length === 0;
+  $('forces').textContent = forced.length + ' FORCED';
+  $('forced-banner').hidden = forced.length === 0;
+  $('forced-banner').textContent = 'FORCED: ' + forced.map((f) => f.label + ' = ' + fmt(f.value)).join(', ');
+  if (stats.runtime) $('uptime').textContent = 'up ' + fmt(Math.round(stats.runtime.uptime_ns / 1e9)) + ' s';
+  const links = $('links').tBodies[0];
+  links.replaceChildren();
+  for (const l of stats.links || []) {
+    const tr = el('tr');
+    [l.name, l.kind, l.peer, l.state, l.errors].forEach((v) => tr.appendChild(el('td', v)));
+    links.appendChild(tr);
+  }
+}
+
+function setStale(stale) {
+  $('stale').hidden = !stale;
+  $('state').textContent = stale ? 'STALE' : 'RUN';
+  $('state').className = 'state ' + (stale ? 'stale' : 'run');
+  channels.forEach((c) => c.row.classList.toggle('stale', stale));
+}
+
+function openLive() {
+  if (live) live.close();
+  live = new EventSource('/api/live');
+  live.onmessage = (ev) => {
+    const f = JSON.parse(ev.data);
+    lastFrame = Date.now();
+    setStale(!f.alive);
+    for (const v of f.values) {
+      const c = channels.get(v.label);
+      if (!c) continue;
+      c.cells.value.textContent = fmt(v.value);
+      c.cells.quality.textContent = v.forced && v.quality === 'forced' ? 'FORCED' : v.quality;
+      c.cells.quality.className = 'q-' + v.quality;
+      c.cells.age.textContent = v.age_s === null ? '-' : v.age_s.toFixed(2) + ' s';
+    }
+  };
+  live.onerror = () => { setStale(true); };
+}
+
+// A console that stops hearing from its server says so rather than freeze.
+setInterval(() => {
+  if (session && lastFrame && Date.now() - lastFrame > 3000) setStale(true);
+}, 1000);
+setInterval(() => { if (session) loadStatus(); }, 5000);
+
+function filter() {
+  const q = $('search').value.trim().toLowerCase();
+  channels.forEach((c) => {
+    c.row.hidden = q !== '' && !(c.desc.label.toLowerCase().includes(q) || c.desc.channel.toLowerCase().includes(q));
+  });
+}
+
+function said(r) {
+  const out = $('op-result');
+  if (r.data && r.data.ok) {
+    out.className = '';
+    out.textContent = r.data.result.text;
+  } else {
+    out.className = 'error';
+    out.textContent = (r.data && r.data.error && r.data.error.message) || ('HTTP ' + r.status);
+  }
+  loadStatus();
+}
+
+document.addEventListener('DOMContentLoaded', () => {
+  $('login-form').addEventListener('submit', async (e) => {
+    e.preventDefault();
+    const r = await call('POST', '/api/login', { user: $('login-user').value, password: $('login-password').value });
+    $('login-password').value = '';
+    if (r.status !== 200) { $('login-error').textContent = r.data.error.message; return; }
+    $('login-error').textContent = '';
+    start();
+  });
+  $('logout').addEventListener('click', async () => { await call('POST', '/api/logout'); showLogin(); });
+  document.querySelectorAll('nav button').forEach((b) => b.addEventListener('click', () => {
+    document.querySelectorAll('nav button').forEach((x) => x.classList.toggle('active', x === b));
+    document.querySelectorAll('.page').forEach((p) => { p.hidden = p.id !== 'page-' + b.dataset.page; });
+    if (b.dataset.page === 'audit') loadAudit();
+  }));
+  $('search').addEventListener('input', filter);
+  $('set-form').addEventListener('submit', async (e) => {
+    e.preventDefault();
+    said(await call('POST', '/api/set', { label: $('set-label').value, value: $('set-value').value }));
+  });
+  $('force-form').addEventListener('submit', async (e) => {
+    e.preventDefault();
+    const label = $('force-label').value, value = $('force-value').value;
+    if (!window.confirm('Force ' + label + ' to ' + value + '? Tasks and drivers use this value until it is unforced.')) return;
+    said(await call('POST', '/api/force', { label, value }));
+  });
+  $('unforce').addEventListener('click', async () => said(await call('POST', '/api/unforce', { label: $('force-label').value })));
+  $('swap-form').addEventListener('submit', async (e) => {
+    e.preventDefault();
+    const file = $('swap-file').files[0];
+    if (!file) return;
+    const task = $('swap-task').value;
+    if (!window.confirm('Swap task ' + task + ' to ' + file.name + ' while the plant runs?')) return;
+    said(await call('POST', '/api/swap', { task, name: file.name, source: await file.text() }));
+  });
+  $('rollback').addEventListener('click', async () => {
+    const task = $('swap-task').value;
+    if (!window.confirm('Roll task ' + task + ' back to its previous program?')) return;
+    said(await call('POST', '/api/rollback', { task }));
+  });
+  $('audit-refresh').addEventListener('click', loadAudit);
+  start();
+});
+
+async function loadAudit() {
+  const r = await call('GET', '/api/audit?lines=200');
+  $('audit').textContent = r.status === 200 ? r.data.result.text : (r.data.error && r.data.error.message);
+}
