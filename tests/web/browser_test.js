@@ -1,0 +1,96 @@
+// Drives the web console in Debian's chromium (headless) through playwright-core:
+// the one-time link logs in; ProcVal moves; a set-point set in the form is the
+// runtime's (the loop follows); force shows the FORCED banner and unforce
+// clears it; a runtime that dies is shown STALE. Screenshots go to SHOTS.
+// Usage: node browser_test.js LINK SHOTS_DIR   (tests/web/browser_test.sh runs it)
+'use strict';
+const assert = require('assert');
+const fs = require('fs');
+const path = require('path');
+const { chromium } = require('playwright-core');
+
+const [link, shots, pidFile] = process.argv.slice(2);
+
+async function value(page, label) {
+  const t = await page.textContent(`[data-testid="value-${label}"]`);
+  return Number(t);
+}
+
+(async () => {
+  fs.mkdirSync(shots, { recursive: true });
+  const userDir = fs.mkdtempSync(path.join(require('os').tmpdir(), 'rtplc-chromium-'));
+  const browser = await chromium.launchPersistentContext(userDir, {
+    executablePath: '/usr/bin/chromium',
+    headless: true,
+    args: ['--headless', '--no-sandbox', '--disable-gpu', '--disable-background-networking',
+      '--disable-component-update', '--disable-sync'],
+    viewport: { width: 1280, height: 900 },
+    bypassCSP: true,  // the page's own code obeys the CSP; the test's probes (waitForFunction) evaluate strings
+  });
+  const page = browser.pages()[0] || await browser.newPage();
+  page.on('dialog', (d) => d.accept());
+  try {
+    await page.goto(link);
+    await page.waitForSelector('[data-testid="value-ProcVal"]');
+    await page.waitForFunction(() => document.querySelector('[data-testid="run-state"]').textContent === 'RUN');
+    assert.match(await page.textContent('[data-testid="who"]'), /\(admin\)$/);
+    // ProcVal moves: two readings a second apart differ.
+    await page.waitForTimeout(300);
+    const a = await value(page, 'ProcVal');
+    await page.waitForTimeout(1000);
+    const b = await value(page, 'ProcVal');
+    assert.notStrictEqual(a, b, 'ProcVal does not move in the console');
+    assert.strictEqual(await page.textContent('[data-testid="quality-ProcVal"]'), 'good');
+    await page.screenshot({ path: path.join(shots, 'overview.png'), fullPage: true });
+
+    // Set the set-point; the value in the table and the loop follow.
+    await page.click('[data-testid="nav-operations"]');
+    await page.selectOption('[data-testid="set-label"]', 'Setpoint');
+    await page.fill('[data-testid="set-value"]', '70');
+    await page.click('[data-testid="set-submit"]');
+    await page.waitForFunction(() => /Setpoint = 70 \(was /.test(document.querySelector('[data-testid="op-result"]').textContent));
+    // A value outside the limits is refused with the runtime's reason.
+    await page.fill('[data-testid="set-value"]', '150');
+    await page.click('[data-testid="set-submit"]');
+    await page.waitForFunction(() => /outside the range/.test(document.querySelector('[data-testid="op-result"]').textContent));
+    await page.screenshot({ path: path.join(shots, 'operations.png'), fullPage: true });
+    await page.click('[data-testid="nav-overview"]');
+    await page.waitForFunction(() => Number(document.querySelector('[data-testid="value-Setpoint"]').textContent) === 70);
+    await page.waitForFunction(() => Number(document.querySelector('[data-testid="value-ProcVal"]').textContent) > 60,
+      null, { timeout: 20000 });
+
+    // Force and unforce, with the banner.
+    await page.click('[data-testid="nav-operations"]');
+    await page.selectOption('[data-testid="force-label"]', 'ManiVal');
+    await page.fill('[data-testid="force-value"]', '12.5');
+    await page.click('[data-testid="force-submit"]');
+    await page.waitForSelector('[data-testid="forced-banner"]:not([hidden])');
+    assert.match(await page.textContent('[data-testid="forced-banner"]'), /ManiVal = 12\.5/);
+    await page.click('[data-testid="nav-overview"]');
+    await page.waitForFunction(() => document.querySelector('[data-testid="quality-ManiVal"]').textContent === 'FORCED');
+    await page.screenshot({ path: path.join(shots, 'forced.png'), fullPage: true });
+    await page.click('[data-testid="nav-operations"]');
+    await page.click('[data-testid="unforce-submit"]');
+    await page.waitForSelector('[data-testid="forced-banner"]', { state: 'hidden' });
+
+    // The audit page names the console's user.
+    await page.click('[data-testid="nav-audit"]');
+    await page.waitForFunction(() => /web \S+ \[admin\] set label=Setpoint value=70/.test(document.querySelector('[data-testid="audit"]').textContent));
+    await page.screenshot({ path: path.join(shots, 'audit.png'), fullPage: true });
+
+    // The runtime dies: the console says STALE.
+    await page.click('[data-testid="nav-overview"]');
+    process.kill(Number(fs.readFileSync(pidFile, 'utf8')), 'SIGKILL');
+    await page.waitForSelector('[data-testid="stale-banner"]:not([hidden])', { timeout: 15000 });
+    assert.strictEqual(await page.textContent('[data-testid="run-state"]'), 'STALE');
+    await page.screenshot({ path: path.join(shots, 'stale.png'), fullPage: true });
+    console.log('OK: log in, live values, set, limits, force/unforce, audit, stale: all seen in chromium');
+  } catch (e) {
+    await page.screenshot({ path: path.join(shots, 'failure.png'), fullPage: true }).catch(() => {});
+    console.error('FAILED: ' + (e && e.stack || e));
+    process.exitCode = 1;
+  } finally {
+    await browser.close();
+    fs.rmSync(userDir, { recursive: true, force: true });
+  }
+})();
