@@ -28,6 +28,7 @@ struct WebArgs {
   std::string users;
   std::string user, role = "viewer";
   bool password_stdin = false;
+  bool no_link = false;
 };
 
 [[noreturn]] void fail(const std::string& what, int code = kExitFailure) {
@@ -119,10 +120,16 @@ void run_web(const WebArgs& a) {
   signal(SIGPIPE, SIG_IGN);
   web::WebConsole console(o);
   if (auto r = console.start(); !r) fail("rtplc web: " + r.error());
-  const std::string link = console.login_link();
   std::printf("rtplc web: the console of runtime %s\n", a.name.c_str());
-  std::printf("  open this link to log in as the runtime's owner (admin); it works once, within 10 minutes:\n");
-  std::printf("  %s\n", link.c_str());
+  if (a.no_link) {
+    // A service: its output goes to a journal others may read, so no admin link there.
+    std::printf("  serving %s:%d; no login link (--no-link): users log in with their passwords\n", o.host.c_str(),
+                console.port());
+  } else {
+    const std::string link = console.login_link();
+    std::printf("  open this link to log in as the runtime's owner (admin); it works once, within 10 minutes:\n");
+    std::printf("  %s\n", link.c_str());
+  }
   auto users = users_of(a).load();
   std::printf("  others log in as users of %s (%zu now; rtplc web user add NAME --role ROLE)\n",
               users_of(a).path().c_str(), users ? users->size() : size_t{0});
@@ -168,6 +175,8 @@ void add_web_command(CLI::App& app) {
   web->add_option("--tls-cert", a->tls_cert, "PEM certificate (needed for any address but loopback)");
   web->add_option("--tls-key", a->tls_key, "PEM private key of --tls-cert");
   web->add_option("--users", a->users, "the users file (default: NAME.web-users in the runtime's state folder)");
+  web->add_flag("--no-link", a->no_link,
+                "print no one-time admin link (a service, whose output others may read); users log in");
   web->callback([a, web] {
     if (web->get_subcommands().empty()) run_web(*a);
   });

@@ -27,6 +27,13 @@ grep -q '^LimitRTPRIO=98$' "$unit" || fail "rtprio limit"
 grep -q '^CPUAffinity=1$' "$unit" || fail "affinity"
 grep -q '^Restart=on-failure$' "$unit" || fail "restart policy"
 [ -x "$root/usr/local/bin/rtplc" ] || fail "binary not installed"
+# The web console's unit: beside the runtime's, an ordinary niced process, no login link.
+web_unit="$root/etc/systemd/system/rtplc-demo-web.service"
+[ -f "$web_unit" ] || fail "no web console unit written"
+grep -q '^ExecStart=/usr/local/bin/rtplc web --name demo --no-link$' "$web_unit" || fail "web ExecStart"
+grep -q '^After=rtplc-demo.service$' "$web_unit" || fail "web unit ordering"
+grep -q '^Nice=10$' "$web_unit" || fail "web unit nice"
+! grep -q 'LimitRTPRIO' "$web_unit" || fail "the web unit may not get real-time limits"
 [ -f "$root/etc/rtplc/demo/flow.fbd" ] || fail "programs not copied"
 # Only the programs the configuration names: not the other examples beside it.
 for p in flow.fbd level.fbd temperature.fbd; do
@@ -62,4 +69,5 @@ rm -rf "$bad"
 
 "$src/scripts/deploy" --root "$root" --name demo --uninstall
 [ ! -e "$unit" ] || fail "unit not removed"
+[ ! -e "$web_unit" ] || fail "web unit not removed"
 echo "OK: deploy stages, checks and removes a service"
