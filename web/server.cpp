@@ -15,6 +15,7 @@
 #include "kernel_rt/clock.h"
 #include "kernel_rt/rt_thread.h"
 #include "sched/control.h"
+#include "sched/jitter.h"
 #include "sched/stats_source.h"
 #include "web/ui_assets.h"
 
@@ -403,6 +404,29 @@ void WebConsole::routes() {
     if (!img) return fail(res, 502, "unreachable", img.error());
     const std::string text = sched::monitor_json(*img, img->liveness(), req.get_param_value("filter"));
     res.set_content(text, "application/json");
+  });
+
+  // The tasks' latency histograms, as `rtplc stats --hist` writes them: per
+  // task and series, the non-empty buckets [lower bound ns, count].
+  http_->Get("/api/jitter", [this](const httplib::Request& req, httplib::Response& res) {
+    Session s;
+    if (guard(req, res, Role::kViewer, false, &s) != 0) return;
+    auto img = io::ProcessImage::attach(opt_.runtime_name);
+    if (!img) return fail(res, 502, "unreachable", img.error());
+    json tasks = json::array();
+    for (const sched::TaskStatsView& v : sched::read_task_stats(*img)) {
+      auto series = [](const sched::StatsSnapshot& snap) {
+        json buckets = json::array();
+        for (uint32_t b = 0; b < sched::LatencyHistogram::kBuckets; ++b) {
+          if (snap.buckets[b] != 0) buckets.push_back({sched::LatencyHistogram::bucket_lower(b), snap.buckets[b]});
+        }
+        return json{{"count", snap.count}, {"min_ns", snap.min_ns}, {"p50_ns", snap.p50_ns}, {"p99_ns", snap.p99_ns},
+                    {"p99_9_ns", snap.p999_ns}, {"max_ns", snap.max_ns}, {"buckets", buckets}};
+      };
+      tasks.push_back({{"name", v.name}, {"period_ns", v.period_ns}, {"policy", v.policy}, {"priority", v.priority},
+                       {"wake", series(v.wake)}, {"exec", series(v.exec)}});
+    }
+    reply(res, 200, json{{"ok", true}, {"alive", img->liveness().alive}, {"tasks", tasks}});
   });
 
   // The live stream: server-sent events, one `data:` line per snapshot with

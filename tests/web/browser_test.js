@@ -73,6 +73,12 @@ async function value(page, label) {
     await page.click('[data-testid="unforce-submit"]');
     await page.waitForSelector('[data-testid="forced-banner"]', { state: 'hidden' });
 
+    // The jitter page draws each task's histograms.
+    await page.click('[data-testid="nav-jitter"]');
+    await page.waitForSelector('[data-testid="jitter-wake-seed_pid"] svg rect');
+    assert.match(await page.textContent('[data-testid="jitter-wake-seed_pid"] h3'), /wake latency: \d+ cycles, p50 /);
+    await page.screenshot({ path: path.join(shots, 'jitter.png'), fullPage: true });
+
     // The audit page names the console's user.
     await page.click('[data-testid="nav-audit"]');
     await page.waitForFunction(() => /web \S+ \[admin\] set label=Setpoint value=70/.test(document.querySelector('[data-testid="audit"]').textContent));

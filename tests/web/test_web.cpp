@@ -39,6 +39,8 @@ const Route kRoutes[] = {
     {"GET", "/api/status", Role::kViewer, ""},
     {"GET", "/api/stats", Role::kViewer, ""},
     {"GET", "/api/channels", Role::kViewer, ""},
+    {"GET", "/api/jitter", Role::kViewer, ""},
+    {"GET", "/api/live", Role::kViewer, ""},
     {"GET", "/api/audit", Role::kViewer, ""},
     {"POST", "/api/logout", Role::kViewer, "{}"},
     {"POST", "/api/set", Role::kOperator, R"({"label": "SP", "value": 77})"},

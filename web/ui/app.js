@@ -201,6 +201,7 @@ document.addEventListener('DOMContentLoaded', () => {
     document.querySelectorAll('nav button').forEach((x) => x.classList.toggle('active', x === b));
     document.querySelectorAll('.page').forEach((p) => { p.hidden = p.id !== 'page-' + b.dataset.page; });
     if (b.dataset.page === 'audit') loadAudit();
+    if (b.dataset.page === 'jitter') loadJitter();
   }));
   $('search').addEventListener('input', filter);
   $('set-form').addEventListener('submit', async (e) => {
@@ -228,10 +229,61 @@ document.addEventListener('DOMContentLoaded', () => {
     said(await call('POST', '/api/rollback', { task }));
   });
   $('audit-refresh').addEventListener('click', loadAudit);
+  $('jitter-refresh').addEventListener('click', loadJitter);
   start();
 });
 
 async function loadAudit() {
   const r = await call('GET', '/api/audit?lines=200');
   $('audit').textContent = r.status === 200 ? r.data.result.text : (r.data.error && r.data.error.message);
+}
+
+// One histogram as SVG bars: x the bucket's lower bound on a log axis (us),
+// y log10(count + 1). Built with DOM calls, labels as text.
+const SVG = 'http://www.w3.org/2000/svg';
+function svgEl(tag, attrs, text) {
+  const e = document.createElementNS(SVG, tag);
+  for (const [k, v] of Object.entries(attrs)) e.setAttribute(k, String(v));
+  if (text !== undefined) e.textContent = text;
+  return e;
+}
+
+function histogram(title, series, cls, testid) {
+  const box = el('div', null, 'hist');
+  box.dataset.testid = testid;
+  box.appendChild(el('h3', title + ': ' + series.count + ' cycles, p50 ' + fmt(series.p50_ns / 1000) + ' us, p99 ' +
+    fmt(series.p99_ns / 1000) + ' us, p99.9 ' + fmt(series.p99_9_ns / 1000) + ' us, max ' + fmt(series.max_ns / 1000) + ' us'));
+  const W = 1000, H = 160, L = 40, B = 20;
+  const svg = svgEl('svg', { viewBox: `0 0 ${W} ${H}`, preserveAspectRatio: 'none' });
+  const bs = series.buckets;
+  if (bs.length) {
+    const lo = Math.log10(Math.max(bs[0][0], 100)), hi = Math.log10(Math.max(bs[bs.length - 1][0] * 1.1, bs[0][0] * 10, 1000));
+    const top = Math.log10(Math.max(...bs.map((b) => b[1])) + 1);
+    const x = (ns) => L + (W - L - 5) * (Math.log10(Math.max(ns, 100)) - lo) / (hi - lo);
+    for (let i = 0; i < bs.length; i++) {
+      const [ns, n] = bs[i];
+      const x0 = x(ns), x1 = Math.max(x0 + 2, x(ns * 1.0625));
+      const h = (H - B - 5) * Math.log10(n + 1) / top;
+      svg.appendChild(svgEl('rect', { x: x0, y: H - B - h, width: x1 - x0, height: h, class: 'bar ' + cls }));
+    }
+    svg.appendChild(svgEl('line', { x1: L, y1: H - B, x2: W, y2: H - B, class: 'axis' }));
+    for (let d = Math.ceil(lo); d <= Math.floor(hi); d++) {
+      const ns = Math.pow(10, d);
+      svg.appendChild(svgEl('text', { x: x(ns), y: H - 4 }, ns >= 1e6 ? ns / 1e6 + ' ms' : ns / 1e3 + ' us'));
+    }
+  }
+  box.appendChild(svg);
+  return box;
+}
+
+async function loadJitter() {
+  const r = await call('GET', '/api/jitter');
+  const out = $('jitter');
+  out.replaceChildren();
+  if (r.status !== 200) { out.appendChild(el('p', r.data.error && r.data.error.message, 'error')); return; }
+  for (const t of r.data.tasks) {
+    out.appendChild(el('h2', t.name + ' (period ' + fmt(t.period_ns / 1e6) + ' ms, ' + t.policy + ' ' + t.priority + ')'));
+    out.appendChild(histogram('wake latency', t.wake, 'wake', 'jitter-wake-' + t.name));
+    out.appendChild(histogram('execution time', t.exec, 'exec', 'jitter-exec-' + t.name));
+  }
 }
