@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <sstream>
 #include <vector>
 
 #include "common/text.h"
@@ -113,6 +114,38 @@ ApiAnswer from(Result<std::string> r, json fields = json::object()) {
 json parsed(const std::string& text) {
   json j = json::parse(text, nullptr, false);
   return j.is_discarded() ? json::object() : j;
+}
+
+// The trace header (trace_ops.cpp: "trace TOKEN", "task NAME INDEX PERIOD_NS
+// FIRST_RECORD", one "column LABEL DIR KIND" per channel) as typed fields.
+json trace_fields(const std::string& text) {
+  json f = {{"columns", json::array()}};
+  std::istringstream in(text);
+  std::string line;
+  while (std::getline(in, line)) {
+    std::istringstream w(line);
+    std::string what;
+    w >> what;
+    if (what == "trace") {
+      std::string token;
+      w >> token;
+      f["token"] = token;
+    } else if (what == "task") {
+      std::string name;
+      uint64_t index = 0, first = 0;
+      int64_t period = 0;
+      w >> name >> index >> period >> first;
+      f["task"] = name;
+      f["task_index"] = index;
+      f["period_ns"] = period;
+      f["first_record"] = first;
+    } else if (what == "column") {
+      std::string label, dir, kind;
+      w >> label >> dir >> kind;
+      f["columns"].push_back({{"label", label}, {"dir", dir}, {"kind", kind}});
+    }
+  }
+  return f;
 }
 
 }  // namespace
@@ -388,12 +421,11 @@ ApiAnswer OperatorApi::run(const Caller& caller, const std::string& op, const js
     auto labels = list_arg(args, "labels", true);
     if (!labels) return bad(labels.error());
     auto r = rt_.trace_start(*labels);
-    if (r) {
-      std::string list;
-      for (size_t i = 0; i < labels->size(); ++i) list += (i ? ", " : "") + (*labels)[i];
-      say(false, r->substr(0, r->find('\n')) + " started: " + list);
-    }
-    return from(std::move(r));
+    if (!r) return from(std::move(r));
+    std::string list;
+    for (size_t i = 0; i < labels->size(); ++i) list += (i ? ", " : "") + (*labels)[i];
+    say(false, r->substr(0, r->find('\n')) + " started: " + list);
+    return ApiAnswer::success(*r, trace_fields(*r));
   }
   if (op == "trace_keep" || op == "trace_end") {
     auto token = text_arg(args, "token");

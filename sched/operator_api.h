@@ -25,7 +25,8 @@
 //   unforce_all  engineer  -                                     -
 //   swap         engineer  task, name, drop_outputs?  + source   task
 //   rollback     engineer  task, drop_outputs?                   task
-//   trace        engineer  labels                                (text: the trace header)
+//   trace        engineer  labels                                token, task, task_index, period_ns,
+//                                                                  first_record, columns [{label, dir, kind}]
 //   trace_keep   engineer  token                                 -
 //   trace_end    engineer  token                                 -
 //   stop         admin     -                                     -

@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "io/process_image.h"
+#include "io/trace_ring.h"
 #include "kernel_rt/clock.h"
 #include "kernel_rt/rt_thread.h"
 #include "sched/control.h"
@@ -227,6 +228,12 @@ int WebConsole::guard(const httplib::Request& req, httplib::Response& res, Role 
   return 0;
 }
 
+Result<json> WebConsole::ask(const Session& s, const std::string& op, const json& args, const std::string& payload,
+                             int timeout_ms) {
+  const json request = {{"op", op}, {"args", args}, {"as", {{"via", "web"}, {"user", s.user}, {"role", role_name(s.role)}}}};
+  return sched::api_request(socket_, request, payload, timeout_ms);
+}
+
 // One route, one operator API op, on behalf of the session's user.
 void WebConsole::api(const httplib::Request& req, httplib::Response& res, const std::string& op, Role need) {
   const bool post = req.method == "POST";
@@ -271,8 +278,7 @@ void WebConsole::api(const httplib::Request& req, httplib::Response& res, const 
       args["lines"] = v;
     }
   }
-  const json request = {{"op", op}, {"args", args}, {"as", {{"via", "web"}, {"user", s.user}, {"role", role_name(s.role)}}}};
-  auto answer = sched::api_request(socket_, request, payload, op == "swap" ? 60000 : 10000);
+  auto answer = ask(s, op, args, payload, op == "swap" ? 60000 : 10000);
   if (!answer) return fail(res, 502, "unreachable", answer.error());
   if (answer->value("ok", false)) return reply(res, 200, *answer);
   const std::string code = (*answer)["error"].value("code", "refused");
@@ -427,6 +433,132 @@ void WebConsole::routes() {
                        {"wake", series(v.wake)}, {"exec", series(v.exec)}});
     }
     reply(res, 200, json{{"ok", true}, {"alive", img->liveness().alive}, {"tasks", tasks}});
+  });
+
+  // Trends: a trace of up to 8 channels of one task, every cycle, drained
+  // from the task's trace ring in the image (nothing lost unsaid, nothing
+  // interpolated). POST starts it (the runtime's `trace`, an engineer's), the
+  // stream sends the new records every 100 ms and renews the lease; the trace
+  // ends when the stream does or on POST /api/trend/stop.
+  http_->Post("/api/trend", [this](const httplib::Request& req, httplib::Response& res) {
+    Session s;
+    if (guard(req, res, Role::kEngineer, true, &s) != 0) return;
+    const json body = json::parse(req.body, nullptr, false);
+    if (!body.is_object() || !body.contains("labels") || !body["labels"].is_array()) {
+      return fail(res, 400, "bad_request", "the body is {\"labels\": [LABEL, ...]}");
+    }
+    auto answer = ask(s, "trace", {{"labels", body["labels"]}}, "", 10000);
+    if (!answer) return fail(res, 502, "unreachable", answer.error());
+    if (!answer->value("ok", false)) return reply(res, status_of((*answer)["error"].value("code", "refused")), *answer);
+    const json& r = (*answer)["result"];
+    Trend t;
+    t.token = r.value("token", "");
+    t.task_index = r.value("task_index", uint32_t{0});
+    t.first_record = r.value("first_record", uint64_t{0});
+    t.n = static_cast<uint32_t>(r["columns"].size());
+    t.session = cookie_value(req, kCookie);
+    const std::string id = random_token();
+    {
+      std::lock_guard lock(mu_);
+      trends_[id] = t;
+    }
+    reply(res, 200, json{{"ok", true}, {"id", id}, {"task", r.value("task", "")}, {"period_ns", r.value("period_ns", 0)},
+                         {"columns", r["columns"]}});
+  });
+
+  http_->Post("/api/trend/stop", [this](const httplib::Request& req, httplib::Response& res) {
+    Session s;
+    if (guard(req, res, Role::kEngineer, true, &s) != 0) return;
+    const json body = json::parse(req.body, nullptr, false);
+    const std::string id = body.is_object() && body.contains("id") && body["id"].is_string() ? body["id"].get<std::string>() : "";
+    Trend t;
+    {
+      std::lock_guard lock(mu_);
+      auto it = trends_.find(id);
+      if (it == trends_.end() || it->second.session != cookie_value(req, kCookie)) {
+        return fail(res, 404, "not_found", "no trend " + id + " of this session");
+      }
+      t = it->second;
+      trends_.erase(it);
+    }
+    (void)ask(s, "trace_end", {{"token", t.token}}, "", 3000);
+    reply(res, 200, json{{"ok", true}});
+  });
+
+  http_->Get("/api/trend/stream", [this](const httplib::Request& req, httplib::Response& res) {
+    Session s;
+    if (guard(req, res, Role::kEngineer, false, &s) != 0) return;
+    const std::string id = req.get_param_value("id");
+    Trend t;
+    {
+      std::lock_guard lock(mu_);
+      auto it = trends_.find(id);
+      if (it == trends_.end() || it->second.session != cookie_value(req, kCookie)) {
+        return fail(res, 404, "not_found", "no trend " + id + " of this session (POST /api/trend starts one)");
+      }
+      t = it->second;
+    }
+    auto img = io::ProcessImage::attach(opt_.runtime_name);
+    if (!img) return fail(res, 502, "unreachable", img.error());
+    auto image = std::make_shared<io::ProcessImage>(std::move(img).value());
+    const io::TraceBlock* block = image->trace_block(t.task_index);
+    if (block == nullptr) return fail(res, 502, "unreachable", "the runtime's image has no trace ring for that task");
+    auto reader = std::make_shared<io::TraceReader>(block, t.first_record, t.n);
+    auto state = std::make_shared<TrendStream>();
+    state->next_renew_ns = kernel_rt::monotonic_now_ns() + 1'000'000'000;
+    res.set_header("X-Accel-Buffering", "no");
+    res.set_chunked_content_provider(
+        "text/event-stream",
+        [this, s, t, id, image, reader, state](size_t, httplib::DataSink& sink) {
+          {
+            std::unique_lock lock(snap_mu_);
+            snap_cv_.wait_for(lock, std::chrono::milliseconds(100), [this] { return quit_.load(); });
+          }
+          if (quit_.load()) return false;
+          {
+            std::lock_guard lock(mu_);
+            if (trends_.find(id) == trends_.end()) {
+              const std::string end = "event: ended\ndata: {\"why\": \"stopped\"}\n\n";
+              sink.write(end.data(), end.size());
+              return false;
+            }
+          }
+          json out = {{"samples", json::array()}};
+          const int64_t now = kernel_rt::monotonic_now_ns();
+          if (now >= state->next_renew_ns) {
+            state->next_renew_ns = now + 1'000'000'000;
+            auto k = ask(s, "trace_keep", {{"token", t.token}}, "", 2000);
+            if (!k || !k->value("ok", false)) {
+              const std::string why = !k ? k.error() : (*k)["error"].value("message", "the runtime ended the trace");
+              const std::string end = "event: ended\ndata: " + json{{"why", why}}.dump() + "\n\n";
+              sink.write(end.data(), end.size());
+              return false;
+            }
+          }
+          state->batch.clear();
+          reader->drain(state->batch);
+          for (const io::TraceSample& x : state->batch) {
+            if (!state->started) {
+              state->started = true;
+              state->t0 = x.release_ns;
+            }
+            json row = json::array({static_cast<double>(x.release_ns - state->t0) / 1e9, x.cycle, x.record});
+            for (uint32_t k = 0; k < t.n; ++k) row.push_back(std::isfinite(x.values[k]) ? json(x.values[k]) : json(nullptr));
+            out["samples"].push_back(std::move(row));
+          }
+          out["lost"] = reader->lost();
+          const std::string line = "data: " + out.dump() + "\n\n";
+          return sink.write(line.data(), line.size());
+        },
+        [this, s, t, id](bool) {
+          // The stream ended (the browser left, or the trace ended): so does the trace.
+          bool mine = false;
+          {
+            std::lock_guard lock(mu_);
+            mine = trends_.erase(id) > 0;
+          }
+          if (mine) (void)ask(s, "trace_end", {{"token", t.token}}, "", 3000);
+        });
   });
 
   // The live stream: server-sent events, one `data:` line per snapshot with

@@ -29,7 +29,10 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "common/result.h"
+#include "io/trace_ring.h"
 #include "common/role.h"
 #include "kernel_rt/rt_thread.h"
 #include "web/users.h"
@@ -41,6 +44,14 @@ struct Response;
 }  // namespace httplib
 
 namespace rtplc::web {
+
+// What one trend stream keeps between its frames.
+struct TrendStream {
+  std::vector<io::TraceSample> batch;
+  bool started = false;
+  int64_t t0 = 0;
+  int64_t next_renew_ns = 0;
+};
 
 struct WebOptions {
   std::string runtime_name = "rtplc";
@@ -83,6 +94,14 @@ class WebConsole {
     std::string csrf;
     int64_t last_used_ns = 0;
   };
+  // A trend a session started: the runtime's trace and where its ring starts.
+  struct Trend {
+    std::string token;
+    uint32_t task_index = 0;
+    uint64_t first_record = 0;
+    uint32_t n = 0;
+    std::string session;  // only the session that started it may stream or stop it
+  };
   struct Snapshot {
     uint64_t seq = 0;
     bool alive = false;
@@ -99,6 +118,9 @@ class WebConsole {
   };
 
   void routes();
+  // Asks the runtime `op` on behalf of the session's user.
+  Result<nlohmann::json> ask(const Session& s, const std::string& op, const nlohmann::json& args,
+                             const std::string& payload, int timeout_ms);
   // The session a request carries, or null; `why` gets the HTTP status to answer.
   const Session* session_of(const httplib::Request& req, std::string* token = nullptr);
   // 0 when the request may go on, else the status already written to `res`.
@@ -118,6 +140,7 @@ class WebConsole {
   std::map<std::string, Session> sessions_;
   std::map<std::string, int64_t> link_tokens_;  // token -> expiry (monotonic ns)
   std::map<std::string, std::vector<int64_t>> failures_;
+  std::map<std::string, Trend> trends_;  // by id
   std::mutex snap_mu_;
   std::condition_variable snap_cv_;
   std::shared_ptr<const Snapshot> snap_;

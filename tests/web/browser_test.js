@@ -25,6 +25,7 @@ async function value(page, label) {
     args: ['--headless', '--no-sandbox', '--disable-gpu', '--disable-background-networking',
       '--disable-component-update', '--disable-sync'],
     viewport: { width: 1280, height: 900 },
+    acceptDownloads: true,
     bypassCSP: true,  // the page's own code obeys the CSP; the test's probes (waitForFunction) evaluate strings
   });
   const page = browser.pages()[0] || await browser.newPage();
@@ -72,6 +73,21 @@ async function value(page, label) {
     await page.click('[data-testid="nav-operations"]');
     await page.click('[data-testid="unforce-submit"]');
     await page.waitForSelector('[data-testid="forced-banner"]', { state: 'hidden' });
+
+    // A trend of two channels: every cycle arrives, none lost, and the CSV has them.
+    await page.click('[data-testid="nav-trend"]');
+    await page.selectOption('[data-testid="trend-labels"]', ['ProcVal', 'Setpoint']);
+    await page.click('[data-testid="trend-start"]');
+    await page.waitForFunction(() => /: (\d+) cycles, none lost/.test(document.querySelector('[data-testid="trend-info"]').textContent) &&
+      Number(/: (\d+) cycles/.exec(document.querySelector('[data-testid="trend-info"]').textContent)[1]) >= 20, null, { timeout: 15000 });
+    await page.screenshot({ path: path.join(shots, 'trend.png'), fullPage: true });
+    const [download] = await Promise.all([page.waitForEvent('download'), page.click('[data-testid="trend-csv"]')]);
+    const csv = fs.readFileSync(await download.path(), 'utf8').trim().split('\n');
+    assert.strictEqual(csv[1], 't_s,cycle,record,ProcVal,Setpoint');
+    const recs = csv.slice(2).map((l) => Number(l.split(',')[2]));
+    assert.ok(recs.length >= 20, 'the CSV has ' + recs.length + ' rows');
+    for (let i = 1; i < recs.length; i++) assert.strictEqual(recs[i], recs[i - 1] + 1, 'records are consecutive');
+    await page.click('[data-testid="trend-stop"]');
 
     // The jitter page draws each task's histograms.
     await page.click('[data-testid="nav-jitter"]');

@@ -48,6 +48,9 @@ const Route kRoutes[] = {
     {"POST", "/api/unforce", Role::kEngineer, R"({"label": "OUT"})"},
     {"POST", "/api/swap", Role::kEngineer, R"({"task": "t", "source": "%%\nEND\n"})"},
     {"POST", "/api/rollback", Role::kEngineer, R"({"task": "t"})"},
+    {"POST", "/api/trend", Role::kEngineer, R"({"labels": ["SP"]})"},
+    {"POST", "/api/trend/stop", Role::kEngineer, R"({"id": "x"})"},
+    {"GET", "/api/trend/stream?id=x", Role::kEngineer, ""},
 };
 
 class WebConsoleTest : public ::testing::Test {

@@ -202,6 +202,7 @@ document.addEventListener('DOMContentLoaded', () => {
     document.querySelectorAll('.page').forEach((p) => { p.hidden = p.id !== 'page-' + b.dataset.page; });
     if (b.dataset.page === 'audit') loadAudit();
     if (b.dataset.page === 'jitter') loadJitter();
+    if (b.dataset.page === 'trend') fillTrendLabels();
   }));
   $('search').addEventListener('input', filter);
   $('set-form').addEventListener('submit', async (e) => {
@@ -230,6 +231,15 @@ document.addEventListener('DOMContentLoaded', () => {
   });
   $('audit-refresh').addEventListener('click', loadAudit);
   $('jitter-refresh').addEventListener('click', loadJitter);
+  $('trend-start').addEventListener('click', startTrend);
+  $('trend-stop').addEventListener('click', stopTrend);
+  $('trend-pause').addEventListener('click', () => {
+    trend.paused = !trend.paused;
+    $('trend-pause').textContent = trend.paused ? 'resume' : 'pause';
+    drawTrend();
+  });
+  $('trend-window').addEventListener('change', drawTrend);
+  $('trend-csv').addEventListener('click', trendCsv);
   start();
 });
 
@@ -286,4 +296,110 @@ async function loadJitter() {
     out.appendChild(histogram('wake latency', t.wake, 'wake', 'jitter-wake-' + t.name));
     out.appendChild(histogram('execution time', t.exec, 'exec', 'jitter-exec-' + t.name));
   }
+}
+
+// ---- Trend: a trace of one task's cycles, drawn on a canvas ----
+const COLORS = ['#3b6fb6', '#c0262d', '#17803d', '#a85f00', '#6b2fb3', '#0f7f8f', '#8a8a00', '#555'];
+const trend = { id: null, columns: [], rows: [], lost: 0, paused: false, source: null, task: '', period_ns: 0 };
+const TREND_KEEP = 600000;  // rows kept for drawing and CSV (10 min at 1 ms)
+
+function fillTrendLabels() {
+  const sel = $('trend-labels');
+  if (sel.options.length) return;
+  channels.forEach((c) => sel.appendChild(el('option', c.desc.label)));
+}
+
+async function startTrend() {
+  const labels = Array.from($('trend-labels').selectedOptions).map((o) => o.value);
+  if (!labels.length) { $('trend-info').textContent = 'pick one or more channels'; return; }
+  const r = await call('POST', '/api/trend', { labels });
+  if (r.status !== 200) { $('trend-info').textContent = (r.data.error && r.data.error.message) || ('HTTP ' + r.status); return; }
+  Object.assign(trend, { id: r.data.id, columns: r.data.columns.map((c) => c.label), rows: [], lost: 0, paused: false,
+    task: r.data.task, period_ns: r.data.period_ns });
+  $('trend-stop').disabled = false; $('trend-pause').disabled = false; $('trend-csv').disabled = false;
+  $('trend-start').disabled = true;
+  const legend = $('trend-legend');
+  legend.replaceChildren();
+  trend.columns.forEach((c, i) => { const e = el('span', c); e.style.setProperty('--swatch', COLORS[i]); legend.appendChild(e); });
+  trend.source = new EventSource('/api/trend/stream?id=' + encodeURIComponent(trend.id));
+  trend.source.onmessage = (ev) => {
+    const f = JSON.parse(ev.data);
+    for (const row of f.samples) trend.rows.push(row);
+    if (trend.rows.length > TREND_KEEP) trend.rows.splice(0, trend.rows.length - TREND_KEEP);
+    trend.lost = f.lost;
+    const last = trend.rows.length ? trend.rows[trend.rows.length - 1] : null;
+    $('trend-info').textContent = 'task ' + trend.task + ', every ' + fmt(trend.period_ns / 1e6) + ' ms: ' +
+      trend.rows.length + ' cycles' + (trend.lost ? ', ' + trend.lost + ' LOST' : ', none lost') +
+      (last ? ', t = ' + last[0].toFixed(2) + ' s' : '');
+    if (!trend.paused) drawTrend();
+  };
+  trend.source.addEventListener('ended', (ev) => { endTrend('ended: ' + JSON.parse(ev.data).why); });
+  trend.source.onerror = () => { if (trend.source && trend.source.readyState === EventSource.CLOSED) endTrend('the stream closed'); };
+}
+
+function endTrend(why) {
+  if (trend.source) trend.source.close();
+  trend.source = null;
+  trend.id = null;
+  $('trend-stop').disabled = true; $('trend-pause').disabled = true; $('trend-start').disabled = false;
+  if (why) $('trend-info').textContent += ' (' + why + ')';
+}
+
+async function stopTrend() {
+  const id = trend.id;
+  endTrend('stopped');
+  if (id) await call('POST', '/api/trend/stop', { id });
+}
+
+function drawTrend() {
+  const cv = $('trend-plot');
+  const ctx = cv.getContext('2d');
+  const W = cv.width, H = cv.height, L = 60, R = 10, T = 10, B = 24;
+  ctx.clearRect(0, 0, W, H);
+  const rows = trend.rows;
+  if (!rows.length) return;
+  const span = Number($('trend-window').value);
+  const tEnd = rows[rows.length - 1][0], tStart = tEnd - span;
+  let first = rows.length - 1;
+  while (first > 0 && rows[first - 1][0] >= tStart) first--;
+  let lo = Infinity, hi = -Infinity;
+  for (let i = first; i < rows.length; i++) {
+    for (let k = 3; k < rows[i].length; k++) { const v = rows[i][k]; if (v !== null) { lo = Math.min(lo, v); hi = Math.max(hi, v); } }
+  }
+  if (!isFinite(lo)) return;
+  if (hi - lo < 1e-9) { hi += 1; lo -= 1; }
+  const pad = (hi - lo) * 0.05; lo -= pad; hi += pad;
+  const x = (t) => L + (W - L - R) * (t - tStart) / span;
+  const y = (v) => T + (H - T - B) * (1 - (v - lo) / (hi - lo));
+  ctx.strokeStyle = '#d8dce2'; ctx.fillStyle = '#66707c'; ctx.font = '12px sans-serif';
+  for (let g = 0; g <= 4; g++) {
+    const v = lo + (hi - lo) * g / 4;
+    ctx.beginPath(); ctx.moveTo(L, y(v)); ctx.lineTo(W - R, y(v)); ctx.stroke();
+    ctx.fillText(fmt(Number(v.toPrecision(4))), 4, y(v) + 4);
+  }
+  ctx.fillText(tStart.toFixed(1) + ' s', L, H - 6);
+  ctx.fillText(tEnd.toFixed(1) + ' s', W - R - 50, H - 6);
+  for (let k = 3; k < rows[first].length; k++) {
+    ctx.strokeStyle = COLORS[k - 3]; ctx.lineWidth = 1.5; ctx.beginPath();
+    let pen = false;
+    for (let i = first; i < rows.length; i++) {
+      const v = rows[i][k];
+      // A record that was lost (a gap in record numbers) breaks the line: nothing is drawn across it.
+      const gap = i > first && rows[i][2] !== rows[i - 1][2] + 1;
+      if (v === null || gap) { pen = false; if (v === null) continue; }
+      if (!pen) { ctx.moveTo(x(rows[i][0]), y(v)); pen = true; } else ctx.lineTo(x(rows[i][0]), y(v));
+    }
+    ctx.stroke();
+  }
+}
+
+function trendCsv() {
+  const lines = ['# rtplc trend of task ' + trend.task + ' (every cycle; ' + trend.lost + ' records lost)',
+    ['t_s', 'cycle', 'record'].concat(trend.columns).join(',')];
+  for (const r of trend.rows) lines.push(r.map((v) => (v === null ? '' : String(v))).join(','));
+  const url = URL.createObjectURL(new Blob([lines.join('\n') + '\n'], { type: 'text/csv' }));
+  const a = document.createElement('a');
+  a.href = url; a.download = 'trend-' + trend.task + '.csv';
+  document.body.appendChild(a); a.click(); a.remove();
+  setTimeout(() => URL.revokeObjectURL(url), 1000);
 }
