@@ -20,7 +20,7 @@
 #include <deque>
 #include <memory>
 #include <optional>
-#include <sstream>
+#include <nlohmann/json.hpp>
 #include <thread>
 
 #include "app/arguments.h"
@@ -57,7 +57,7 @@ struct Trigger {
   bool holds(double v) const { return op == '>' ? v > value : v < value; }
 };
 
-// What the runtime answered to `trace LABEL...`.
+// What the runtime answered to the trace request.
 struct Selection {
   std::string token;
   std::string task;
@@ -93,27 +93,22 @@ Trigger parse_trigger(const std::string& text) {
   return t;
 }
 
-Selection parse_selection(const std::string& body) {
+// The typed answer of the operator API's `trace` (sched/operator_api.h).
+Selection selection_of(const nlohmann::json& r) {
   Selection s;
-  std::istringstream in(body);
-  std::string line;
-  while (std::getline(in, line)) {
-    std::istringstream w(line);
-    std::string what;
-    w >> what;
-    if (what == "trace") {
-      w >> s.token;
-    } else if (what == "task") {
-      w >> s.task >> s.task_index >> s.period_ns >> s.first_record;
-    } else if (what == "column") {
-      std::string label, dir;
-      w >> label >> dir;
-      s.labels.push_back(label);
-      s.is_output.push_back(dir == "output");
+  s.token = r.value("token", std::string());
+  s.task = r.value("task", std::string());
+  s.task_index = r.value("task_index", uint32_t{0});
+  s.period_ns = r.value("period_ns", int64_t{0});
+  s.first_record = r.value("first_record", uint64_t{0});
+  if (r.contains("columns") && r["columns"].is_array()) {
+    for (const nlohmann::json& c : r["columns"]) {
+      s.labels.push_back(c.value("label", std::string()));
+      s.is_output.push_back(c.value("dir", std::string()) == "output");
     }
   }
   if (s.token.empty() || s.task.empty() || s.period_ns <= 0 || s.labels.empty()) {
-    fail("the runtime's answer to the trace request is not understood:\n" + body);
+    fail("the runtime's answer to the trace request is not understood:\n" + r.dump(2));
   }
   return s;
 }
@@ -229,12 +224,11 @@ void run_trace(const TraceArgs& a) {
 
   std::vector<std::string> labels = a.labels;
   if (trig && std::find(labels.begin(), labels.end(), trig->label) == labels.end()) labels.push_back(trig->label);
-  std::string request = "trace";
-  for (const std::string& l : labels) request += " " + l;
   const std::string socket = sched::control_socket_of(a.name, a.socket);
-  auto answer = sched::control_request(socket, request, "", 10000);
+  auto answer = sched::api_request(socket, {{"op", "trace"}, {"args", {{"labels", labels}}}}, "", 10000);
   if (!answer) fail(answer.error());
-  const Selection sel = parse_selection(*answer);
+  if (!answer->value("ok", false)) fail((*answer)["error"].value("message", std::string("the runtime refused the trace")));
+  const Selection sel = selection_of((*answer)["result"]);
   if (trig) {
     trig->column = static_cast<size_t>(std::find(sel.labels.begin(), sel.labels.end(), trig->label) - sel.labels.begin());
   }
