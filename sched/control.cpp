@@ -23,7 +23,8 @@ namespace rtplc::sched {
 namespace {
 
 constexpr size_t kMaxHeader = 64;  // "RTPLC-API 1 JSON_BYTES PAYLOAD_BYTES"
-constexpr size_t kMaxJson = 1u << 20;
+constexpr size_t kMaxJson = 1u << 20;          // a request's JSON
+constexpr size_t kMaxAnswerJson = 64u << 20;   // an answer's (a long audit tail, many channels)
 constexpr size_t kMaxClients = 256;
 constexpr int kRequestTimeoutMs = 10000;
 constexpr size_t kMaxSource = 64u << 20;  // the compiler refuses more anyway
@@ -263,9 +264,9 @@ ControlServer::RequestState ControlServer::parse_request(const std::string& in, 
   const size_t nl = in.find('\n');
   if (nl == std::string::npos) {
     if (in.size() > kMaxHeader) {
-      response = error_frame("", "bad_request", parse_header(in.substr(0, kMaxHeader)).ok()
-                                                    ? "malformed frame header: too long"
-                                                    : parse_header(in.substr(0, in.find(' '))).error());
+      // No header line within kMaxHeader bytes: a frame's too long, anything else no frame at all.
+      response = error_frame("", "bad_request", in.rfind(kMagic, 0) == 0 ? "malformed frame header: too long"
+                                                                         : parse_header("").error());
       return RequestState::kBad;
     }
     return RequestState::kIncomplete;
@@ -412,7 +413,7 @@ Result<json> api_request(const std::string& socket_path, const json& request, co
   auto h = got_header ? parse_header(line) : Result<Header>(make_error("no answer"));
   // An answer counts only whole: one cut off (the runtime died or was stopped
   // mid-answer) is not taken for a whole one.
-  const bool whole = h.ok() && h->json_bytes <= kMaxJson * 64 && read_exact(fd, text, h->json_bytes, deadline) &&
+  const bool whole = h.ok() && h->json_bytes <= kMaxAnswerJson && read_exact(fd, text, h->json_bytes, deadline) &&
                      read_exact(fd, ignored, h->payload_bytes, deadline);
   close(fd);
   if (!got_header) return make_error("no answer from the runtime at " + socket_path);

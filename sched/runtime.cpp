@@ -155,28 +155,22 @@ std::unique_ptr<Runtime> Runtime::load(const config::RuntimeConfig& cfg, const R
   }
   // runtime.operators: names to ids now, so a typo fails the start, not a request.
   for (const config::OperatorGrant& o : cfg.operators) {
-    Grant g{o.group, 0, o.role};
     const bool digits = !o.who.empty() && o.who.find_first_not_of("0123456789") == std::string::npos;
+    std::optional<uint32_t> id;
     if (o.group) {
-      const group* gr = getgrnam(o.who.c_str());
-      if (gr == nullptr) {
-        report.files[0].diags.error(o.pos, "operators: no group named '" + o.who + "' on this machine");
-        report.ok = false;
-        return nullptr;
-      }
-      g.id = static_cast<uint32_t>(gr->gr_gid);
+      if (const group* gr = getgrnam(o.who.c_str())) id = static_cast<uint32_t>(gr->gr_gid);
     } else if (digits && o.who.size() <= 9) {
-      g.id = static_cast<uint32_t>(std::stoul(o.who));
-    } else {
-      const passwd* pw = getpwnam(o.who.c_str());
-      if (pw == nullptr) {
-        report.files[0].diags.error(o.pos, "operators: no user named '" + o.who + "' on this machine");
-        report.ok = false;
-        return nullptr;
-      }
-      g.id = static_cast<uint32_t>(pw->pw_uid);
+      id = static_cast<uint32_t>(std::stoul(o.who));
+    } else if (const passwd* pw = getpwnam(o.who.c_str())) {
+      id = static_cast<uint32_t>(pw->pw_uid);
     }
-    rt->grants_.push_back(g);
+    if (!id) {
+      report.files[0].diags.error(o.pos, std::string("operators: no ") + (o.group ? "group" : "user") + " named '" +
+                                             o.who + "' on this machine");
+      report.ok = false;
+      return nullptr;
+    }
+    rt->grants_.push_back(Grant{o.group, *id, o.role});
   }
   // Drivers keep pointers into their config entries: the runtime owns a copy.
   rt->config_ = cfg;
