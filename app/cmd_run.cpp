@@ -49,6 +49,7 @@ struct ClientArgs {
   std::string task;
   std::string file;
   bool rollback = false;
+  bool check = false;  // swap --check
   bool all = false;
   bool json = false;
   std::vector<std::string> drop_outputs;
@@ -202,6 +203,7 @@ void run_unforce(const ClientArgs& a) {
 void run_swap(const ClientArgs& a) {
   if (a.rollback) {
     if (a.task.empty()) fail("rtplc swap --rollback TASK", kExitUsage);
+    if (a.check) fail("rtplc swap --rollback --check: a rollback cannot be checked; `rtplc status` names the program each task runs", kExitUsage);
     if (!a.file.empty()) {
       fail("rtplc swap --rollback " + a.task + " " + a.file +
                ": --rollback goes back to the task's previous code and takes no FILE; "
@@ -229,7 +231,7 @@ void run_swap(const ClientArgs& a) {
     if (c == ' ' || c == '\n') c = '_';
   }
   auto r = sched::control_request(socket_for(a),
-                                  "swap " + a.task + " " + label + " " + std::to_string(text->size()) + drop_word(a),
+                                  std::string(a.check ? "swap-check " : "swap ") + a.task + " " + label + " " + std::to_string(text->size()) + drop_word(a),
                                   *text, 60000);
   if (!r) fail_client("rtplc swap", r.error());
   std::fputs(r->c_str(), stdout);
@@ -376,10 +378,13 @@ void add_run_commands(CLI::App& app) {
       "keeps the state of every block whose id and type match (integrators, filters, timers,\n"
       "counters: a PID stays bumpless), and hands the new code to the task at its next cycle\n"
       "boundary. The previous code is kept: --rollback TASK swaps it back.\n"
-      "Examples:\n  rtplc swap loop3 new.fbd\n  rtplc swap --rollback loop3");
+      "Examples:\n  rtplc swap loop3 new.fbd --check\n  rtplc swap loop3 new.fbd\n  rtplc swap --rollback loop3");
   swap->add_option("task", cl->task, "task name");
   swap->add_option("file", cl->file, "new program (.fbd, .sfc or PLCopen .xml; an .xml task runs its program_instance)");
   swap->add_flag("--rollback", cl->rollback, "go back to the task's previous code");
+  swap->add_flag("--check", cl->check,
+                 "only say what the swap would do (the compiler's errors, or which blocks keep\n"
+                 "their state, which reset, the active steps kept, new channels); changes nothing");
   swap->add_option("--drop-output", cl->drop_outputs,
                    "let the new code leave out this output (its label; repeatable): it goes to its\n"
                    "safe value with bad quality and drivers stop sending it. Without it, a swap\n"

@@ -454,8 +454,9 @@ Result<json> request_of_words(const std::string& line) {
   } else if (verb == "unforce") {
     if (w.size() != 2) return wrong();
     args["label"] = w[1];
-  } else if (verb == "swap") {
+  } else if (verb == "swap" || verb == "swap-check") {
     if (w.size() != 4 && !(w.size() == 5 && w[4].rfind("drop=", 0) == 0)) return wrong();
+    if (verb == "swap-check") op = "swap_check";
     args["task"] = w[1];
     args["name"] = w[2];
     if (w.size() == 5) args["drop_outputs"] = drop_list(w[4]);

@@ -35,6 +35,7 @@ constexpr OpSpec kOps[] = {
     {"swap", Role::kEngineer, true},      {"rollback", Role::kEngineer, true},
     {"trace", Role::kEngineer, true},     {"trace_keep", Role::kEngineer, false},
     {"trace_end", Role::kEngineer, false}, {"stop", Role::kAdmin, true},
+    {"swap_check", Role::kEngineer, false}, {"program", Role::kViewer, false},
 };
 
 const OpSpec* spec_of(std::string_view op) {
@@ -407,6 +408,31 @@ ApiAnswer OperatorApi::run(const Caller& caller, const std::string& op, const js
       say(true, "swap of " + *task + who + " refused: " + r.error().substr(0, r.error().find('\n')));
     }
     return from(std::move(r), {{"task", *task}});
+  }
+  if (op == "swap_check") {
+    auto task = text_arg(args, "task");
+    if (!task) return bad(task.error());
+    auto name = text_arg(args, "name");
+    if (!name) return bad(name.error());
+    auto drop = list_arg(args, "drop_outputs", false);
+    if (!drop) return bad(drop.error());
+    return from(rt_.swap_check(*task, payload, *name, *drop), {{"task", *task}});
+  }
+  if (op == "program") {
+    auto task = text_arg(args, "task");
+    if (!task) return bad(task.error());
+    const json* h = arg(args, "hash");
+    if (h != nullptr && !h->is_string()) return bad("\"hash\" is a program hash (16 hex digits)");
+    auto r = rt_.program_info(*task, h ? h->get<std::string>() : std::string());
+    if (!r) return ApiAnswer::failure("refused", r.error());
+    json versions = json::array();
+    for (const ProgramVersion& v : r->history) {
+      versions.push_back({{"hash", v.hash}, {"time", format_utc(v.realtime_ns)}, {"origin", v.origin}});
+    }
+    const std::string hash = h ? h->get<std::string>() : r->hash;
+    return ApiAnswer::success("task " + *task + ": program " + hash + " (" + std::to_string(r->source.size()) + " bytes)",
+                              {{"task", *task}, {"file", r->file}, {"origin", r->origin}, {"running", r->hash},
+                               {"hash", hash.empty() ? r->hash : hash}, {"history", versions}, {"source", r->source}});
   }
   if (op == "rollback") {
     auto task = text_arg(args, "task");

@@ -34,6 +34,10 @@
 #include "sched/stats_render.h"
 #include "sched/task.h"
 
+namespace rtplc::lang {
+struct CompileResult;
+}
+
 namespace rtplc::sched {
 
 struct RuntimeOptions {
@@ -124,7 +128,22 @@ class Runtime {
   Result<std::string> swap(const std::string& task, const std::string& source,
                            const std::string& file_label,
                            const std::vector<std::string>& drop_outputs = {});
+  // What swap() with the same arguments would do — the compiler's errors, or
+  // the migration report (state kept and reset, active steps, new channels,
+  // outputs dropped) — and changes nothing.
+  Result<std::string> swap_check(const std::string& task, const std::string& source,
+                                 const std::string& file_label,
+                                 const std::vector<std::string>& drop_outputs = {});
   Result<std::string> rollback(const std::string& task, const std::vector<std::string>& drop_outputs = {});
+  // A task's program as the store keeps it: what runs now (file, origin,
+  // hash), its versions newest last, and the source of one of them (`hash`,
+  // or the running one when empty). For the console's program browser and
+  // chart view.
+  struct ProgramInfo {
+    std::string file, origin, hash, source;
+    std::vector<ProgramVersion> history;
+  };
+  Result<ProgramInfo> program_info(const std::string& task, const std::string& hash = "");
   std::string status() const;
   // The same facts as one JSON object (`rtplc status --json`).
   std::string status_json() const;
@@ -169,6 +188,9 @@ class Runtime {
   // "no task named X; the tasks are a, b" for an operator's typo.
   std::string no_task_text(const std::string& name) const;
   Task* find_task(const std::string& name);
+  // The task's program compiled against its running grid and output layout.
+  lang::CompileResult compile_for(const Task& t, const std::string& source) const;
+  std::vector<std::string> active_step_names(const Task& t) const;
   // Summary lines printed when the runtime starts (with what the warm start restored).
   std::vector<std::string> describe() const;
   // Per-task views for `stats` rendering.

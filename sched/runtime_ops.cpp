@@ -45,6 +45,31 @@ void active_steps(const LoadedProgram& old, const Migration& m, std::vector<std:
   }
 }
 
+// "  kept state: 2 (F10, F20)": one line of a migration report, at most 12 names.
+void list_line(std::string& out, const char* what, const std::vector<std::string>& names) {
+  out += std::string("  ") + what + ": " + std::to_string(names.size());
+  for (size_t i = 0; i < names.size() && i < 12; ++i) out += (i ? ", " : " (") + names[i];
+  if (!names.empty()) out += names.size() > 12 ? ", ...)" : ")";
+  out += "\n";
+}
+
+// What a swap does to the blocks' state, the same lines for a swap done and
+// for one only checked (--check).
+void migration_lines(std::string& out, const Migration& m, bool is_sfc, const std::vector<std::string>& steps_kept,
+                     const std::vector<std::string>& steps_lost, bool done) {
+  list_line(out, "kept state", m.kept);
+  list_line(out, "reset", m.reset);
+  list_line(out, "new", m.added);
+  list_line(out, "removed", m.removed);
+  if (!is_sfc) return;
+  list_line(out, "active steps kept", steps_kept);
+  if (!steps_lost.empty()) {
+    list_line(out, done ? "active steps the new chart does not have (now inactive)"
+                        : "active steps the new chart does not have (would become inactive)",
+              steps_lost);
+  }
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------
@@ -252,22 +277,53 @@ Result<std::string> Runtime::install(Task& t, std::unique_ptr<LoadedProgram> nex
   std::string out = "task " + t.params().name + ": now running " + t.active().file + " (" +
                     std::to_string(n_blocks) + " blocks), applied at a cycle boundary " +
                     fmt_ms(applied - requested) + " after the request\n";
-  auto list = [&out](const char* what, const std::vector<std::string>& names) {
-    out += std::string("  ") + what + ": " + std::to_string(names.size());
-    for (size_t i = 0; i < names.size() && i < 12; ++i) out += (i ? ", " : " (") + names[i];
-    if (!names.empty()) out += names.size() > 12 ? ", ...)" : ")";
-    out += "\n";
-  };
-  list("kept state", summary.kept);
-  list("reset", summary.reset);
-  list("new", summary.added);
-  list("removed", summary.removed);
-  if (is_sfc) {
-    list("active steps kept", steps_kept);
-    if (!steps_lost.empty())
-      list("active steps the new chart does not have (now inactive)", steps_lost);
-  }
+  migration_lines(out, summary, is_sfc, steps_kept, steps_lost, true);
   return out;
+}
+
+lang::CompileResult Runtime::compile_for(const Task& t, const std::string& source) const {
+  lang::CompileOptions o;
+  o.name = t.params().name;
+  o.period_override = static_cast<double>(t.params().period_ns) / 1e9;  // the task keeps its grid
+  o.output_layout = task_output_keys_[t.index()];
+  if (t.index() < task_entries_.size()) o.entry = task_entries_[t.index()];
+  return lang::compile_source(source, o);
+}
+
+Result<std::string> Runtime::swap_check(const std::string& task, const std::string& source,
+                                        const std::string& file_label,
+                                        const std::vector<std::string>& drop_outputs) {
+  Task* t = find_task(task);
+  if (t == nullptr) return make_error(no_task_text(task));
+  lang::CompileResult r = compile_for(*t, source);
+  if (!r.ok()) return make_error("would not swap, the program has errors:\n" + r.diags.render(file_label, source));
+  // The same plan a swap makes (channels, set-points, outputs left out, state
+  // carried over), then dropped: nothing enters the image, the store or the task.
+  auto next = make_program(t->index(), std::move(*r.image), source, file_label, &t->active(), drop_outputs);
+  if (!next) return make_error("would not swap: " + next.error());
+  const LoadedProgram& p = **next;
+  std::string out = "task " + task + ": " + file_label + " compiles and verifies (" +
+                    std::to_string(p.image.header().n_instr) + " blocks); a swap now would keep or reset:\n";
+  // Active steps from the step-flag channels (the running arena is the task's).
+  std::vector<std::string> steps_kept, steps_lost;
+  const std::vector<std::string> active = active_step_names(*t);
+  for (const std::string& step : active) {
+    const bool carried = std::find(p.migration.kept.begin(), p.migration.kept.end(), "step." + step) !=
+                         p.migration.kept.end();
+    (carried ? steps_kept : steps_lost).push_back(step);
+  }
+  bool is_sfc = false;
+  for (const Binding& b : t->active().image.bindings()) {
+    is_sfc = is_sfc || (b.dir == BindingDir::kOutput && b.p == lang::sfc::kStepFlagProcessor);
+  }
+  migration_lines(out, p.migration, is_sfc, steps_kept, steps_lost, false);
+  std::vector<std::string> added, dropped;
+  for (const LoadedProgram::NewChannel& n : p.new_channels) added.push_back(n.desc.label);
+  for (const LoadedProgram::Dropped& d : p.dropped) dropped.push_back(d.label);
+  list_line(out, "new channels", added);
+  if (!dropped.empty()) list_line(out, "outputs dropped (to their safe value, bad)", dropped);
+  if (r.diags.warning_count()) out += r.diags.render(file_label, source);
+  return out + "nothing was changed (a check only)\n";
 }
 
 Result<std::string> Runtime::swap(const std::string& task, const std::string& source,
@@ -276,12 +332,7 @@ Result<std::string> Runtime::swap(const std::string& task, const std::string& so
   const int64_t t0 = kernel_rt::monotonic_now_ns();
   Task* t = find_task(task);
   if (t == nullptr) return make_error(no_task_text(task));
-  lang::CompileOptions o;
-  o.name = task;
-  o.period_override = static_cast<double>(t->params().period_ns) / 1e9;  // the task keeps its grid
-  o.output_layout = task_output_keys_[t->index()];
-  if (t->index() < task_entries_.size()) o.entry = task_entries_[t->index()];
-  lang::CompileResult r = lang::compile_source(source, o);
+  lang::CompileResult r = compile_for(*t, source);
   if (!r.ok()) {
     return make_error("not swapped, the program has errors:\n" + r.diags.render(file_label, source));
   }
@@ -336,12 +387,7 @@ Result<std::string> Runtime::rollback(const std::string& task, const std::vector
   } else {
     return make_error("task " + task + " has no previous program to roll back to");
   }
-  lang::CompileOptions o;
-  o.name = task;
-  o.period_override = static_cast<double>(t->params().period_ns) / 1e9;
-  o.output_layout = task_output_keys_[t->index()];
-  if (t->index() < task_entries_.size()) o.entry = task_entries_[t->index()];
-  lang::CompileResult r = lang::compile_source(source, o);
+  lang::CompileResult r = compile_for(*t, source);
   if (!r.ok()) return make_error("not rolled back, the previous program no longer compiles:\n" + r.diags.render(label, source));
   if (t->swap_in_flight()) return make_error("not rolled back: a swap of task " + task + " is already in progress");
   auto next = make_program(t->index(), std::move(*r.image), source, label, &t->active(), drop_outputs);
@@ -357,6 +403,41 @@ Result<std::string> Runtime::rollback(const std::string& task, const std::vector
     if (auto cur = programs_.current(task)) origins_[t->index()] = cur->origin;
   }
   return res;
+}
+
+// An SFC task's step flags are output channels on the step-flag processor
+// labelled <chart>.<step> (docs/sfc.md): the steps whose flag is set now.
+std::vector<std::string> Runtime::active_step_names(const Task& t) const {
+  std::vector<std::string> out;
+  const TaskImage& img = t.active().image;
+  for (const Binding& b : img.bindings()) {
+    if (b.dir != BindingDir::kOutput || b.p != lang::sfc::kStepFlagProcessor) continue;
+    const std::string label = img.str(b.label);
+    const int c = image_.find_channel(label);
+    if (c >= 0 && image_.read_channel(static_cast<uint32_t>(c)).value != 0) out.push_back(label.substr(label.find('.') + 1));
+  }
+  return out;
+}
+
+Result<Runtime::ProgramInfo> Runtime::program_info(const std::string& task, const std::string& hash) {
+  Task* t = find_task(task);
+  if (t == nullptr) return make_error(no_task_text(task));
+  ProgramInfo info;
+  info.file = t->active().file;
+  info.origin = origins_[t->index()];
+  info.hash = ProgramStore::hash_of(t->active().source);
+  info.history = programs_.history(task);
+  if (hash.empty() || hash == info.hash) {
+    info.source = t->active().source;
+    return info;
+  }
+  const bool known = std::any_of(info.history.begin(), info.history.end(),
+                                 [&](const ProgramVersion& v) { return v.hash == hash; });
+  if (!known) return make_error("task " + task + " has no stored program " + hash);
+  auto text = programs_.source(hash);
+  if (!text) return make_error(text.error());
+  info.source = std::move(*text);
+  return info;
 }
 
 std::string Runtime::status() const {
@@ -393,22 +474,15 @@ std::string Runtime::status() const {
     if (t->index() < last_block_error_.size() && !last_block_error_[t->index()].empty()) {
       s += "\n    last block error: " + last_block_error_[t->index()];
     }
-    // An SFC task: its step flags are output channels on the step-flag processor
-    // labelled <chart>.<step> (docs/sfc.md); list the active ones.
-    std::string steps;
     bool is_sfc = false;
-    const TaskImage& img = t->active().image;
-    for (const Binding& b : img.bindings()) {
-      if (b.dir != BindingDir::kOutput || b.p != lang::sfc::kStepFlagProcessor) continue;
-      const std::string label = img.str(b.label);
-      const int c = image_.find_channel(label);
-      if (c < 0) continue;
-      is_sfc = true;
-      if (image_.read_channel(static_cast<uint32_t>(c)).value != 0) {
-        steps += (steps.empty() ? "" : " ") + label.substr(label.find('.') + 1);
-      }
+    for (const Binding& b : t->active().image.bindings()) {
+      is_sfc = is_sfc || (b.dir == BindingDir::kOutput && b.p == lang::sfc::kStepFlagProcessor);
     }
-    if (is_sfc) s += ", active steps: " + (steps.empty() ? std::string("none") : steps);
+    if (is_sfc) {
+      std::string steps;
+      for (const std::string& step : active_step_names(*t)) steps += (steps.empty() ? "" : " ") + step;
+      s += ", active steps: " + (steps.empty() ? std::string("none") : steps);
+    }
     if (t->index() < traces_.size() && !traces_[t->index()].token.empty() && !traces_[t->index()].clearing) {
       s += ", traced (" + traces_[t->index()].labels + ")";
     }

@@ -164,5 +164,56 @@ TEST_F(OperatorApiTest, the_socket_answers_bad_frames_with_an_error_frame_and_ke
   server.stop();
 }
 
+TEST_F(OperatorApiTest, swap_check_reports_what_a_swap_would_do_and_changes_nothing) {
+  const std::string v2 = "%%\nF1 = asp(d0, c0, 50, \"SP\")\nF2 = asp(d0, c1, 5, \"Bias\")\n"
+                         "F3 = add(F1, F2)\nF4 = intg(F3, 1)\ndao(F4, p0, d0, c0, \"OUT\")\nEND\n";
+  const json check = {{"op", "swap_check"}, {"args", {{"task", "t"}, {"name", "v2.fbd"}}}};
+  EXPECT_EQ(rt_->api().call(Caller{"tester", 4242, Role::kOperator}, check, v2).code, "forbidden");
+  const uint32_t channels = rt_->image().channel_count();
+  ApiAnswer a = rt_->api().call(Caller{"tester", 4242, Role::kEngineer}, check, v2);
+  ASSERT_TRUE(a.ok) << a.message;
+  const std::string text = a.result["text"];
+  EXPECT_NE(text.find("new channels: 1 (Bias)"), std::string::npos) << text;
+  EXPECT_NE(text.find("new: "), std::string::npos) << text;
+  EXPECT_NE(text.find("nothing was changed"), std::string::npos) << text;
+  // Nothing entered the image, the store or the task.
+  EXPECT_EQ(rt_->image().channel_count(), channels);
+  EXPECT_LT(rt_->image().find_channel("Bias"), 0);
+  EXPECT_EQ(rt_->image().task_info(0).swaps.load(), 0u);
+  auto info = rt_->program_info("t");
+  ASSERT_TRUE(info.ok());
+  EXPECT_EQ(info->source, kProgram);
+  EXPECT_LE(info->history.size(), 1u);
+  // A program with errors: the compiler's errors with file:line:col, still nothing changed.
+  a = rt_->api().call(Caller{"tester", 4242, Role::kEngineer}, check, "%%\nF1 = nope(1)\nEND\n");
+  ASSERT_FALSE(a.ok);
+  EXPECT_NE(a.message.find("v2.fbd:2:"), std::string::npos) << a.message;
+  EXPECT_EQ(rt_->image().channel_count(), channels);
+}
+
+TEST_F(OperatorApiTest, program_op_lists_the_stored_versions_and_reads_any_of_them) {
+  const std::string v2 = "%%\nF1 = asp(d0, c0, 50, \"SP\")\nF2 = mult(F1, F1)\ndao(F2, p0, d0, c0, \"OUT\")\nEND\n";
+  ApiAnswer a = rt_->api().call(Caller{"tester", 4242, Role::kEngineer},
+                                {{"op", "swap"}, {"args", {{"task", "t"}, {"name", "v2.fbd"}}}}, v2);
+  ASSERT_TRUE(a.ok) << a.message;
+  a = ask(Role::kViewer, {{"op", "program"}, {"args", {{"task", "t"}}}});
+  ASSERT_TRUE(a.ok) << a.message;
+  EXPECT_EQ(a.result["source"], v2);
+  ASSERT_EQ(a.result["history"].size(), 2u) << a.result.dump();
+  EXPECT_EQ(a.result["history"][1]["hash"], a.result["running"]);
+  EXPECT_EQ(a.result["history"][1]["origin"], "swap v2.fbd");
+  const std::string first = a.result["history"][0]["hash"];
+  a = ask(Role::kViewer, {{"op", "program"}, {"args", {{"task", "t"}, {"hash", first}}}});
+  ASSERT_TRUE(a.ok) << a.message;
+  EXPECT_EQ(a.result["source"], kProgram);
+  EXPECT_EQ(a.result["hash"], first);
+  // Only a version of this task's history is read: no path, no other hash.
+  a = ask(Role::kViewer, {{"op", "program"}, {"args", {{"task", "t"}, {"hash", "../../etc/passwd"}}}});
+  EXPECT_FALSE(a.ok);
+  EXPECT_NE(a.message.find("no stored program"), std::string::npos) << a.message;
+  EXPECT_EQ(ask(Role::kViewer, {{"op", "program"}, {"args", {{"task", "nope"}}}}).ok, false);
+  EXPECT_EQ(ask(Role::kNone, {{"op", "program"}, {"args", {{"task", "t"}}}}).code, "forbidden");
+}
+
 }  // namespace
 }  // namespace rtplc::sched
