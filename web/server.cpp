@@ -18,6 +18,7 @@
 #include "sched/control.h"
 #include "sched/jitter.h"
 #include "sched/stats_source.h"
+#include "web/chart.h"
 #include "web/ui_assets.h"
 
 namespace rtplc::web {
@@ -258,7 +259,7 @@ void WebConsole::api(const httplib::Request& req, httplib::Response& res, const 
     if (!copy("label", true) || !copy("value", true)) return;
   } else if (op == "unforce") {
     if (!copy("label", true)) return;
-  } else if (op == "swap") {
+  } else if (op == "swap" || op == "swap_check") {
     if (!copy("task", true)) return;
     if (!body.contains("source") || !body["source"].is_string()) {
       return fail(res, 400, "bad_request", "'source' must be the program's text");
@@ -269,6 +270,9 @@ void WebConsole::api(const httplib::Request& req, httplib::Response& res, const 
   } else if (op == "rollback") {
     if (!copy("task", true)) return;
     copy("drop_outputs", false);
+  } else if (op == "program") {
+    args["task"] = req.get_param_value("task");
+    if (req.has_param("hash")) args["hash"] = req.get_param_value("hash");
   } else if (op == "audit") {
     const std::string n = req.get_param_value("lines");
     if (!n.empty()) {
@@ -278,7 +282,7 @@ void WebConsole::api(const httplib::Request& req, httplib::Response& res, const 
       args["lines"] = v;
     }
   }
-  auto answer = ask(s, op, args, payload, op == "swap" ? 60000 : 10000);
+  auto answer = ask(s, op, args, payload, op == "swap" || op == "swap_check" ? 60000 : 10000);
   if (!answer) return fail(res, 502, "unreachable", answer.error());
   if (answer->value("ok", false)) return reply(res, 200, *answer);
   const std::string code = (*answer)["error"].value("code", "refused");
@@ -400,6 +404,30 @@ void WebConsole::routes() {
   });
   http_->Post("/api/rollback", [this](const httplib::Request& req, httplib::Response& res) {
     api(req, res, "rollback", Role::kEngineer);
+  });
+  // What a swap would do (the compiler's errors or the migration report), changing nothing.
+  http_->Post("/api/swap/check", [this](const httplib::Request& req, httplib::Response& res) {
+    api(req, res, "swap_check", Role::kEngineer);
+  });
+  // A task's program store: the versions it ran, newest last, and one's source.
+  http_->Get("/api/program", [this](const httplib::Request& req, httplib::Response& res) {
+    api(req, res, "program", Role::kViewer);
+  });
+  // An SFC task's chart (steps, transitions, conditions) from the source it runs.
+  http_->Get("/api/chart", [this](const httplib::Request& req, httplib::Response& res) {
+    Session s;
+    if (guard(req, res, Role::kViewer, false, &s) != 0) return;
+    const std::string task = req.get_param_value("task");
+    auto answer = ask(s, "program", {{"task", task}}, "", 10000);
+    if (!answer) return fail(res, 502, "unreachable", answer.error());
+    if (!answer->value("ok", false)) return reply(res, status_of((*answer)["error"].value("code", "refused")), *answer);
+    const json& r = (*answer)["result"];
+    auto chart = chart_json(r.value("source", std::string()));
+    if (!chart) return fail(res, 404, "not_a_chart", "task " + task + ": " + chart.error());
+    (*chart)["ok"] = true;
+    (*chart)["task"] = task;
+    (*chart)["program"] = r.value("running", std::string());
+    reply(res, 200, *chart);
   });
 
   // Every channel with its description and current value, from the image.

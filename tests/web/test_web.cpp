@@ -17,6 +17,7 @@
 #include "tests/support/runtime_fixture.h"
 #include "tests/support/scratch.h"
 #include "web/server.h"
+#include "web/chart.h"
 #include "web/users.h"
 
 namespace rtplc::web {
@@ -48,6 +49,9 @@ const Route kRoutes[] = {
     {"POST", "/api/unforce", Role::kEngineer, R"({"label": "OUT"})"},
     {"POST", "/api/swap", Role::kEngineer, R"({"task": "t", "source": "%%\nEND\n"})"},
     {"POST", "/api/rollback", Role::kEngineer, R"({"task": "t"})"},
+    {"POST", "/api/swap/check", Role::kEngineer, R"({"task": "t", "source": "%%\nEND\n"})"},
+    {"GET", "/api/program?task=t", Role::kViewer, ""},
+    {"GET", "/api/chart?task=t", Role::kViewer, ""},
     {"POST", "/api/trend", Role::kEngineer, R"({"labels": ["SP"]})"},
     {"POST", "/api/trend/stop", Role::kEngineer, R"({"id": "x"})"},
     {"GET", "/api/trend/stream?id=x", Role::kEngineer, ""},
@@ -241,6 +245,29 @@ TEST(WebUsers, passwords_are_argon2id_hashes_and_short_ones_are_refused) {
   EXPECT_EQ(f.check("amy", "a-new-long-password"), Role::kOperator);
   ASSERT_TRUE(f.remove("amy").ok());
   EXPECT_EQ(f.check("amy", "a-new-long-password"), std::nullopt);
+}
+
+TEST(WebChart, a_chart_is_its_steps_transitions_and_conditions_as_written) {
+  const std::string sfc =
+      "SFC mix STEPS d0\nINPUT A = ddi(p0, d0, c0, \"A\")\nINPUT B = ddi(p0, d0, c1, \"B\")\n"
+      "OUTPUT V = ddo(p0, d1, c0, \"V\")\n"
+      "INITIAL STEP Idle\nEND_STEP\nSTEP Run\n  S V\nEND_STEP\nSTEP Stop\n  R V\nEND_STEP\n"
+      "TRANSITION go FROM Idle TO Run WHEN A AND (B OR NOT A)\n"
+      "TRANSITION halt FROM Run TO Stop WHEN NOT B\nTRANSITION back FROM Stop TO Idle WHEN TRUE\n";
+  auto c = chart_json(sfc);
+  ASSERT_TRUE(c.ok()) << c.error();
+  EXPECT_EQ((*c)["chart"], "mix");
+  ASSERT_EQ((*c)["steps"].size(), 3u);
+  EXPECT_EQ((*c)["steps"][0]["label"], "mix.Idle");
+  EXPECT_EQ((*c)["steps"][0]["initial"], true);
+  EXPECT_EQ((*c)["steps"][1]["actions"][0], "S V");
+  ASSERT_EQ((*c)["transitions"].size(), 3u);
+  EXPECT_EQ((*c)["transitions"][0]["when"], "A AND (B OR NOT A)");
+  EXPECT_EQ((*c)["transitions"][0]["from"][0], "Idle");
+  EXPECT_EQ((*c)["transitions"][1]["when"], "NOT B");
+  EXPECT_EQ((*c)["transitions"][2]["to"][0], "Idle");
+  EXPECT_FALSE(chart_json(kProgram).ok());                         // FBD
+  EXPECT_FALSE(chart_json("SFC broken STEPS d0\nSTEP\n").ok());   // does not parse
 }
 
 }  // namespace
