@@ -190,7 +190,10 @@ class Runtime {
   Task* find_task(const std::string& name);
   // The task's program compiled against its running grid and output layout.
   lang::CompileResult compile_for(const Task& t, const std::string& source) const;
+  // SFC tasks: their step flags are channels <chart>.<step> (docs/sfc.md).
+  static bool is_chart(const Task& t);
   std::vector<std::string> active_step_names(const Task& t) const;
+  std::string steps_json(const Task& t) const;
   // Summary lines printed when the runtime starts (with what the warm start restored).
   std::vector<std::string> describe() const;
   // Per-task views for `stats` rendering.

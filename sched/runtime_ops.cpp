@@ -312,11 +312,7 @@ Result<std::string> Runtime::swap_check(const std::string& task, const std::stri
                          p.migration.kept.end();
     (carried ? steps_kept : steps_lost).push_back(step);
   }
-  bool is_sfc = false;
-  for (const Binding& b : t->active().image.bindings()) {
-    is_sfc = is_sfc || (b.dir == BindingDir::kOutput && b.p == lang::sfc::kStepFlagProcessor);
-  }
-  migration_lines(out, p.migration, is_sfc, steps_kept, steps_lost, false);
+  migration_lines(out, p.migration, is_chart(*t), steps_kept, steps_lost, false);
   std::vector<std::string> added, dropped;
   for (const LoadedProgram::NewChannel& n : p.new_channels) added.push_back(n.desc.label);
   for (const LoadedProgram::Dropped& d : p.dropped) dropped.push_back(d.label);
@@ -407,6 +403,13 @@ Result<std::string> Runtime::rollback(const std::string& task, const std::vector
 
 // An SFC task's step flags are output channels on the step-flag processor
 // labelled <chart>.<step> (docs/sfc.md): the steps whose flag is set now.
+bool Runtime::is_chart(const Task& t) {
+  const auto b = t.active().image.bindings();
+  return std::any_of(b.begin(), b.end(), [](const Binding& x) {
+    return x.dir == BindingDir::kOutput && x.p == lang::sfc::kStepFlagProcessor;
+  });
+}
+
 std::vector<std::string> Runtime::active_step_names(const Task& t) const {
   std::vector<std::string> out;
   const TaskImage& img = t.active().image;
@@ -474,11 +477,7 @@ std::string Runtime::status() const {
     if (t->index() < last_block_error_.size() && !last_block_error_[t->index()].empty()) {
       s += "\n    last block error: " + last_block_error_[t->index()];
     }
-    bool is_sfc = false;
-    for (const Binding& b : t->active().image.bindings()) {
-      is_sfc = is_sfc || (b.dir == BindingDir::kOutput && b.p == lang::sfc::kStepFlagProcessor);
-    }
-    if (is_sfc) {
+    if (is_chart(*t)) {
       std::string steps;
       for (const std::string& step : active_step_names(*t)) steps += (steps.empty() ? "" : " ") + step;
       s += ", active steps: " + (steps.empty() ? std::string("none") : steps);
@@ -509,6 +508,18 @@ std::string json_text(std::string_view t) {
 }
 }  // namespace
 
+// An SFC task's active steps for status --json: `, "active_steps": [...]`.
+std::string Runtime::steps_json(const Task& t) const {
+  if (!is_chart(t)) return "";
+  std::string out = ", \"active_steps\": [";
+  bool first = true;
+  for (const std::string& step : active_step_names(t)) {
+    out += (first ? "" : ", ") + json_text(step);
+    first = false;
+  }
+  return out + "]";
+}
+
 std::string Runtime::status_json() const {
   std::string s = fmt::format("{{\n  \"runtime\": {}, \"pid\": {}, \"shared_memory\": {}, \"control_socket\": {}, "
                               "\"retain_file\": {},\n  \"forced\": [",
@@ -531,12 +542,12 @@ std::string Runtime::status_json() const {
     s += fmt::format(
         "{}\n    {{\"name\": {}, \"state\": \"{}\", \"file\": {}, \"program\": \"{}\", \"origin\": {}, "
         "\"period_ns\": {}, \"policy\": \"{}\", \"priority\": {}, \"cycles\": {}, \"overruns\": {}, "
-        "\"swaps\": {}, \"block_errors\": {}, \"last_block_error\": {}}}",
+        "\"swaps\": {}, \"block_errors\": {}, \"last_block_error\": {}{}}}",
         first ? "" : ",", json_text(t->params().name),
         io::task_state_name(static_cast<io::TaskState>(ti.state.load())), json_text(t->active().file),
         ProgramStore::hash_of(t->active().source), json_text(origins_[t->index()]), t->params().period_ns,
         ti.fifo ? "FIFO" : "OTHER", ti.fifo ? ti.priority : 0, st->cycles(), st->overruns(), ti.swaps.load(),
-        ti.block_errors.load(), last_error.empty() ? "null" : json_text(last_error));
+        ti.block_errors.load(), last_error.empty() ? "null" : json_text(last_error), steps_json(*t));
     first = false;
   }
   s += first ? "]\n}\n" : "\n  ]\n}\n";

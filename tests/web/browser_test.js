@@ -1,15 +1,20 @@
 // Drives the web console in Debian's chromium (headless) through playwright-core:
 // the one-time link logs in; ProcVal moves; a set-point set in the form is the
 // runtime's (the loop follows); force shows the FORCED banner and unforce
-// clears it; a runtime that dies is shown STALE. Screenshots go to SHOTS.
-// Usage: node browser_test.js LINK SHOTS_DIR   (tests/web/browser_test.sh runs it)
+// clears it; a swap is checked (errors, or the migration report) before it is
+// confirmed, the program store lists it and rollback undoes it; the SFC view
+// lights the active step; a Modbus slave that dies turns its channels bad; a
+// runtime that dies is shown STALE. Screenshots go to SHOTS.
+// Usage: node browser_test.js LINK SHOTS_DIR RUN_PID_FILE DIR   (tests/web/browser_test.sh runs it)
 'use strict';
 const assert = require('assert');
 const fs = require('fs');
 const path = require('path');
 const { chromium } = require('playwright-core');
 
-const [link, shots, pidFile] = process.argv.slice(2);
+const [link, shots, pidFile, dir] = process.argv.slice(2);
+const result = (page, re) => page.waitForFunction((src) => new RegExp(src).test(
+  document.querySelector('[data-testid="op-result"]').textContent), re.source, { timeout: 20000 });
 
 async function value(page, label) {
   const t = await page.textContent(`[data-testid="value-${label}"]`);
@@ -74,6 +79,46 @@ async function value(page, label) {
     await page.click('[data-testid="unforce-submit"]');
     await page.waitForSelector('[data-testid="forced-banner"]', { state: 'hidden' });
 
+    // Swap: a program with errors is refused at the check, with file:line:col, and cannot be confirmed.
+    await page.selectOption('[data-testid="swap-task"]', 'seed_pid');
+    await page.setInputFiles('[data-testid="swap-file"]', path.join(dir, 'bad.fbd'));
+    await page.click('[data-testid="swap-submit"]');
+    await result(page, /would not swap, the program has errors:\n(.|\n)*bad\.fbd:8:6: error/);
+    assert.ok(await page.isHidden('[data-testid="swap-confirm"]'), 'a program with errors can be confirmed');
+    // A good one: the check reports what it keeps, then the operator confirms.
+    await page.setInputFiles('[data-testid="swap-file"]', path.join(dir, 'seed_pid_v2.fbd'));
+    await page.click('[data-testid="swap-submit"]');
+    await result(page, /compiles and verifies(.|\n)*kept state: \d+(.|\n)*nothing was changed/);
+    await page.screenshot({ path: path.join(shots, 'swap-check.png'), fullPage: true });
+    await page.click('[data-testid="swap-confirm"]');
+    await result(page, /now running seed_pid_v2\.fbd(.|\n)*kept for restarts as program/);
+    await page.waitForFunction(() => document.querySelectorAll('[data-testid="programs"] tbody tr').length === 2);
+    assert.match(await page.textContent('[data-testid="programs"] tbody tr'), /\(running\).*swap seed_pid_v2\.fbd/);
+    await page.click('[data-testid="programs"] tbody tr:first-child button');
+    await page.waitForSelector('[data-testid="program-source"]:not([hidden])');
+    assert.strictEqual(await page.textContent('[data-testid="program-source"]'), fs.readFileSync(path.join(dir, 'seed_pid_v2.fbd'), 'utf8'));
+    await page.screenshot({ path: path.join(shots, 'programs.png'), fullPage: true });
+    await page.click('[data-testid="rollback-submit"]');
+    await result(page, /now running .*seed_pid\.fbd/);
+    await page.waitForFunction(() => document.querySelectorAll('[data-testid="programs"] tbody tr').length === 1);
+
+    // The SFC view: the tank's chart with its initial step active.
+    await page.click('[data-testid="nav-chart"]');
+    await page.waitForSelector('[data-testid="step-S0"].active');
+    assert.match(await page.textContent('[data-testid="chart-info"]'), /chart tank, .* 7 steps, 7 transitions/);
+    assert.match(await page.textContent('[data-testid="chart"]'), /t0: PBS AND LS2/);
+    assert.ok(!(await page.getAttribute('[data-testid="step-S1"]', 'class')).includes('active'));
+    await page.screenshot({ path: path.join(shots, 'chart.png'), fullPage: true });
+
+    // The Modbus slave dies: its channel turns bad (or stale), never stays good.
+    await page.click('[data-testid="nav-overview"]');
+    await page.waitForFunction(() => document.querySelector('[data-testid="quality-FieldLevel"]').textContent === 'good' &&
+      Number(document.querySelector('[data-testid="value-FieldLevel"]').textContent) === 21.5, null, { timeout: 20000 });
+    process.kill(Number(fs.readFileSync(path.join(dir, 'slave.pid'), 'utf8')), 'SIGKILL');
+    await page.waitForFunction(() => /^(bad|stale)$/.test(document.querySelector('[data-testid="quality-FieldLevel"]').textContent) &&
+      /^(bad|stale)$/.test(document.querySelector('[data-testid="quality-FieldEcho"]').textContent), null, { timeout: 20000 });
+    await page.screenshot({ path: path.join(shots, 'slave-dead.png'), fullPage: true });
+
     // A trend of two channels: every cycle arrives, none lost, and the CSV has them.
     await page.click('[data-testid="nav-trend"]');
     await page.selectOption('[data-testid="trend-labels"]', ['ProcVal', 'Setpoint']);
@@ -106,7 +151,7 @@ async function value(page, label) {
     await page.waitForSelector('[data-testid="stale-banner"]:not([hidden])', { timeout: 15000 });
     assert.strictEqual(await page.textContent('[data-testid="run-state"]'), 'STALE');
     await page.screenshot({ path: path.join(shots, 'stale.png'), fullPage: true });
-    console.log('OK: log in, live values, set, limits, force/unforce, audit, stale: all seen in chromium');
+    console.log('OK: log in, live values, set, limits, force/unforce, swap check/confirm, program store, rollback, SFC view, dead Modbus slave, trend, jitter, audit, stale: all seen in chromium');
   } catch (e) {
     await page.screenshot({ path: path.join(shots, 'failure.png'), fullPage: true }).catch(() => {});
     console.error('FAILED: ' + (e && e.stack || e));

@@ -10,15 +10,30 @@ mods="${RTPLC_BROWSER_TEST_DIR:-$src/build/browser-test}/node_modules"
 [ -d "$mods/playwright-core" ] || { echo "SKIP: playwright-core is not in $mods (scripts/setup-browser-test)"; exit 77; }
 dir="$(mktemp -d)"
 name="web$$"
-run_pid="" web_pid=""
+run_pid="" web_pid="" slave_pid=""
 cleanup() {
+  [ -n "$slave_pid" ] && kill "$slave_pid" 2>/dev/null || true
   [ -n "$web_pid" ] && kill "$web_pid" 2>/dev/null || true
   [ -n "$run_pid" ] && kill "$run_pid" 2>/dev/null || true
   wait 2>/dev/null || true
   rm -rf "$dir"
 }
 trap cleanup EXIT
-cp "$src/examples/seed_pid.fbd" "$dir/"
+cp "$src/examples/seed_pid.fbd" "$src/examples/seed_pid_v2.fbd" "$src/examples/bad.fbd" "$dir/"
+# The measuring tank's chart, on p3 (seed_pid's loop has p0).
+sed 's/(p0, /(p3, /' "$src/examples/tank.sfc" > "$dir/tank.sfc"
+# A field task on a Modbus fake slave (its channels turn bad when the slave dies).
+cat > "$dir/field.fbd" <<'FBD'
+%%
+stime(0.1)
+F1 = prr(p1, d0, c0, "FieldLevel")
+pwr(F1, p1, d0, c1, "FieldEcho")
+END
+FBD
+port="$(/usr/bin/python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])')"
+"$bin" modbus fake-slave --port "$port" --set hr:0:f32=21.5 > "$dir/slave.log" 2>&1 &
+slave_pid=$!
+echo "$slave_pid" > "$dir/slave.pid"
 cat > "$dir/web.yaml" <<YAML
 runtime:
   name: $name
@@ -28,8 +43,19 @@ runtime:
 tasks:
   - program: seed_pid.fbd
     setpoints: {Setpoint: {min: 0, max: 100}}
+  - {name: sequence, program: tank.sfc, period: 100ms}
+  - {name: field, program: field.fbd, period: 100ms}
 drivers:
   - kind: sim
+  - kind: modbus
+    name: plc
+    period: 10ms
+    slaves:
+      - {name: s1, address: 127.0.0.1, port: $port, unit: 1, poll: 50ms, timeout: 200ms, retries: 1}
+    read:
+      - {device: R, channel: p1.d0.c0, slave: s1, address: 0, type: f32}
+    write:
+      - {device: R, channel: p1.d0.c1, slave: s1, address: 2, type: f32}
 YAML
 "$bin" run "$dir/web.yaml" > "$dir/run.log" 2>&1 &
 run_pid=$!
@@ -45,7 +71,7 @@ for _ in $(seq 1 100); do
 done
 [ -n "$link" ] || { cat "$dir/web.log"; echo "FAILED: rtplc web printed no login link"; exit 1; }
 shots="$build/web-screenshots"
-NODE_PATH="$mods" node "$src/tests/web/browser_test.js" "$link" "$shots" "$dir/run.pid" || {
+NODE_PATH="$mods" node "$src/tests/web/browser_test.js" "$link" "$shots" "$dir/run.pid" "$dir" || {
   echo "--- rtplc web"; cat "$dir/web.log"; echo "--- rtplc run"; cat "$dir/run.log"; exit 1;
 }
 echo "screenshots in $shots"

@@ -7,6 +7,8 @@ let session = null;       // {user, role, csrf, runtime}
 let channels = new Map(); // label -> {row, desc}
 let live = null;
 let lastFrame = 0;
+let chartSteps = new Map(); // step flag label -> its box in the chart view
+let pendingSwap = null;     // the upload the operator checked and may confirm
 const ROLES = ['viewer', 'operator', 'engineer', 'admin'];
 const may = (role) => session && ROLES.indexOf(session.role) >= ROLES.indexOf(role);
 
@@ -102,6 +104,9 @@ async function loadStatus() {
   const tasks = $('swap-task');
   const chosen = tasks.value;
   tasks.replaceChildren();
+  const charts = $('chart-task');
+  const chartChosen = charts.value;
+  charts.replaceChildren();
   for (const task of st.tasks || []) {
     const c = el('div', null, 'card');
     c.dataset.testid = 'task-' + task.name;
@@ -119,8 +124,10 @@ async function loadStatus() {
     c.appendChild(facts);
     cards.appendChild(c);
     tasks.appendChild(el('option', task.name));
+    if (task.active_steps) charts.appendChild(el('option', task.name));
   }
   if (chosen) tasks.value = chosen;
+  if (chartChosen) charts.value = chartChosen;
   const forced = st.forced || [];
   $('forces').hidden = forced.length === 0;
   $('forces').textContent = forced.length + ' FORCED';
@@ -151,6 +158,8 @@ function openLive() {
     lastFrame = Date.now();
     setStale(!f.alive);
     for (const v of f.values) {
+      const step = chartSteps.get(v.label);
+      if (step) step.classList.toggle('active', v.value !== 0);
       const c = channels.get(v.label);
       if (!c) continue;
       c.cells.value.textContent = fmt(v.value);
@@ -203,7 +212,11 @@ document.addEventListener('DOMContentLoaded', () => {
     if (b.dataset.page === 'audit') loadAudit();
     if (b.dataset.page === 'jitter') loadJitter();
     if (b.dataset.page === 'trend') fillTrendLabels();
+    if (b.dataset.page === 'chart') loadChart();
+    if (b.dataset.page === 'operations') loadPrograms();
   }));
+  $('chart-task').addEventListener('change', loadChart);
+  $('swap-task').addEventListener('change', loadPrograms);
   $('search').addEventListener('input', filter);
   $('set-form').addEventListener('submit', async (e) => {
     e.preventDefault();
@@ -221,13 +234,27 @@ document.addEventListener('DOMContentLoaded', () => {
     const file = $('swap-file').files[0];
     if (!file) return;
     const task = $('swap-task').value;
-    if (!window.confirm('Swap task ' + task + ' to ' + file.name + ' while the plant runs?')) return;
-    said(await call('POST', '/api/swap', { task, name: file.name, source: await file.text() }));
+    const upload = { task, name: file.name, source: await file.text() };
+    const r = await call('POST', '/api/swap/check', upload);
+    said(r);
+    pendingSwap = r.data && r.data.ok ? upload : null;
+    $('swap-confirm').hidden = !pendingSwap;
+    $('swap-cancel').hidden = !pendingSwap;
+  });
+  const endSwap = () => { pendingSwap = null; $('swap-confirm').hidden = true; $('swap-cancel').hidden = true; };
+  $('swap-cancel').addEventListener('click', () => { endSwap(); $('op-result').textContent = 'swap cancelled; nothing changed'; });
+  $('swap-confirm').addEventListener('click', async () => {
+    const upload = pendingSwap;
+    endSwap();
+    if (!upload) return;
+    said(await call('POST', '/api/swap', upload));
+    loadPrograms();
   });
   $('rollback').addEventListener('click', async () => {
     const task = $('swap-task').value;
     if (!window.confirm('Roll task ' + task + ' back to its previous program?')) return;
     said(await call('POST', '/api/rollback', { task }));
+    loadPrograms();
   });
   $('audit-refresh').addEventListener('click', loadAudit);
   $('jitter-refresh').addEventListener('click', loadJitter);
@@ -402,4 +429,86 @@ function trendCsv() {
   a.href = url; a.download = 'trend-' + trend.task + '.csv';
   document.body.appendChild(a); a.click(); a.remove();
   setTimeout(() => URL.revokeObjectURL(url), 1000);
+}
+
+// The program store of the task chosen on the operations page.
+async function loadPrograms() {
+  const task = $('swap-task').value;
+  const body = $('programs').tBodies[0];
+  if (!task) return;
+  const r = await call('GET', '/api/program?task=' + encodeURIComponent(task));
+  body.replaceChildren();
+  if (r.status !== 200) return;
+  const res = r.data.result;
+  const versions = res.history.length ? res.history : [{ hash: res.running, time: '', origin: res.origin }];
+  for (const v of versions.slice().reverse()) {
+    const tr = el('tr');
+    tr.dataset.testid = 'program-' + v.hash;
+    tr.appendChild(el('td', v.hash + (v.hash === res.running ? ' (running)' : '')));
+    tr.appendChild(el('td', v.time));
+    tr.appendChild(el('td', v.origin));
+    const td = el('td');
+    const b = el('button', 'view');
+    b.type = 'button';
+    b.addEventListener('click', async () => {
+      const s = await call('GET', '/api/program?task=' + encodeURIComponent(task) + '&hash=' + encodeURIComponent(v.hash));
+      const pre = $('program-source');
+      pre.hidden = false;
+      pre.textContent = s.status === 200 ? s.data.result.source : (s.data.error && s.data.error.message);
+    });
+    td.appendChild(b);
+    tr.appendChild(td);
+    body.appendChild(tr);
+  }
+}
+
+// An SFC chart drawn as SVG: steps top to bottom in the order written, each
+// transition as a bar under its source step with its condition beside it;
+// a transition to a step that is not the next one runs up or down a lane on
+// the right.
+async function loadChart() {
+  const task = $('chart-task').value;
+  const box = $('chart');
+  chartSteps = new Map();
+  box.replaceChildren();
+  $('chart-info').textContent = '';
+  if (!task) { $('chart-info').textContent = 'no SFC task in this runtime'; return; }
+  const r = await call('GET', '/api/chart?task=' + encodeURIComponent(task));
+  if (r.status !== 200) { $('chart-info').textContent = (r.data.error && r.data.error.message) || ('HTTP ' + r.status); return; }
+  const c = r.data;
+  $('chart-info').textContent = 'chart ' + c.chart + ', program ' + c.program + ', ' + c.steps.length + ' steps, ' +
+    c.transitions.length + ' transitions';
+  const W = 170, H = 38, GAP = 44, X = 40;
+  const row = new Map(c.steps.map((s, i) => [s.name, i]));
+  const y = (i) => 16 + i * (H + GAP);
+  let lanes = 0;
+  const svg = svgEl('svg', { viewBox: '0 0 900 ' + (y(c.steps.length) + 10), role: 'img' });
+  c.transitions.forEach((t) => {
+    const from = row.get(t.from[0]), to = row.get(t.to[0]);
+    if (from === undefined || to === undefined) return;
+    const by = y(from) + H + GAP / 2;
+    const cx = X + W / 2;
+    svg.appendChild(svgEl('line', { x1: cx, y1: y(from) + H, x2: cx, y2: by, class: 'link' }));
+    svg.appendChild(svgEl('line', { x1: cx - 16, y1: by, x2: cx + 16, y2: by, class: 'bar' }));
+    svg.appendChild(svgEl('text', { x: cx + 24, y: by + 4, class: 'cond' }, t.name + ': ' + t.when));
+    if (to === from + 1) {
+      svg.appendChild(svgEl('line', { x1: cx, y1: by, x2: cx, y2: y(to), class: 'link' }));
+    } else {
+      const lx = X + W + 300 + 18 * lanes++;
+      svg.appendChild(svgEl('polyline', {
+        points: [cx, by, cx, by + 8, lx, by + 8, lx, y(to) - 8, cx, y(to) - 8, cx, y(to)].join(' '), class: 'link jump' }));
+    }
+  });
+  c.steps.forEach((s, i) => {
+    const g = svgEl('g', { class: 'step', 'data-testid': 'step-' + s.name });
+    g.appendChild(svgEl('rect', { x: X, y: y(i), width: W, height: H, rx: 3 }));
+    if (s.initial) g.appendChild(svgEl('rect', { x: X + 4, y: y(i) + 4, width: W - 8, height: H - 8, rx: 2, class: 'inner' }));
+    g.appendChild(svgEl('text', { x: X + 12, y: y(i) + H / 2 + 5, class: 'name' }, s.name));
+    if (s.actions.length) g.appendChild(svgEl('text', { x: X + W + 10, y: y(i) + H / 2 + 5, class: 'act' }, s.actions.join(', ')));
+    svg.appendChild(g);
+    chartSteps.set(s.label, g);
+    const ch = channels.get(s.label);
+    if (ch) g.classList.toggle('active', ch.cells.value.textContent !== '0');
+  });
+  box.appendChild(svg);
 }
