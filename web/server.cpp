@@ -289,6 +289,20 @@ void WebConsole::api(const httplib::Request& req, httplib::Response& res, const 
   reply(res, status_of(code), *answer);
 }
 
+std::string WebConsole::live_event(const Snapshot& snap, const std::vector<std::string>& wanted) {
+  json values = json::array();
+  for (const Snapshot::Value& v : snap.values) {
+    if (!wanted.empty() && std::find(wanted.begin(), wanted.end(), v.label) == wanted.end()) continue;
+    values.push_back({{"label", v.label},
+                      {"value", std::isfinite(v.value) ? json(v.value) : json(nullptr)},
+                      {"quality", v.quality},
+                      {"age_s", v.age_s >= 0 ? json(v.age_s) : json(nullptr)},
+                      {"forced", v.forced}});
+  }
+  const json frame = {{"seq", snap.seq}, {"alive", snap.alive}, {"runtime", snap.runtime}, {"values", values}};
+  return "data: " + frame.dump() + "\n\n";
+}
+
 void WebConsole::routes() {
   httplib::Headers headers = {
       {"Content-Security-Policy", "default-src 'self'; frame-ancestors 'none'; base-uri 'none'; form-action 'self'"},
@@ -619,17 +633,8 @@ void WebConsole::routes() {
           }
           if (!snap || snap->seq == last) return sink.write(": idle\n\n", 9);  // keeps proxies and the browser patient
           last = snap->seq;
-          json values = json::array();
-          for (const Snapshot::Value& v : snap->values) {
-            if (!wanted.empty() && std::find(wanted.begin(), wanted.end(), v.label) == wanted.end()) continue;
-            values.push_back({{"label", v.label},
-                              {"value", std::isfinite(v.value) ? json(v.value) : json(nullptr)},
-                              {"quality", v.quality},
-                              {"age_s", v.age_s >= 0 ? json(v.age_s) : json(nullptr)},
-                              {"forced", v.forced}});
-          }
-          const json frame = {{"seq", snap->seq}, {"alive", snap->alive}, {"runtime", snap->runtime}, {"values", values}};
-          const std::string line = "data: " + frame.dump() + "\n\n";
+          const std::string own = wanted.empty() ? std::string() : live_event(*snap, wanted);
+          const std::string& line = wanted.empty() ? snap->all : own;
           return sink.write(line.data(), line.size());
         });
   });
@@ -674,6 +679,7 @@ void WebConsole::sample_loop() {
         snap->values.push_back(std::move(out));
       }
     }
+    snap->all = live_event(*snap, {});
     {
       std::lock_guard lock(snap_mu_);
       snap_ = std::move(snap);

@@ -115,7 +115,12 @@ class WebConsole {
       bool forced = false;
     };
     std::vector<Value> values;
+    // The event of every channel, rendered once for all the clients that
+    // want them all (most do): 20 browsers cost one rendering, not 20.
+    std::string all;
   };
+  // The live stream's event for `snap`: its channels in `wanted` (all when empty).
+  static std::string live_event(const Snapshot& snap, const std::vector<std::string>& wanted);
 
   void routes();
   // Asks the runtime `op` on behalf of the session's user.
