@@ -393,13 +393,14 @@ ApiAnswer OperatorApi::run(const Caller& caller, const std::string& op, const js
     if (r) say(true, "UNFORCE --all" + who + ": " + one_line(*r));
     return from(std::move(r));
   }
-  if (op == "swap") {
+  if (op == "swap" || op == "swap_check") {
     auto task = text_arg(args, "task");
     if (!task) return bad(task.error());
     auto name = text_arg(args, "name");
     if (!name) return bad(name.error());
     auto drop = list_arg(args, "drop_outputs", false);
     if (!drop) return bad(drop.error());
+    if (op == "swap_check") return from(rt_.swap_check(*task, payload, *name, *drop), {{"task", *task}});
     auto r = rt_.swap(*task, payload, *name, *drop);
     if (r) {
       // One log line per swap: its first two answer lines (compiled, installed).
@@ -408,15 +409,6 @@ ApiAnswer OperatorApi::run(const Caller& caller, const std::string& op, const js
       say(true, "swap of " + *task + who + " refused: " + r.error().substr(0, r.error().find('\n')));
     }
     return from(std::move(r), {{"task", *task}});
-  }
-  if (op == "swap_check") {
-    auto task = text_arg(args, "task");
-    if (!task) return bad(task.error());
-    auto name = text_arg(args, "name");
-    if (!name) return bad(name.error());
-    auto drop = list_arg(args, "drop_outputs", false);
-    if (!drop) return bad(drop.error());
-    return from(rt_.swap_check(*task, payload, *name, *drop), {{"task", *task}});
   }
   if (op == "program") {
     auto task = text_arg(args, "task");
