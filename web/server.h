@@ -14,10 +14,14 @@
 // Loopback only unless TLS is given; every state-changing route is a POST
 // with the session's CSRF token in X-CSRF-Token and no foreign Origin.
 //
-// Live values: one sampler thread reads the image at `sample_hz` into a
-// snapshot with a sequence number; each stream's thread waits for the next
-// sequence and sends its channels' part of the newest snapshot. A slow client
-// skips snapshots (it is sent the newest when it can take one), never queues.
+// Live values: one sampler thread reads the image at `sample_hz` (20 Hz) and
+// publishes a snapshot with a sequence number when a value, status or force
+// changed, and a key snapshot every second whatever happened. Each stream's
+// thread waits for the next sequence: a client that had the previous one gets
+// the changes only (a delta frame), any other (new, or slow and so behind) the
+// whole set (a full frame), so a slow client skips snapshots, never queues
+// them, and still ends up with every current value. A key frame refreshes the
+// ages and keeps a quiet plant's console from looking stale.
 #pragma once
 
 #include <atomic>
@@ -61,7 +65,7 @@ struct WebOptions {
   std::string tls_cert, tls_key;
   std::string users_path;  // "" = default_users_path(runtime_name)
   int link_minutes = 10;   // the one-time login link's life
-  double sample_hz = 10;   // live stream rate
+  double sample_hz = 20;   // how often the image is read for the live stream
   int session_idle_minutes = 60;
 };
 
@@ -107,20 +111,24 @@ class WebConsole {
     bool alive = false;
     std::string runtime;
     int64_t taken_ns = 0;
+    bool key = false;  // every client gets it whole
     struct Value {
       std::string label;
       double value = 0;
       const char* quality = "bad";
       double age_s = -1;
       bool forced = false;
+      bool changed = true;  // since the previous snapshot
     };
     std::vector<Value> values;
-    // The event of every channel, rendered once for all the clients that
-    // want them all (most do): 20 browsers cost one rendering, not 20.
-    std::string all;
+    // The events of every channel, whole and changes only, rendered once for
+    // all the clients that want them all (most do): 20 browsers cost one
+    // rendering, not 20.
+    std::string all, all_changes;
   };
-  // The live stream's event for `snap`: its channels in `wanted` (all when empty).
-  static std::string live_event(const Snapshot& snap, const std::vector<std::string>& wanted);
+  // The live stream's event for `snap`: its channels in `wanted` (all when
+  // empty); with `changes_only` just those that changed since the previous one.
+  static std::string live_event(const Snapshot& snap, const std::vector<std::string>& wanted, bool changes_only);
 
   void routes();
   // Asks the runtime `op` on behalf of the session's user.

@@ -7,6 +7,7 @@
 #include <httplib.h>
 
 #include <fstream>
+#include <set>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
@@ -180,6 +181,64 @@ TEST_F(WebConsoleTest, a_set_through_the_console_is_the_runtimes_own_set_audited
   EXPECT_NE(got.find("\"label\":\"SP\""), std::string::npos) << got;
   EXPECT_NE(got.find("\"value\":61"), std::string::npos) << got;
   EXPECT_EQ(got.find("\"label\":\"OUT\""), std::string::npos) << "a channel nobody subscribed was sent: " << got;
+}
+
+// The live stream sends a new client everything, then only what changed, and
+// everything again in the next key frame (every second): a quiet plant costs
+// no frames between keys, and a slow client resynchronises on the whole set.
+TEST_F(WebConsoleTest, the_live_stream_sends_everything_then_changes_only_then_a_key_frame) {
+  const auto op = login("otto", "operator-password");
+  ASSERT_FALSE(op.first.empty());
+  std::vector<json> frames;
+  std::string buf;
+  bool set_done = false;
+  auto live = client();
+  live.Get("/api/live", httplib::Headers{{"Cookie", op.first}}, [&](const char* data, size_t n) {
+    buf.append(data, n);
+    for (size_t end; (end = buf.find("\n\n")) != std::string::npos; buf.erase(0, end + 2)) {
+      if (buf.rfind("data: ", 0) != 0) continue;
+      frames.push_back(json::parse(buf.substr(6, end - 6)));
+    }
+    if (!frames.empty() && !set_done) {
+      set_done = true;
+      EXPECT_TRUE(rt_->set_value("SP", 62, false).ok());
+    }
+    // Until a key frame that came after a frame of changes, or plenty of frames.
+    bool delta = false, key_after = false;
+    for (size_t i = 1; i < frames.size(); ++i) {
+      if (!frames[i]["full"].get<bool>()) delta = true;
+      else if (delta) key_after = true;
+    }
+    return !key_after && frames.size() < 200;
+  });
+  ASSERT_GE(frames.size(), 3u);
+  auto labels = [](const json& f) {
+    std::set<std::string> out;
+    for (const json& v : f["values"]) out.insert(v["label"].get<std::string>());
+    return out;
+  };
+  EXPECT_TRUE(frames[0]["full"].get<bool>());
+  EXPECT_EQ(labels(frames[0]), (std::set<std::string>{"SP", "OUT"}));
+  // The changes: SP and OUT move to 62 (in one frame or two); nothing else
+  // rides along, and sequence numbers follow each other.
+  bool saw_62 = false, saw_key = false;
+  for (size_t i = 1; i < frames.size(); ++i) {
+    const json& f = frames[i];
+    SCOPED_TRACE(f.dump());
+    EXPECT_EQ(f["seq"].get<uint64_t>(), frames[i - 1]["seq"].get<uint64_t>() + 1);
+    if (f["full"].get<bool>()) {
+      if (saw_62) saw_key = true;
+      EXPECT_EQ(labels(f), (std::set<std::string>{"SP", "OUT"}));
+      continue;
+    }
+    EXPECT_FALSE(f["values"].empty()) << "a frame with no change was sent";
+    for (const json& v : f["values"]) {
+      EXPECT_EQ(v["value"].get<double>(), 62);
+      saw_62 = true;
+    }
+  }
+  EXPECT_TRUE(saw_62);
+  EXPECT_TRUE(saw_key) << "no key frame followed the changes";
 }
 
 TEST_F(WebConsoleTest, the_login_link_works_once_and_wrong_passwords_are_throttled) {
