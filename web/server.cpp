@@ -291,7 +291,8 @@ void WebConsole::api(const httplib::Request& req, httplib::Response& res, const 
   reply(res, status_of(code), *answer);
 }
 
-std::string WebConsole::live_event(const Snapshot& snap, const std::vector<std::string>& wanted, bool changes_only) {
+std::string WebConsole::live_event(const Snapshot& snap, const std::vector<std::string>* wanted, bool changes_only,
+                                   size_t* count) {
   // Written by hand, not through a json object: this runs 20 times a second
   // over a thousand channels and is most of the console's work.
   std::string out = "data: {\"seq\":" + std::to_string(snap.seq) + ",\"alive\":" + (snap.alive ? "true" : "false") +
@@ -300,9 +301,11 @@ std::string WebConsole::live_event(const Snapshot& snap, const std::vector<std::
   out.reserve(out.size() + 80 * snap.values.size());
   bool first = true;
   char num[64];
+  if (count) *count = 0;
   for (const Snapshot::Value& v : snap.values) {
     if (changes_only && !v.changed) continue;
-    if (!wanted.empty() && std::find(wanted.begin(), wanted.end(), v.label) == wanted.end()) continue;
+    if (wanted && !std::binary_search(wanted->begin(), wanted->end(), v.label)) continue;
+    if (count) ++*count;
     if (!first) out += ',';
     first = false;
     out += "{\"label\":";
@@ -632,6 +635,9 @@ void WebConsole::routes() {
   http_->Get("/api/live", [this](const httplib::Request& req, httplib::Response& res) {
     Session s;
     if (guard(req, res, Role::kViewer, false, &s) != 0) return;
+    // `channels=A,B`: those only; `channels=` (empty): none, the frames then
+    // carry the runtime's state alone; no `channels`: all.
+    const bool all = !req.has_param("channels");
     std::vector<std::string> wanted;
     const std::string list = req.get_param_value("channels");
     for (size_t at = 0; at < list.size();) {
@@ -640,10 +646,11 @@ void WebConsole::routes() {
       if (end > at) wanted.push_back(list.substr(at, end - at));
       at = end + 1;
     }
+    std::sort(wanted.begin(), wanted.end());
     const std::string token = cookie_value(req, kCookie);
     res.set_header("X-Accel-Buffering", "no");
     res.set_chunked_content_provider(
-        "text/event-stream", [this, wanted, token, last = uint64_t{0}](size_t, httplib::DataSink& sink) mutable {
+        "text/event-stream", [this, all, wanted, token, last = uint64_t{0}](size_t, httplib::DataSink& sink) mutable {
           std::shared_ptr<const Snapshot> snap;
           {
             std::unique_lock lock(snap_mu_);
@@ -659,8 +666,10 @@ void WebConsole::routes() {
           // Changes only to a client that has the previous snapshot.
           const bool changes = !snap->key && last != 0 && last + 1 == snap->seq;
           last = snap->seq;
-          const std::string own = wanted.empty() ? std::string() : live_event(*snap, wanted, changes);
-          const std::string& line = wanted.empty() ? (changes ? snap->all_changes : snap->all) : own;
+          size_t n = 0;
+          const std::string own = all ? std::string() : live_event(*snap, &wanted, changes, &n);
+          if (!all && changes && n == 0) return true;  // none of its channels changed: nothing to send
+          const std::string& line = all ? (changes ? snap->all_changes : snap->all) : own;
           return sink.write(line.data(), line.size());
         });
   });
@@ -731,8 +740,8 @@ void WebConsole::sample_loop() {
         for (Snapshot::Value& v : snap->values) v.changed = true;
       }
       snap->seq = ++seq;
-      snap->all = live_event(*snap, {}, false);
-      snap->all_changes = snap->key ? snap->all : live_event(*snap, {}, true);
+      snap->all = live_event(*snap, nullptr, false);
+      snap->all_changes = snap->key ? snap->all : live_event(*snap, nullptr, true);
       prev = snap;
       {
         std::lock_guard lock(snap_mu_);

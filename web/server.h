@@ -126,9 +126,11 @@ class WebConsole {
     // rendering, not 20.
     std::string all, all_changes;
   };
-  // The live stream's event for `snap`: its channels in `wanted` (all when
-  // empty); with `changes_only` just those that changed since the previous one.
-  static std::string live_event(const Snapshot& snap, const std::vector<std::string>& wanted, bool changes_only);
+  // The live stream's event for `snap`: its channels in `wanted` (sorted; all
+  // when null); with `changes_only` just those that changed since the previous
+  // one. `count` gets how many channels it carries.
+  static std::string live_event(const Snapshot& snap, const std::vector<std::string>* wanted, bool changes_only,
+                                size_t* count = nullptr);
 
   void routes();
   // Asks the runtime `op` on behalf of the session's user.

@@ -48,6 +48,14 @@ async function value(page, label) {
     assert.notStrictEqual(a, b, 'ProcVal does not move in the console');
     assert.strictEqual(await page.textContent('[data-testid="quality-ProcVal"]'), 'good');
     await page.screenshot({ path: path.join(shots, 'overview.png'), fullPage: true });
+    // Only what is shown is streamed: a search narrows the stream to its rows,
+    // which still move; clearing it brings every channel back.
+    await page.fill('#search', 'ProcVal');
+    await page.waitForFunction(() => JSON.stringify(liveWants) === '["ProcVal"]');
+    const c = await value(page, 'ProcVal');
+    await page.waitForFunction((was) => Number(document.querySelector('[data-testid="value-ProcVal"]').textContent) !== was, c);
+    await page.fill('#search', '');
+    await page.waitForFunction(() => liveWants === null);
 
     // Set the set-point; the value in the table and the loop follow.
     await page.click('[data-testid="nav-operations"]');

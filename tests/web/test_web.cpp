@@ -181,6 +181,14 @@ TEST_F(WebConsoleTest, a_set_through_the_console_is_the_runtimes_own_set_audited
   EXPECT_NE(got.find("\"label\":\"SP\""), std::string::npos) << got;
   EXPECT_NE(got.find("\"value\":61"), std::string::npos) << got;
   EXPECT_EQ(got.find("\"label\":\"OUT\""), std::string::npos) << "a channel nobody subscribed was sent: " << got;
+  // `channels=` (a page that shows none): the runtime's state, no values.
+  got.clear();
+  live.Get("/api/live?channels=", httplib::Headers{{"Cookie", op.first}}, [&](const char* data, size_t n) {
+    got.append(data, n);
+    return got.find("\n\n") == std::string::npos;
+  });
+  EXPECT_NE(got.find("\"alive\":true"), std::string::npos) << got;
+  EXPECT_NE(got.find("\"values\":[]"), std::string::npos) << got;
 }
 
 // The live stream sends a new client everything, then only what changed, and

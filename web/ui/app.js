@@ -6,6 +6,8 @@ const $ = (id) => document.getElementById(id);
 let session = null;       // {user, role, csrf, runtime}
 let channels = new Map(); // label -> {row, desc}
 let live = null;
+let liveWants = null;     // what the open stream carries: null = every channel
+let page = 'overview';
 let lastFrame = 0;
 let chartSteps = new Map(); // step flag label -> its box in the chart view
 let pendingSwap = null;     // the upload the operator checked and may confirm
@@ -57,6 +59,7 @@ async function start() {
   $('swap-form').hidden = !may('engineer');
   await loadChannels();
   await loadStatus();
+  liveWants = shownChannels();
   openLive();
 }
 
@@ -150,9 +153,29 @@ function setStale(stale) {
   channels.forEach((c) => c.row.classList.toggle('stale', stale));
 }
 
+// The channels this page shows: the overview's rows the search leaves, the
+// chart's step flags, none elsewhere (the stream then says only whether the
+// runtime is alive). Null when that is every channel.
+function shownChannels() {
+  let labels = [];
+  if (page === 'overview') labels = [...channels.values()].filter((c) => !c.row.hidden).map((c) => c.desc.label);
+  else if (page === 'chart') labels = [...chartSteps.keys()];
+  return labels.length === channels.size && labels.length > 0 ? null : labels.sort();
+}
+
+// Streams only what is shown: a new stream (whose first frame is whole) when
+// that changes.
+function resubscribe() {
+  const wants = shownChannels();
+  if (live && JSON.stringify(wants) === JSON.stringify(liveWants)) return;
+  liveWants = wants;
+  openLive();
+}
+
 function openLive() {
   if (live) live.close();
-  live = new EventSource('/api/live');
+  const wants = liveWants === undefined ? null : liveWants;
+  live = new EventSource('/api/live' + (wants === null ? '' : '?channels=' + encodeURIComponent(wants.join(','))));
   live.onmessage = (ev) => {
     const f = JSON.parse(ev.data);
     lastFrame = Date.now();
@@ -182,6 +205,8 @@ function filter() {
   channels.forEach((c) => {
     c.row.hidden = q !== '' && !(c.desc.label.toLowerCase().includes(q) || c.desc.channel.toLowerCase().includes(q));
   });
+  clearTimeout(filter.timer);
+  if (live) filter.timer = setTimeout(resubscribe, 300);  // once typing pauses
 }
 
 function said(r) {
@@ -209,6 +234,8 @@ document.addEventListener('DOMContentLoaded', () => {
   document.querySelectorAll('nav button').forEach((b) => b.addEventListener('click', () => {
     document.querySelectorAll('nav button').forEach((x) => x.classList.toggle('active', x === b));
     document.querySelectorAll('.page').forEach((p) => { p.hidden = p.id !== 'page-' + b.dataset.page; });
+    page = b.dataset.page;
+    resubscribe();
     if (b.dataset.page === 'audit') loadAudit();
     if (b.dataset.page === 'jitter') loadJitter();
     if (b.dataset.page === 'trend') fillTrendLabels();
@@ -511,4 +538,5 @@ async function loadChart() {
     if (ch) g.classList.toggle('active', ch.cells.value.textContent !== '0');
   });
   box.appendChild(svg);
+  resubscribe();
 }
