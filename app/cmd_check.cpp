@@ -14,6 +14,7 @@
 #include "blocks/registry.h"
 #include "common/files.h"
 #include "config/config.h"
+#include "editor/diagram.h"
 #include "lang/compiler.h"
 #include "lang/iec/iec_functions.h"
 #include "sched/runtime.h"
@@ -29,6 +30,7 @@ struct CheckArgs {
   std::string output;
   std::string block;
   bool markdown = false;
+  bool json = false;
   bool iec = false;
   bool paths = false;
   std::string entry;
@@ -168,6 +170,10 @@ void run_blocks(const CheckArgs& a) {
     std::fputs(blocks_markdown().c_str(), stdout);
     return;
   }
+  if (a.json) {
+    std::printf("%s\n", editor::registry_json().dump(2).c_str());
+    return;
+  }
   if (a.iec) {
     std::fputs(lang::iec::iec_functions_markdown().c_str(), stdout);
     return;
@@ -262,6 +268,7 @@ void add_check_commands(CLI::App& app) {
   CLI::App* blocks = app.add_subcommand("blocks", "List the primitive blocks and their contracts.");
   blocks->add_option("name", args->block, "show one block in detail");
   blocks->add_flag("--markdown", args->markdown, "print the full reference (docs/blocks.md)");
+  blocks->add_flag("--json", args->json, "every block as JSON: pins, parameters and ranges, help (the editor's palette)");
   blocks->add_flag(
       "--iec", args->iec,
       "print how the IEC 61131-3 standard functions and blocks lower to these (docs/iec.md)");

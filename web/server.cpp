@@ -11,6 +11,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <optional>
 #include <nlohmann/json.hpp>
 
 #include "io/process_image.h"
@@ -20,6 +21,7 @@
 #include "sched/control.h"
 #include "sched/jitter.h"
 #include "sched/stats_source.h"
+#include "editor/diagram.h"
 #include "web/chart.h"
 #include "web/ui_assets.h"
 
@@ -227,7 +229,7 @@ int WebConsole::guard(const httplib::Request& req, httplib::Response& res, Role 
     fail(res, 403, "forbidden", "missing or wrong X-CSRF-Token (GET /api/session gives it)");
     return 403;
   }
-  *out = *s;
+  if (out != nullptr) *out = *s;
   return 0;
 }
 
@@ -469,6 +471,67 @@ void WebConsole::routes() {
     (*chart)["task"] = task;
     (*chart)["program"] = r.value("running", std::string());
     reply(res, 200, *chart);
+  });
+
+  // The FBD editor's routes (docs/editor.md): the palette, text <-> diagram,
+  // and the real compiler's verdict placed on blocks. They change nothing in
+  // the runtime (a swap from the editor is /api/swap), so a viewer may use
+  // them; the POSTs still carry the session's CSRF token.
+  http_->Get("/api/blocks", [this](const httplib::Request& req, httplib::Response& res) {
+    if (guard(req, res, Role::kViewer, false, nullptr) != 0) return;
+    reply(res, 200, json{{"ok", true}, {"blocks", editor::registry_json()}});
+  });
+  http_->Post("/api/fbd/to-diagram", [this](const httplib::Request& req, httplib::Response& res) {
+    if (guard(req, res, Role::kViewer, true, nullptr) != 0) return;
+    const json body = json::parse(req.body, nullptr, false);
+    if (!body.is_object() || !body.contains("text") || !body["text"].is_string()) {
+      return fail(res, 400, "bad_request", "the body is {\"text\": FBD, \"layout\": LAYOUT or null}");
+    }
+    const std::string text = body["text"].get<std::string>();
+    DiagnosticList diags;
+    auto d = editor::from_text(text, &diags);
+    if (!d) {
+      json out = {{"ok", false},
+                  {"error", {{"code", "syntax"}, {"message", diags.render(body.value("file", "program.fbd"), text)}}},
+                  {"diagnostics", editor::diagnostics_json(diags)}};
+      return reply(res, 422, out);
+    }
+    if (body.contains("layout") && !body["layout"].is_null()) {
+      if (auto l = editor::apply_layout(*d, body["layout"]); !l) return fail(res, 400, "bad_layout", l.error());
+    }
+    editor::auto_layout(*d);
+    reply(res, 200, json{{"ok", true}, {"diagram", editor::diagram_json(*d)}});
+  });
+  // A request's {"diagram": D}, or the 400 already answered.
+  auto diagram_of = [](const httplib::Request& req, httplib::Response& res, json* body) -> std::optional<editor::Diagram> {
+    *body = json::parse(req.body, nullptr, false);
+    if (!body->is_object() || !body->contains("diagram")) {
+      fail(res, 400, "bad_request", "the body is {\"diagram\": D}");
+      return std::nullopt;
+    }
+    auto d = editor::diagram_from_json((*body)["diagram"]);
+    if (!d) {
+      fail(res, 400, "bad_diagram", d.error());
+      return std::nullopt;
+    }
+    return std::move(d).value();
+  };
+  http_->Post("/api/fbd/to-text", [this, diagram_of](const httplib::Request& req, httplib::Response& res) {
+    if (guard(req, res, Role::kViewer, true, nullptr) != 0) return;
+    json body;
+    auto d = diagram_of(req, res, &body);
+    if (!d) return;
+    editor::auto_layout(*d);
+    reply(res, 200, json{{"ok", true}, {"text", editor::to_text(*d)}, {"layout", editor::layout_json(*d)}});
+  });
+  http_->Post("/api/fbd/check", [this, diagram_of](const httplib::Request& req, httplib::Response& res) {
+    if (guard(req, res, Role::kViewer, true, nullptr) != 0) return;
+    json body;
+    auto d = diagram_of(req, res, &body);
+    if (!d) return;
+    json out = editor::check_json(editor::check(*d, body.value("file", "diagram.fbd")));
+    out["ok"] = true;
+    reply(res, 200, out);
   });
 
   // Every channel with its description and current value, from the image.

@@ -56,6 +56,10 @@ const Route kRoutes[] = {
     {"POST", "/api/trend", Role::kEngineer, R"({"labels": ["SP"]})"},
     {"POST", "/api/trend/stop", Role::kEngineer, R"({"id": "x"})"},
     {"GET", "/api/trend/stream?id=x", Role::kEngineer, ""},
+    {"GET", "/api/blocks", Role::kViewer, ""},
+    {"POST", "/api/fbd/to-diagram", Role::kViewer, R"({"text": "%%\nEND\n"})"},
+    {"POST", "/api/fbd/to-text", Role::kViewer, R"({"diagram": {"blocks": []}})"},
+    {"POST", "/api/fbd/check", Role::kViewer, R"({"diagram": {"blocks": []}})"},
 };
 
 class WebConsoleTest : public ::testing::Test {
@@ -247,6 +251,66 @@ TEST_F(WebConsoleTest, the_live_stream_sends_everything_then_changes_only_then_a
   }
   EXPECT_TRUE(saw_62);
   EXPECT_TRUE(saw_key) << "no key frame followed the changes";
+}
+
+// The editor's routes as the page uses them: the palette, a program to a
+// diagram, the diagram checked by the real compiler, an error placed on its
+// block, and a text that does not parse refused with its position.
+TEST_F(WebConsoleTest, the_editor_routes_turn_text_into_a_checked_diagram_and_back) {
+  const auto v = login("vera", "viewer-password");
+  ASSERT_FALSE(v.first.empty());
+  auto c = client();
+  httplib::Headers h{{"Cookie", v.first}, {"X-CSRF-Token", v.second}, {"Origin", origin()}};
+  auto r = c.Get("/api/blocks", h);
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200);
+  const json blocks = json::parse(r->body)["blocks"];
+  bool pid = false;
+  for (const json& b : blocks) {
+    if (b["name"] == "pid") {
+      pid = true;
+      EXPECT_EQ(b["inputs"].size(), 2u);
+      EXPECT_EQ(b["params"][0]["name"], "Kp");
+    }
+  }
+  EXPECT_TRUE(pid);
+  r = c.Post("/api/fbd/to-diagram", h, json{{"text", kProgram}, {"layout", nullptr}}.dump(), "application/json");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200) << r->body;
+  json d = json::parse(r->body)["diagram"];
+  ASSERT_EQ(d["blocks"].size(), 2u);
+  EXPECT_EQ(d["blocks"][0]["label"], "SP");
+  EXPECT_LT(d["blocks"][0]["row"].get<int>(), d["blocks"][1]["row"].get<int>());
+  r = c.Post("/api/fbd/check", h, json{{"diagram", d}}.dump(), "application/json");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200) << r->body;
+  json v1 = json::parse(r->body);
+  EXPECT_TRUE(v1["compiles"].get<bool>()) << v1.dump();
+  EXPECT_EQ(v1["identity"].get<std::string>().size(), 16u);
+  // The output reads a block that does not exist: the error is on block 2, argument 1.
+  d["blocks"][1]["args"][0] = {{"ref", "F7"}};
+  r = c.Post("/api/fbd/check", h, json{{"diagram", d}}.dump(), "application/json");
+  ASSERT_TRUE(r);
+  json v2 = json::parse(r->body);
+  EXPECT_FALSE(v2["compiles"].get<bool>());
+  ASSERT_FALSE(v2["diagnostics"].empty()) << v2.dump();
+  EXPECT_EQ(v2["diagnostics"][0]["block"], 1);
+  EXPECT_EQ(v2["diagnostics"][0]["arg"], 0);
+  EXPECT_NE(v2["rendered"].get<std::string>().find("diagram.fbd:"), std::string::npos);
+  r = c.Post("/api/fbd/to-text", h, json{{"diagram", d}}.dump(), "application/json");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200);
+  EXPECT_NE(json::parse(r->body)["text"].get<std::string>().find("dao(F7, p0, d0, c0, \"OUT\")"), std::string::npos);
+  EXPECT_EQ(json::parse(r->body)["layout"]["format"], "rtplc-fbd-layout");
+  r = c.Post("/api/fbd/to-diagram", h, R"({"text": "%%\nF1 = asp(d0 c0)\nEND\n", "file": "x.fbd"})", "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 422);
+  EXPECT_NE(r->body.find("x.fbd:2:"), std::string::npos) << r->body;
+  // A diagram that would smuggle text is refused, not written.
+  d["blocks"][0]["args"][3] = {{"string", "SP\")\nF9 = asp("}};
+  r = c.Post("/api/fbd/to-text", h, json{{"diagram", d}}.dump(), "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 400);
 }
 
 TEST_F(WebConsoleTest, the_login_link_works_once_and_wrong_passwords_are_throttled) {
