@@ -29,6 +29,7 @@ struct WebArgs {
   std::string user, role = "viewer";
   bool password_stdin = false;
   bool no_link = false;
+  std::string workspace;
 };
 
 [[noreturn]] void fail(const std::string& what, int code = kExitFailure) {
@@ -103,6 +104,7 @@ void run_web(const WebArgs& a) {
   o.tls_cert = a.tls_cert;
   o.tls_key = a.tls_key;
   o.users_path = a.users;
+  o.workspace = a.workspace;
   const size_t colon = a.listen.rfind(':');
   if (colon == std::string::npos || colon == 0) fail("rtplc web: --listen takes HOST:PORT, e.g. 127.0.0.1:8480", kExitUsage);
   o.host = a.listen.substr(0, colon);
@@ -167,6 +169,7 @@ void add_web_command(CLI::App& app) {
       "Examples:\n"
       "  rtplc run examples/seed_pid.yaml &\n"
       "  rtplc web\n"
+      "  rtplc web --workspace ~/plc              # the FBD editor opens and saves there\n"
       "  rtplc web user add alice --role operator\n"
       "  rtplc web --listen 0.0.0.0:8443 --tls-cert c.pem --tls-key k.pem");
   web->add_option("--name", a->name, "runtime name (default rtplc)")->check(runtime_name());
@@ -175,6 +178,8 @@ void add_web_command(CLI::App& app) {
   web->add_option("--tls-cert", a->tls_cert, "PEM certificate (needed for any address but loopback)");
   web->add_option("--tls-key", a->tls_key, "PEM private key of --tls-cert");
   web->add_option("--users", a->users, "the users file (default: NAME.web-users in the runtime's state folder)");
+  web->add_option("--workspace", a->workspace,
+                  "the FBD editor's folder of .fbd files (created if missing; without it: upload and download)");
   web->add_flag("--no-link", a->no_link,
                 "print no one-time admin link (a service, whose output others may read); users log in");
   web->callback([a, web] {

@@ -125,6 +125,11 @@ Result<void> WebConsole::start() {
                       "--tls-key FILE), or listen on 127.0.0.1 and reach it through an SSH tunnel");
   }
   socket_ = sched::control_socket_of(opt_.runtime_name, opt_.socket);
+  if (!opt_.workspace.empty()) {
+    auto w = editor::Workspace::open(opt_.workspace);
+    if (!w) return make_error("--workspace: " + w.error());
+    workspace_ = std::move(w).value();
+  }
   if (tls) {
     for (const std::string& f : {opt_.tls_cert, opt_.tls_key}) {
       if (access(f.c_str(), R_OK) != 0) return make_error("cannot read " + f);
@@ -532,6 +537,47 @@ void WebConsole::routes() {
     json out = editor::check_json(editor::check(*d, body.value("file", "diagram.fbd")));
     out["ok"] = true;
     reply(res, 200, out);
+  });
+
+  // The workspace (`--workspace DIR`): the .fbd files the editor lists, opens
+  // and saves. Saving writes a program onto the box: an engineer's.
+  auto no_workspace = [](httplib::Response& res) {
+    fail(res, 404, "no_workspace", "this console has no workspace: start it with rtplc web --workspace DIR");
+  };
+  http_->Get("/api/workspace", [this, no_workspace](const httplib::Request& req, httplib::Response& res) {
+    if (guard(req, res, Role::kViewer, false, nullptr) != 0) return;
+    if (!workspace_) return no_workspace(res);
+    auto files = workspace_->list();
+    if (!files) return fail(res, 500, "workspace", files.error());
+    json list = json::array();
+    for (const auto& f : *files) {
+      list.push_back({{"name", f.name}, {"bytes", f.bytes}, {"mtime_s", f.mtime_s}, {"has_layout", f.has_layout}});
+    }
+    reply(res, 200, json{{"ok", true}, {"dir", workspace_->dir()}, {"files", list}});
+  });
+  http_->Get("/api/workspace/file", [this, no_workspace](const httplib::Request& req, httplib::Response& res) {
+    if (guard(req, res, Role::kViewer, false, nullptr) != 0) return;
+    if (!workspace_) return no_workspace(res);
+    auto f = workspace_->load(req.get_param_value("name"));
+    if (!f) return fail(res, 404, "not_found", f.error());
+    reply(res, 200, json{{"ok", true}, {"name", req.get_param_value("name")}, {"text", f->text},
+                         {"layout", f->layout ? *f->layout : json(nullptr)}});
+  });
+  http_->Post("/api/workspace/save", [this, no_workspace](const httplib::Request& req, httplib::Response& res) {
+    Session s;
+    if (guard(req, res, Role::kEngineer, true, &s) != 0) return;
+    if (!workspace_) return no_workspace(res);
+    const json body = json::parse(req.body, nullptr, false);
+    if (!body.is_object() || !body.contains("name") || !body["name"].is_string() || !body.contains("text") ||
+        !body["text"].is_string()) {
+      return fail(res, 400, "bad_request", "the body is {\"name\": \"NAME.fbd\", \"text\": FBD, \"layout\": LAYOUT}");
+    }
+    const json* layout = body.contains("layout") && body["layout"].is_object() ? &body["layout"] : nullptr;
+    const std::string name = body["name"].get<std::string>();
+    if (auto r = workspace_->save(name, body["text"].get<std::string>(), layout); !r) {
+      return fail(res, 409, "refused", r.error());
+    }
+    reply(res, 200, json{{"ok", true}, {"name", name}, {"saved_by", s.user}});
   });
 
   // Every channel with its description and current value, from the image.

@@ -30,12 +30,14 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "common/result.h"
+#include "editor/workspace.h"
 #include "io/trace_ring.h"
 #include "common/role.h"
 #include "kernel_rt/rt_thread.h"
@@ -67,6 +69,7 @@ struct WebOptions {
   int link_minutes = 10;   // the one-time login link's life
   double sample_hz = 20;   // how often the image is read for the live stream
   int session_idle_minutes = 60;
+  std::string workspace;  // the editor's folder of .fbd files; "" = none (upload/download only)
 };
 
 // Whether `host` is a loopback address (127.0.0.0/8, ::1, localhost).
@@ -161,6 +164,7 @@ class WebConsole {
   std::shared_ptr<const Snapshot> snap_;
   std::atomic<bool> quit_{false};
   kernel_rt::RtThread sampler_;
+  std::optional<editor::Workspace> workspace_;
 };
 
 }  // namespace rtplc::web

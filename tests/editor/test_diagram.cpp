@@ -269,3 +269,55 @@ TEST(EditorText, a_syntax_error_is_refused_with_its_position) {
 
 }  // namespace
 }  // namespace rtplc::editor
+
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "editor/workspace.h"
+#include "tests/support/scratch.h"
+
+namespace rtplc::editor {
+namespace {
+
+TEST(EditorWorkspace, saves_and_loads_programs_with_their_sidecars_and_never_through_a_link) {
+  test::Scratch dir{"rtplc-workspace"};
+  auto w = Workspace::open(dir.path("ws"));
+  ASSERT_TRUE(w.ok()) << w.error();
+  const json layout = {{"format", "rtplc-fbd-layout"}, {"version", 1}, {"cells", json::object()}};
+  ASSERT_TRUE(w->save("loop.fbd", "%%\nEND\n", &layout).ok());
+  ASSERT_TRUE(w->save("plain.fbd", "%%\nEND\n", nullptr).ok());
+  auto files = w->list();
+  ASSERT_TRUE(files.ok());
+  ASSERT_EQ(files->size(), 2u);
+  EXPECT_EQ((*files)[0].name, "loop.fbd");
+  EXPECT_TRUE((*files)[0].has_layout);
+  EXPECT_FALSE((*files)[1].has_layout);
+  auto f = w->load("loop.fbd");
+  ASSERT_TRUE(f.ok()) << f.error();
+  EXPECT_EQ(f->text, "%%\nEND\n");
+  ASSERT_TRUE(f->layout.has_value());
+  EXPECT_EQ(*f->layout, layout);
+  // Names that leave the folder, or are not programs, are refused.
+  for (const char* bad : {"../x.fbd", "a/b.fbd", ".hidden.fbd", "x.txt", "x..fbd", ""}) {
+    EXPECT_FALSE(w->save(bad, "%%\nEND\n", nullptr).ok()) << bad;
+    EXPECT_FALSE(w->load(bad).ok()) << bad;
+  }
+  // A link planted in the workspace is neither listed, read nor written through.
+  const std::string secret = dir.path("secret.fbd");
+  {
+    std::ofstream(secret) << "secret";
+  }
+  ASSERT_EQ(::symlink(secret.c_str(), dir.path("ws/link.fbd").c_str()), 0);
+  files = w->list();
+  ASSERT_TRUE(files.ok());
+  EXPECT_EQ(files->size(), 2u);
+  EXPECT_FALSE(w->load("link.fbd").ok());
+  EXPECT_FALSE(w->save("link.fbd", "overwritten", nullptr).ok());
+  EXPECT_EQ(slurp(secret), "secret");
+  ASSERT_EQ(::symlink(secret.c_str(), dir.path("ws/plain.fbd.layout").c_str()), 0);
+  EXPECT_FALSE(w->save("plain.fbd", "%%\nEND\n", &layout).ok());
+  EXPECT_EQ(slurp(secret), "secret");
+}
+
+}  // namespace
+}  // namespace rtplc::editor
