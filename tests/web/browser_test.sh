@@ -61,7 +61,10 @@ YAML
 run_pid=$!
 echo "$run_pid" > "$dir/run.pid"
 for _ in $(seq 1 100); do "$bin" status --name "$name" >/dev/null 2>&1 && break; sleep 0.1; done
-"$bin" web --name "$name" --listen 127.0.0.1:0 --users "$dir/users" > "$dir/web.log" 2>&1 &
+mkdir -p "$dir/ws"
+cp "$src/examples/seed_pid.fbd" "$dir/ws/"
+echo "editor-password-1" | "$bin" web user add eddie --role engineer --password-stdin --users "$dir/users" > /dev/null
+"$bin" web --name "$name" --listen 127.0.0.1:0 --users "$dir/users" --workspace "$dir/ws" > "$dir/web.log" 2>&1 &
 web_pid=$!
 link=""
 for _ in $(seq 1 100); do
@@ -71,6 +74,10 @@ for _ in $(seq 1 100); do
 done
 [ -n "$link" ] || { cat "$dir/web.log"; echo "FAILED: rtplc web printed no login link"; exit 1; }
 shots="$build/web-screenshots"
+base="${link%%/login*}"
+NODE_PATH="$mods" node "$src/tests/web/editor_test.js" "$base" eddie editor-password-1 "$shots" "$dir/ws" || {
+  echo "--- rtplc web"; cat "$dir/web.log"; exit 1;
+}
 NODE_PATH="$mods" node "$src/tests/web/browser_test.js" "$link" "$shots" "$dir/run.pid" "$dir" || {
   echo "--- rtplc web"; cat "$dir/web.log"; echo "--- rtplc run"; cat "$dir/run.log"; exit 1;
 }

@@ -241,6 +241,7 @@ document.addEventListener('DOMContentLoaded', () => {
     if (b.dataset.page === 'trend') fillTrendLabels();
     if (b.dataset.page === 'chart') loadChart();
     if (b.dataset.page === 'operations') loadPrograms();
+    if (b.dataset.page === 'editor') editorOpen();
   }));
   $('chart-task').addEventListener('change', loadChart);
   $('swap-task').addEventListener('change', loadPrograms);
