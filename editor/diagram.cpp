@@ -592,8 +592,13 @@ nlohmann::json check_json(const CheckResult& r) {
   }
   char hex[17];
   std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(r.identity));
+  // The hash the runtime shows for this text once it runs (rtplc status,
+  // the program store): FNV-1a 64 over the source text.
+  char ph[17];
+  std::snprintf(ph, sizeof ph, "%016llx", static_cast<unsigned long long>(fnv1a64(r.text)));
   return {{"compiles", r.ok},
           {"text", r.text},
+          {"program_hash", ph},
           {"rendered", r.rendered},
           {"identity", r.ok ? json(hex) : json(nullptr)},
           {"diagnostics", diags}};

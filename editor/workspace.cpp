@@ -1,4 +1,5 @@
-// The editor's workspace: list, load and save .fbd files and their sidecars.
+// The editor's workspace: list, load and save .fbd files and their sidecars
+// (and list and load .sfc charts and PLCopen .xml projects, read-only).
 #include "editor/workspace.h"
 
 #include <dirent.h>
@@ -12,8 +13,9 @@
 namespace rtplc::editor {
 
 std::string Workspace::name_problem(const std::string& name) {
-  if (name.size() < 5 || name.size() > 68 || name.compare(name.size() - 4, 4, ".fbd") != 0)
-    return "a program's file name ends in .fbd and is at most 68 characters";
+  auto ends = [&](const char* ext) { return name.size() >= 5 && name.compare(name.size() - 4, 4, ext) == 0; };
+  if (name.size() > 68 || !(ends(".fbd") || ends(".sfc") || ends(".xml")))
+    return "a program's file name ends in .fbd (or .sfc, .xml: opened read-only) and is at most 68 characters";
   if (!std::isalnum(static_cast<unsigned char>(name[0]))) return "a file name starts with a letter or a digit";
   for (char c : name) {
     if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_' && c != '-' && c != '.')
@@ -68,6 +70,8 @@ Result<Workspace::File> Workspace::load(const std::string& name) const {
 
 Result<void> Workspace::save(const std::string& name, const std::string& text, const nlohmann::json* layout) const {
   if (const std::string why = name_problem(name); !why.empty()) return make_error(name + ": " + why);
+  if (name.compare(name.size() - 4, 4, ".fbd") != 0)
+    return make_error(name + ": the editor saves .fbd programs; SFC charts and PLCopen projects open read-only");
   if (text.size() > kMaxFile) return make_error(name + ": larger than 4 MiB");
   for (const std::string& p : {dir_ + "/" + name, dir_ + "/" + name + ".layout"}) {
     struct stat st{};

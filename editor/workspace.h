@@ -37,7 +37,7 @@ class Workspace {
   };
 
   const std::string& dir() const { return dir_; }
-  // The .fbd files, by name.
+  // The .fbd files (and .sfc and .xml, which open read-only), by name.
   Result<std::vector<Entry>> list() const;
   Result<File> load(const std::string& name) const;
   // Writes NAME and NAME.layout (when `layout` is given).

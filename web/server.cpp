@@ -22,6 +22,9 @@
 #include "sched/jitter.h"
 #include "sched/stats_source.h"
 #include "editor/diagram.h"
+#include "editor/plcopen_view.h"
+#include "editor/simulate.h"
+#include "lang/plcopen/import.h"
 #include "web/chart.h"
 #include "web/ui_assets.h"
 
@@ -537,6 +540,42 @@ void WebConsole::routes() {
     json out = editor::check_json(editor::check(*d, body.value("file", "diagram.fbd")));
     out["ok"] = true;
     reply(res, 200, out);
+  });
+
+  // The diagram against a plant model of `rtplc sim`, in virtual time, in
+  // this process (never in the runtime): the plot rows, figures and CSV.
+  http_->Post("/api/fbd/simulate", [this, diagram_of](const httplib::Request& req, httplib::Response& res) {
+    if (guard(req, res, Role::kViewer, true, nullptr) != 0) return;
+    json body;
+    auto d = diagram_of(req, res, &body);
+    if (!d) return;
+    auto out = editor::simulate(*d, body.value("simulation", json::object()));
+    if (!out) return fail(res, 400, "bad_simulation", out.error());
+    (*out)["ok"] = true;
+    reply(res, 200, *out);
+  });
+
+  // An SFC chart or a PLCopen project as the editor shows it, read-only.
+  http_->Post("/api/view", [this](const httplib::Request& req, httplib::Response& res) {
+    if (guard(req, res, Role::kViewer, true, nullptr) != 0) return;
+    const json body = json::parse(req.body, nullptr, false);
+    if (!body.is_object() || !body.contains("text") || !body["text"].is_string()) {
+      return fail(res, 400, "bad_request", "the body is {\"text\": SFC or PLCopen XML, \"file\"?: NAME}");
+    }
+    const std::string text = body["text"].get<std::string>();
+    const std::string file = body.value("file", std::string("program"));
+    if (lang::plcopen::is_plcopen_source(text)) {
+      auto v = editor::plcopen_view(text, file);
+      if (!v) return fail(res, 422, "syntax", v.error());
+      (*v)["ok"] = true;
+      (*v)["kind"] = "plcopen";
+      return reply(res, 200, *v);
+    }
+    auto chart = chart_json(text);
+    if (!chart) return fail(res, 422, "syntax", file + ": " + chart.error());
+    (*chart)["ok"] = true;
+    (*chart)["kind"] = "sfc";
+    reply(res, 200, *chart);
   });
 
   // The workspace (`--workspace DIR`): the .fbd files the editor lists, opens

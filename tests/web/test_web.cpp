@@ -60,6 +60,8 @@ const Route kRoutes[] = {
     {"POST", "/api/fbd/to-diagram", Role::kViewer, R"({"text": "%%\nEND\n"})"},
     {"POST", "/api/fbd/to-text", Role::kViewer, R"({"diagram": {"blocks": []}})"},
     {"POST", "/api/fbd/check", Role::kViewer, R"({"diagram": {"blocks": []}})"},
+    {"POST", "/api/fbd/simulate", Role::kViewer, R"({"diagram": {"blocks": []}})"},
+    {"POST", "/api/view", Role::kViewer, R"({"text": "not a chart"})"},
     {"GET", "/api/workspace", Role::kViewer, ""},
     {"GET", "/api/workspace/file?name=p.fbd", Role::kViewer, ""},
     {"POST", "/api/workspace/save", Role::kEngineer, R"({"name": "p.fbd", "text": "%%\nEND\n"})"},
