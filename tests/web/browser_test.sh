@@ -62,7 +62,7 @@ run_pid=$!
 echo "$run_pid" > "$dir/run.pid"
 for _ in $(seq 1 100); do "$bin" status --name "$name" >/dev/null 2>&1 && break; sleep 0.1; done
 mkdir -p "$dir/ws"
-cp "$src/examples/seed_pid.fbd" "$dir/ws/"
+cp "$src"/examples/*.fbd "$src"/examples/*.sfc "$src"/examples/plcopen_*.xml "$dir/ws/"
 echo "editor-password-1" | "$bin" web user add eddie --role engineer --password-stdin --users "$dir/users" > /dev/null
 "$bin" web --name "$name" --listen 127.0.0.1:0 --users "$dir/users" --workspace "$dir/ws" > "$dir/web.log" 2>&1 &
 web_pid=$!
@@ -75,7 +75,7 @@ done
 [ -n "$link" ] || { cat "$dir/web.log"; echo "FAILED: rtplc web printed no login link"; exit 1; }
 shots="$build/web-screenshots"
 base="${link%%/login*}"
-NODE_PATH="$mods" node "$src/tests/web/editor_test.js" "$base" eddie editor-password-1 "$shots" "$dir/ws" || {
+NODE_PATH="$mods" node "$src/tests/web/editor_test.js" "$base" eddie editor-password-1 "$shots" "$dir/ws" "$bin" || {
   echo "--- rtplc web"; cat "$dir/web.log"; exit 1;
 }
 NODE_PATH="$mods" node "$src/tests/web/browser_test.js" "$link" "$shots" "$dir/run.pid" "$dir" || {

@@ -160,6 +160,7 @@ function shownChannels() {
   let labels = [];
   if (page === 'overview') labels = [...channels.values()].filter((c) => !c.row.hidden).map((c) => c.desc.label);
   else if (page === 'chart') labels = [...chartSteps.keys()];
+  else if (page === 'editor') labels = editorLiveLabels();
   return labels.length === channels.size && labels.length > 0 ? null : labels.sort();
 }
 
@@ -181,6 +182,7 @@ function openLive() {
     lastFrame = Date.now();
     setStale(!f.alive);
     for (const v of f.values) {
+      if (page === 'editor') editorLiveValue(v);
       const step = chartSteps.get(v.label);
       if (step) step.classList.toggle('active', v.value !== 0);
       const c = channels.get(v.label);
@@ -235,6 +237,7 @@ document.addEventListener('DOMContentLoaded', () => {
     document.querySelectorAll('nav button').forEach((x) => x.classList.toggle('active', x === b));
     document.querySelectorAll('.page').forEach((p) => { p.hidden = p.id !== 'page-' + b.dataset.page; });
     page = b.dataset.page;
+    document.body.classList.toggle('printing-editor', page === 'editor');
     resubscribe();
     if (b.dataset.page === 'audit') loadAudit();
     if (b.dataset.page === 'jitter') loadJitter();
@@ -506,6 +509,16 @@ async function loadChart() {
   const c = r.data;
   $('chart-info').textContent = 'chart ' + c.chart + ', program ' + c.program + ', ' + c.steps.length + ' steps, ' +
     c.transitions.length + ' transitions';
+  box.appendChild(chartSvg(c, chartSteps));
+  for (const [label, g] of chartSteps) {
+    const ch = channels.get(label);
+    if (ch) g.classList.toggle('active', ch.cells.value.textContent !== '0');
+  }
+  resubscribe();
+}
+
+// The chart's SVG; `steps` gets each step's flag label -> its group (lit when active).
+function chartSvg(c, steps) {
   const W = 170, H = 38, GAP = 44, X = 40;
   const row = new Map(c.steps.map((s, i) => [s.name, i]));
   const y = (i) => 16 + i * (H + GAP);
@@ -534,10 +547,7 @@ async function loadChart() {
     g.appendChild(svgEl('text', { x: X + 12, y: y(i) + H / 2 + 5, class: 'name' }, s.name));
     if (s.actions.length) g.appendChild(svgEl('text', { x: X + W + 10, y: y(i) + H / 2 + 5, class: 'act' }, s.actions.join(', ')));
     svg.appendChild(g);
-    chartSteps.set(s.label, g);
-    const ch = channels.get(s.label);
-    if (ch) g.classList.toggle('active', ch.cells.value.textContent !== '0');
+    steps.set(s.label, g);
   });
-  box.appendChild(svg);
-  resubscribe();
+  return svg;
 }
