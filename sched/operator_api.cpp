@@ -36,6 +36,7 @@ constexpr OpSpec kOps[] = {
     {"trace", Role::kEngineer, true},     {"trace_keep", Role::kEngineer, false},
     {"trace_end", Role::kEngineer, false}, {"stop", Role::kAdmin, true},
     {"swap_check", Role::kEngineer, false}, {"program", Role::kViewer, false},
+    {"watch", Role::kViewer, false},
 };
 
 const OpSpec* spec_of(std::string_view op) {
@@ -409,6 +410,20 @@ ApiAnswer OperatorApi::run(const Caller& caller, const std::string& op, const js
       say(true, "swap of " + *task + who + " refused: " + r.error().substr(0, r.error().find('\n')));
     }
     return from(std::move(r), {{"task", *task}});
+  }
+  if (op == "watch") {
+    auto task = text_arg(args, "task");
+    if (!task) return bad(task.error());
+    auto w = rt_.watch(*task);
+    if (!w) return ApiAnswer::failure("refused", w.error());
+    json blocks = json::array();
+    for (const auto& b : w->blocks) {
+      blocks.push_back({{"name", b.name}, {"kind", b.kind}, {"value", b.value}, {"quality", quality_name(b.quality)}});
+    }
+    return ApiAnswer::success("task " + *task + ": " + std::to_string(w->blocks.size()) + " block outputs" +
+                                  (w->pending ? " (the first watch snapshot is on its way)" : ""),
+                              {{"task", *task}, {"pending", w->pending}, {"cycle", w->cycle}, {"age_s", w->age_s},
+                               {"program", w->program}, {"blocks", blocks}});
   }
   if (op == "program") {
     auto task = text_arg(args, "task");

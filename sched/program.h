@@ -109,6 +109,9 @@ struct LoadedProgram {
   // The retained blocks' state, copied by the task every few cycles for the
   // control thread to persist (state_snapshot.h).
   StateSnapshot snapshot;
+  // Every block's output and status, copied by the task while someone watches
+  // (Task::watch_until, Runtime::watch): the editor's live wires.
+  StateSnapshot watch;
   std::string file;    // where the source came from
   std::string source;  // the source text (kept for rollback and for `status`)
   // Task thread only: per instruction, the error count already reported, their

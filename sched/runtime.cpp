@@ -393,6 +393,7 @@ bool Runtime::build(const config::RuntimeConfig& cfg, LoadReport& report) {
     // Four snapshots per state-file write: the file is at most 1.25 retain_every old.
     const int64_t every = retain_every_ns_ / 4 / std::max<int64_t>(periods[t], 1);
     p.snapshot_every = static_cast<uint32_t>(std::clamp<int64_t>(every, 1, UINT32_MAX));
+    p.watch_every = static_cast<uint32_t>(std::clamp<int64_t>(100'000'000 / std::max<int64_t>(periods[t], 1), 1, UINT32_MAX));
     tasks_.push_back(std::make_unique<Task>(std::move(p), image_, t, t, setpoint_region_,
                                             std::move(prog).value()));
   }
@@ -452,6 +453,7 @@ Result<std::unique_ptr<LoadedProgram>> Runtime::make_program(uint32_t t, TaskIma
   // A swapped-in program retains the blocks its task's `retain` selects; a
   // listed name it no longer has is simply not there (checked at load only).
   p->snapshot.prepare(retained_blocks(p->image, config_.tasks[t].retain_all, config_.tasks[t].retain_blocks));
+  p->watch.prepare(watched_blocks(p->image));
   p->source = std::move(source);
   p->file = std::move(file);
   p->errors_reported.assign(p->image.header().n_instr, 0);

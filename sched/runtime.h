@@ -19,6 +19,7 @@
 
 #include "common/diagnostic.h"
 #include "common/files.h"
+#include "common/quality.h"
 #include "common/role.h"
 #include "common/result.h"
 #include "config/config.h"
@@ -144,6 +145,24 @@ class Runtime {
     std::vector<ProgramVersion> history;
   };
   Result<ProgramInfo> program_info(const std::string& task, const std::string& hash = "");
+  // The watch (the editor's live wires): renews the task's lease for
+  // kWatchLeaseNs and answers the last watch snapshot, every block's output
+  // and status by name; `pending` until the task has taken one.
+  static constexpr int64_t kWatchLeaseNs = 3'000'000'000;
+  struct WatchedValue {
+    std::string name;
+    std::string kind;
+    double value = 0;
+    Quality quality = Quality::kGood;
+  };
+  struct WatchInfo {
+    bool pending = true;
+    uint64_t cycle = 0;
+    double age_s = 0;
+    std::string program;  // the hash of the program the values are from
+    std::vector<WatchedValue> blocks;
+  };
+  Result<WatchInfo> watch(const std::string& task);
   std::string status() const;
   // The same facts as one JSON object (`rtplc status --json`).
   std::string status_json() const;

@@ -422,6 +422,29 @@ std::vector<std::string> Runtime::active_step_names(const Task& t) const {
   return out;
 }
 
+Result<Runtime::WatchInfo> Runtime::watch(const std::string& task) {
+  Task* t = find_task(task);
+  if (t == nullptr) return make_error(no_task_text(task));
+  const int64_t now = kernel_rt::monotonic_now_ns();
+  t->watch_until(now + kWatchLeaseNs);
+  // active() is alive on this thread (only it frees programs); its watch
+  // snapshot is read by the protocol of state_snapshot.h, never its arena.
+  const LoadedProgram& p = t->active();
+  WatchInfo w;
+  w.program = ProgramStore::hash_of(p.source);
+  std::vector<double> data;
+  int64_t at = 0;
+  if (!p.watch.read(data, w.cycle, at)) return w;
+  w.pending = false;
+  w.age_s = static_cast<double>(now - at) * 1e-9;
+  const auto& blocks = p.watch.blocks();
+  for (size_t i = 0; i < blocks.size() && 2 * i + 1 < data.size(); ++i) {
+    const auto lane = static_cast<uint8_t>(std::clamp(data[2 * i + 1], 0.0, 2.0));
+    w.blocks.push_back({blocks[i].name, std::string(blocks[i].kind), data[2 * i], quality_of(static_cast<Lane>(lane))});
+  }
+  return w;
+}
+
 Result<Runtime::ProgramInfo> Runtime::program_info(const std::string& task, const std::string& hash) {
   Task* t = find_task(task);
   if (t == nullptr) return make_error(no_task_text(task));

@@ -55,6 +55,17 @@ void StateSnapshot::take(const TaskArena& arena, int64_t now_ns) noexcept {
   end_take(w, arena.cycles, now_ns);
 }
 
+void StateSnapshot::take_watch(const TaskArena& arena, const StatusLane& lane, int64_t now_ns) noexcept {
+  if (blocks_->empty()) return;
+  const uint32_t w = begin_take();
+  uint32_t i = 0;
+  for (const RetainedBlock& rb : *blocks_) {
+    store(w, i++, arena.values[rb.value]);
+    store(w, i++, rb.value < lane.values.size() ? static_cast<double>(lane.values[rb.value]) : 0.0);
+  }
+  end_take(w, arena.cycles, now_ns);
+}
+
 bool StateSnapshot::read(std::vector<double>& out, uint64_t& cycle, int64_t& taken_ns,
                          uint32_t max_tries) const {
   out.resize(n_);
@@ -102,6 +113,25 @@ std::string_view lower_op_name(Op op) {
 }
 
 }  // namespace
+
+std::vector<RetainedBlock> watched_blocks(const TaskImage& image) {
+  std::vector<RetainedBlock> out;
+  const auto code = image.code();
+  const auto blocks = image.blocks();
+  std::vector<uint32_t> order(blocks.size());
+  for (uint32_t i = 0; i < blocks.size(); ++i) order[blocks[i].text_index] = i;
+  for (uint32_t i : order) {
+    const Instr& in = code[i];
+    if (!op_writes_value(in.op) || op_is_load(in.op) || in.out >= image.header().n_values) continue;
+    RetainedBlock rb;
+    rb.name = std::string(image.str(blocks[i].name));
+    rb.kind = lower_op_name(in.op);
+    rb.value = in.out;
+    rb.n_state = 1;  // the status, see take_watch
+    out.push_back(std::move(rb));
+  }
+  return out;
+}
 
 std::vector<RetainedBlock> retained_blocks(const TaskImage& image, bool all,
                                            const std::vector<std::string>& names,

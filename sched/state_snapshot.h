@@ -39,6 +39,7 @@
 #include <vector>
 
 #include "blocks/executor.h"
+#include "blocks/status.h"
 
 namespace rtplc::sched {
 
@@ -86,6 +87,11 @@ class StateSnapshot {
   // Published snapshots (for the control thread to see whether anything is new).
   uint64_t taken() const { return taken_.load(std::memory_order_acquire); }
 
+  // Task thread, for the watch (watched_blocks below): each block's output
+  // and then its status (the StatusLane lane value as a double), through the
+  // same two buffers and protocol as take(). Bounded, no allocation.
+  void take_watch(const TaskArena& arena, const StatusLane& lane, int64_t now_ns) noexcept;
+
   // Tests: the writer's steps one at a time, so a test can stop between them.
   uint32_t begin_take() noexcept;
   void store(uint32_t buffer, uint32_t i, double v) noexcept;
@@ -112,6 +118,12 @@ class StateSnapshot {
 // the blocks named in `names` (a name also selects what a macro call or SFC
 // chart expanded under it: "F10" selects "F10.M4"). Unknown names are listed
 // in `unknown` when given.
+// The watch's layout (the editor's live wires, Runtime::watch): every block
+// that writes a value, in textual order, with `n_state` = 1 standing for its
+// status (take_watch writes [output, status]). Loads of inputs and set-points
+// are left out: their channels are in the process image already.
+std::vector<RetainedBlock> watched_blocks(const TaskImage& image);
+
 std::vector<RetainedBlock> retained_blocks(const TaskImage& image, bool all,
                                            const std::vector<std::string>& names,
                                            std::vector<std::string>* unknown = nullptr);

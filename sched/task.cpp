@@ -241,6 +241,7 @@ void Task::run() noexcept {
   uint64_t faults_before = 0;
   uint64_t cycle = 0;
   uint32_t until_snapshot = 1;  // the first cycle takes one, so a restart soon after has it
+  uint32_t until_watch = 1;
   info_->state.store(static_cast<uint8_t>(io::TaskState::kRunning), std::memory_order_relaxed);
   while (!stop_.load(std::memory_order_relaxed)) {
     if (params_.back_to_back) {
@@ -284,6 +285,10 @@ void Task::run() noexcept {
       if (params_.snapshot_every > 0 && --until_snapshot == 0) {
         until_snapshot = params_.snapshot_every;
         current_->snapshot.take(current_->arena, wake);
+      }
+      if (watch_until_ns_.load(std::memory_order_relaxed) > wake && --until_watch == 0) {
+        until_watch = params_.watch_every;
+        current_->watch.take_watch(current_->arena, current_->lane, wake);
       }
       if (trace_.n() > 0) record_trace(cycle, release);
     }

@@ -60,6 +60,9 @@ struct TaskParams {
   // Every this many cycles the task copies its retained block state into its
   // program's StateSnapshot (state_snapshot.h); 0 never.
   uint32_t snapshot_every = 0;
+  // While watched, every this many cycles the task copies every block's output
+  // and status into its program's watch snapshot (about 10 per second).
+  uint32_t watch_every = 1;
 };
 
 class Task {
@@ -98,6 +101,10 @@ class Task {
   // The next block-error report of the task thread, if any (control thread).
   bool pop_block_error(BlockErrorReport& out) { return block_errors_.pop(out); }
   bool running() const { return thread_.joinable(); }
+  // Someone watches this task's block outputs until `until_ns` (monotonic): a
+  // lease the reader renews. A hint only (relaxed): the values themselves are
+  // published by the watch snapshot's protocol (state_snapshot.h).
+  void watch_until(int64_t until_ns) { watch_until_ns_.store(until_ns, std::memory_order_relaxed); }
   // How deep the task thread's stack went (bytes; known once it stopped) and its size.
   size_t stack_high_water() const { return thread_.stack_high_water(); }
   size_t stack_bytes() const { return thread_.stack_bytes(); }
@@ -133,6 +140,7 @@ class Task {
   LoadedProgram* in_flight_ = nullptr;  // control side: published, not yet collected
 
   std::atomic<bool> stop_{false};
+  std::atomic<int64_t> watch_until_ns_{0};
   // Task thread -> control thread: one producer, one consumer; a full queue
   // drops the report (the count in the image still says how many).
   link::BoundedQueue<BlockErrorReport> block_errors_{16};

@@ -282,6 +282,8 @@ void WebConsole::api(const httplib::Request& req, httplib::Response& res, const 
   } else if (op == "rollback") {
     if (!copy("task", true)) return;
     copy("drop_outputs", false);
+  } else if (op == "watch") {
+    args["task"] = req.get_param_value("task");
   } else if (op == "program") {
     args["task"] = req.get_param_value("task");
     if (req.has_param("hash")) args["hash"] = req.get_param_value("hash");
@@ -463,6 +465,11 @@ void WebConsole::routes() {
   // A task's program store: the versions it ran, newest last, and one's source.
   http_->Get("/api/program", [this](const httplib::Request& req, httplib::Response& res) {
     api(req, res, "program", Role::kViewer);
+  });
+  // Every block output of a task with its status (the editor's live wires):
+  // renews the task's watch lease; polled while the editor is online.
+  http_->Get("/api/watch", [this](const httplib::Request& req, httplib::Response& res) {
+    api(req, res, "watch", Role::kViewer);
   });
   // An SFC task's chart (steps, transitions, conditions) from the source it runs.
   http_->Get("/api/chart", [this](const httplib::Request& req, httplib::Response& res) {

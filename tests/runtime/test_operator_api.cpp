@@ -15,6 +15,7 @@
 #include <string>
 
 #include "sched/control.h"
+#include "tests/support/eventually.h"
 #include "tests/support/runtime_fixture.h"
 
 namespace rtplc::sched {
@@ -213,6 +214,33 @@ TEST_F(OperatorApiTest, program_op_lists_the_stored_versions_and_reads_any_of_th
   EXPECT_NE(a.message.find("no stored program"), std::string::npos) << a.message;
   EXPECT_EQ(ask(Role::kViewer, {{"op", "program"}, {"args", {{"task", "nope"}}}}).ok, false);
   EXPECT_EQ(ask(Role::kNone, {{"op", "program"}, {"args", {{"task", "t"}}}}).code, "forbidden");
+}
+
+// The watch: every block output of the running program by name with its
+// status (a division by zero holds its last value and is not good), once the
+// task has taken the first watch snapshot; a viewer may ask, nobody else.
+TEST_F(OperatorApiTest, watch_answers_every_block_output_with_its_status) {
+  const std::string v = "%%\nF1 = asp(d0, c0, 50, \"SP\")\nF2 = asp(d0, c1, 0, \"Z\")\nF3 = mult(F1, F1)\n"
+                        "F4 = div(F1, F2)\ndao(F3, p0, d0, c0, \"OUT\")\ndao(F4, p0, d0, c1, \"OUT2\")\nEND\n";
+  ApiAnswer a = rt_->api().call(Caller{"tester", 4242, Role::kEngineer},
+                                {{"op", "swap"}, {"args", {{"task", "t"}, {"name", "w.fbd"}}}}, v);
+  ASSERT_TRUE(a.ok) << a.message;
+  json blocks;
+  ASSERT_TRUE(rtplc::testing::eventually([&] {
+    rt_->tick([](bool, const std::string&) {});
+    a = ask(Role::kViewer, {{"op", "watch"}, {"args", {{"task", "t"}}}});
+    if (!a.ok || a.result["pending"].get<bool>()) return false;
+    blocks = a.result["blocks"];
+    return blocks.size() == 2 && blocks[0]["value"].get<double>() == 2500;
+  })) << a.message << " " << a.result.dump();
+  EXPECT_EQ(blocks[0]["name"], "F3");
+  EXPECT_EQ(blocks[0]["kind"], "mult");
+  EXPECT_EQ(blocks[0]["quality"], "good");
+  EXPECT_EQ(blocks[1]["name"], "F4");
+  EXPECT_NE(blocks[1]["quality"], "good") << blocks.dump();
+  EXPECT_EQ(a.result["program"].get<std::string>().size(), 16u);
+  EXPECT_EQ(ask(Role::kViewer, {{"op", "watch"}, {"args", {{"task", "nope"}}}}).ok, false);
+  EXPECT_EQ(ask(Role::kNone, {{"op", "watch"}, {"args", {{"task", "t"}}}}).code, "forbidden");
 }
 
 }  // namespace

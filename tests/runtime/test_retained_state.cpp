@@ -191,6 +191,35 @@ TEST(StateSnapshot, a_reader_gets_the_last_whole_snapshot_while_the_next_is_half
   EXPECT_EQ(s.taken(), 2u);
 }
 
+// The watch's layout and copy: every block that writes a value but the loads,
+// in textual order, each as [output, status], through the same buffers.
+TEST(StateSnapshot, the_watch_holds_every_computed_output_with_its_status) {
+  lang::CompileResult c = lang::compile_source(
+      "%%\nF1 = asp(d0, c0, 3, \"SP\")\nF2 = mult(F1, F1)\nF3 = add(F2, F1)\ndao(F3, p0, d0, c0, \"OUT\")\nEND\n");
+  ASSERT_TRUE(c.ok());
+  const std::vector<RetainedBlock> blocks = watched_blocks(*c.image);
+  ASSERT_EQ(blocks.size(), 2u);
+  EXPECT_EQ(blocks[0].name, "F2");
+  EXPECT_EQ(blocks[1].name, "F3");
+  StateSnapshot s;
+  s.prepare(blocks);
+  EXPECT_EQ(s.size(), 4u);
+  TaskArena arena(*c.image);
+  StatusLane lane(*c.image);
+  arena.values[blocks[0].value] = 9;
+  arena.values[blocks[1].value] = 12;
+  lane.values[blocks[1].value] = static_cast<uint8_t>(Lane::kBad);
+  arena.cycles = 5;
+  s.take_watch(arena, lane, 50);
+  std::vector<double> out;
+  uint64_t cycle = 0;
+  int64_t at = 0;
+  ASSERT_TRUE(s.read(out, cycle, at));
+  EXPECT_EQ(out, (std::vector<double>{9, 0, 12, 2}));
+  EXPECT_EQ(cycle, 5u);
+  EXPECT_EQ(at, 50);
+}
+
 TEST(StateSnapshot, a_reader_preempting_the_writer_on_its_cpu_reads_at_once) {
   constexpr uint32_t kN = 64;
   StateSnapshot s;

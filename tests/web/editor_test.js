@@ -328,6 +328,11 @@ const [base, user, password, shots, ws, rtplc] = process.argv.slice(2);
     await page.waitForFunction(() => /^-?[0-9.e+-]+ good$/.test(document.querySelector('[data-testid="live-F1"]').textContent), null, { timeout: 15000 });
     const pv0 = await liveNumber('F1');
     await page.waitForFunction((v) => parseFloat(document.querySelector('[data-testid="live-F1"]').textContent) !== v, pv0, { timeout: 15000 });
+    // Inside the macro, the call's own blocks (F10.M4, ...) from the task's watch.
+    await page.dblclick('[data-testid="block-F10"]');
+    await page.waitForFunction(() => /^-?[0-9.e+-]+ good$/.test((document.querySelector('[data-testid="live-M4"]') || {}).textContent || ''), null, { timeout: 15000 });
+    await page.screenshot({ path: path.join(shots, 'editor-online-macro.png'), fullPage: true });
+    await page.click('[data-testid="ed-back"]');
     await page.screenshot({ path: path.join(shots, 'editor-online.png'), fullPage: true });
     await select('block-F10');
     await prop('prop-2', '8');

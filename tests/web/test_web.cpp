@@ -52,6 +52,7 @@ const Route kRoutes[] = {
     {"POST", "/api/rollback", Role::kEngineer, R"({"task": "t"})"},
     {"POST", "/api/swap/check", Role::kEngineer, R"({"task": "t", "source": "%%\nEND\n"})"},
     {"GET", "/api/program?task=t", Role::kViewer, ""},
+    {"GET", "/api/watch?task=t", Role::kViewer, ""},
     {"GET", "/api/chart?task=t", Role::kViewer, ""},
     {"POST", "/api/trend", Role::kEngineer, R"({"labels": ["SP"]})"},
     {"POST", "/api/trend/stop", Role::kEngineer, R"({"id": "x"})"},

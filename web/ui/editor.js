@@ -416,8 +416,11 @@ function expandMacro(i) {
   });
 }
 
-function openMacro(name) {
+// `call`: the call it was opened from, whose instance the wires show online
+// (its blocks run as CALL.M3, CALL.M4, ...).
+function openMacro(name, call) {
   if (!macroOf(name)) return;
+  ed.viewCall = ed.view === null ? call || null : null;
   ed.view = name; clearSelection(); ed.cursor = { col: 0, row: 0 }; ed.connectFrom = null;
   draw(); showProps(); showView();
 }
@@ -519,6 +522,43 @@ function wireLabel(b) {
   return out ? label(out) : null;
 }
 
+// What a block's output wire shows online: its channel's value from the live
+// stream (an input, a set-point, or the output block it feeds), else the
+// block's own output from the task's watch (GET /api/watch).
+function liveKey(b) {
+  if (!ed.online || !b.id) return null;
+  if (ed.view !== null) return ed.viewCall ? 'blk:' + ed.viewCall + '.' + b.id : null;
+  const l = wireLabel(b);
+  return l ? 'ch:' + l : 'blk:' + b.id;
+}
+function liveValue(key) {
+  if (!ed.online) return null;
+  return key.startsWith('ch:') ? ed.online.values.get(key.slice(3)) : ed.online.blocks.get(key.slice(4));
+}
+function refreshLive() {
+  for (const t of $('ed-sheet').querySelectorAll('text.live')) {
+    const x = liveValue(t.dataset.key);
+    if (!x) continue;
+    t.textContent = fmt(x.value) + ' ' + (x.forced ? 'FORCED' : x.quality);
+    t.setAttribute('class', 'live q-' + x.quality);
+  }
+}
+
+// Polls the task's watch while the editor is online on an FBD program: the
+// runtime copies every block output about ten times a second while asked.
+async function pollWatch() {
+  const on = ed.online;
+  if (!on || ed.readonly) return;
+  const r = await call('GET', '/api/watch?task=' + encodeURIComponent(on.task));
+  if (ed.online !== on) return;
+  if (r.status === 200 && !r.data.result.pending) {
+    on.blocks = new Map(r.data.result.blocks.map((b) => [b.name, b]));
+    on.watchProgram = r.data.result.program;
+    refreshLive();
+  }
+  on.timer = setTimeout(pollWatch, 300);
+}
+
 // Draws the current sheet into `svg` (the page's sheet, or a print page).
 function drawSheet(svg, interactive) {
   const d = ed.diagram, bs = cur(), fs = formals();
@@ -605,7 +645,7 @@ function drawSheet(svg, interactive) {
         } else selectOnly(i);
         ed.cursor = { col: b.col, row: b.row }; draw(); showProps(); showView();
       });
-      g.addEventListener('dblclick', () => { if (b.macro) openMacro(b.kind); });
+      g.addEventListener('dblclick', () => { if (b.macro) openMacro(b.kind, b.id); });
     }
     for (const p of inPins(b)) {
       const bad = (errs.get(i) || []).some((x) => x.arg === p.k);
@@ -624,12 +664,12 @@ function drawSheet(svg, interactive) {
       const pin = edEl('circle', { cx: o.x, cy: o.y, r: 5, class: 'pin out', 'data-testid': 'out-' + b.id });
       if (interactive) pin.addEventListener('mousedown', (e) => { e.stopPropagation(); ed.drag = { kind: 'wire', from: i }; });
       g.appendChild(pin);
-      const wl = wireLabel(b);
-      if (wl) {
-        const v = ed.online.values.get(wl);
+      const key = liveKey(b);
+      if (key) {
+        const v = liveValue(key);
         g.appendChild(edEl('text', {
           x: o.x + 8, y: o.y + 14, class: 'live q-' + (v ? v.quality : 'none'), 'data-testid': 'live-' + b.id,
-          'data-label': wl,
+          'data-key': key,
         }, v ? fmt(v.value) + ' ' + (v.forced ? 'FORCED' : v.quality) : '…'));
       }
     }
@@ -778,7 +818,7 @@ function renderProps(box) {
     });
   }
   if (b.macro && macroOf(b.kind)) {
-    for (const [text, id, fn] of [['open macro', 'prop-open-macro', () => openMacro(b.kind)], ['expand', 'prop-expand', () => expandMacro(i)]]) {
+    for (const [text, id, fn] of [['open macro', 'prop-open-macro', () => openMacro(b.kind, b.id)], ['expand', 'prop-expand', () => expandMacro(i)]]) {
       const x = el('button', text);
       x.type = 'button';
       x.dataset.testid = id;
@@ -984,7 +1024,7 @@ function editorKey(e) {
   else if (e.key === '/') { $('ed-search').focus(); $('ed-search').select(); }
   else if (e.key === 'p') { const f = $('ed-props').querySelector('input, select'); if (f) f.focus(); }
   else if (e.key === 'm') { showMacroForm(); }
-  else if (e.key === 'o') { if (at >= 0 && bs[at].macro) openMacro(bs[at].kind); }
+  else if (e.key === 'o') { if (at >= 0 && bs[at].macro) openMacro(bs[at].kind, bs[at].id); }
   else if (e.key === 'Backspace') { if (ed.view !== null) closeMacro(); }
   else return;
   e.preventDefault();
@@ -1169,13 +1209,15 @@ async function openRunning() {
   const r = await call('GET', '/api/program?task=' + encodeURIComponent(task));
   if (r.status !== 200) { $('ed-verdict').textContent = r.data.error.message; return; }
   const res = r.data.result;
-  ed.online = { task, running: res.running, values: new Map() };
+  if (ed.online) clearTimeout(ed.online.timer);
+  ed.online = { task, running: res.running, values: new Map(), blocks: new Map(), timer: 0 };
   const fbd = await call('POST', '/api/fbd/to-diagram', { text: res.source, layout: null, file: task + '.fbd' });
   if (fbd.status === 200) await openText(res.source, null, task + '.fbd');
   else if (!(await openView(res.source, task + (res.source.trimStart().startsWith('<') ? '.xml' : '.sfc')))) { ed.online = null; return; }
-  $('ed-online-said').textContent = 'online: task ' + task + ', program ' + res.running + ' (' + (res.origin || '') + '); values on the wires of its I/O live';
+  $('ed-online-said').textContent = 'online: task ' + task + ', program ' + res.running + ' (' + (res.origin || '') + '); every wire shows its value and status live';
   if (typeof resubscribe === 'function') resubscribe();
   draw();
+  pollWatch();
 }
 
 // The labels whose values this page shows: what the live stream should carry.
@@ -1191,14 +1233,7 @@ function editorLiveValue(v) {
   if (ed.readonly) { const g = ed.readonly.steps.get(v.label); if (g) g.classList.toggle('active', v.value !== 0); return; }
   ed.online.values.set(v.label, v);
   clearTimeout(ed.liveTimer);
-  ed.liveTimer = setTimeout(() => {
-    for (const t of $('ed-sheet').querySelectorAll('text.live')) {
-      const x = ed.online.values.get(t.dataset.label);
-      if (!x) continue;
-      t.textContent = fmt(x.value) + ' ' + (x.forced ? 'FORCED' : x.quality);
-      t.setAttribute('class', 'live q-' + x.quality);
-    }
-  }, 50);
+  ed.liveTimer = setTimeout(refreshLive, 50);
 }
 
 async function swapCheck() {
@@ -1237,7 +1272,7 @@ async function rollbackTask() {
   $('ed-online-said').textContent = r.data.ok ? 'rolled back: task ' + task + ' runs its previous program (open running to see it)' : 'refused: ' + ((r.data.error && r.data.error.message) || 'HTTP ' + r.status);
 }
 
-function goOffline() { ed.online = null; $('ed-online-said').textContent = 'offline'; if (typeof resubscribe === 'function') resubscribe(); draw(); }
+function goOffline() { if (ed.online) clearTimeout(ed.online.timer); ed.online = null; $('ed-online-said').textContent = 'offline'; if (typeof resubscribe === 'function') resubscribe(); draw(); }
 
 function editorWire() {
   const svg = $('ed-sheet');
