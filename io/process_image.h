@@ -104,10 +104,11 @@
 namespace rtplc::io {
 
 inline constexpr char kProcessImageMagic[8] = {'R', 'T', 'P', 'L', 'C', 'S', 'H', 'M'};
-inline constexpr uint32_t kProcessImageVersion = 8;  // 4: the force table; 5: per-task trace rings;
+inline constexpr uint32_t kProcessImageVersion = 9;  // 4: the force table; 5: per-task trace rings;
                                                     // 6: per-class delays of planned links;
                                                     // 7: ChannelDesc::max_age_ns;
                                                     // 8: ChannelDesc::on_bad, safe_value
+                                                    // 9: ChannelDesc::users, LinkStatus::gauges
 inline constexpr uint32_t kRingSlots = 4;
 // The version slot n % kRingSlots holds once publication n >= 1 is complete:
 // two per write, and that slot was written once per lap up to n.
@@ -132,7 +133,16 @@ struct ChannelDesc {
   uint32_t delivery_index;  // ... at this index: quality bad while it cannot send
   int64_t max_age_ns;       // inputs: a good value older than this is stale (judge_quality); 0 never
   uint8_t on_bad;           // outputs: config::OnBad, what drivers send while it is not good
-  uint8_t pad[7];
+  uint8_t pad;
+  // Which tasks' programs use the channel: bit t for task t (at most 16 tasks).
+  // Written by the runtime's control thread when a program starts, is swapped
+  // in or rolled back (set_channel_users(), a release store); read by any
+  // thread or tool with channel_users() (an acquire load). A reader that sees
+  // the new bit set also sees the channel's description, which was complete
+  // before. Readers group channels per task with it (the Sparkplug link's
+  // devices); a mask read during a swap is the old one or the new one.
+  uint16_t users;
+  uint8_t pad2[4];
   double safe_value;        // outputs: what `on_bad: safe` sends (the task's safe_outputs value)
 };
 static_assert(sizeof(ChannelDesc) == 120);
@@ -247,6 +257,7 @@ const char* link_state_name(LinkState s);
 
 inline constexpr size_t kLinkLatencyBuckets = 12;  // io/link/latency_buckets.h
 
+inline constexpr size_t kLinkGauges = 6;  // LinkStatus::gauges
 inline constexpr size_t kLinkClasses = 3;  // fieldbus/link_scheduler.h: periodic, urgent, non-RT
 
 // One traffic class of a link that runs on a fieldbus plan (docs/fieldbus.md,
@@ -295,6 +306,12 @@ struct alignas(64) LinkStatus {
   std::atomic<uint64_t> latency[kLinkLatencyBuckets];  // round trips per bucket
   char plan[64];  // "drive_plan.yaml: T1 5ms, gamma 4, Ln 585.714us"; "" = not planned (written before start)
   LinkClassStatus classes[kLinkClasses];
+  // Figures of the kind's own beyond the common ones ("births", "seq",
+  // "bdSeq", "queued" of a Sparkplug session), shown by name after the row.
+  // Names written once before the threads start ("" = unused); the values by
+  // the row's one writer, relaxed like the rest of the row.
+  char gauge_names[kLinkGauges][12];
+  std::atomic<uint64_t> gauges[kLinkGauges];
 };
 
 enum class TaskState : uint8_t { kStarting = 0, kRunning = 1, kStoppedWatchdog = 2, kStopped = 3 };
@@ -397,6 +414,14 @@ class ProcessImage {
   Result<uint32_t> add_channel(const ChannelDesc& d);
   // Looks a channel up by label; -1 if none.
   int find_channel(const std::string& label) const;
+  // The tasks using channel i (ChannelDesc::users): any thread.
+  uint16_t channel_users(uint32_t i) const noexcept {
+    return std::atomic_ref<uint16_t>(channel(i).users).load(std::memory_order_acquire);
+  }
+  // Control thread only.
+  void set_channel_users(uint32_t i, uint16_t users) const noexcept {
+    std::atomic_ref<uint16_t>(channel(i).users).store(users, std::memory_order_release);
+  }
 
   // ---- the force table (see "Forcing" above) ----
   ForceRegion& force_region(uint32_t r) const;

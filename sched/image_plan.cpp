@@ -189,6 +189,13 @@ bool plan_image(const config::RuntimeConfig& cfg, const std::string& name,
     }
   }
 
+  // Which tasks use each channel (ChannelDesc::users).
+  for (size_t t = 0; t < n_tasks && t < 16; ++t) {
+    for (const Binding& b : images[t].bindings()) {
+      if (auto it = by_key.find(binding_key(b)); it != by_key.end()) descs[it->second].users |= uint16_t(1u << t);
+    }
+  }
+
   // Driver inputs nobody reads still show in the monitor; what a driver
   // consumes must be some task's output.
   for (size_t d = 0; d < cfg.drivers.size(); ++d) {

@@ -430,6 +430,7 @@ bool Runtime::create_drivers(const config::RuntimeConfig& cfg, DiagnosticList& c
       if (!a.ok) return make_error(a.message);
       return a.result.value("text", std::string());
     };
+    setup.state_prefix = folder_of(state_path_) + "/" + state_name_;
     auto drv = io::find_driver_kind(dc.kind)->create(setup);
     if (!drv) {
       cdiag.error(dc.pos, "driver " + dc.name + ": " + drv.error());
@@ -708,6 +709,21 @@ void Runtime::commit_new_channels(uint32_t t, LoadedProgram& p) {
   }
   p.new_channels.clear();
   if (setpoints) publish_setpoints();
+  // Which channels this task's program uses now (ChannelDesc::users).
+  if (t < 16) {
+    const uint16_t bit = static_cast<uint16_t>(1u << t);
+    std::vector<bool> used(image_.channel_count(), false);
+    for (const Binding& b : p.image.bindings()) {
+      if (auto it = channel_by_key_.find(binding_key(b)); it != channel_by_key_.end() && it->second < used.size()) {
+        used[it->second] = true;
+      }
+    }
+    for (uint32_t c = 0; c < used.size(); ++c) {
+      const uint16_t was = image_.channel_users(c);
+      const uint16_t now = used[c] ? (was | bit) : (was & ~bit);
+      if (now != was) image_.set_channel_users(c, now);
+    }
+  }
 }
 
 void Runtime::publish_setpoints() {

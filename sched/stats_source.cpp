@@ -128,6 +128,11 @@ LinkSnapshot link_snapshot(const io::LinkStatus& ls) {
   s.writes_rejected = ls.writes_rejected.load(r);
   for (size_t b = 0; b < io::kLinkLatencyBuckets; ++b) s.latency.push_back(ls.latency[b].load(r));
   s.plan = std::string(ls.plan, strnlen(ls.plan, sizeof ls.plan));
+  for (size_t g = 0; g < io::kLinkGauges; ++g) {
+    if (ls.gauge_names[g][0] == '\0') continue;
+    s.gauges.emplace_back(std::string(ls.gauge_names[g], strnlen(ls.gauge_names[g], sizeof ls.gauge_names[g])),
+                          ls.gauges[g].load(r));
+  }
   for (const io::LinkClassStatus& c : ls.classes) {
     if (c.name[0] == '\0') continue;
     LinkSnapshot::TrafficClass t;
@@ -174,12 +179,20 @@ std::string render_link_classes(const LinkSnapshot& s) {
   return out;
 }
 
+// ", births 1, seq 17, bdSeq 3": the kind's own figures ("" when it has none).
+std::string gauges_text(const LinkSnapshot& s) {
+  std::string out;
+  for (const auto& [name, value] : s.gauges) out += ", " + name + " " + std::to_string(value);
+  return out;
+}
+
 std::string link_status_line(const LinkSnapshot& s) {
   return "link " + s.name + " (" + s.kind + " driver " + s.driver + ", " + s.peer + "): " + s.state +
          ", rtt p50/p99 " + std::to_string(s.rtt_p50_us) + "/" + std::to_string(s.rtt_p99_us) + " us, " +
          std::to_string(s.reconnects) + " reconnects, " + std::to_string(s.timeouts) + " timeouts, " +
          std::to_string(s.errors) + " errors, writes " + std::to_string(s.writes_acked) + " acked / " +
-         std::to_string(s.writes_failed) + " failed / " + std::to_string(s.writes_pending) + " pending";
+         std::to_string(s.writes_failed) + " failed / " + std::to_string(s.writes_pending) + " pending" +
+         gauges_text(s);
 }
 
 std::string render_links_table(const io::ProcessImage& img) {
@@ -196,6 +209,7 @@ std::string render_links_table(const io::ProcessImage& img) {
                   s.rtt_p99_us, s.polls_completed, s.polls_missed, s.polls_offline, s.reconnects, s.timeouts,
                   s.errors, s.writes_acked, s.writes_failed, s.writes_pending);
     out += line;
+    if (!s.gauges.empty()) out += "      " + gauges_text(s).substr(2) + "\n";
     out += render_link_classes(s);
   }
   return out;
@@ -222,6 +236,14 @@ std::string with_links_json(const io::ProcessImage& img, const std::string& json
                   s.polls_completed, s.polls_missed, s.polls_offline, s.connects, s.reconnects, s.timeouts,
                   s.errors, s.writes_acked, s.writes_failed, s.writes_pending, s.writes_rejected, hist.c_str());
     links += item;
+    if (!s.gauges.empty()) {
+      links.pop_back();  // the item's closing brace
+      links += ", \"gauges\": {";
+      for (size_t g = 0; g < s.gauges.size(); ++g) {
+        links += (g ? ", \"" : "\"") + s.gauges[g].first + "\": " + std::to_string(s.gauges[g].second);
+      }
+      links += "}}";
+    }
     if (!s.plan.empty()) {
       // Planned link: the plan and its classes, times in seconds like the planner's JSON.
       links.pop_back();  // the item's closing brace

@@ -53,6 +53,7 @@ struct LinkSnapshot {
     long long packet_max_ns = 0, packet_bound_ns = 0;
   };
   std::vector<TrafficClass> classes;
+  std::vector<std::pair<std::string, unsigned long long>> gauges;  // the kind's own figures, by name
 };
 LinkSnapshot link_snapshot(const io::LinkStatus& ls);
 

@@ -109,6 +109,10 @@ void Driver::describe_link(uint32_t l, std::string_view link_name, std::string_v
   ls.quality.store(static_cast<uint8_t>(Quality::kBad), std::memory_order_relaxed);
 }
 
+void Driver::name_gauge(uint32_t l, uint32_t g, std::string_view gauge_name) const {
+  if (g < kLinkGauges) copy_text(link_row(l).gauge_names[g], sizeof link_row(l).gauge_names[g], gauge_name);
+}
+
 void Driver::log(LinkEvent::Level level, std::string_view text) const noexcept {
   if (setup_.events != nullptr) setup_.events->push(level, name(), text);
 }

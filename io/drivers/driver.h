@@ -130,6 +130,10 @@ struct DriverSetup {
   // threads, never from cycle(). Null when no runtime is behind the driver
   // (tests that drive one alone).
   std::function<Result<std::string>(const std::string& label, double value)> set_point;
+  // Where a driver may keep small files of its own across restarts: a path
+  // prefix in the runtime's checked state folder ("/var/lib/rtplc/plant"); the
+  // kind appends ".KIND-NAME.something". Empty when no runtime is behind it.
+  std::string state_prefix;
 };
 
 // A driver with a periodic bridge thread (every kind so far). A kind
@@ -203,6 +207,8 @@ class Driver {
   LinkStatus& link_row(uint32_t l) const { return setup_.image->link(setup_.first_link + l); }
   // Names a link row (before start): its peer's name and address.
   void describe_link(uint32_t l, std::string_view name, std::string_view peer) const;
+  // Names gauge g of link row l (before start): shown as "NAME VALUE" after the row.
+  void name_gauge(uint32_t l, uint32_t g, std::string_view gauge_name) const;
   void log(LinkEvent::Level level, std::string_view text) const noexcept;
 
   const DriverSetup& setup() const { return setup_; }

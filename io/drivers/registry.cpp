@@ -13,6 +13,7 @@
   X(modbus_server)               \
   X(can)                         \
   X(gpio)                        \
+  X(sparkplug)                   \
   /* one line per driver, above this one */
 
 #define RTPLC_DECLARE_DRIVER(ns) \

@@ -141,7 +141,8 @@ async function loadStatus() {
   links.replaceChildren();
   for (const l of stats.links || []) {
     const tr = el('tr');
-    [l.name, l.kind, l.peer, l.state, l.errors].forEach((v) => tr.appendChild(el('td', v)));
+    const gauges = Object.entries(l.gauges || {}).map(([k, v]) => k + ' ' + v).join(', ');
+    [l.name, l.kind, l.peer, l.state, l.errors, gauges].forEach((v) => tr.appendChild(el('td', v)));
     links.appendChild(tr);
   }
 }
