@@ -28,6 +28,10 @@ const KeySpec kKeys[] = {
     {"keepalive", ValueType::kDuration, false, 1, 3600, nullptr, "10s",
      "MQTT keep-alive: a link silent 1.5 times this long is taken as lost, by the broker (which "
      "then publishes the NDEATH will) and by the node (which reconnects)."},
+    {"mqtt", ValueType::kChoice, false, 0, 0, "5|3.1.1", "5",
+     "The MQTT version. With 5 the node also sees that a command arriving live was published "
+     "retained, and refuses it; 3.1.1 (for old brokers) shows that only for a command the broker "
+     "kept, at subscribe time."},
     {"group", ValueType::kText, true, 0, 0, "Sparkplug group id", "",
      "The Sparkplug group id (`Plant1`): topics are spBv1.0/GROUP/..."},
     {"node", ValueType::kText, true, 0, 0, "Sparkplug edge node id", "",
@@ -162,6 +166,9 @@ void parse(YamlReader& r, const Fields& f, DriverConfig& out) {
   }
   if (const Field* x = f.get("keepalive")) {
     if (auto v = r.duration(*x)) s.keepalive_s = *v;
+  }
+  if (const Field* x = f.get("mqtt")) {
+    if (auto v = r.choice(*x)) s.mqtt5 = *v == "5";
   }
   id_field(r, f, "group", s.group);
   id_field(r, f, "node", s.node);

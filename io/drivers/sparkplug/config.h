@@ -24,6 +24,7 @@ struct SparkplugSettings {
   std::string ca_file, cert_file, key_file;
   std::string username, password;
   double keepalive_s = 10;
+  bool mqtt5 = true;  // MQTT 5 (else 3.1.1)
 
   std::string group;         // group_id
   std::string node;          // edge_node_id

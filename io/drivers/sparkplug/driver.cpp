@@ -191,6 +191,7 @@ void SparkplugDriver::link_run() {
   uint32_t failures = 0;
   int64_t next_dial = 0;
   uint64_t bdseq = 0;
+  bool answered = true;  // the last CONNECT got a CONNACK (so the next needs a new bdSeq)
   uint64_t signature = 0;
   bool have_devices = false;
   const int64_t period = std::max<int64_t>(setup().period_ns, kernel_rt::kNsPerMs);
@@ -212,7 +213,11 @@ void SparkplugDriver::link_run() {
   while (!link_stop_.load(std::memory_order_relaxed)) {
     const int64_t now = kernel_rt::monotonic_now_ns();
     if (!session && now >= next_dial) {
-      bdseq = next_bdseq();
+      // A new bdSeq per CONNECT the broker answered (Sparkplug 3.0: one more
+      // than the previous CONNECT's); a dial that never got an answer (the
+      // broker down, the network cut) sent no session the broker knows of.
+      if (answered) bdseq = next_bdseq();
+      answered = false;
       session = std::make_unique<MqttSession>(settings_, client_id);
       link_state_.store(static_cast<uint8_t>(io::LinkState::kConnecting), std::memory_order_relaxed);
       if (auto r = session->connect(node_->node_topic("NDEATH"), node_->death_payload(bdseq, now_ms()), 1); !r) {
@@ -224,6 +229,7 @@ void SparkplugDriver::link_run() {
       const int wait_ms = static_cast<int>(std::clamp<int64_t>((next_tick - now) / kernel_rt::kNsPerMs, 0, 50));
       switch (session->loop(wait_ms)) {
         case MqttSession::Event::kUp:
+          answered = true;
           for (const std::string& t : node_->subscriptions()) session->subscribe(t, 1);
           failures = 0;
           if (said_down) log(io::LinkEvent::Level::kInfo, fmt::format("broker {}: connected", settings_.broker_text()));
@@ -239,6 +245,9 @@ void SparkplugDriver::link_run() {
                             std::memory_order_relaxed);
           break;
         case MqttSession::Event::kRefused:
+          answered = true;
+          drop_session(session->error());
+          continue;
         case MqttSession::Event::kDown:
           drop_session(session->error());
           continue;

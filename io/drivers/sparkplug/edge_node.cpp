@@ -90,6 +90,7 @@ void EdgeNode::session_down() {
   counters_.phase.store(static_cast<uint8_t>(phase_), std::memory_order_relaxed);
   for (DeviceState& d : state_) d.born = false;
   rebirth_ = false;
+  reconnect_ = false;  // this session is over: the next one starts clean
 }
 
 void EdgeNode::shutdown(uint64_t now_ms) {

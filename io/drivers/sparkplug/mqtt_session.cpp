@@ -2,6 +2,7 @@
 #include "io/drivers/sparkplug/mqtt_session.h"
 
 #include <mosquitto.h>
+#include <mqtt_protocol.h>
 
 #include <fmt/format.h>
 
@@ -33,7 +34,10 @@ MqttSession::~MqttSession() {
 Result<void> MqttSession::connect(const std::string& will_topic, const std::string& will_payload, int will_qos) {
   m_ = mosquitto_new(client_id_.c_str(), true, this);  // clean session (Sparkplug 3.0)
   if (!m_) return make_error("cannot create an MQTT client (out of memory?)");
-  mosquitto_int_option(m_, MOSQ_OPT_PROTOCOL_VERSION, MQTT_PROTOCOL_V311);
+  // MQTT 5 by default: its "retain as published" subscriptions let a node see
+  // that a command was published retained even when it arrives live (3.1.1
+  // clears the flag then), so it can refuse it.
+  mosquitto_int_option(m_, MOSQ_OPT_PROTOCOL_VERSION, s_.mqtt5 ? MQTT_PROTOCOL_V5 : MQTT_PROTOCOL_V311);
   mosquitto_connect_callback_set(m_, &MqttSession::on_connect);
   mosquitto_disconnect_callback_set(m_, &MqttSession::on_disconnect);
   mosquitto_message_callback_set(m_, &MqttSession::on_message);
@@ -119,6 +123,10 @@ bool MqttSession::publish(const std::string& topic, std::string_view payload, in
 
 bool MqttSession::subscribe(const std::string& topic, int qos) {
   if (!m_ || !up_) return false;
+  if (s_.mqtt5) {
+    return mosquitto_subscribe_v5(m_, nullptr, topic.c_str(), qos, MQTT_SUB_OPT_RETAIN_AS_PUBLISHED, nullptr) ==
+           MOSQ_ERR_SUCCESS;
+  }
   return mosquitto_subscribe(m_, nullptr, topic.c_str(), qos) == MOSQ_ERR_SUCCESS;
 }
 
