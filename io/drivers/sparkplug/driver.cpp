@@ -19,6 +19,9 @@ namespace {
 
 constexpr int64_t kMinBackoffNs = 200 * kernel_rt::kNsPerMs;
 constexpr int64_t kMaxBackoffNs = 10 * kernel_rt::kNsPerSec;
+// A device whose regions did not publish is still sampled this often: its
+// values' ages turn them stale without any new snapshot.
+constexpr int64_t kFullSampleNs = 100 * kernel_rt::kNsPerMs;
 
 // The link row's own figures (docs/sparkplug.md, "Statistics").
 constexpr const char* kGauges[] = {"births", "seq", "bdSeq", "queued", "dropped", "replayed"};
@@ -124,8 +127,9 @@ uint64_t SparkplugDriver::layout_signature() const {
   uint64_t h = 1469598103934665603ull;
   auto mix = [&](uint64_t v) { h = (h ^ v) * 1099511628211ull; };
   const uint32_t n = img.channel_count();
+  // ChannelDesc::users changes only when a program starts, is swapped in or
+  // rolled back: the task's swap count moves with it.
   mix(n);
-  for (uint32_t c = 0; c < n; ++c) mix(img.channel_users(c));
   for (uint32_t t = 0; t < img.header().n_tasks; ++t) {
     const io::TaskInfo& ti = img.task_info(t);
     mix(ti.state.load(std::memory_order_relaxed) == static_cast<uint8_t>(io::TaskState::kRunning));
@@ -164,6 +168,37 @@ std::vector<DeviceDef> SparkplugDriver::read_devices() const {
     out.push_back(std::move(d));
   }
   return out;
+}
+
+void SparkplugDriver::mark_dirty(int64_t now_ns) {
+  const io::ProcessImage& img = *setup().image;
+  const std::vector<DeviceDef>& devs = node_->devices();
+  if (device_regions_.size() != devs.size()) {
+    device_regions_.assign(devs.size(), DeviceRegions{});
+    for (size_t d = 0; d < devs.size(); ++d) {
+      std::vector<uint32_t>& rs = device_regions_[d].regions;
+      for (const MetricDef& m : devs[d].metrics) {
+        const io::ChannelDesc& cd = img.channel(m.channel);
+        rs.push_back(cd.region);
+        if (cd.has_delivery) rs.push_back(cd.delivery_region);
+      }
+      std::sort(rs.begin(), rs.end());
+      rs.erase(std::unique(rs.begin(), rs.end()), rs.end());
+      device_regions_[d].seen.assign(rs.size(), ~uint64_t{0});
+    }
+  }
+  dirty_.assign(devs.size(), false);
+  for (size_t d = 0; d < devs.size(); ++d) {
+    DeviceRegions& dr = device_regions_[d];
+    bool dirty = now_ns - dr.sampled_ns >= kFullSampleNs;
+    for (size_t i = 0; i < dr.regions.size(); ++i) {
+      const uint64_t pub = img.ring(dr.regions[i]).published.load(std::memory_order_acquire);
+      if (pub != dr.seen[i]) dirty = true;
+      dr.seen[i] = pub;
+    }
+    if (dirty) dr.sampled_ns = now_ns;
+    dirty_[d] = dirty;
+  }
 }
 
 Result<void> SparkplugDriver::on_start() {
@@ -226,7 +261,9 @@ void SparkplugDriver::link_run() {
       }
     }
     if (session) {
-      const int wait_ms = static_cast<int>(std::clamp<int64_t>((next_tick - now) / kernel_rt::kNsPerMs, 0, 50));
+      // Rounded up: a wait of 0 ms would spin through the tick's last millisecond.
+      const int wait_ms =
+          static_cast<int>(std::clamp<int64_t>((next_tick - now + kernel_rt::kNsPerMs - 1) / kernel_rt::kNsPerMs, 1, 50));
       switch (session->loop(wait_ms)) {
         case MqttSession::Event::kUp:
           answered = true;
@@ -236,6 +273,7 @@ void SparkplugDriver::link_run() {
           said_down = false;
           if (!have_devices) {
             node_->set_devices(read_devices(), now_ms());
+            device_regions_.clear();
             signature = layout_signature();
             have_devices = true;
           }
@@ -274,10 +312,12 @@ void SparkplugDriver::link_run() {
       const uint64_t sig = layout_signature();
       if (!have_devices || sig != signature) {
         node_->set_devices(read_devices(), now_ms());
+        device_regions_.clear();
         signature = sig;
         have_devices = true;
       }
-      node_->tick(now_ms());
+      mark_dirty(kernel_rt::monotonic_now_ns());
+      node_->tick(now_ms(), &dirty_);
       if (session && session->up()) {
         link_state_.store(static_cast<uint8_t>(node_->phase() == EdgeNode::Phase::kOnline ? io::LinkState::kUp
                                                                                             : io::LinkState::kConnecting),

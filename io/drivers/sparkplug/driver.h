@@ -55,7 +55,18 @@ class SparkplugDriver final : public io::Driver {
   const SparkplugSettings& settings_;
   std::unique_ptr<EdgeNode> node_;        // made in prepare(); driven by the link thread
   std::unique_ptr<MqttSession> session_;  // link thread only
-  std::vector<bool> published_;  // per channel label filter (publish list)
+  // Per device (the order of read_devices()): the image regions its channels
+  // live in (values and deliveries), their publication counts when last
+  // sampled, and when it was last sampled: a device is sampled only when one
+  // of its regions published since, or every kFullSampleNs (ages turn values stale).
+  struct DeviceRegions {
+    std::vector<uint32_t> regions;
+    std::vector<uint64_t> seen;
+    int64_t sampled_ns = 0;
+  };
+  std::vector<DeviceRegions> device_regions_;
+  std::vector<bool> dirty_;
+  void mark_dirty(int64_t now_ns);
   std::string bdseq_path_;
   uint64_t bdseq_ = 255;         // so that a first session without a file uses 0
   int64_t clock_offset_ns_ = 0;  // realtime - monotonic, refreshed each tick

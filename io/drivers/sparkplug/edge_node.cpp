@@ -213,13 +213,14 @@ void EdgeNode::store(uint32_t d, uint32_t i, const Sample& s, bool historical) {
   counters_.stored.store(store_.size(), std::memory_order_relaxed);
 }
 
-void EdgeNode::tick(uint64_t now_ms) {
+void EdgeNode::tick(uint64_t now_ms, const std::vector<bool>* dirty) {
   if (phase_ == Phase::kOnline && rebirth_) births(now_ms);
   const bool online = phase_ == Phase::kOnline;
   for (uint32_t d = 0; d < devices_.size(); ++d) {
     DeviceState& st = state_[d];
     const DeviceDef& dev = devices_[d];
     if (!dev.running || (online && !st.born)) continue;
+    if (dirty && d < dirty->size() && !(*dirty)[d]) continue;
     if (st.last.size() != dev.metrics.size()) st.last.assign(dev.metrics.size(), Last{});
     Payload p;
     for (uint32_t i = 0; i < dev.metrics.size(); ++i) {

@@ -112,8 +112,10 @@ class EdgeNode {
   void shutdown(uint64_t now_ms);
   // A message on a subscribed topic.
   void on_message(const std::string& topic, std::string_view payload, bool retained, uint64_t now_ms);
-  // Every sample period: exceptions, the store's replay.
-  void tick(uint64_t now_ms);
+  // Every sample period: exceptions, the store's replay. `dirty`, when given,
+  // says per device whether anything it reads may have changed (the driver
+  // knows from the image's publication counters); the others are not sampled.
+  void tick(uint64_t now_ms, const std::vector<bool>* dirty = nullptr);
 
   // True when the primary host went offline: the caller ends this session
   // (NDEATH sent) and connects again with a new bdSeq.
