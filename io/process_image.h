@@ -140,7 +140,9 @@ struct ChannelDesc {
   // thread or tool with channel_users() (an acquire load). A reader that sees
   // the new bit set also sees the channel's description, which was complete
   // before. Readers group channels per task with it (the Sparkplug link's
-  // devices); a mask read during a swap is the old one or the new one.
+  // devices); a mask read during a swap is the old one or the new one, and a
+  // reader that needs the whole set consistent reads it again once the task's
+  // swap count (TaskInfo::swaps) moves, which happens after the update.
   uint16_t users;
   uint8_t pad2[4];
   double safe_value;        // outputs: what `on_bad: safe` sends (the task's safe_outputs value)

@@ -57,6 +57,8 @@ struct LinkSnapshot {
 };
 LinkSnapshot link_snapshot(const io::LinkStatus& ls);
 
+// ", births 1, seq 17, bdSeq 3": the kind's own figures ("" when it has none).
+std::string gauges_text(const LinkSnapshot& s);
 // "plc f01 (s7 driver plc, 10.0.0.11:102): up, rtt p50/p99 ..." for `status`.
 std::string link_status_line(const LinkSnapshot& s);
 // "    periodic: 812 sent, delay p99/max 41/97 us (bound 1486 us), 0 missed,

@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <cstdio>
 #include <cstring>
 #include <functional>
 #include <thread>
@@ -273,6 +274,40 @@ TEST(ProcessImage, a_reader_preempting_the_writer_mid_write_on_its_cpu_reads_at_
   if (!r.ran) GTEST_SKIP() << r.why;
   EXPECT_TRUE(r.reader_preempted_writer);
   EXPECT_TRUE(r.read_ok);
+}
+
+// ChannelDesc::users (the tasks using each channel): the control thread moves a
+// task's bit channel by channel when a program is swapped in; a reader that
+// preempts it on its CPU mid-way reads each channel's mask whole, the new one
+// where the writer has been and the old one where it has not. (A reader that
+// groups channels per task, the Sparkplug link, reads them all again once the
+// task's swap count moves, after the whole update.)
+TEST(ProcessImage, a_reader_preempting_a_swaps_users_update_reads_each_mask_old_or_new) {
+  auto img = ProcessImage::create(layout(unique_name("users"), 8));
+  ASSERT_TRUE(img.ok()) << img.error();
+  ProcessImage& im = *img;
+  for (uint32_t c = 0; c < 4; ++c) {
+    ChannelDesc d{};
+    std::snprintf(d.label, sizeof d.label, "C%u", c);
+    d.index = c;
+    d.users = 0x1;
+    ASSERT_TRUE(im.add_channel(d).ok());
+  }
+  auto r = testing::run_preempting_reader(
+      [&](const std::function<void()>& preempt) {
+        for (uint32_t c = 0; c < 4; ++c) {
+          im.set_channel_users(c, 0x3);
+          if (c == 1) preempt();
+        }
+      },
+      [&] {
+        return im.channel_users(0) == 0x3 && im.channel_users(1) == 0x3 && im.channel_users(2) == 0x1 &&
+               im.channel_users(3) == 0x1;
+      });
+  if (!r.ran) GTEST_SKIP() << r.why;
+  EXPECT_TRUE(r.reader_preempted_writer);
+  EXPECT_TRUE(r.read_ok) << "each mask is the old or the new, as far as the writer got";
+  for (uint32_t c = 0; c < 4; ++c) EXPECT_EQ(im.channel_users(c), 0x3);
 }
 
 TEST(ProcessImage, a_new_image_reads_bad_until_written_and_the_channel_count_is_published) {
