@@ -374,12 +374,13 @@ TEST_F(EdgeNodeTest, aliases_name_metrics_in_births_only) {
   const Metric* pv = find(out[1].p, "ProcVal");
   ASSERT_NE(pv, nullptr);
   ASSERT_TRUE(pv->has_alias());
+  const uint64_t alias = pv->alias();  // `out` is replaced below
   values[0].value = 9;
   node->tick(1);
   out = take();
   ASSERT_EQ(out.size(), 1u);
   EXPECT_FALSE(out[0].p.metrics(0).has_name());
-  EXPECT_EQ(out[0].p.metrics(0).alias(), pv->alias());
+  EXPECT_EQ(out[0].p.metrics(0).alias(), alias);
 }
 
 TEST(SparkplugPayload, signed_and_unsigned_types_decode_by_their_declared_type) {
