@@ -166,7 +166,7 @@ void run_monitor(const ViewArgs& a) {
                     ls.rtt_p50_us, ls.rtt_p99_us, ls.reconnects, ls.timeouts, ls.errors, ls.writes_acked,
                     ls.writes_failed, ls.writes_pending);
       out += line;
-      if (!ls.gauges.empty()) out += "    " + sched::gauges_text(ls).substr(2) + "\n";  // the kind's own figures
+      if (!ls.gauges.empty() || !ls.last_error.empty()) out += "    " + sched::gauges_text(ls).substr(2) + "\n";  // the kind's own figures
       out += sched::render_link_classes(ls);  // a planned link's classes; "" otherwise
     }
     std::snprintf(line, sizeof line, "\n  %-20s %-9s %-24s %14s  %-7s %8s  %s\n", "label", "dir", "channel",

@@ -99,6 +99,7 @@
 
 #include "common/quality.h"
 #include "common/result.h"
+#include "io/link/handoff.h"
 #include "io/trace_ring.h"
 
 namespace rtplc::io {
@@ -108,7 +109,7 @@ inline constexpr uint32_t kProcessImageVersion = 9;  // 4: the force table; 5: p
                                                     // 6: per-class delays of planned links;
                                                     // 7: ChannelDesc::max_age_ns;
                                                     // 8: ChannelDesc::on_bad, safe_value
-                                                    // 9: ChannelDesc::users, LinkStatus::gauges
+                                                    // 9: ChannelDesc::users, LinkStatus::gauges, last_error
 inline constexpr uint32_t kRingSlots = 4;
 // The version slot n % kRingSlots holds once publication n >= 1 is complete:
 // two per write, and that slot was written once per lap up to n.
@@ -278,6 +279,12 @@ struct LinkClassStatus {
   std::atomic<int64_t> packet_bound_ns;  // the plan's L_p, L_c, L_n
 };
 
+// A link's last error as the row keeps it.
+struct LinkError {
+  char text[120];
+  int64_t at_ns;
+};
+
 // Per-link status of a driver that talks to remote peers (one per S7 PLC, per
 // Modbus slave, ...): what `rtplc stats`, `monitor` and `status` show without
 // knowing the kind. One writer (the driver's bridge thread); every field a
@@ -314,6 +321,13 @@ struct alignas(64) LinkStatus {
   // the row's one writer, relaxed like the rest of the row.
   char gauge_names[kLinkGauges][12];
   std::atomic<uint64_t> gauges[kLinkGauges];
+  // The link's last error, and when (CLOCK_MONOTONIC; 0: none yet). Its one
+  // writer is the thread that meets the errors (the kind says which: the
+  // Sparkplug link's I/O thread); readers anywhere. The slot is the lock-free
+  // SnapshotSlot (io/link/handoff.h: a reader preempting the writer mid-store
+  // on its CPU still reads the last whole text at once); all-zero memory is its
+  // valid empty state, so the image needs no constructor for it.
+  link::SnapshotSlot<LinkError> last_error;
 };
 
 enum class TaskState : uint8_t { kStarting = 0, kRunning = 1, kStoppedWatchdog = 2, kStopped = 3 };

@@ -128,6 +128,11 @@ LinkSnapshot link_snapshot(const io::LinkStatus& ls) {
   s.writes_rejected = ls.writes_rejected.load(r);
   for (size_t b = 0; b < io::kLinkLatencyBuckets; ++b) s.latency.push_back(ls.latency[b].load(r));
   s.plan = std::string(ls.plan, strnlen(ls.plan, sizeof ls.plan));
+  io::LinkError e{};
+  if (ls.last_error.try_load(e) && e.at_ns > 0) {
+    s.last_error = std::string(e.text, strnlen(e.text, sizeof e.text));
+    s.last_error_age_s = static_cast<double>(kernel_rt::monotonic_now_ns() - e.at_ns) / 1e9;
+  }
   for (size_t g = 0; g < io::kLinkGauges; ++g) {
     if (ls.gauge_names[g][0] == '\0') continue;
     s.gauges.emplace_back(std::string(ls.gauge_names[g], strnlen(ls.gauge_names[g], sizeof ls.gauge_names[g])),
@@ -183,6 +188,11 @@ std::string render_link_classes(const LinkSnapshot& s) {
 std::string gauges_text(const LinkSnapshot& s) {
   std::string out;
   for (const auto& [name, value] : s.gauges) out += ", " + name + " " + std::to_string(value);
+  if (!s.last_error.empty()) {
+    char age[32];
+    std::snprintf(age, sizeof age, "%.0f s ago", s.last_error_age_s);
+    out += ", last error " + std::string(age) + ": " + s.last_error;
+  }
   return out;
 }
 
@@ -209,7 +219,7 @@ std::string render_links_table(const io::ProcessImage& img) {
                   s.rtt_p99_us, s.polls_completed, s.polls_missed, s.polls_offline, s.reconnects, s.timeouts,
                   s.errors, s.writes_acked, s.writes_failed, s.writes_pending);
     out += line;
-    if (!s.gauges.empty()) out += "      " + gauges_text(s).substr(2) + "\n";
+    if (!s.gauges.empty() || !s.last_error.empty()) out += "      " + gauges_text(s).substr(2) + "\n";
     out += render_link_classes(s);
   }
   return out;
@@ -236,13 +246,24 @@ std::string with_links_json(const io::ProcessImage& img, const std::string& json
                   s.polls_completed, s.polls_missed, s.polls_offline, s.connects, s.reconnects, s.timeouts,
                   s.errors, s.writes_acked, s.writes_failed, s.writes_pending, s.writes_rejected, hist.c_str());
     links += item;
-    if (!s.gauges.empty()) {
+    if (!s.gauges.empty() || !s.last_error.empty()) {
       links.pop_back();  // the item's closing brace
       links += ", \"gauges\": {";
       for (size_t g = 0; g < s.gauges.size(); ++g) {
         links += (g ? ", \"" : "\"") + s.gauges[g].first + "\": " + std::to_string(s.gauges[g].second);
       }
-      links += "}}";
+      links += "}";
+      if (!s.last_error.empty()) {
+        std::string text;
+        for (char ch : s.last_error) {
+          if (ch == '"' || ch == '\\') text += '\\';
+          if (static_cast<unsigned char>(ch) >= 0x20) text += ch;
+        }
+        char age[32];
+        std::snprintf(age, sizeof age, "%.3f", s.last_error_age_s);
+        links += ", \"last_error\": \"" + text + "\", \"last_error_age_s\": " + age;
+      }
+      links += "}";
     }
     if (!s.plan.empty()) {
       // Planned link: the plan and its classes, times in seconds like the planner's JSON.

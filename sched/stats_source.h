@@ -54,6 +54,8 @@ struct LinkSnapshot {
   };
   std::vector<TrafficClass> classes;
   std::vector<std::pair<std::string, unsigned long long>> gauges;  // the kind's own figures, by name
+  std::string last_error;       // "" when none
+  double last_error_age_s = 0;  // how long ago
 };
 LinkSnapshot link_snapshot(const io::LinkStatus& ls);
 

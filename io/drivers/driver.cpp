@@ -2,6 +2,9 @@
 // (see driver.h).
 #include "io/drivers/driver.h"
 
+#include <algorithm>
+#include <cstring>
+
 #include <cmath>
 
 #include <algorithm>
@@ -111,6 +114,14 @@ void Driver::describe_link(uint32_t l, std::string_view link_name, std::string_v
 
 void Driver::name_gauge(uint32_t l, uint32_t g, std::string_view gauge_name) const {
   if (g < kLinkGauges) copy_text(link_row(l).gauge_names[g], sizeof link_row(l).gauge_names[g], gauge_name);
+}
+
+void Driver::set_link_error(uint32_t l, std::string_view text) const noexcept {
+  LinkError e{};
+  const size_t n = std::min(text.size(), sizeof e.text - 1);
+  std::memcpy(e.text, text.data(), n);
+  e.at_ns = kernel_rt::monotonic_now_ns();
+  link_row(l).last_error.store(e);
 }
 
 void Driver::log(LinkEvent::Level level, std::string_view text) const noexcept {

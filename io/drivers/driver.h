@@ -209,6 +209,8 @@ class Driver {
   void describe_link(uint32_t l, std::string_view name, std::string_view peer) const;
   // Names gauge g of link row l (before start): shown as "NAME VALUE" after the row.
   void name_gauge(uint32_t l, uint32_t g, std::string_view gauge_name) const;
+  // Link row l's last error (LinkStatus::last_error): from one thread per row only.
+  void set_link_error(uint32_t l, std::string_view text) const noexcept;
   void log(LinkEvent::Level level, std::string_view text) const noexcept;
 
   const DriverSetup& setup() const { return setup_; }

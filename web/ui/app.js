@@ -141,7 +141,8 @@ async function loadStatus() {
   links.replaceChildren();
   for (const l of stats.links || []) {
     const tr = el('tr');
-    const gauges = Object.entries(l.gauges || {}).map(([k, v]) => k + ' ' + v).join(', ');
+    let gauges = Object.entries(l.gauges || {}).map(([k, v]) => k + ' ' + v).join(', ');
+    if (l.last_error) gauges += (gauges ? '; ' : '') + 'last error ' + Math.round(l.last_error_age_s) + ' s ago: ' + l.last_error;
     [l.name, l.kind, l.peer, l.state, l.errors, gauges].forEach((v) => tr.appendChild(el('td', v)));
     links.appendChild(tr);
   }

@@ -93,6 +93,7 @@ Result<void> SparkplugDriver::prepare() {
   };
   auto logline = [this](bool warning, const std::string& line) {
     log(warning ? io::LinkEvent::Level::kWarning : io::LinkEvent::Level::kInfo, line);
+    if (warning) set_link_error(0, line);  // the link thread: the row's last_error has this one writer
   };
   node_ = std::make_unique<EdgeNode>(settings_, publish, write, [this](uint32_t c) { return sample(c); }, logline);
   describe_link(0, name(), fmt::format("{} {}/{}", settings_.broker_text(), settings_.group, settings_.node));
@@ -241,6 +242,7 @@ void SparkplugDriver::link_run() {
     next_dial = kernel_rt::monotonic_now_ns() +
                 link::backoff_delay_ns(failures, kMinBackoffNs, kMaxBackoffNs, rng());
     link_state_.store(static_cast<uint8_t>(io::LinkState::kDown), std::memory_order_relaxed);
+    set_link_error(0, why);
     if (!said_down) log(io::LinkEvent::Level::kWarning, fmt::format("broker {}: {}", settings_.broker_text(), why));
     said_down = true;
   };

@@ -533,7 +533,8 @@ def scenario_broker_restart(broker, host):
     births = host2.since(mark, is_type("DBIRTH", n.node_id))
     check(births and births[0]["t"] <= first_hist, "the replay comes after the DBIRTH")
     stats = subprocess.run([RTPLC, "stats", "--name", n.name], capture_output=True, text=True)
-    check("replayed" in stats.stdout and "bdSeq" in stats.stdout, f"stats shows the link's figures:\n{stats.stdout}")
+    check("replayed" in stats.stdout and "bdSeq" in stats.stdout and "last error" in stats.stdout,
+          f"stats shows the link's figures and its last error:\n{stats.stdout}")
     n.stop()
     host2.assert_clean()
     return host2
