@@ -677,6 +677,8 @@ SCENARIOS = [("basic", scenario_basic), ("broker_restart", scenario_broker_resta
 
 
 def main():
+    # A fresh folder each run: a runtime retains its set-points, bdSeq and state there.
+    shutil.rmtree(WORK, ignore_errors=True)
     os.makedirs(WORK, exist_ok=True)
     broker = Broker("broker")
     host = Host(broker.port)
