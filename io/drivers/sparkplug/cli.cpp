@@ -34,26 +34,10 @@ void on_signal(int) { g_interrupted.store(true); }
 SparkplugSettings broker_settings(const std::string& broker, const std::string& user, const std::string& password,
                                   const std::string& ca) {
   SparkplugSettings s;
-  std::string rest = broker;
-  if (rest.rfind("mqtts://", 0) == 0) {
-    s.tls = true;
-    s.port = 8883;
-    rest = rest.substr(8);
-  } else if (rest.rfind("mqtt://", 0) == 0) {
-    rest = rest.substr(7);
+  std::string why;
+  if (!parse_broker(broker, s, why)) {
+    fail(kExitUsage, "BROKER '" + broker + "': " + why + " (host[:port] or mqtt(s)://host[:port])");
   }
-  const size_t colon = rest.rfind(':');
-  s.host = rest.substr(0, colon);
-  if (colon != std::string::npos) {
-    try {
-      const int p = std::stoi(rest.substr(colon + 1));
-      if (p < 1 || p > 65535) throw std::out_of_range("port");
-      s.port = static_cast<uint16_t>(p);
-    } catch (const std::exception&) {
-      fail(kExitUsage, "BROKER is host[:port] or mqtt(s)://host[:port], got '" + broker + "'");
-    }
-  }
-  if (s.host.empty()) fail(kExitUsage, "BROKER is host[:port] or mqtt(s)://host[:port], got '" + broker + "'");
   s.username = user;
   s.password = password;
   s.ca_file = ca;

@@ -76,39 +76,6 @@ SourcePos pos_or(const YAML::Node& n, SourcePos fallback) {
   return p.line ? p : fallback;
 }
 
-bool parse_broker(const std::string& text, SparkplugSettings& s, std::string& why) {
-  std::string rest = text;
-  if (rest.rfind("mqtts://", 0) == 0) {
-    s.tls = true;
-    s.port = 8883;
-    rest = rest.substr(8);
-  } else if (rest.rfind("mqtt://", 0) == 0) {
-    rest = rest.substr(7);
-  } else if (rest.find("://") != std::string::npos) {
-    why = "the broker's scheme is mqtt:// or mqtts://";
-    return false;
-  }
-  if (!rest.empty() && rest.back() == '/') rest.pop_back();
-  const size_t colon = rest.rfind(':');
-  std::string host = rest;
-  if (colon != std::string::npos && rest.find(']') == std::string::npos) {
-    host = rest.substr(0, colon);
-    const std::string p = rest.substr(colon + 1);
-    unsigned port = 0;
-    const auto [end, ec] = std::from_chars(p.data(), p.data() + p.size(), port);
-    if (p.empty() || ec != std::errc() || end != p.data() + p.size() || port == 0 || port > 65535) {
-      why = "the port is a number 1..65535, got '" + p + "'";
-      return false;
-    }
-    s.port = static_cast<uint16_t>(port);
-  }
-  if (host.empty() || host.find_first_of(" /") != std::string::npos) {
-    why = "no host name";
-    return false;
-  }
-  s.host = host;
-  return true;
-}
 
 void id_field(YamlReader& r, const Fields& f, const char* key, std::string& out) {
   const Field* x = f.get(key);
@@ -232,6 +199,40 @@ std::string doc() {
 }
 
 }  // namespace
+
+bool parse_broker(const std::string& text, SparkplugSettings& s, std::string& why) {
+  std::string rest = text;
+  if (rest.rfind("mqtts://", 0) == 0) {
+    s.tls = true;
+    s.port = 8883;
+    rest = rest.substr(8);
+  } else if (rest.rfind("mqtt://", 0) == 0) {
+    rest = rest.substr(7);
+  } else if (rest.find("://") != std::string::npos) {
+    why = "the broker's scheme is mqtt:// or mqtts://";
+    return false;
+  }
+  if (!rest.empty() && rest.back() == '/') rest.pop_back();
+  const size_t colon = rest.rfind(':');
+  std::string host = rest;
+  if (colon != std::string::npos && rest.find(']') == std::string::npos) {
+    host = rest.substr(0, colon);
+    const std::string p = rest.substr(colon + 1);
+    unsigned port = 0;
+    const auto [end, ec] = std::from_chars(p.data(), p.data() + p.size(), port);
+    if (p.empty() || ec != std::errc() || end != p.data() + p.size() || port == 0 || port > 65535) {
+      why = "the port is a number 1..65535, got '" + p + "'";
+      return false;
+    }
+    s.port = static_cast<uint16_t>(port);
+  }
+  if (host.empty() || host.find_first_of(" /") != std::string::npos) {
+    why = "no host name";
+    return false;
+  }
+  s.host = host;
+  return true;
+}
 
 std::string SparkplugSettings::broker_text() const {
   return fmt::format("{}{}:{}", tls ? "mqtts://" : "", host, port);

@@ -49,6 +49,10 @@ struct SparkplugSettings {
 
 const SparkplugSettings& settings_of(const config::DriverConfig& d);
 
+// "127.0.0.1:1883", "mqtt://host", "mqtts://host:8883" -> s.host, s.port, s.tls
+// (the config's `broker`, the CLI's BROKER); false with `why` otherwise.
+bool parse_broker(const std::string& text, SparkplugSettings& s, std::string& why);
+
 // Group, edge node and host ids: UTF-8 without the MQTT specials / + # (3.0).
 bool valid_id(const std::string& id);
 
