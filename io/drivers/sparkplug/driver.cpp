@@ -7,6 +7,7 @@
 #include <charconv>
 #include <random>
 
+#include "blocks/registry.h"
 #include "common/files.h"
 #include "io/drivers/lifecycle.h"
 #include "io/drivers/sparkplug/cli.h"
@@ -160,7 +161,7 @@ std::vector<DeviceDef> SparkplugDriver::read_devices() const {
       MetricDef m;
       m.name = label;
       m.channel = c;
-      m.digital = cd.kind == 1;
+      m.digital = cd.kind == static_cast<uint8_t>(Kind::kDigital);
       m.writable = cd.dir == static_cast<uint8_t>(io::ChannelDir::kSetpoint) &&
                    std::find(settings_.writable.begin(), settings_.writable.end(), label) != settings_.writable.end();
       if (auto db = settings_.deadband.find(label); db != settings_.deadband.end()) m.deadband = db->second;
@@ -230,6 +231,16 @@ void SparkplugDriver::link_run() {
   bool answered = true;  // the last CONNECT got a CONNACK (so the next needs a new bdSeq)
   uint64_t signature = 0;
   bool have_devices = false;
+  // The devices again whenever tasks, programs or channels changed (and the
+  // first time): before the births of a session, and at every tick.
+  auto refresh_devices = [&] {
+    const uint64_t sig = layout_signature();
+    if (have_devices && sig == signature) return;
+    node_->set_devices(read_devices(), now_ms());
+    device_regions_.clear();
+    signature = sig;
+    have_devices = true;
+  };
   const int64_t period = std::max<int64_t>(setup().period_ns, kernel_rt::kNsPerMs);
   int64_t next_tick = kernel_rt::monotonic_now_ns();
   const std::string client_id = "rtplc-" + settings_.group + "-" + settings_.node;
@@ -273,12 +284,7 @@ void SparkplugDriver::link_run() {
           failures = 0;
           if (said_down) log(io::LinkEvent::Level::kInfo, fmt::format("broker {}: connected", settings_.broker_text()));
           said_down = false;
-          if (!have_devices) {
-            node_->set_devices(read_devices(), now_ms());
-            device_regions_.clear();
-            signature = layout_signature();
-            have_devices = true;
-          }
+          refresh_devices();
           node_->session_up(bdseq, now_ms());
           link_state_.store(static_cast<uint8_t>(node_->phase() == EdgeNode::Phase::kOnline ? io::LinkState::kUp
                                                                                               : io::LinkState::kConnecting),
@@ -311,13 +317,7 @@ void SparkplugDriver::link_run() {
       next_tick += period;
       if (next_tick < kernel_rt::monotonic_now_ns()) next_tick = kernel_rt::monotonic_now_ns() + period;
       clock_offset_ns_ = kernel_rt::realtime_now_ns() - kernel_rt::monotonic_now_ns();
-      const uint64_t sig = layout_signature();
-      if (!have_devices || sig != signature) {
-        node_->set_devices(read_devices(), now_ms());
-        device_regions_.clear();
-        signature = sig;
-        have_devices = true;
-      }
+      refresh_devices();
       mark_dirty(kernel_rt::monotonic_now_ns());
       node_->tick(now_ms(), &dirty_);
       if (session && session->up()) {
