@@ -42,6 +42,11 @@ bool ends_with(const std::string& s, const char* e) {
 
 }  // namespace
 
+void fail(const std::string& msg, int code) {
+  std::fprintf(stderr, "%s\n", msg.c_str());
+  throw CLI::RuntimeError(code);
+}
+
 CLI::Validator positive_seconds() {
   return CLI::Validator([](std::string& s) { return check_seconds(s, 0); }, "SECONDS>0");
 }

@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "common/exit_codes.h"
+
 namespace rtplc::app {
 
 // A number of seconds > 0 and finite (rejects 0, negatives, nan, inf).
@@ -19,6 +21,10 @@ CLI::Validator seconds_at_least(double min_s);
 // A positive number of seconds within [min_s, max_s], with one message.
 CLI::Validator seconds_between(double min_s, double max_s);
 CLI::Validator runtime_name();
+
+// Prints `msg` on stderr and ends the subcommand with exit code `code`
+// (docs/runtime.md, "Exit codes").
+[[noreturn]] void fail(const std::string& msg, int code = kExitFailure);
 
 // kSpecial: a FIFO, a device or a socket; never opened (a FIFO would block,
 // /dev/zero would never end).

@@ -46,11 +46,6 @@ struct AnalyzeArgs {
   std::string preface;  // an SFC's main loop and sub-PNs, printed before the report
 };
 
-bool ends_with(const std::string& s, const char* e) {
-  const std::string x(e);
-  return s.size() >= x.size() && s.compare(s.size() - x.size(), x.size(), x) == 0;
-}
-
 bool write_file(const std::string& path, const std::string& text) {
   std::ofstream f(path, std::ios::binary | std::ios::trunc);
   f << text;
@@ -88,7 +83,7 @@ petri::Net load_net(AnalyzeArgs& a) {
                  a.file.c_str());
     throw CLI::RuntimeError(kExitUsage);
   }
-  const bool sfc_file = ends_with(a.file, ".sfc") || lang::sfc::starts_with_sfc_keyword(text);
+  const bool sfc_file = a.file.ends_with(".sfc") || lang::sfc::starts_with_sfc_keyword(text);
   if (sfc_file || lang::plcopen::is_plcopen_source(text)) {
     DiagnosticList diags;
     std::optional<lang::sfc::SfcNet> sfc;
@@ -110,7 +105,7 @@ petri::Net load_net(AnalyzeArgs& a) {
     if (!a.json) a.preface = lang::sfc::render_hierarchy(*sfc);
     return sfc->flat();
   }
-  if (!ends_with(a.file, ".pnml") && !ends_with(a.file, ".xml") &&
+  if (!a.file.ends_with(".pnml") && !a.file.ends_with(".xml") &&
       (first == std::string::npos || text[first] != '<')) {
     std::fprintf(
         stderr,

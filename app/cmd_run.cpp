@@ -65,10 +65,6 @@ std::string drop_word(const ClientArgs& a) {
 
 std::string socket_for(const ClientArgs& a) { return sched::control_socket_of(a.name, a.socket); }
 
-[[noreturn]] void fail(const std::string& msg, int code = kExitFailure) {
-  std::fprintf(stderr, "%s\n", msg.c_str());
-  throw CLI::RuntimeError(code);
-}
 
 // A client command that could not reach its runtime also says which ones run.
 [[noreturn]] void fail_client(const std::string& what, const std::string& error) {

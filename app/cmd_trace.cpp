@@ -71,16 +71,15 @@ struct Selection {
 std::atomic<bool> g_interrupted{false};
 extern "C" void on_signal(int) { g_interrupted.store(true); }
 
-[[noreturn]] void fail(const std::string& msg, int code = kExitFailure) {
-  std::fprintf(stderr, "rtplc trace: %s\n", msg.c_str());
-  throw CLI::RuntimeError(code);
+[[noreturn]] void fail_trace(const std::string& msg, int code = kExitFailure) {
+  fail("rtplc trace: " + msg, code);
 }
 
 Trigger parse_trigger(const std::string& text) {
   Trigger t;
   const size_t at = text.find_first_of("<>");
   if (at == std::string::npos || at == 0 || at + 1 >= text.size()) {
-    fail("--trigger wants LABEL>VALUE or LABEL<VALUE, e.g. 'Level>80', not '" + text + "'", kExitUsage);
+    fail_trace("--trigger wants LABEL>VALUE or LABEL<VALUE, e.g. 'Level>80', not '" + text + "'", kExitUsage);
   }
   t.label = text.substr(0, at);
   t.op = text[at];
@@ -88,7 +87,7 @@ Trigger parse_trigger(const std::string& text) {
   char* end = nullptr;
   t.value = std::strtod(v.c_str(), &end);
   if (end == v.c_str() || *end != '\0' || !std::isfinite(t.value)) {
-    fail("--trigger '" + text + "': '" + v + "' is not a finite number", kExitUsage);
+    fail_trace("--trigger '" + text + "': '" + v + "' is not a finite number", kExitUsage);
   }
   return t;
 }
@@ -108,7 +107,7 @@ Selection selection_of(const nlohmann::json& r) {
     }
   }
   if (s.token.empty() || s.task.empty() || s.period_ns <= 0 || s.labels.empty()) {
-    fail("the runtime's answer to the trace request is not understood:\n" + r.dump(2));
+    fail_trace("the runtime's answer to the trace request is not understood:\n" + r.dump(2));
   }
   return s;
 }
@@ -209,31 +208,31 @@ Result<void> plot_recording(const Recording& rec, const Selection& sel, bool cyc
 void run_trace(const TraceArgs& a) {
   std::optional<Trigger> trig;
   if (!a.trigger.empty()) trig = parse_trigger(a.trigger);
-  if (a.pre_trigger >= 0 && !trig) fail("--pre-trigger needs --trigger", kExitUsage);
+  if (a.pre_trigger >= 0 && !trig) fail_trace("--pre-trigger needs --trigger", kExitUsage);
   const double pre_s = trig ? (a.pre_trigger >= 0 ? a.pre_trigger : 0.1 * a.duration) : 0;
   if (!a.plot.empty() && std::system("command -v gnuplot >/dev/null 2>&1") != 0) {
-    fail("--plot needs gnuplot (install the gnuplot-nox package, or scripts/setup-deps)");
+    fail_trace("--plot needs gnuplot (install the gnuplot-nox package, or scripts/setup-deps)");
   }
   // Before recording: an output that cannot be written fails now, by name.
   if (!a.csv.empty() && a.csv != "-") require_output_path(a.csv, "trace", "--csv");
   if (!a.plot.empty()) require_output_path(a.plot, "trace", "--plot", {a.csv});
 
   auto img = io::ProcessImage::attach(a.name);
-  if (!img) fail(img.error());
-  if (const io::Liveness live = img->liveness(); !live.alive) fail(sched::not_running_text(a.name, live));
+  if (!img) fail_trace(img.error());
+  if (const io::Liveness live = img->liveness(); !live.alive) fail_trace(sched::not_running_text(a.name, live));
 
   std::vector<std::string> labels = a.labels;
   if (trig && std::find(labels.begin(), labels.end(), trig->label) == labels.end()) labels.push_back(trig->label);
   const std::string socket = sched::control_socket_of(a.name, a.socket);
   auto answer = sched::api_request(socket, {{"op", "trace"}, {"args", {{"labels", labels}}}}, "", 10000);
-  if (!answer) fail(answer.error());
-  if (!answer->value("ok", false)) fail((*answer)["error"].value("message", std::string("the runtime refused the trace")));
+  if (!answer) fail_trace(answer.error());
+  if (!answer->value("ok", false)) fail_trace((*answer)["error"].value("message", std::string("the runtime refused the trace")));
   const Selection sel = selection_of((*answer)["result"]);
   if (trig) {
     trig->column = static_cast<size_t>(std::find(sel.labels.begin(), sel.labels.end(), trig->label) - sel.labels.begin());
   }
   const io::TraceBlock* block = img->trace_block(sel.task_index);
-  if (block == nullptr) fail("the runtime's image has no trace ring for task " + sel.task);
+  if (block == nullptr) fail_trace("the runtime's image has no trace ring for task " + sel.task);
   auto end_trace = [&] { (void)sched::control_request(socket, "trace-end " + sel.token, "", 2000); };
 
   struct sigaction sa {};
@@ -350,20 +349,20 @@ void run_trace(const TraceArgs& a) {
   if (trig) what += fired ? ", trigger " + a.trigger + " at t = 0" : ", trigger " + a.trigger + " never held";
   std::vector<std::string> summary{what};
   if (!ended_why.empty()) summary.push_back("ended early: " + ended_why);
-  if (auto w = write_recording(rec, columns, summary, a.csv); !w) fail(w.error());
+  if (auto w = write_recording(rec, columns, summary, a.csv); !w) fail_trace(w.error());
   if (!a.quiet) {
     std::fprintf(stderr, "%s%s\n", what.c_str(),
                  a.csv.empty() || a.csv == "-" ? "" : ("; wrote " + a.csv).c_str());
   }
   if (!a.plot.empty() && !rec.rows.empty()) {
     std::string title = "rtplc trace - runtime " + a.name + ", task " + sel.task;
-    if (auto p = plot_recording(rec, sel, a.cycles, a.plot, title); !p) fail(p.error());
+    if (auto p = plot_recording(rec, sel, a.cycles, a.plot, title); !p) fail_trace(p.error());
     if (!a.quiet) std::fprintf(stderr, "wrote %s\n", a.plot.c_str());
   }
-  if (!ended_why.empty() && ended_why != "interrupted") fail("ended early: " + ended_why);
-  if (trig && !fired) fail("the trigger " + a.trigger + " never held; nothing recorded");
+  if (!ended_why.empty() && ended_why != "interrupted") fail_trace("ended early: " + ended_why);
+  if (trig && !fired) fail_trace("the trigger " + a.trigger + " never held; nothing recorded");
   if (rec.lost_in_window > 0) {
-    fail("INCOMPLETE: " + std::to_string(rec.lost_in_window) +
+    fail_trace("INCOMPLETE: " + std::to_string(rec.lost_in_window) +
          " samples were overwritten before this tool read them (the CSV marks where); "
          "a busy machine or a slow output (a terminal) makes it fall behind");
   }

@@ -32,10 +32,6 @@ struct WebArgs {
   std::string workspace;
 };
 
-[[noreturn]] void fail(const std::string& what, int code = kExitFailure) {
-  std::fprintf(stderr, "%s\n", what.c_str());
-  throw CLI::RuntimeError(code);
-}
 
 web::UserFile users_of(const WebArgs& a) {
   return web::UserFile(a.users.empty() ? web::default_users_path(a.name) : a.users);

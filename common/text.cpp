@@ -13,6 +13,11 @@ std::string format_number(double v) {
   return buf;
 }
 
+std::string pad_right(std::string s, size_t width) {
+  if (s.size() < width) s.append(width - s.size(), ' ');
+  return s;
+}
+
 void copy_text(char* dst, size_t cap, std::string_view s) {
   std::memset(dst, 0, cap);
   std::memcpy(dst, s.data(), std::min(s.size(), cap - 1));

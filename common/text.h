@@ -11,6 +11,9 @@ namespace rtplc {
 // A number as a person writes it: "%g" (0.1, 50, 1e-06).
 std::string format_number(double v);
 
+// `s` widened with spaces to `width` characters (left-aligned table cells).
+std::string pad_right(std::string s, size_t width);
+
 // Copies `s` into a fixed, NUL-terminated field of `cap` bytes (truncating),
 // zero-filling the rest so no stale bytes reach shared memory.
 void copy_text(char* dst, size_t cap, std::string_view s);

@@ -4,17 +4,10 @@
 #include <algorithm>
 #include <cstdio>
 
+#include "common/text.h"
+
 namespace rtplc::fieldbus {
 namespace {
-
-std::string t(Nanos x) {
-  return format_time(x);
-}
-
-std::string pad(std::string s, size_t w) {
-  if (s.size() < w) s.append(w - s.size(), ' ');
-  return s;
-}
 
 const char* access_name(Access a) {
   return a == Access::kTokenPassing ? "token passing" : "polling";
@@ -61,37 +54,37 @@ std::string render_plan_text(const Design& d, const Plan& p, const std::string& 
   std::string s = "fieldbus plan " + file + ": " + (p.feasible ? "FEASIBLE" : "INFEASIBLE") + "\n";
   s += "link     " + std::to_string(d.nodes) + " nodes, " + access_name(d.access) +
        (d.link_text.empty() ? "" : ", " + d.link_text) + "; server overhead sigma " +
-       t(d.server_overhead) + ", R = N sigma = " + t(p.server_round) + "\n";
-  s += "packets  periodic L_p " + t(d.periodic_packet) + "; real-time " +
-       std::to_string(d.rt_queues) + " queues x L_c " + t(d.rt_packet);
-  if (d.nonrt_packet) s += "; non-RT " + t(*d.nonrt_packet);
+       format_time(d.server_overhead) + ", R = N sigma = " + format_time(p.server_round) + "\n";
+  s += "packets  periodic L_p " + format_time(d.periodic_packet) + "; real-time " +
+       std::to_string(d.rt_queues) + " queues x L_c " + format_time(d.rt_packet);
+  if (d.nonrt_packet) s += "; non-RT " + format_time(*d.nonrt_packet);
   s += "\n";
   if (p.t1 <= 0) {
     s += "\n";
   } else {
-    s += "T_1      " + t(p.t1) + " (" + frame_reason(d, p) + ")\n";
+    s += "T_1      " + format_time(p.t1) + " (" + frame_reason(d, p) + ")\n";
     s += "gamma    " + std::to_string(p.gamma) + " periodic packets in the busiest frame (lower " +
          "bound " + std::to_string(p.gamma_lower_bound) + "; " + std::to_string(p.periodic_nodes) +
          " nodes send periodic data)\n";
     s += "periodic gamma L_p + N_c L_c + R = " + std::to_string(p.gamma) + " * " +
-         t(d.periodic_packet) + " + " + std::to_string(d.rt_queues) + " * " + t(d.rt_packet) +
-         " + " + t(p.server_round) + " = " + t(p.periodic_part) +
+         format_time(d.periodic_packet) + " + " + std::to_string(d.rt_queues) + " * " + format_time(d.rt_packet) +
+         " + " + format_time(p.server_round) + " = " + format_time(p.periodic_part) +
          (p.periodic_part <= p.t1 ? " <= " : " > ") + "T_1\n";
     if (p.periodic_part <= p.t1) {
-      s += "L_n max  (T_1 - " + t(p.periodic_part) +
-           ") / (N - gamma + 1) = " + t(p.t1 - p.periodic_part) + " / " +
-           std::to_string(d.nodes - p.gamma + 1) + " = " + t(p.ln_max) + "\n";
-      s += "W        worst transfer delay of a periodic packet " + t(p.transfer_bound) +
-           " (one packet in flight " + t(p.transfer_bound - p.periodic_part) +
+      s += "L_n max  (T_1 - " + format_time(p.periodic_part) +
+           ") / (N - gamma + 1) = " + format_time(p.t1 - p.periodic_part) + " / " +
+           std::to_string(d.nodes - p.gamma + 1) + " = " + format_time(p.ln_max) + "\n";
+      s += "W        worst transfer delay of a periodic packet " + format_time(p.transfer_bound) +
+           " (one packet in flight " + format_time(p.transfer_bound - p.periodic_part) +
            " + periodic part)\n";
     }
-    s += "\n" + pad("loop", 14) + pad("period", 12) + pad("offset", 8) + pad("nodes", 9) +
-         pad("delay bound", 14) + "max_delay\n";
+    s += "\n" + pad_right("loop", 14) + pad_right("period", 12) + pad_right("offset", 8) + pad_right("nodes", 9) +
+         pad_right("delay bound", 14) + "max_delay\n";
     for (const LoopPlan& l : p.loops) {
-      s += pad(l.name, 14) + pad(t(l.period) + (l.fixed ? "" : "*"), 12) +
-           pad(l.offset < 0 ? "-" : std::to_string(l.offset), 8) +
-           pad(std::to_string(l.sensor_node) + "->" + std::to_string(l.controller_node), 9) +
-           pad(t(l.delay_bound), 14) + (l.max_delay ? t(*l.max_delay) : "-") + "\n";
+      s += pad_right(l.name, 14) + pad_right(format_time(l.period) + (l.fixed ? "" : "*"), 12) +
+           pad_right(l.offset < 0 ? "-" : std::to_string(l.offset), 8) +
+           pad_right(std::to_string(l.sensor_node) + "->" + std::to_string(l.controller_node), 9) +
+           pad_right(format_time(l.delay_bound), 14) + (l.max_delay ? format_time(*l.max_delay) : "-") + "\n";
     }
     s += "(* = chosen by the planner; offset in T_1 frames; delay bound D = T_i + W)\n";
     const size_t shown = std::min<size_t>(p.frame_load.size(), 32);
@@ -101,12 +94,12 @@ std::string render_plan_text(const Design& d, const Plan& p, const std::string& 
     s += "\n";
   }
   if (p.feasible) {
-    s += "\nresult   feasible: non-RT packets up to L_n max = " + t(p.ln_max) + "\n";
+    s += "\nresult   feasible: non-RT packets up to L_n max = " + format_time(p.ln_max) + "\n";
   } else {
     s += "\nresult   infeasible; failing conditions:\n";
     for (const Failure& f : p.failures) {
-      s += "  " + pad(std::string(to_string(f.condition)) + ":", 14) + f.message;
-      if (f.shortfall > 0) s += " [short by " + t(f.shortfall) + "]";
+      s += "  " + pad_right(std::string(to_string(f.condition)) + ":", 14) + f.message;
+      if (f.shortfall > 0) s += " [short by " + format_time(f.shortfall) + "]";
       s += "\n";
     }
   }

@@ -7,28 +7,20 @@
 #include <cstdio>
 #include <cstdlib>
 
+#include "common/text.h"
 #include "fieldbus/plan_report.h"
 
 namespace rtplc::fieldbus {
 namespace {
 
-std::string t(Nanos x) {
-  return format_time(x);
-}
-
-std::string pad(std::string s, size_t w) {
-  if (s.size() < w) s.append(w - s.size(), ' ');
-  return s;
-}
-
-std::string stats_row(const char* name, const DelayStats& s, const std::string& bound) {
+std::string stats_row(const char* name, const DelaySummary& s, const std::string& bound) {
   if (s.count == 0)
-    return pad(name, 12) + pad("0", 10) + pad("-", 12) + pad("-", 12) + pad("-", 12) + bound + "\n";
-  return pad(name, 12) + pad(std::to_string(s.count), 10) + pad(t(s.p50), 12) + pad(t(s.p99), 12) +
-         pad(t(s.max), 12) + bound + "\n";
+    return pad_right(name, 12) + pad_right("0", 10) + pad_right("-", 12) + pad_right("-", 12) + pad_right("-", 12) + bound + "\n";
+  return pad_right(name, 12) + pad_right(std::to_string(s.count), 10) + pad_right(format_time(s.p50), 12) + pad_right(format_time(s.p99), 12) +
+         pad_right(format_time(s.max), 12) + bound + "\n";
 }
 
-std::string stats_json(const DelayStats& s) {
+std::string stats_json(const DelaySummary& s) {
   return "{\"count\": " + std::to_string(s.count) + ", \"p50\": " + json_seconds(s.p50) +
          ", \"p99\": " + json_seconds(s.p99) + ", \"max\": " + json_seconds(s.max) + "}";
 }
@@ -56,19 +48,19 @@ bool simulation_holds(const Plan& p, const SimResult& r) {
 }
 
 std::string render_sim_text(const Design& d, const Plan& p, const SimResult& r, uint64_t seed) {
-  std::string s = "\nsimulation  " + t(r.duration) + " of bus time, seed " + std::to_string(seed) +
+  std::string s = "\nsimulation  " + format_time(r.duration) + " of bus time, seed " + std::to_string(seed) +
                   ", " + (d.access == Access::kTokenPassing ? "token passing" : "polling") +
-                  ", non-RT packets " + t(p.nonrt_packet) +
+                  ", non-RT packets " + format_time(p.nonrt_packet) +
                   (r.nonrt_saturated ? " (every node always has some)"
                                      : ", " + format_rate(d.nonrt_rate) + "/s per node") +
                   ", real-time " + format_rate(d.rt_rate) + "/s per queue\n";
-  s += pad("class", 12) + pad("count", 10) + pad("p50", 12) + pad("p99", 12) + pad("max", 12) +
+  s += pad_right("class", 12) + pad_right("count", 10) + pad_right("p50", 12) + pad_right("p99", 12) + pad_right("max", 12) +
        "plan's bound\n";
-  s += stats_row("periodic", r.periodic, "W = " + t(p.transfer_bound));
+  s += stats_row("periodic", r.periodic, "W = " + format_time(p.transfer_bound));
   s += stats_row("loop delay", r.loop_delay, "T_i + W per loop (below)");
   s += stats_row("real-time", r.realtime, "-");
   if (r.nonrt_saturated) {
-    s += pad("non-RT", 12) + "saturated: " + std::to_string(r.nonrt_packets) + " packets\n";
+    s += pad_right("non-RT", 12) + "saturated: " + std::to_string(r.nonrt_packets) + " packets\n";
   } else {
     s += stats_row("non-RT", r.nonrt, "-");
   }
@@ -79,12 +71,12 @@ std::string render_sim_text(const Design& d, const Plan& p, const SimResult& r, 
   s += "samples " + std::to_string(r.samples) + ", lost " + std::to_string(r.lost_samples) +
        ", vacant samplings " + std::to_string(r.vacant_samplings) +
        ", periodic packets later than T_1 " + std::to_string(r.late_packets) + "\n";
-  s += pad("loop", 14) + pad("worst D", 14) + pad("bound", 14) + "lost  vacant\n";
+  s += pad_right("loop", 14) + pad_right("worst D", 14) + pad_right("bound", 14) + "lost  vacant\n";
   const size_t shown = std::min<size_t>(r.loops.size(), 20);
   for (size_t i = 0; i < shown; ++i) {
     const LoopSimStats& l = r.loops[i];
-    s += pad(l.name, 14) + pad(t(l.worst_delay), 14) + pad(t(p.loops[i].delay_bound), 14) +
-         pad(std::to_string(l.lost), 6) + std::to_string(l.vacant) +
+    s += pad_right(l.name, 14) + pad_right(format_time(l.worst_delay), 14) + pad_right(format_time(p.loops[i].delay_bound), 14) +
+         pad_right(std::to_string(l.lost), 6) + std::to_string(l.vacant) +
          (l.worst_delay > p.loops[i].delay_bound ? "  EXCEEDS" : "") + "\n";
   }
   if (shown < r.loops.size())

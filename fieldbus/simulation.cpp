@@ -32,8 +32,8 @@ struct Arrival {
   bool operator>(const Arrival& o) const { return at > o.at || (at == o.at && queue > o.queue); }
 };
 
-DelayStats stats_of(std::vector<Nanos>& v) {
-  DelayStats s;
+DelaySummary stats_of(std::vector<Nanos>& v) {
+  DelaySummary s;
   s.count = static_cast<int64_t>(v.size());
   if (v.empty()) return s;
   std::sort(v.begin(), v.end());

@@ -26,7 +26,7 @@ struct SimOptions {
   bool keep_samples = false;  // keep every delay (for --plot)
 };
 
-struct DelayStats {
+struct DelaySummary {
   int64_t count = 0;
   Nanos p50 = 0;
   Nanos p99 = 0;
@@ -42,10 +42,10 @@ struct LoopSimStats {
 
 struct SimResult {
   Nanos duration = 0;
-  DelayStats periodic;    // queueing to complete receipt, every periodic packet
-  DelayStats loop_delay;  // sensor sampling to the actuator's receipt of its control
-  DelayStats realtime;
-  DelayStats nonrt;              // count only when the non-RT traffic saturates the bus
+  DelaySummary periodic;    // queueing to complete receipt, every periodic packet
+  DelaySummary loop_delay;  // sensor sampling to the actuator's receipt of its control
+  DelaySummary realtime;
+  DelaySummary nonrt;              // count only when the non-RT traffic saturates the bus
   int64_t samples = 0;           // periodic packets queued
   int64_t lost_samples = 0;      // overwritten before sent, or unused by the controller
   int64_t vacant_samplings = 0;  // controller samplings with no new sensor value

@@ -13,11 +13,6 @@ namespace rtplc::lang {
 namespace {
 
 
-std::string pad(std::string s, size_t w) {
-  if (s.size() < w) s.append(w - s.size(), ' ');
-  return s;
-}
-
 std::string bytes(size_t n) {
   if (n < 10 * 1024) return std::to_string(n) + " B";
   return format_number(static_cast<double>(n) / 1024.0) + " KiB";
@@ -91,14 +86,14 @@ std::string explain(const CompileResult& r) {
     w_ins = std::max(w_ins, row.ins.size() + 2);
     w_prm = std::max(w_prm, row.prm.size() + 2);
   }
-  line("     #  " + pad("id", w_id) + pad("block", w_block) + pad("inputs", w_ins) +
-       pad("params / device", w_prm) + "line");
+  line("     #  " + pad_right("id", w_id) + pad_right("block", w_block) + pad_right("inputs", w_ins) +
+       pad_right("params / device", w_prm) + "line");
   for (size_t i = 0; i < rows.size(); ++i) {
     const Row& row = rows[i];
     char idx[24];
     std::snprintf(idx, sizeof idx, "%6zu", i);
-    line(std::string(idx) + "  " + pad(row.id, w_id) + pad(row.block, w_block) +
-         pad(row.ins, w_ins) + pad(row.prm, w_prm) + row.where);
+    line(std::string(idx) + "  " + pad_right(row.id, w_id) + pad_right(row.block, w_block) +
+         pad_right(row.ins, w_ins) + pad_right(row.prm, w_prm) + row.where);
   }
   line("  (' = delayed: reads the value from the previous cycle, 0 in the first cycle)");
 
@@ -130,8 +125,8 @@ std::string explain(const CompileResult& r) {
   line("");
   line("I/O bindings: " + std::to_string(img.bindings().size()));
   if (!img.bindings().empty()) {
-    line("  " + pad("dir", 9) + pad("group", 7) + pad("address", 15) + pad("kind", 9) +
-         pad("label", 18) + "line");
+    line("  " + pad_right("dir", 9) + pad_right("group", 7) + pad_right("address", 15) + pad_right("kind", 9) +
+         pad_right("label", 18) + "line");
   }
   for (const Binding& b : img.bindings()) {
     std::string dir = b.dir == BindingDir::kInput     ? "in"
@@ -146,8 +141,8 @@ std::string explain(const CompileResult& r) {
                                  std::to_string(b.c);
     std::string label = std::string(img.str(b.label));
     if (b.dir == BindingDir::kSetpoint) label += " =" + format_number(b.init);
-    line("  " + pad(dir, 9) + pad(group, 7) + pad(addr, 15) + pad(kind_name(b.kind), 9) +
-         pad(label, 18) + std::to_string(b.line));
+    line("  " + pad_right(dir, 9) + pad_right(group, 7) + pad_right(addr, 15) + pad_right(kind_name(b.kind), 9) +
+         pad_right(label, 18) + std::to_string(b.line));
   }
 
   line("");
@@ -180,7 +175,7 @@ std::string explain(const CompileResult& r) {
       }
       std::string layout = (run.flags & kRunAffine) ? "  plain arrays" : "";
       if (run.flags & kRunUniformParams) layout += ", shared parameters";
-      line("  " + pad(op_name(run.op), 7) + " x" + pad(std::to_string(run.end - run.begin), 7) + layout);
+      line("  " + pad_right(op_name(run.op), 7) + " x" + pad_right(std::to_string(run.end - run.begin), 7) + layout);
     }
   }
   return out;

@@ -30,7 +30,7 @@ namespace rtplc::lang {
 namespace {
 
 using fbd::ArgumentContext;
-using fbd::Binding;
+using FbdBinding = fbd::Binding;
 using fbd::id_key;
 using fbd::is_value_letter;
 using fbd::letter_kind;
@@ -177,12 +177,12 @@ class MacroExpander {
   }
 
   // Introduces `target` in `scope`, reporting a duplicate.
-  bool define(int scope, const Ref& target, Binding b) {
+  bool define(int scope, const Ref& target, FbdBinding b) {
     Scope& s = scopes_[static_cast<size_t>(scope)];
     const uint64_t key = id_key(letter_kind(target.letter), target.number);
     auto [it, fresh] = s.ids.emplace(key, b);
     if (!fresh) {
-      const Binding& first = it->second;
+      const FbdBinding& first = it->second;
       const char* what = first.is_formal ? " is an input of the macro" : " is already defined";
       diags_.error(target.pos, duplicate_name_message(target.text(), what, first.pos.line),
                    target.length);
@@ -297,8 +297,8 @@ class MacroExpander {
     }
     const auto index = static_cast<uint32_t>(out_.blocks.size());
     if (c.has_target) {
-      Binding bind;
-      bind.what = Binding::What::kBlock;
+      FbdBinding bind;
+      bind.what = FbdBinding::What::kBlock;
       bind.flat = index;
       bind.pos = c.target.pos;
       define(scope, c.target, bind);
@@ -312,8 +312,8 @@ class MacroExpander {
   }
 
   void poison(int scope, const Ref& target) {
-    Binding b;
-    b.what = Binding::What::kPoison;
+    FbdBinding b;
+    b.what = FbdBinding::What::kPoison;
     b.pos = target.pos;
     define(scope, target, b);
     staged_.clear();
@@ -417,8 +417,8 @@ class MacroExpander {
         ok = false;
         continue;
       }
-      Binding alias;
-      alias.what = Binding::What::kAlias;
+      FbdBinding alias;
+      alias.what = FbdBinding::What::kAlias;
       alias.alias_scope = scope;
       alias.alias_ref = a.ref;
       alias.is_formal = true;
@@ -445,8 +445,8 @@ class MacroExpander {
                                 std::to_string(kMaxMacroBlocks) + " (RTPLC_MAX_MACRO_BLOCKS)",
                    def.name_length);
     }
-    Binding result;
-    result.what = Binding::What::kAlias;
+    FbdBinding result;
+    result.what = FbdBinding::What::kAlias;
     result.alias_scope = child_id;
     result.alias_ref = def.ret;
     result.pos = c.target.pos;
@@ -472,8 +472,8 @@ class MacroExpander {
       if (f.letter == 'P') {
         child.params[f.number] = ParamBinding{false, 0};
       } else {
-        Binding b;
-        b.what = Binding::What::kPoison;
+        FbdBinding b;
+        b.what = FbdBinding::What::kPoison;
         b.is_formal = true;
         b.pos = f.pos;
         child.ids.emplace(id_key(letter_kind(f.letter), f.number), b);
@@ -525,14 +525,14 @@ class MacroExpander {
         diags_.error(r.pos, msg, r.length);
         return false;
       }
-      const Binding& b = it->second;
+      const FbdBinding& b = it->second;
       switch (b.what) {
-        case Binding::What::kPoison:
+        case FbdBinding::What::kPoison:
           return false;
-        case Binding::What::kBlock:
+        case FbdBinding::What::kBlock:
           if (flat) *flat = b.flat;
           return true;
-        case Binding::What::kAlias:
+        case FbdBinding::What::kAlias:
           s = b.alias_scope;
           r = b.alias_ref;
           break;

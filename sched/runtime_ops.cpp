@@ -146,7 +146,7 @@ std::string format_utc(int64_t realtime_ns) {
 namespace {
 using kernel_rt::realtime_now_ns;
 
-const char* dir_name(uint8_t dir) {
+const char* dir_in_prose(uint8_t dir) {
   return dir == static_cast<uint8_t>(io::ChannelDir::kInput)    ? "input"
          : dir == static_cast<uint8_t>(io::ChannelDir::kOutput) ? "output"
                                                                  : "set-point";
@@ -167,7 +167,7 @@ Result<std::string> Runtime::force(const std::string& label, double value, uint3
   }
   if (!std::isfinite(value)) return make_error("not forced: the value must be a finite number, got " + format_number(value));
   if (d.kind == static_cast<uint8_t>(Kind::kDigital) && value != 0 && value != 1) {
-    return make_error("not forced: \"" + label + "\" is a digital " + dir_name(d.dir) + ": 0 or 1, got " +
+    return make_error("not forced: \"" + label + "\" is a digital " + dir_in_prose(d.dir) + ": 0 or 1, got " +
                       format_number(value));
   }
   // The channel's engineering range, then what every driver sending it can carry:
@@ -195,7 +195,7 @@ Result<std::string> Runtime::force(const std::string& label, double value, uint3
   ForceRecord& rec = forces_[label];
   const bool again = !rec.label.empty();
   rec.label = label;
-  rec.dir = dir_name(d.dir);
+  rec.dir = dir_in_prose(d.dir);
   rec.value = value;
   rec.uid = uid;
   rec.since_realtime_ns = realtime_now_ns();

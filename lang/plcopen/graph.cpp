@@ -19,11 +19,6 @@
 namespace rtplc::lang::plcopen {
 namespace {
 
-std::string attr(const XmlElement& e, std::string_view n) {
-  const XmlAttribute* a = e.attribute(n);
-  return a ? a->value : std::string();
-}
-
 std::string trim(std::string s) {
   const size_t b = s.find_first_not_of(" \t\r\n");
   if (b == std::string::npos) return {};

@@ -22,7 +22,6 @@ struct Line {
   SourcePos label_pos;
 };
 
-bool ident_char(char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; }
 
 // Which paths a predicate covers, to know when the paths split by conditional
 // jumps have all joined again (a CAL there is unconditional). Atom 0 is "every

@@ -24,6 +24,13 @@ std::string upper(std::string_view s) {
   return r;
 }
 
+std::string attr(const XmlElement& e, std::string_view n) {
+  const XmlAttribute* a = e.attribute(n);
+  return a ? a->value : std::string();
+}
+
+bool ident_char(char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; }
+
 namespace {
 
 const char* const kNamespaces[] = {
@@ -31,11 +38,6 @@ const char* const kNamespaces[] = {
     "http://www.plcopen.org/xml/tc6_0200",
     "http://www.plcopen.org/xml/tc6.xsd",
 };
-
-std::string attr(const XmlElement& e, std::string_view n) {
-  const XmlAttribute* a = e.attribute(n);
-  return a ? a->value : std::string();
-}
 
 // A task interval in seconds: a TIME literal (T#20ms, tc6_0201), an XML
 // duration (PT0.02S, what the tc6_0200 schema types it as) or an XML time of

@@ -176,5 +176,9 @@ std::optional<double> parse_literal(std::string_view text, bool* is_bool = nullp
 
 bool iequals(std::string_view a, std::string_view b);
 std::string upper(std::string_view s);
+// An attribute's value, empty when the element has none.
+std::string attr(const XmlElement& e, std::string_view name);
+// A letter, digit or underscore: a character of an IEC identifier.
+bool ident_char(char c);
 
 }  // namespace rtplc::lang::plcopen

@@ -31,11 +31,6 @@
 namespace rtplc::lang::plcopen {
 namespace {
 
-std::string attr(const XmlElement& e, std::string_view n) {
-  const XmlAttribute* a = e.attribute(n);
-  return a ? a->value : std::string();
-}
-
 // The localIds an element's connectionPointIn(s) connect to.
 std::vector<std::string> inputs_of(const XmlElement& e) {
   std::vector<std::string> out;
@@ -48,7 +43,7 @@ std::vector<std::string> inputs_of(const XmlElement& e) {
   return out;
 }
 
-const char* const kSfcElements[] = {"step", "transition", "selectionDivergence", "selectionConvergence",
+const char* const kChartElements[] = {"step", "transition", "selectionDivergence", "selectionConvergence",
                                     "simultaneousDivergence", "simultaneousConvergence", "jumpStep",
                                     "actionBlock"};
 // FBD and LD elements an SFC body may hold beside the chart: they compute
@@ -57,7 +52,7 @@ const char* const kGraphElements[] = {"block", "inVariable", "outVariable", "inO
                                       "continuation", "contact", "coil", "leftPowerRail", "rightPowerRail"};
 
 bool is_sfc_element(const std::string& n) {
-  return std::any_of(std::begin(kSfcElements), std::end(kSfcElements), [&](const char* k) { return n == k; });
+  return std::any_of(std::begin(kChartElements), std::end(kChartElements), [&](const char* k) { return n == k; });
 }
 bool is_graph_element(const std::string& n) {
   return std::any_of(std::begin(kGraphElements), std::end(kGraphElements), [&](const char* k) { return n == k; });

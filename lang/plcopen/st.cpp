@@ -51,7 +51,6 @@ class PosMap {
 };
 
 bool ident_start(char c) { return std::isalpha(static_cast<unsigned char>(c)) || c == '_'; }
-bool ident_char(char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; }
 
 // Tokens of s[begin, s.size()); positions count from the start of `s`.
 std::vector<Tok> lex(std::string_view s, const XmlElement& origin, DiagnosticList& d, size_t begin = 0) {

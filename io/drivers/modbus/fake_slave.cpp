@@ -19,12 +19,12 @@
 #include <thread>
 #include <utility>
 
+#include "io/drivers/modbus/pdu.h"
 #include "kernel_rt/clock.h"
 
 namespace rtplc::modbus {
 namespace {
 
-uint16_t be16(const uint8_t* p) { return static_cast<uint16_t>(p[0] << 8 | p[1]); }
 size_t table_index(Table t) { return static_cast<size_t>(t); }
 
 // RTU: a partial frame followed by this much quiet is discarded. The standard's

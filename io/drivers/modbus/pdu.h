@@ -22,6 +22,9 @@
 
 namespace rtplc::modbus {
 
+// A big-endian 16-bit field, as every Modbus field is.
+inline uint16_t be16(const uint8_t* p) { return static_cast<uint16_t>(p[0] << 8 | p[1]); }
+
 inline constexpr uint8_t kExceptionIllegalFunction = 1;
 inline constexpr uint8_t kExceptionIllegalAddress = 2;
 inline constexpr uint8_t kExceptionIllegalValue = 3;

@@ -30,6 +30,13 @@ constexpr uint64_t kListenerBit = uint64_t{1} << 63;
 
 int64_t mono_ns() { return kernel_rt::monotonic_now_ns(); }
 
+}  // namespace
+
+// The fake's connections, endpoints and delayed replies: FakePlc::Impl's
+// members, so named (a member of an external class may not have a type from an
+// anonymous namespace once this file is compiled inside a unity batch).
+namespace fake_plc_detail {
+
 enum class Fault : uint8_t { kNone, kDisconnect, kWrongRef, kMalformed };
 
 struct Conn {
@@ -62,7 +69,12 @@ struct Delayed {
   bool operator>(const Delayed& o) const { return due != o.due ? due > o.due : seq > o.seq; }
 };
 
-}  // namespace
+}  // namespace fake_plc_detail
+
+using fake_plc_detail::Conn;
+using fake_plc_detail::Delayed;
+using fake_plc_detail::Ep;
+using fake_plc_detail::Fault;
 
 struct FakePlc::Impl {
   mutable std::mutex mu;
