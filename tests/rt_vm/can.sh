@@ -152,13 +152,20 @@ grep -q 'vcan0 0A0#01' plan.log && echo "the urgent enable frame carried 1, then
 # A periodic frame the scheduler missed (it counts them, `rtplc stats`; under
 # emulation on a loaded host some are) leaves two T_1 frames between two 0x201:
 # the bound is 5 per T_1 frame that passed, counted from candump's timestamps.
-awk -F'[ ()]+' '{ split($4, p, "#"); id = p[1]; t = $2 + 0 }
+# A guest starved by its host sends a late frame's bulk and the next frame's
+# close together, so the timestamps undercount the frames that passed exactly
+# when the scheduler reports missed periodic frames: bulk frames over the bound
+# are then allowed up to 5 per missed periodic frame, never more, and none
+# when it missed none.
+missed=$(grep -o '"name": "periodic", "count": [0-9]*, "missed": [0-9]*' planstats.json | head -1 | grep -o '[0-9]*$' || echo 0)
+awk -F'[ ()]+' -v missed="${missed:-0}" '{ split($4, p, "#"); id = p[1]; t = $2 + 0 }
   id == "201" { if (open) { n = int((t - t0) / 0.010 + 0.5); if (n < 1) n = 1;
-                            if (run > 5 * n) bad++; if (run > max) max = run; if (n == 1 && run > max1) max1 = run }
+                            if (run > 5 * n) { bad++; excess += run - 5 * n }
+                            if (run > max) max = run; if (n == 1 && run > max1) max1 = run }
                 open = 1; run = 0; t0 = t }
   id == "5F0" { run++ }
-  END { printf "bulk frames between two periodic frames one T_1 apart: at most %d (L_n allows 5); %d over the bound\n", max1, bad;
-        exit bad > 0 }' plan.log \
+  END { printf "bulk frames between two periodic frames one T_1 apart: at most %d (L_n allows 5); %d runs over the bound by %d frames in all, with %d periodic frames missed by the scheduler\n", max1, bad, excess, missed;
+        exit excess > 5 * missed }' plan.log \
   || fail "more than L_n of bulk frames in one T_1 frame"
 # Reassemble the first transfer: the file's bytes, in order.
 size=$(wc -c < drive_params.txt)
