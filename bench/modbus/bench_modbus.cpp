@@ -56,6 +56,7 @@
 #include <thread>
 #include <vector>
 
+#include "bench/support/machine.h"
 #include "config/config.h"
 #include "io/drivers/modbus/fake_slave.h"
 #include "io/drivers/modbus/line.h"
@@ -721,6 +722,8 @@ int main(int argc, char** argv) {
               o.fake_priority > 0 ? fmt::format("SCHED_FIFO {}", o.fake_priority).c_str() : "SCHED_OTHER",
               o.registers, o.period_ms, timeout_s * 1e3, int{SlaveConfig{}.retries},
               o.line_priority > 0 ? fmt::format("SCHED_FIFO {}", o.line_priority).c_str() : "SCHED_OTHER", o.seconds);
+  std::printf("machine: %s; load average %s at the start\n", bench::machine_description().c_str(),
+              bench::load_average().c_str());
   std::fflush(stdout);
   const SideResult d = run_driver(o, fakes);
   std::optional<SideResult> n;
@@ -731,5 +734,6 @@ int main(int argc, char** argv) {
   ::kill(fakes, SIGTERM);
   ::waitpid(fakes, nullptr, 0);
   print(o, d, n ? &*n : nullptr);
+  std::printf("load average %s at the end (1, 5 and 15 minutes)\n", bench::load_average().c_str());
   return 0;
 }
