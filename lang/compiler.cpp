@@ -23,13 +23,8 @@
 #include <sstream>
 #include <tuple>
 
-#include "lang/lexer.h"
-#include "lang/macro_expander.h"
-#include "lang/parser.h"
-#include "lang/plcopen/import.h"
+#include "lang/front_end.h"
 #include "lang/program_checks.h"
-#include "lang/sfc/builder.h"
-#include "lang/sfc/lexer.h"
 
 namespace rtplc::lang {
 namespace {
@@ -301,40 +296,45 @@ std::optional<std::string> read_text_file(const std::string& path, std::string* 
 
 namespace {
 
-enum class Language : uint8_t { kFbd, kSfc, kPlcopen };
-
 // Every language ends in the same checks and the same image builder.
-CompileResult compile_as(std::string_view source, const CompileOptions& options, Language language) {
-  const bool sfc = language == Language::kSfc;
+CompileResult compile_as(std::string_view source, const CompileOptions& options, const FrontEnd& language) {
   CompileResult r;
   // Guard the compiler's own memory against absurd input; real programs are KBs.
   if (source.size() > kMaxSourceBytes) {
     r.diags.error(SourcePos{}, "source larger than 64 MiB");
     return r;
   }
-  if (language == Language::kPlcopen) {
-    plcopen::ImportOptions io;
-    io.entry = options.entry;
-    r.program = plcopen::import_plcopen(source, io, r.diags).program;
-    if (r.diags.has_errors()) return r;
-    // The lowering's own copies (a variable's end-of-cycle value nobody reads)
-    // are not the author's doing: "computed but never used" is for languages
-    // where every block is written by hand.
-    DiagnosticList checks;
-    check_flat_program(r.program, checks);
-    for (const Diagnostic& d : checks.items()) {
-      if (d.severity == Severity::kError) r.diags.error(d.pos, d.message, d.length);
-      else if (d.message.find("is computed but never used") == std::string::npos)
-        r.diags.warning(d.pos, d.message, d.length);
+  if (!options.entry.empty() && !language.has_entries) {
+    std::string with_entries;  // "PLCopen XML"
+    for (const FrontEnd* f : front_ends()) {
+      if (f->has_entries) with_entries += (with_entries.empty() ? "" : " or ") + std::string(f->name);
     }
-  } else if (sfc) {
-    r.program = sfc::compile_to_flat(source, r.diags);
-    if (r.diags.has_errors()) return r;
-    check_flat_program(r.program, r.diags);
-  } else {
-    std::vector<Token> toks = tokenize(source, r.diags);
-    Program prog = parse(toks, r.diags);
-    r.program = check_program(prog, r.diags);
+    r.diags.error(SourcePos{}, "an entry ('" + options.entry + "': --entry, or a task's program_instance) chooses a "
+                               "task or program of a " + with_entries + " project; this file is one " +
+                               language.name + " program, so leave the entry out");
+    return r;
+  }
+  r.program = language.read(source, options, r.diags);
+  if (r.diags.has_errors()) return r;
+  switch (language.checks) {
+    case FrontEnd::Checks::kAll:
+      check_flat_program(r.program, r.diags);
+      break;
+    case FrontEnd::Checks::kAllButUnusedWarnings: {
+      // Blocks the front end generated (a variable's end-of-cycle copy nobody
+      // reads) are not the author's doing: "computed but never used" is for
+      // languages where every block is written by hand.
+      DiagnosticList checks;
+      check_flat_program(r.program, checks);
+      for (const Diagnostic& d : checks.items()) {
+        if (d.severity == Severity::kError) r.diags.error(d.pos, d.message, d.length);
+        else if (d.message.find("is computed but never used") == std::string::npos)
+          r.diags.warning(d.pos, d.message, d.length);
+      }
+      break;
+    }
+    case FrontEnd::Checks::kRunByFrontEnd:
+      break;
   }
   if (r.diags.has_errors()) return r;
   Result<TaskImage> img = build_image(r.program, options, fnv1a64(source));
@@ -399,16 +399,9 @@ CompileResult load_task_image(std::string_view bytes, const CompileOptions& opti
 
 }  // namespace
 
-bool is_sfc_source(std::string_view source) {
-  return sfc::starts_with_sfc_keyword(source);
-}
-
 CompileResult compile_source(std::string_view source, const CompileOptions& options) {
   if (is_task_image(source)) return load_task_image(source, options);
-  const Language l = plcopen::is_plcopen_source(source) ? Language::kPlcopen
-                     : is_sfc_source(source)            ? Language::kSfc
-                                                        : Language::kFbd;
-  return compile_as(source, options, l);
+  return compile_as(source, options, front_end_for({}, source));
 }
 
 CompileResult compile_file(const std::string& path, const CompileOptions& options) {
@@ -424,8 +417,6 @@ CompileResult compile_file(const std::string& path, const CompileOptions& option
     size_t slash = path.find_last_of('/');
     o.name = slash == std::string::npos ? path : path.substr(slash + 1);
   }
-  // A .sfc file is SFC even when its header is missing (the SFC parser then
-  // says what it expected); any other file is SFC when its first word is SFC.
   auto ends_with = [&](const char* ext) {
     const size_t n = std::char_traits<char>::length(ext);
     return path.size() > n && path.compare(path.size() - n, n, ext) == 0;
@@ -439,18 +430,10 @@ CompileResult compile_file(const std::string& path, const CompileOptions& option
                                    "` analyses it, and an SFC program (.sfc) is what a task runs");
     return r;
   }
-  const Language l = ends_with(".xml") || plcopen::is_plcopen_source(*text) ? Language::kPlcopen
-                     : ends_with(".sfc") || is_sfc_source(*text)           ? Language::kSfc
-                                                                           : Language::kFbd;
-  if (!o.entry.empty() && l != Language::kPlcopen) {
-    CompileResult r;
-    r.diags.error(SourcePos{}, "an entry ('" + o.entry + "': --entry, or a task's program_instance) chooses a task "
-                               "or program of a PLCopen XML project; this file is one " +
-                               (l == Language::kSfc ? std::string("SFC") : std::string("FBD")) +
-                               " program, so leave the entry out");
-    return r;
-  }
-  return compile_as(*text, o, l);
+  // A file whose extension a language registered is that language even when
+  // its header is missing (a .sfc file without its SFC line: the SFC parser
+  // then says what it expected); any other is recognised by its text.
+  return compile_as(*text, o, front_end_for(path, *text));
 }
 
 }  // namespace rtplc::lang

@@ -34,20 +34,16 @@ struct CompileResult {
   bool ok() const { return image.has_value(); }
 };
 
-// FBD, SFC or PLCopen XML: a program whose first word is SFC is an SFC chart
-// (docs/sfc.md); an XML document whose root is <project> is PLCopen
-// (docs/plcopen.md).
+// A program in any registered language (lang/front_end.h), recognised by its
+// text; a compiled task image is loaded and verified instead.
 CompileResult compile_source(std::string_view source, const CompileOptions& options = {});
 
 // True when `source` starts as a compiled task image does (kImageMagic). Every
 // entry point above then loads and verifies it instead of compiling.
 bool is_task_image(std::string_view source);
 
-// True when `source` is an SFC program (its first word, after comments, is SFC).
-bool is_sfc_source(std::string_view source);
-
-// Reads and compiles a file; I/O errors become diagnostics. A .sfc file is
-// always compiled as SFC, a .xml file always as PLCopen.
+// Reads and compiles a file; I/O errors become diagnostics. The language is
+// front_end_for(path, text): a registered extension first, then the text.
 CompileResult compile_file(const std::string& path, const CompileOptions& options = {});
 
 // Builds the image from an already checked program.

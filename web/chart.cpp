@@ -6,6 +6,7 @@
 #include "common/text.h"
 #include "lang/compiler.h"
 #include "lang/sfc/builder.h"
+#include "lang/sfc/lexer.h"
 
 namespace rtplc::web {
 namespace {
@@ -50,7 +51,7 @@ json names(const std::vector<lang::sfc::NameRef>& refs) {
 }  // namespace
 
 Result<json> chart_json(std::string_view source) {
-  if (!lang::is_sfc_source(source)) return make_error("the task's program is not an SFC chart");
+  if (!lang::sfc::starts_with_sfc_keyword(source)) return make_error("the task's program is not an SFC chart");
   DiagnosticList diags;
   lang::sfc::ChartIndex index;
   bool ok = false;

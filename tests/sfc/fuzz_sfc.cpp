@@ -8,13 +8,14 @@
 
 #include "blocks/executor.h"
 #include "lang/compiler.h"
+#include "lang/sfc/lexer.h"
 #include "lang/sfc/net_builder.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size > 64 * 1024) return 0;
   std::string text(reinterpret_cast<const char*>(data), size);
   // Keep the compiler on the SFC path: most mutations lose the header.
-  if (!rtplc::lang::is_sfc_source(text)) text.insert(0, "SFC f\n");
+  if (!rtplc::lang::sfc::starts_with_sfc_keyword(text)) text.insert(0, "SFC f\n");
   rtplc::lang::CompileResult r = rtplc::lang::compile_source(text);
   (void)r.diags.render("f.sfc", text);
   if (r.ok()) {

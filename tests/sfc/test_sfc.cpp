@@ -11,6 +11,7 @@
 
 #include "lang/compiler.h"
 #include "lang/sfc/builder.h"
+#include "lang/sfc/lexer.h"
 #include "tests/support/fbd_harness.h"
 
 namespace rtplc {
@@ -40,10 +41,10 @@ struct Sfc : FbdHarness {
 };
 
 TEST(SfcFrontEnd, detects_the_language_from_the_first_word) {
-  EXPECT_TRUE(lang::is_sfc_source("// comment\n/* block */ SFC x\n"));
-  EXPECT_TRUE(lang::is_sfc_source("\xEF\xBB\xBFSFC x"));
-  EXPECT_FALSE(lang::is_sfc_source("%%\nF1 = dai(p0, d0, c0)\nEND\n"));
-  EXPECT_FALSE(lang::is_sfc_source("SFCX"));
+  EXPECT_TRUE(lang::sfc::starts_with_sfc_keyword("// comment\n/* block */ SFC x\n"));
+  EXPECT_TRUE(lang::sfc::starts_with_sfc_keyword("\xEF\xBB\xBFSFC x"));
+  EXPECT_FALSE(lang::sfc::starts_with_sfc_keyword("%%\nF1 = dai(p0, d0, c0)\nEND\n"));
+  EXPECT_FALSE(lang::sfc::starts_with_sfc_keyword("SFCX"));
 }
 
 TEST(SfcFrontEnd, the_tank_example_compiles_to_an_ordinary_task_image) {
