@@ -73,7 +73,7 @@ const KeySpec kTaskKeys[] = {
      "(.xml, docs/plcopen.md)."},
     {"program_instance", ValueType::kName, false, kNoMin, kNoMax, nullptr,
      "the project's only task or program",
-     "For a PLCopen XML program: the task, program instance (pouInstance) or program POU "
+     "For a PLCopen XML or ST (.st) program: the task, program instance or program POU "
      "of the project this task runs."},
     {"period", ValueType::kDuration, false, kMinPeriod, kMaxPeriod, nullptr,
      "the program's `stime()`", "Overrides the program's period."},

@@ -8,6 +8,7 @@
 #define RTPLC_BUILTIN_FRONT_ENDS(X) \
   X(plcopen)                        \
   X(sfc)                            \
+  X(st)                             \
   X(fbd)                            \
   /* one line per language, above this one */
 

@@ -62,10 +62,13 @@ bool is_plcopen_source(std::string_view text) {
 }
 
 ImportResult import_plcopen(std::string_view xml, const ImportOptions& opt, DiagnosticList& diags) {
-  ImportResult res;
   std::optional<Project> proj = read_project(xml, diags);
-  if (!proj) return res;
-  const Project& p = *proj;
+  if (!proj) return {};
+  return import_project(*proj, opt, diags);
+}
+
+ImportResult import_project(const Project& p, const ImportOptions& opt, DiagnosticList& diags) {
+  ImportResult res;
 
   // What runs.
   std::vector<Entry> es = entries(p);

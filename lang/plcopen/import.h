@@ -31,6 +31,11 @@ struct ImportResult {
 
 ImportResult import_plcopen(std::string_view xml, const ImportOptions& options, DiagnosticList& diags);
 
+struct Project;
+// The same from a project already read (an IEC 61131-3 textual file read by
+// lang/st/ fills the same model).
+ImportResult import_project(const Project& project, const ImportOptions& options, DiagnosticList& diags);
+
 // True when `text` looks like a PLCopen project (an XML document whose root is
 // <project>), so compile_source() can dispatch on content.
 bool is_plcopen_source(std::string_view text);

@@ -27,10 +27,11 @@ TEST(FrontEnd, the_built_in_languages_are_registered_in_recognition_order_with_o
     names.emplace_back(f->name);
     fallbacks += f->recognises == nullptr;
   }
-  ASSERT_GE(names.size(), 3u);
+  ASSERT_GE(names.size(), 4u);
   EXPECT_EQ(names[0], "PLCopen XML");
   EXPECT_EQ(names[1], "SFC");
-  EXPECT_EQ(names[2], "FBD");
+  EXPECT_EQ(names[2], "ST");
+  EXPECT_EQ(names[3], "FBD");
   EXPECT_EQ(fallbacks, 1);
 }
 
@@ -56,7 +57,7 @@ TEST(FrontEnd, an_entry_is_refused_for_a_language_without_entries_naming_those_w
   const CompileResult r = compile_source(kFbd, o);
   ASSERT_FALSE(r.ok());
   const std::string msg = r.diags.items().at(0).message;
-  EXPECT_NE(msg.find("of a PLCopen XML project"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("of a PLCopen XML or ST project"), std::string::npos) << msg;
   EXPECT_NE(msg.find("this file is one FBD program"), std::string::npos) << msg;
 }
 

@@ -1,0 +1,608 @@
+// Reads an IEC 61131-3 textual file into the PLCopen project model (st_file.h).
+#include "lang/st/st_file.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace rtplc::lang::st {
+namespace {
+
+using plcopen::BaseType;
+using plcopen::TypeRef;
+using plcopen::VarSection;
+
+bool word_char(char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; }
+
+class Reader {
+ public:
+  Reader(std::string_view text, DiagnosticList& d) : t_(text), d_(d) {
+    line_starts_.push_back(0);
+    for (size_t i = 0; i < t_.size(); ++i) {
+      if (t_[i] == '\n') line_starts_.push_back(i + 1);
+    }
+    if (t_.substr(0, 3) == "\xEF\xBB\xBF") i_ = 3;
+  }
+
+  std::optional<plcopen::Project> read() {
+    plcopen::Project p;
+    std::vector<std::pair<size_t, size_t>> bodies;  // per POU: [begin, end) of its text
+    skip();
+    while (ok_ && i_ < t_.size()) {
+      const size_t at = i_;
+      const std::string w = word();
+      if (w == "TYPE") {
+        types(p);
+      } else if (w == "PROGRAM" || w == "FUNCTION_BLOCK" || w == "FUNCTION") {
+        pou(p, w, at, bodies);
+      } else if (w == "CONFIGURATION") {
+        configuration(p, at);
+      } else {
+        fail(at, w.empty() ? "unexpected '" + std::string(1, t_[at]) + "'"
+                           : "'" + original(at) + "' cannot start a declaration here (TYPE, FUNCTION, "
+                             "FUNCTION_BLOCK, PROGRAM or CONFIGURATION can)");
+      }
+      skip();
+    }
+    if (!ok_) return std::nullopt;
+    // Each ST body is an element of the project's root holding its text, with
+    // one anchor at its first character, so the ST parser's positions are the
+    // file's (XmlElement::text_position).
+    p.root.name = "st-file";
+    p.root.children.reserve(bodies.size());
+    for (const auto& [b, e] : bodies) {
+      XmlElement el;
+      el.name = "ST";
+      el.text = std::string(t_.substr(b, e - b));
+      el.pos = pos(b);
+      el.text_anchors.push_back({0, pos(b)});
+      p.root.children.push_back(std::move(el));
+    }
+    for (size_t k = 0; k < p.pous.size(); ++k) {
+      plcopen::Body& body = p.pous[k].body;
+      body.language = plcopen::BodyLanguage::kSt;
+      body.text = &p.root.children[k];
+      body.source = p.root.children[k].text;
+      body.pos = p.root.children[k].pos;
+    }
+    return p;
+  }
+
+ private:
+  // ---- scanning ----
+  SourcePos pos(size_t off) const {
+    size_t lo = 0, hi = line_starts_.size();
+    while (hi - lo > 1) {
+      const size_t mid = (lo + hi) / 2;
+      if (line_starts_[mid] <= off) lo = mid;
+      else hi = mid;
+    }
+    uint32_t col = 1;
+    for (size_t k = line_starts_[lo]; k < off && k < t_.size(); ++k) {
+      if ((static_cast<unsigned char>(t_[k]) & 0xC0) != 0x80) ++col;
+    }
+    return SourcePos{static_cast<uint32_t>(lo + 1), col};
+  }
+
+  void fail(size_t at, const std::string& msg) {
+    if (ok_) d_.error(pos(at), msg);
+    ok_ = false;
+  }
+
+  // Whitespace, (* comments *), // comments and {pragmas}.
+  void skip() {
+    while (i_ < t_.size()) {
+      const char c = t_[i_];
+      if (std::isspace(static_cast<unsigned char>(c))) {
+        ++i_;
+      } else if (t_.substr(i_, 2) == "(*") {
+        const size_t e = t_.find("*)", i_ + 2);
+        if (e == std::string_view::npos) return fail(i_, "comment '(*' is never closed");
+        i_ = e + 2;
+      } else if (t_.substr(i_, 2) == "//") {
+        const size_t e = t_.find('\n', i_);
+        i_ = e == std::string_view::npos ? t_.size() : e + 1;
+      } else if (c == '{') {
+        const size_t e = t_.find('}', i_);
+        if (e == std::string_view::npos) return fail(i_, "pragma '{' is never closed");
+        i_ = e + 1;
+      } else {
+        return;
+      }
+    }
+  }
+
+  // The identifier or keyword at the cursor, upper-case (empty: none), and past it.
+  std::string word() {
+    skip();
+    const size_t b = i_;
+    while (i_ < t_.size() && word_char(t_[i_])) ++i_;
+    return plcopen::upper(t_.substr(b, i_ - b));
+  }
+  std::string original(size_t at) const {
+    size_t e = at;
+    while (e < t_.size() && word_char(t_[e])) ++e;
+    return std::string(t_.substr(at, e - at));
+  }
+  std::string peek_word() {
+    const size_t save = i_;
+    std::string w = word();
+    i_ = save;
+    return w;
+  }
+  bool accept(std::string_view s) {
+    skip();
+    if (t_.substr(i_, s.size()) == s) {
+      i_ += s.size();
+      return true;
+    }
+    return false;
+  }
+  void expect(std::string_view s, const char* where) {
+    if (!accept(s)) fail(i_, "expected '" + std::string(s) + "' " + where);
+  }
+  // A name: not a keyword of the declarations.
+  std::string name(const char* what) {
+    skip();
+    const size_t at = i_;
+    if (i_ >= t_.size() || !(std::isalpha(static_cast<unsigned char>(t_[i_])) || t_[i_] == '_')) {
+      fail(at, std::string("expected ") + what);
+      return {};
+    }
+    word();
+    return original(at);
+  }
+  bool at_word(std::string_view w) { return peek_word() == w; }
+
+  // The raw text up to the `;` that ends it (outside brackets and strings).
+  std::string until_semicolon(const char* what) {
+    skip();
+    const size_t b = i_;
+    int depth = 0;
+    while (i_ < t_.size()) {
+      const char c = t_[i_];
+      if (c == '\'' || c == '"') {
+        const size_t e = t_.find(c, i_ + 1);
+        if (e == std::string_view::npos) break;
+        i_ = e + 1;
+        continue;
+      }
+      if (c == '(' || c == '[') ++depth;
+      if (c == ')' || c == ']') --depth;
+      if (c == ';' && depth <= 0) {
+        std::string v(t_.substr(b, i_ - b));
+        while (!v.empty() && std::isspace(static_cast<unsigned char>(v.back()))) v.pop_back();
+        ++i_;
+        return v;
+      }
+      ++i_;
+    }
+    fail(b, std::string("expected ';' after ") + what);
+    return {};
+  }
+
+  // ---- types ----
+  std::optional<int64_t> integer() {
+    skip();
+    const size_t b = i_;
+    if (i_ < t_.size() && (t_[i_] == '-' || t_[i_] == '+')) ++i_;
+    while (i_ < t_.size() && (std::isdigit(static_cast<unsigned char>(t_[i_])) || t_[i_] == '_')) ++i_;
+    const auto v = plcopen::parse_literal(t_.substr(b, i_ - b));
+    if (!v || b == i_) {
+      fail(b, "expected a whole number (array bounds and subranges are constants)");
+      return std::nullopt;
+    }
+    return static_cast<int64_t>(*v);
+  }
+
+  std::optional<TypeRef> type_ref(const char* what) {
+    skip();
+    const size_t at = i_;
+    const std::string w = word();
+    if (w.empty()) {
+      fail(at, std::string("expected the type of ") + what);
+      return std::nullopt;
+    }
+    if (w == "ARRAY") {
+      auto a = std::make_shared<plcopen::ArrayType>();
+      expect("[", "after ARRAY");
+      do {
+        const auto lo = integer();
+        expect("..", "between an array's bounds");
+        const auto hi = integer();
+        if (!ok_) return std::nullopt;
+        if (*hi < *lo) {
+          fail(at, "array bounds " + std::to_string(*lo) + ".." + std::to_string(*hi) + " are empty");
+          return std::nullopt;
+        }
+        a->dims.emplace_back(*lo, *hi);
+      } while (accept(","));
+      expect("]", "after an array's bounds");
+      if (word() != "OF") fail(i_, "expected OF after ARRAY [...]");
+      const auto el = type_ref("the array's elements");
+      if (!ok_ || !el) return std::nullopt;
+      a->element = *el;
+      if (a->size() > plcopen::kMaxArrayElements) {
+        fail(at, "array of " + std::to_string(a->size()) + " elements: a task's arrays hold at most " +
+                     std::to_string(plcopen::kMaxArrayElements));
+        return std::nullopt;
+      }
+      TypeRef r;
+      r.base = BaseType::kDerived;
+      r.array = std::move(a);
+      return r;
+    }
+    if (w == "STRING" || w == "WSTRING") {
+      fail(at, "type " + w + " is not supported yet: rtplc values are numbers (docs/st.md)");
+      return std::nullopt;
+    }
+    if (w == "POINTER" || w == "REF_TO") {
+      fail(at, "type " + w + " is not supported (docs/st.md)");
+      return std::nullopt;
+    }
+    TypeRef r;
+    if (auto b = plcopen::elementary_type(w)) {
+      r.base = *b;
+    } else {
+      r.base = BaseType::kDerived;
+      r.derived = original(at);
+    }
+    // A subrange INT (0..100): its base type (the range is not checked at run
+    // time, as for PLCopen's subranges).
+    skip();
+    if (t_.substr(i_, 1) == "(" && r.base != BaseType::kDerived) {
+      ++i_;
+      integer();
+      expect("..", "in a subrange");
+      integer();
+      expect(")", "after a subrange");
+    }
+    return r;
+  }
+
+  void types(plcopen::Project& p) {
+    while (ok_) {
+      skip();
+      if (at_word("END_TYPE")) {
+        word();
+        accept(";");
+        return;
+      }
+      const size_t at = i_;
+      plcopen::DataType dt;
+      dt.name = name("a type name or END_TYPE");
+      dt.pos = pos(at);
+      expect(":", "after the type's name");
+      if (!ok_) return;
+      skip();
+      if (accept("(")) {
+        dt.kind = plcopen::DataType::Kind::kEnum;
+        do {
+          const size_t vat = i_;
+          dt.values.push_back(name("an enumeration value"));
+          if (accept(":=")) fail(vat, "enumeration values with given numbers are not supported (docs/st.md)");
+        } while (ok_ && accept(","));
+        expect(")", "after the enumeration's values");
+      } else if (at_word("STRUCT")) {
+        word();
+        dt.kind = plcopen::DataType::Kind::kStruct;
+        while (ok_ && !at_word("END_STRUCT")) declaration(dt.members, VarSection::kLocal, false);
+        word();
+      } else {
+        const auto t = type_ref("the type");
+        if (!ok_ || !t) return;
+        if (t->array) {
+          dt.kind = plcopen::DataType::Kind::kArray;
+          dt.array = t->array;
+        } else {
+          dt.kind = plcopen::DataType::Kind::kAlias;
+          dt.alias = *t;
+        }
+      }
+      if (accept(":=")) {
+        skip();
+        const size_t iat = i_;
+        dt.initial = until_semicolon("the type's initial value");
+        if (dt.kind == plcopen::DataType::Kind::kStruct || dt.kind == plcopen::DataType::Kind::kArray)
+          fail(iat, "initial values of structure and array types are not supported yet (docs/st.md)");
+      } else {
+        expect(";", "after a type declaration");
+      }
+      p.data_types.push_back(std::move(dt));
+    }
+  }
+
+  // ---- variables ----
+  // One `a, b AT %IX0.0 : TYPE := init;` line into `out`.
+  void declaration(std::vector<plcopen::Variable>& out, VarSection s, bool constant) {
+    std::vector<std::pair<std::string, size_t>> names;
+    do {
+      skip();
+      const size_t at = i_;
+      names.emplace_back(name("a variable name"), at);
+    } while (ok_ && accept(","));
+    std::string address;
+    if (ok_ && at_word("AT")) {
+      word();
+      skip();
+      const size_t b = i_;
+      while (i_ < t_.size() && (word_char(t_[i_]) || t_[i_] == '%' || t_[i_] == '.' || t_[i_] == '*')) ++i_;
+      address = std::string(t_.substr(b, i_ - b));
+      if (address.empty() || address[0] != '%') fail(b, "expected a located address such as %IX0.0 after AT");
+    }
+    expect(":", "after the variable's name");
+    if (!ok_) return;
+    const auto type = type_ref(names.front().first.c_str());
+    if (!ok_ || !type) return;
+    std::string initial;
+    if (accept(":=")) {
+      skip();
+      const size_t iat = i_;
+      initial = until_semicolon("the initial value");
+      if (!initial.empty() && (initial[0] == '[' || initial[0] == '(') && ok_)
+        fail(iat, "initial values of arrays, structures and function block instances are not supported yet "
+                  "(docs/st.md)");
+    } else {
+      expect(";", "after a declaration");
+    }
+    for (const auto& [n, at] : names) {
+      plcopen::Variable v;
+      v.name = n;
+      v.type = *type;
+      v.section = s;
+      v.address = address;
+      v.initial = initial;
+      v.constant = constant;
+      v.pos = pos(at);
+      out.push_back(std::move(v));
+    }
+  }
+
+  // VAR ... END_VAR sections while there are some; false on a word that starts none.
+  void var_sections(std::vector<plcopen::Variable>& out, bool globals_only) {
+    static const std::pair<const char*, VarSection> kSections[] = {
+        {"VAR", VarSection::kLocal},        {"VAR_INPUT", VarSection::kInput},
+        {"VAR_OUTPUT", VarSection::kOutput}, {"VAR_IN_OUT", VarSection::kInOut},
+        {"VAR_TEMP", VarSection::kTemp},     {"VAR_EXTERNAL", VarSection::kExternal},
+        {"VAR_GLOBAL", VarSection::kGlobal},
+    };
+    while (ok_) {
+      skip();
+      const size_t at = i_;
+      const std::string w = peek_word();
+      const auto* sec = std::find_if(std::begin(kSections), std::end(kSections),
+                                     [&](const auto& k) { return w == k.first; });
+      if (sec == std::end(kSections)) return;
+      if (globals_only && sec->second != VarSection::kGlobal) {
+        fail(at, w + " cannot be declared here (VAR_GLOBAL can)");
+        return;
+      }
+      word();
+      bool constant = false;
+      for (;;) {
+        const std::string q = peek_word();
+        if (q == "CONSTANT") constant = true;
+        else if (q != "RETAIN" && q != "NON_RETAIN" && q != "PERSISTENT") break;
+        word();  // retention is the runtime's (docs/runtime.md), as for PLCopen projects
+      }
+      while (ok_ && !at_word("END_VAR")) {
+        skip();
+        if (i_ >= t_.size()) return fail(at, w + " is never closed by END_VAR");
+        declaration(out, sec->second, constant);
+      }
+      word();
+    }
+  }
+
+  // ---- program organisation units ----
+  void pou(plcopen::Project& p, const std::string& kind, size_t at, std::vector<std::pair<size_t, size_t>>& bodies) {
+    plcopen::Pou u;
+    u.name = name("the POU's name");
+    u.pos = pos(at);
+    u.type = kind == "PROGRAM" ? plcopen::PouType::kProgram
+             : kind == "FUNCTION_BLOCK" ? plcopen::PouType::kFunctionBlock
+                                        : plcopen::PouType::kFunction;
+    if (u.type == plcopen::PouType::kFunction) {
+      expect(":", "after the function's name (its return type follows)");
+      if (!ok_) return;
+      u.return_type = type_ref("the function's result");
+    }
+    var_sections(u.vars, false);
+    if (!ok_) return;
+    skip();
+    const size_t b = i_;
+    const std::string end = "END_" + kind;
+    // The body runs to the first END_<kind> outside comments and strings.
+    size_t k = i_;
+    while (k < t_.size()) {
+      const char c = t_[k];
+      if (t_.substr(k, 2) == "(*") {
+        const size_t e = t_.find("*)", k + 2);
+        k = e == std::string_view::npos ? t_.size() : e + 2;
+      } else if (t_.substr(k, 2) == "//") {
+        const size_t e = t_.find('\n', k);
+        k = e == std::string_view::npos ? t_.size() : e;
+      } else if (c == '\'' || c == '"') {
+        const size_t e = t_.find(c, k + 1);
+        k = e == std::string_view::npos ? t_.size() : e + 1;
+      } else if (word_char(c) && (k == 0 || !word_char(t_[k - 1]))) {
+        size_t e = k;
+        while (e < t_.size() && word_char(t_[e])) ++e;
+        if (plcopen::upper(t_.substr(k, e - k)) == end) break;
+        k = e;
+      } else {
+        ++k;
+      }
+    }
+    if (k >= t_.size()) return fail(at, kind + " " + u.name + " is never closed by " + end);
+    bodies.emplace_back(b, k);
+    i_ = k + end.size();
+    accept(";");
+    p.pous.push_back(std::move(u));
+  }
+
+  // ---- configurations ----
+  void configuration(plcopen::Project& p, size_t at) {
+    plcopen::Configuration c;
+    c.name = name("the configuration's name");
+    c.pos = pos(at);
+    var_sections(c.globals, true);
+    plcopen::Resource implicit;  // TASK and PROGRAM directly in the configuration
+    implicit.name = c.name;
+    implicit.pos = c.pos;
+    while (ok_) {
+      skip();
+      const size_t wat = i_;
+      const std::string w = word();
+      if (w == "END_CONFIGURATION") {
+        accept(";");
+        break;
+      }
+      if (w == "RESOURCE") {
+        plcopen::Resource r;
+        r.name = name("the resource's name");
+        r.pos = pos(wat);
+        if (word() != "ON") return fail(i_, "expected ON and the resource's processor after RESOURCE " + r.name);
+        name("the resource's processor");
+        var_sections(r.globals, true);
+        while (ok_ && !at_word("END_RESOURCE")) {
+          if (i_ >= t_.size()) return fail(wat, "RESOURCE " + r.name + " is never closed by END_RESOURCE");
+          resource_item(r);
+        }
+        word();
+        accept(";");
+        c.resources.push_back(std::move(r));
+      } else if (w == "TASK" || w == "PROGRAM") {
+        i_ = wat;
+        resource_item(implicit);
+      } else if (i_ >= t_.size() && w.empty()) {
+        return fail(at, "CONFIGURATION " + c.name + " is never closed by END_CONFIGURATION");
+      } else {
+        return fail(wat, "'" + original(wat) + "' cannot stand in a configuration (RESOURCE, TASK, PROGRAM or "
+                         "END_CONFIGURATION can)");
+      }
+    }
+    if (!implicit.tasks.empty() || !implicit.unassigned.empty()) c.resources.push_back(std::move(implicit));
+    p.configurations.push_back(std::move(c));
+  }
+
+  void resource_item(plcopen::Resource& r) {
+    skip();
+    const size_t at = i_;
+    const std::string w = word();
+    if (w == "TASK") {
+      plcopen::Task t;
+      t.name = name("the task's name");
+      t.pos = pos(at);
+      expect("(", "after the task's name");
+      while (ok_ && !accept(")")) {
+        const size_t pat = i_;
+        const std::string key = word();
+        expect(":=", "after a task property");
+        const std::string v = until_property();
+        if (key == "INTERVAL") {
+          bool is_time = false;
+          const auto s = plcopen::parse_literal(v, nullptr, &is_time);
+          if (!s || !is_time || *s <= 0) return fail(pat, "INTERVAL := " + v + ": expected a TIME such as T#20ms");
+          t.interval = *s;
+        } else if (key == "PRIORITY") {
+          const auto pr = plcopen::parse_literal(v);
+          if (!pr) return fail(pat, "PRIORITY := " + v + ": expected a whole number");
+          t.priority = static_cast<int>(*pr);
+        } else if (key == "SINGLE") {
+          t.single = v;
+        } else {
+          return fail(pat, "a task has INTERVAL, PRIORITY and SINGLE, not '" + original(pat) + "'");
+        }
+        accept(",");
+      }
+      accept(";");
+      r.tasks.push_back(std::move(t));
+    } else if (w == "PROGRAM") {
+      const std::string q = peek_word();
+      if (q == "RETAIN" || q == "NON_RETAIN") word();
+      plcopen::PouInstance pi;
+      pi.name = name("the program instance's name");
+      pi.pos = pos(at);
+      std::string task;
+      if (at_word("WITH")) {
+        word();
+        task = name("the task after WITH");
+      }
+      expect(":", "before the program's type");
+      pi.type_name = name("the program's type");
+      skip();
+      if (t_.substr(i_, 1) == "(")
+        return fail(i_, "connections of a program instance's variables are not supported yet (docs/st.md)");
+      accept(";");
+      if (!ok_) return;
+      if (task.empty()) {
+        r.unassigned.push_back(std::move(pi));
+        return;
+      }
+      for (plcopen::Task& t : r.tasks) {
+        if (plcopen::iequals(t.name, task)) {
+          t.instances.push_back(std::move(pi));
+          return;
+        }
+      }
+      fail(at, "PROGRAM " + pi.name + " WITH " + task + ": no task " + task + " is declared before it");
+    } else {
+      fail(at, "'" + original(at) + "' cannot stand in a resource (TASK, PROGRAM, VAR_GLOBAL or END_RESOURCE "
+               "can)");
+    }
+  }
+
+  // A task property's value: up to the next ',' or ')'.
+  std::string until_property() {
+    skip();
+    const size_t b = i_;
+    while (i_ < t_.size() && t_[i_] != ',' && t_[i_] != ')') ++i_;
+    std::string v(t_.substr(b, i_ - b));
+    while (!v.empty() && std::isspace(static_cast<unsigned char>(v.back()))) v.pop_back();
+    return v;
+  }
+
+  std::string_view t_;
+  DiagnosticList& d_;
+  size_t i_ = 0;
+  bool ok_ = true;
+  std::vector<size_t> line_starts_;
+};
+
+}  // namespace
+
+std::optional<plcopen::Project> read_st_file(std::string_view text, DiagnosticList& diags) {
+  return Reader(text, diags).read();
+}
+
+bool is_st_source(std::string_view text) {
+  size_t i = text.substr(0, 3) == "\xEF\xBB\xBF" ? 3 : 0;
+  for (;;) {
+    while (i < text.size() && std::isspace(static_cast<unsigned char>(text[i]))) ++i;
+    if (text.substr(i, 2) == "(*") {
+      const size_t e = text.find("*)", i + 2);
+      if (e == std::string_view::npos) return false;
+      i = e + 2;
+    } else if (text.substr(i, 2) == "//") {
+      const size_t e = text.find('\n', i);
+      if (e == std::string_view::npos) return false;
+      i = e + 1;
+    } else if (text.substr(i, 1) == "{") {
+      const size_t e = text.find('}', i);
+      if (e == std::string_view::npos) return false;
+      i = e + 1;
+    } else {
+      break;
+    }
+  }
+  size_t e = i;
+  while (e < text.size() && word_char(text[e])) ++e;
+  const std::string w = plcopen::upper(text.substr(i, e - i));
+  return w == "PROGRAM" || w == "FUNCTION_BLOCK" || w == "FUNCTION" || w == "TYPE" || w == "CONFIGURATION";
+}
+
+}  // namespace rtplc::lang::st
