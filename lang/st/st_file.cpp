@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <charconv>
 #include <cstdint>
 #include <string>
 #include <utility>
@@ -52,7 +53,7 @@ class Reader {
     // one anchor at its first character, so the ST parser's positions are the
     // file's (XmlElement::text_position).
     p.root.name = "st-file";
-    p.root.children.reserve(bodies.size());
+    p.root.children.reserve(bodies.size() + inits_.size());
     for (const auto& [b, e] : bodies) {
       XmlElement el;
       el.name = "ST";
@@ -68,6 +69,8 @@ class Reader {
       body.source = p.root.children[k].text;
       body.pos = p.root.children[k].pos;
     }
+    resolve_initials(p);
+    if (!ok_) return std::nullopt;
     return p;
   }
 
@@ -182,6 +185,161 @@ class Reader {
     }
     fail(b, std::string("expected ';' after ") + what);
     return {};
+  }
+
+  // ---- structured initial values ----
+  // `[1, 2, 3(0)]` and `(a := 1, b := [2, 3])` are kept as a marker naming
+  // their place in the file until the whole file is read; then each becomes
+  // the PLCopen form the lowering reads (<initialValue> holding an
+  // <arrayValue> or <structValue>), owned by the project's root.
+  std::string structured(size_t at, std::string text) {
+    if (!text.empty() && text[0] == kMarker) {
+      fail(at, "unexpected control character in an initial value");
+      return {};
+    }
+    if (text.empty() || (text[0] != '[' && text[0] != '(')) return text;
+    inits_.emplace_back(at, at + text.size());
+    return std::string(1, kMarker) + std::to_string(inits_.size() - 1);
+  }
+
+  // [b, e) without the whitespace and comments around it.
+  void trim(size_t& b, size_t& e) const {
+    for (;;) {
+      while (b < e && std::isspace(static_cast<unsigned char>(t_[b]))) ++b;
+      while (e > b && std::isspace(static_cast<unsigned char>(t_[e - 1]))) --e;
+      if (e - b >= 4 && t_.substr(b, 2) == "(*") {
+        const size_t c = t_.find("*)", b + 2);
+        if (c == std::string_view::npos || c + 2 > e) return;
+        b = c + 2;
+        continue;
+      }
+      return;
+    }
+  }
+
+  // The items of [b, e) split at its top-level commas.
+  std::vector<std::pair<size_t, size_t>> items(size_t b, size_t e) const {
+    std::vector<std::pair<size_t, size_t>> out;
+    int depth = 0;
+    size_t start = b;
+    for (size_t k = b; k < e; ++k) {
+      const char c = t_[k];
+      if (c == '(' || c == '[') ++depth;
+      else if (c == ')' || c == ']') --depth;
+      else if (c == ',' && depth == 0) {
+        out.emplace_back(start, k);
+        start = k + 1;
+      }
+    }
+    out.emplace_back(start, e);
+    return out;
+  }
+
+  // One value of [b, e) as a child of `holder`: <simpleValue value="..."/>,
+  // <arrayValue> or <structValue>.
+  void value_into(XmlElement& holder, size_t b, size_t e, int depth) {
+    trim(b, e);
+    if (b >= e) return fail(b, "expected a value");
+    if (depth > 16) return fail(b, "initial values nested too deeply");
+    const char open = t_[b];
+    if (open != '[' && open != '(') {
+      XmlElement s;
+      s.name = "simpleValue";
+      s.pos = pos(b);
+      s.attributes.push_back({"value", std::string(t_.substr(b, e - b)), pos(b)});
+      holder.children.push_back(std::move(s));
+      return;
+    }
+    const char close = open == '[' ? ']' : ')';
+    if (t_[e - 1] != close) return fail(b, std::string("expected '") + close + "' to close this initial value");
+    XmlElement v;
+    v.name = open == '[' ? "arrayValue" : "structValue";
+    v.pos = pos(b);
+    for (auto [ib, ie] : items(b + 1, e - 1)) {
+      if (!ok_) return;
+      trim(ib, ie);
+      XmlElement item;
+      item.name = "value";
+      item.pos = pos(ib);
+      if (open == '(') {
+        // member := value
+        size_t n = ib;
+        while (n < ie && word_char(t_[n])) ++n;
+        size_t a = n;
+        while (a < ie && std::isspace(static_cast<unsigned char>(t_[a]))) ++a;
+        if (n == ib || t_.substr(a, 2) != ":=") return fail(ib, "expected 'member := value' in a structure's initial value");
+        item.attributes.push_back({"member", std::string(t_.substr(ib, n - ib)), pos(ib)});
+        value_into(item, a + 2, ie, depth + 1);
+      } else {
+        // n(value): the value n times
+        size_t d = ib;
+        while (d < ie && std::isdigit(static_cast<unsigned char>(t_[d]))) ++d;
+        size_t p = d;
+        while (p < ie && std::isspace(static_cast<unsigned char>(t_[p]))) ++p;
+        if (d > ib && p < ie && t_[p] == '(' && t_[ie - 1] == ')') {
+          item.attributes.push_back({"repetitionValue", std::string(t_.substr(ib, d - ib)), pos(ib)});
+          value_into(item, p + 1, ie - 1, depth + 1);
+        } else {
+          value_into(item, ib, ie, depth + 1);
+        }
+      }
+      v.children.push_back(std::move(item));
+    }
+    holder.children.push_back(std::move(v));
+  }
+
+  // Every marker of the project, replaced by its initial value's elements.
+  // The index into inits_ that a marker names; nullopt when it is none.
+  std::optional<size_t> marker_index(const std::string& initial) const {
+    if (initial.empty() || initial[0] != kMarker) return std::nullopt;
+    size_t index = 0;
+    const auto [end, ec] = std::from_chars(initial.data() + 1, initial.data() + initial.size(), index);
+    if (ec != std::errc{} || end != initial.data() + initial.size() || index >= inits_.size()) return std::nullopt;
+    return index;
+  }
+
+  // read() reserved the root's children for every one, so the bodies'
+  // elements never move.
+  void resolve_initials(plcopen::Project& p) {
+    auto resolve = [&](std::string& initial, const XmlElement*& xml) {
+      if (initial.empty() || initial[0] != kMarker || !ok_) return;
+      const std::optional<size_t> index = marker_index(initial);
+      if (!index || p.root.children.size() == p.root.children.capacity()) {
+        initial.clear();
+        return fail(0, "internal: an initial value's marker is damaged");
+      }
+      const auto [b, e] = inits_[*index];
+      initial.clear();
+      XmlElement iv;
+      iv.name = "initialValue";
+      iv.pos = pos(b);
+      value_into(iv, b, e, 0);
+      p.root.children.push_back(std::move(iv));
+      xml = &p.root.children.back();
+    };
+    auto vars = [&](std::vector<plcopen::Variable>& vs) {
+      for (plcopen::Variable& v : vs) {
+        // A derived type that is no data type is a function block: its
+        // instance's inputs cannot be given here yet (never dropped silently).
+        if (!v.initial.empty() && v.initial[0] == kMarker && v.type.base == BaseType::kDerived && !v.type.array &&
+            !p.data_type(v.type.derived)) {
+          const std::optional<size_t> k = marker_index(v.initial);
+          return fail(k ? inits_[*k].first : 0,
+                      "initial values of function block instances are not supported yet ('" + v.name + " : " +
+                          v.type.derived + "'; give its inputs in its call, docs/st.md)");
+        }
+        resolve(v.initial, v.initial_xml);
+      }
+    };
+    for (plcopen::DataType& t : p.data_types) {
+      resolve(t.initial, t.initial_xml);
+      vars(t.members);
+    }
+    for (plcopen::Pou& u : p.pous) vars(u.vars);
+    for (plcopen::Configuration& c : p.configurations) {
+      vars(c.globals);
+      for (plcopen::Resource& r : c.resources) vars(r.globals);
+    }
   }
 
   // ---- types ----
@@ -305,9 +463,7 @@ class Reader {
       if (accept(":=")) {
         skip();
         const size_t iat = i_;
-        dt.initial = until_semicolon("the type's initial value");
-        if (dt.kind == plcopen::DataType::Kind::kStruct || dt.kind == plcopen::DataType::Kind::kArray)
-          fail(iat, "initial values of structure and array types are not supported yet (docs/st.md)");
+        dt.initial = structured(iat, until_semicolon("the type's initial value"));
       } else {
         expect(";", "after a type declaration");
       }
@@ -341,10 +497,7 @@ class Reader {
     if (accept(":=")) {
       skip();
       const size_t iat = i_;
-      initial = until_semicolon("the initial value");
-      if (!initial.empty() && (initial[0] == '[' || initial[0] == '(') && ok_)
-        fail(iat, "initial values of arrays, structures and function block instances are not supported yet "
-                  "(docs/st.md)");
+      initial = structured(iat, until_semicolon("the initial value"));
     } else {
       expect(";", "after a declaration");
     }
@@ -566,6 +719,8 @@ class Reader {
     return v;
   }
 
+  static constexpr char kMarker = '\x01';  // never in a valid initial value's text
+  std::vector<std::pair<size_t, size_t>> inits_;
   std::string_view t_;
   DiagnosticList& d_;
   size_t i_ = 0;

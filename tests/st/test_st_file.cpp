@@ -126,6 +126,42 @@ TEST(StFile, the_tank_example_keeps_its_band_and_counts_the_pumps_starts) {
   EXPECT_DOUBLE_EQ(h.out("starts"), 2);
 }
 
+// Array and structure initial values, as MatIEC's initialization tests write
+// them: positional elements, n(value) repetitions, members by name (the rest
+// keep their type's initial values), arrays of structures.
+TEST(StFile, structured_initial_values_fill_arrays_and_structures) {
+  const char* src = R"(
+TYPE
+  pt : STRUCT x : INT; y : INT := 5; END_STRUCT;
+  row : ARRAY [1..2] OF pt := [(x := 8), (y := 9)];
+END_TYPE
+PROGRAM P
+  VAR
+    a : ARRAY [0..4] OF INT := [1, 2(7), 9];
+    m : ARRAY [1..2, 1..2] OF INT := [1, 2, 3, 4];
+    p : pt := (x := 3);
+    arr : ARRAY [1..2] OF pt := [2((x := 1, y := 2))];
+    r : row;
+    s1 AT %QW0 : INT;
+    s2 AT %QW1 : INT;
+    s3 AT %QW2 : INT;
+    s4 AT %QW3 : INT;
+  END_VAR
+  s1 := a[0] + 10 * a[1] + 100 * a[2] + 1000 * a[3] + 10000 * a[4];
+  s2 := m[1, 2] * 10 + m[2, 1];
+  s3 := p.x * 10 + p.y;
+  s4 := arr[1].x + arr[2].y * 10 + r[1].x * 100 + r[2].y * 1000 + r[2].x * 10000;
+END_PROGRAM
+)";
+  FbdHarness h(src, 0.1, true, true);
+  ASSERT_TRUE(h.ok());
+  h.step();
+  EXPECT_DOUBLE_EQ(h.out("s1"), 1 + 70 + 700 + 9000);  // a = 1, 7, 7, 9, 0
+  EXPECT_DOUBLE_EQ(h.out("s2"), 23);                    // row-major: m[1,2] = 2, m[2,1] = 3
+  EXPECT_DOUBLE_EQ(h.out("s3"), 35);                    // y keeps its type's 5
+  EXPECT_DOUBLE_EQ(h.out("s4"), 1 + 20 + 800 + 9000);   // r[2].x keeps 0
+}
+
 TEST(StFile, is_chosen_by_its_extension_and_by_its_first_declaration) {
   EXPECT_STREQ(front_end_for("plant.st", "x").name, "ST");
   EXPECT_STREQ(front_end_for("", "(* c *)\n// d\n{p}\nprogram P\nEND_PROGRAM").name, "ST");
@@ -184,9 +220,14 @@ TEST(StFile, refuses_what_it_cannot_run_at_its_position_naming_it) {
                         " PROGRAM p1 WITH nosuch : P;\nEND_CONFIGURATION")
                 .substr(0, 37),
             "3:2: PROGRAM p1 WITH nosuch: no task ");
-  EXPECT_EQ(first_error("PROGRAM P VAR a : ARRAY [0..2] OF INT := [1, 2, 3]; END_VAR a[0] := 1; END_PROGRAM")
-                .substr(0, 39),
-            "1:42: initial values of arrays, structu");
+  EXPECT_EQ(first_error("TYPE pt : STRUCT x : INT; END_STRUCT; END_TYPE\n"
+                        "PROGRAM P VAR p : pt := (x := 1, z := 2); END_VAR p.x := 1; END_PROGRAM"),
+            "2:34: structure pt has no member 'z'");
+  EXPECT_EQ(first_error("PROGRAM P VAR t1 : TON := (PT := T#1s); END_VAR t1(IN := TRUE); END_PROGRAM").substr(0, 56),
+            "1:27: initial values of function block instances are not");
+  EXPECT_EQ(first_error("TYPE pt : STRUCT x : INT; END_STRUCT; END_TYPE\n"
+                        "PROGRAM P VAR p : pt := (x 1); END_VAR p.x := 1; END_PROGRAM"),
+            "2:26: expected 'member := value' in a structure's initial value");
   DiagnosticList d;
   EXPECT_FALSE(st::read_st_file("(* never closed\nPROGRAM P END_PROGRAM", d));
   ASSERT_FALSE(d.items().empty());
