@@ -197,6 +197,10 @@ void Lowering::make_members(Var& v, const Variable& decl, const DataType& t, int
     }
     const Variable& d = *md;
     owned_decls_.push_back(std::move(md));
+    if (v.fb->vars.count(upper(m.name))) {
+      d_.error(t.pos, "structure " + t.name + " has two members named '" + m.name + "'");
+      continue;
+    }
     auto mv = make_var(d, v.path + "." + m.name, depth, in_function);
     all_vars_.push_back(mv.get());
     v.fb->vars.emplace(upper(m.name), std::move(mv));
@@ -348,6 +352,12 @@ std::unique_ptr<Scope> Lowering::make_scope(const Pou& pou, const std::string& p
   s->function = pou.type == PouType::kFunction;
   for (const Variable& decl : pou.vars) {
     if (decl.section == VarSection::kExternal) continue;  // resolved through globals
+    // The readers refuse a name declared twice; a second Var under one key
+    // would be dropped by emplace while all_vars_ still points at it.
+    if (s->vars.count(upper(decl.name))) {
+      d_.error(decl.pos, "variable '" + decl.name + "' is declared twice in " + pou.name);
+      continue;
+    }
     if (decl.section == VarSection::kInOut) {
       if (pou.type == PouType::kProgram) {
         d_.error(decl.pos, "variable '" + decl.name + "': a program has no caller to pass VAR_IN_OUT");

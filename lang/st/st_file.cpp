@@ -1,6 +1,8 @@
 // Reads an IEC 61131-3 textual file into the PLCopen project model (st_file.h).
 #include "lang/st/st_file.h"
 
+#include "lang/iec/iec_functions.h"
+
 #include <algorithm>
 #include <cctype>
 #include <charconv>
@@ -70,6 +72,7 @@ class Reader {
       body.pos = p.root.children[k].pos;
     }
     resolve_initials(p);
+    if (ok_) duplicates(p);
     if (!ok_) return std::nullopt;
     return p;
   }
@@ -339,6 +342,42 @@ class Reader {
     for (plcopen::Configuration& c : p.configurations) {
       vars(c.globals);
       for (plcopen::Resource& r : c.resources) vars(r.globals);
+    }
+  }
+
+  // ---- names declared twice (as the PLCopen reader refuses them) ----
+  template <class T>
+  void once(const std::vector<T>& xs, const char* what, const std::string& where) {
+    for (size_t i = 0; i < xs.size() && ok_; ++i) {
+      for (size_t j = 0; j < i; ++j) {
+        if (plcopen::iequals(xs[i].name, xs[j].name)) {
+          d_.error(xs[i].pos, std::string(what) + " '" + xs[i].name + "' is declared twice" + where + " (also line " +
+                                  std::to_string(xs[j].pos.line) + ")");
+          ok_ = false;
+          return;
+        }
+      }
+    }
+  }
+  void duplicates(const plcopen::Project& p) {
+    once(p.pous, "POU", "");
+    once(p.data_types, "data type", "");
+    for (const plcopen::DataType& t : p.data_types) {
+      if (ok_ && (plcopen::elementary_type(t.name) || iec::find_iec(t.name))) {
+        d_.error(t.pos, "data type '" + t.name + "' has the name of a standard type or block");
+        ok_ = false;
+      }
+      once(t.members, "member", " in " + t.name);
+    }
+    for (const plcopen::Pou& u : p.pous) once(u.vars, "variable", " in " + u.name);
+    for (const plcopen::Configuration& c : p.configurations) {
+      std::vector<plcopen::Variable> globals = c.globals;
+      for (const plcopen::Resource& r : c.resources) globals.insert(globals.end(), r.globals.begin(), r.globals.end());
+      once(globals, "global variable", " in " + c.name);
+      once(c.resources, "resource", " in " + c.name);
+      std::vector<plcopen::Task> tasks;
+      for (const plcopen::Resource& r : c.resources) tasks.insert(tasks.end(), r.tasks.begin(), r.tasks.end());
+      once(tasks, "task", " in " + c.name);
     }
   }
 

@@ -223,6 +223,18 @@ TEST(StFile, refuses_what_it_cannot_run_at_its_position_naming_it) {
   EXPECT_EQ(first_error("TYPE pt : STRUCT x : INT; END_STRUCT; END_TYPE\n"
                         "PROGRAM P VAR p : pt := (x := 1, z := 2); END_VAR p.x := 1; END_PROGRAM"),
             "2:34: structure pt has no member 'z'");
+  // A name declared twice (found by fuzz_st: it once freed a variable the
+  // lowering still used).
+  EXPECT_EQ(first_error("PROGRAM P\n VAR x : BOOL; END_VAR\n VAR x AT %QX0.0 : BOOL; END_VAR\n x := TRUE;\nEND_PROGRAM"),
+            "3:6: variable 'x' is declared twice in P (also line 2)");
+  EXPECT_EQ(first_error("FUNCTION_BLOCK F VAR a : INT; END_VAR a := 1; END_FUNCTION_BLOCK\n"
+                        "FUNCTION_BLOCK f VAR b : INT; END_VAR b := 1; END_FUNCTION_BLOCK"),
+            "2:1: POU 'f' is declared twice (also line 1)");
+  EXPECT_EQ(first_error("TYPE pt : STRUCT x : INT; X : INT; END_STRUCT; END_TYPE\nPROGRAM P VAR p : pt; END_VAR p.x := 1; "
+                        "END_PROGRAM"),
+            "1:27: member 'X' is declared twice in pt (also line 1)");
+  EXPECT_EQ(first_error("TYPE TON : INT; END_TYPE PROGRAM P VAR x : INT; END_VAR x := 1; END_PROGRAM"),
+            "1:6: data type 'TON' has the name of a standard type or block");
   EXPECT_EQ(first_error("PROGRAM P VAR t1 : TON := (PT := T#1s); END_VAR t1(IN := TRUE); END_PROGRAM").substr(0, 56),
             "1:27: initial values of function block instances are not");
   EXPECT_EQ(first_error("TYPE pt : STRUCT x : INT; END_STRUCT; END_TYPE\n"
