@@ -298,6 +298,12 @@ std::unique_ptr<Var> Lowering::make_var(const Variable& decl0, const std::string
     return v;
   }
   if (decl.type.base == BaseType::kDerived) {
+    if (decl.initial_xml || !decl.initial.empty()) {
+      // Never dropped silently: the instance would start from its type's values.
+      d_.error(decl.pos, "variable '" + decl.name + "': initial values of a function block instance are not "
+                         "supported yet; give its inputs in its call");
+      return v;
+    }
     std::string up = upper(decl.type.derived);
     // CODESYS names the IEC blocks by their library: Standard.TON is TON.
     if (up.rfind("STANDARD.", 0) == 0 && iec::find_iec(up.substr(9))) up = up.substr(9);

@@ -237,6 +237,9 @@ TEST(StFile, refuses_what_it_cannot_run_at_its_position_naming_it) {
             "1:6: data type 'TON' has the name of a standard type or block");
   EXPECT_EQ(first_error("PROGRAM P VAR t1 : TON := (PT := T#1s); END_VAR t1(IN := TRUE); END_PROGRAM").substr(0, 56),
             "1:27: initial values of function block instances are not");
+  // The lowering's own check, for every language (a PLCopen <initialValue> too).
+  EXPECT_EQ(first_error("PROGRAM P VAR t1 : TON := 5; END_VAR t1(IN := TRUE); END_PROGRAM").substr(0, 70),
+            "1:15: variable 't1': initial values of a function block instance are n");
   EXPECT_EQ(first_error("TYPE pt : STRUCT x : INT; END_STRUCT; END_TYPE\n"
                         "PROGRAM P VAR p : pt := (x 1); END_VAR p.x := 1; END_PROGRAM"),
             "2:26: expected 'member := value' in a structure's initial value");
