@@ -96,7 +96,7 @@ uint32_t Emitter::convert(uint32_t p, IecType from, IecType to) {
   if (from == IecType::kBool) return analog(p);  // 0 or 1 fits every type
   uint32_t v = analog(p);
   // TIME counts in milliseconds when it meets a number (TIME_TO_DINT(T#1s) = 1000),
-  // as CODESYS and MatIEC; rtplc keeps TIME in seconds.
+  // as CODESYS does (MatIEC counts whole seconds: docs/language.md); rtplc keeps TIME in seconds.
   if (from == IecType::kTime && to != IecType::kTime) v = block("scale", {v}, {1000.0, 0.0});
   if (to == IecType::kTime && from != IecType::kTime) {
     return block("scale", {v}, {0.001, 0.0});
