@@ -1,4 +1,4 @@
-// bench_modbus: the modbus driver's per-slave lines polling a hundred Modbus TCP
+// bench_modbus: the modbus driver polling a hundred Modbus TCP
 // slaves (issue 9, item 5, "Benchmark"), beside the loop a user would write.
 //
 // The slaves are a lean fake in a child process (forked before any thread, so
@@ -6,8 +6,9 @@
 // slave's listening socket and connection, answering with the fake slave's own
 // request handling (FakeSlave::answer) after an optional fixed reply delay; a
 // tenth of the slaves accept and never answer. The client side is the driver's
-// own Line class, one per TCP slave as the `modbus` kind builds them (same
-// settings defaults, timeout, retries, thread priority as in the runtime).
+// own lanes as the `modbus` kind builds them (make_lanes: one event loop for
+// all TCP slaves; same settings defaults, timeout, retries, thread priority as
+// in the runtime).
 //
 // Then, in the same run against the same fakes, the naive reference: one
 // thread, one libmodbus context per slave, modbus_read_registers on each in
@@ -59,7 +60,7 @@
 #include "bench/support/machine.h"
 #include "config/config.h"
 #include "io/drivers/modbus/fake_slave.h"
-#include "io/drivers/modbus/line.h"
+#include "io/drivers/modbus/lane.h"
 #include "io/link/socket_util.h"
 #include "kernel_rt/clock.h"
 
@@ -78,7 +79,7 @@ struct Options {
   int timeout_ms = 0;       // 0: the driver's default
   int line_priority = std::max(1, config::kDefaultBandLo - 1);  // the runtime's helper priority
   int fake_priority = 10;
-  int line_cpu = -1;  // pin the lines (and the naive loop) to this CPU; -1: not pinned
+  int line_cpu = -1;  // pin the driver's loop (and the naive loop) to this CPU; -1: not pinned
   bool naive = true;
   uint16_t port = 15020;
   int octet = 31;  // slave i listens on 127.<octet>.x.y
@@ -413,7 +414,7 @@ std::vector<Track> make_tracks(const Options& o) {
   return tracks;
 }
 
-// --- the driver's lines -----------------------------------------------------------
+// --- the driver -------------------------------------------------------------
 
 ModbusSettings settings_for(const Options& o) {
   ModbusSettings s;
@@ -455,9 +456,8 @@ SideResult run_driver(const Options& o, pid_t fakes) {
   opt.cpu = o.line_cpu;
   opt.events = &events;
   opt.on_poll = [&](uint32_t slave, int64_t due, int64_t answered) { record(tracks[slave], w, due, answered); };
-  std::vector<std::unique_ptr<Line>> lines;
-  for (uint32_t i = 0; i < s.slaves.size(); ++i) lines.push_back(std::make_unique<Line>(s, std::vector<uint32_t>{i}, x, opt));
-  for (auto& l : lines) {
+  Lanes lanes = make_lanes(s, x, opt);  // as the driver builds them: one event loop for the TCP slaves
+  for (auto& l : lanes.lanes) {
     if (auto r = l->start(); !r) {
       std::fprintf(stderr, "bench_modbus: %s\n", r.error().c_str());
       std::exit(1);
@@ -471,9 +471,9 @@ SideResult run_driver(const Options& o, pid_t fakes) {
   const double f1 = run_seconds(fakes);
   // Polls due before t1 still answer: give them a period or two, then stop.
   sleep_until(w.t1 + 5 * w.period);
-  for (auto& l : lines) l->request_stop();
-  for (auto& l : lines) l->join();
-  SideResult r = summarize(o, "driver lines", tracks, w, c0, c1, f1 - f0);
+  for (auto& l : lanes.lanes) l->request_stop();
+  for (auto& l : lanes.lanes) l->join();
+  SideResult r = summarize(o, "driver", tracks, w, c0, c1, f1 - f0);
   uint64_t missed = 0, offline = 0, timeouts = 0, reconnects = 0, completed = 0;
   for (uint32_t i = 0; i < s.slaves.size(); ++i) {
     if (is_silent(o, static_cast<int>(i))) {
@@ -489,8 +489,8 @@ SideResult run_driver(const Options& o, pid_t fakes) {
     offline += st.polls_offline;
     completed += st.polls_completed;
   }
-  r.note = fmt::format("the lines' own counters over the whole run: live slaves {} polls completed, {} missed, {} "
-                       "offline; silent slaves {} timeouts, {} reconnects, on their own threads",
+  r.note = fmt::format("the driver's own counters over the whole run: live slaves {} polls completed, {} missed, {} "
+                       "offline; silent slaves {} timeouts, {} reconnects",
                        completed, missed, offline, timeouts, reconnects);
   return r;
 }
@@ -595,7 +595,7 @@ void print(const Options& o, const SideResult& d, const SideResult* n) {
   auto row = [&](const char* what, const std::string& a, const std::string& b, const std::string& q) {
     std::printf("%-34s %-20s %-20s %s\n", what, a.c_str(), b.c_str(), q.c_str());
   };
-  std::printf("\n%-34s %-20s %-20s %s\n", "", "driver (line/slave)", n ? "naive loop" : "", n ? "naive / driver" : "");
+  std::printf("\n%-34s %-20s %-20s %s\n", "", "driver (event loop)", n ? "naive loop" : "", n ? "naive / driver" : "");
   auto ms = [](double v) { return fmt::format("{:.2f} ms", v); };
   auto num = [](uint64_t v) { return fmt::format("{}", v); };
   row("live slaves", num(d.live), n ? num(n->live) : "", "");
@@ -649,8 +649,8 @@ const char* kHelp =
     "             [--no-naive]\n"
     "\n"
     "Polls N fake Modbus TCP slaves (a child process, one epoll loop; Q %% of them accept and never\n"
-    "answer) for R holding registers every P ms with the modbus driver's own lines (one I/O thread\n"
-    "per slave), then does the same with the loop a user would write (one thread, one libmodbus\n"
+    "answer) for R holding registers every P ms with the modbus driver's own TCP event loop (one\n"
+    "thread for every slave), then does the same with the loop a user would write (one thread, one libmodbus\n"
     "context per slave, read in turn with the same timeout), and prints both side by side: latency\n"
     "from each poll's tick to its answer minus the fake's reply delay, missed polls of live slaves,\n"
     "client CPU. Each side is measured for S seconds (about a minute in all by default).\n"
@@ -662,9 +662,9 @@ const char* kHelp =
     "  --silent-pct Q     share of slaves that never answer (default 10, 0..100)\n"
     "  --delay-us D       every answer waits D us in the fake (default 0, 0..1000000)\n"
     "  --timeout-ms T     response timeout of both sides (default: the driver's, 500)\n"
-    "  --line-priority F  SCHED_FIFO of the lines and of the naive loop (default 9, the\n"
+    "  --line-priority F  SCHED_FIFO of the driver's loop and of the naive loop (default 9, the\n"
     "                     runtime's helper priority; 0: SCHED_OTHER)\n"
-    "  --line-cpu C       pin the lines and the naive loop to CPU C (default: not pinned)\n"
+    "  --line-cpu C       pin the driver's loop and the naive loop to CPU C (default: not pinned)\n"
     "  --fake-priority F  SCHED_FIFO of the fakes' process (default 10; 0: SCHED_OTHER)\n"
     "  --no-naive         the driver only\n"
     "Targets (issue 9): zero missed live polls, p99 excess <= 2 ms, < 15 % of one core.\n";
@@ -717,7 +717,7 @@ int main(int argc, char** argv) {
   for (int i = 0; i < o.slaves; ++i) silent += is_silent(o, i);
   const double timeout_s = o.timeout_ms > 0 ? o.timeout_ms / 1e3 : SlaveConfig{}.timeout_s;
   std::printf("bench_modbus: %d fake slaves (%d silent) on 127.%d.x.y:%u, reply delay %d us, fakes at %s; %d holding "
-              "registers each every %d ms; timeout %.0f ms, retries %d (the driver's); lines %s; %d s per side\n",
+              "registers each every %d ms; timeout %.0f ms, retries %d (the driver's); client loops %s; %d s per side\n",
               o.slaves, silent, o.octet, o.port, o.delay_us,
               o.fake_priority > 0 ? fmt::format("SCHED_FIFO {}", o.fake_priority).c_str() : "SCHED_OTHER",
               o.registers, o.period_ms, timeout_s * 1e3, int{SlaveConfig{}.retries},

@@ -202,6 +202,12 @@ class BoundedQueue {
     return true;
   }
 
+  // The one consumer thread: true when pop() would return false now.
+  bool empty() const {
+    const Cell& c = cells_[head_ & mask_];
+    return static_cast<int64_t>(c.seq.load(std::memory_order_acquire)) - static_cast<int64_t>(head_ + 1) < 0;
+  }
+
  private:
   struct Cell {
     std::atomic<uint64_t> seq{0};

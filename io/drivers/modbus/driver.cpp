@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <set>
 
 #include "io/drivers/modbus/cli.h"
 #include "io/drivers/planned_link.h"
@@ -42,25 +43,18 @@ Result<void> ModbusDriver::prepare() {
   opt.priority = setup().helper_priority;
   opt.cpu = setup().cpu;
   opt.events = setup().events;
-  std::map<std::string, std::vector<uint32_t>> rtu_lines;
-  std::vector<std::vector<uint32_t>> groups;
-  for (uint32_t i = 0; i < s.slaves.size(); ++i) {
-    const SlaveConfig& sc = s.slaves[i];
-    describe_link(i, sc.name, sc.peer());
-    if (sc.rtu()) rtu_lines[sc.device].push_back(i);
-    else groups.push_back({i});
-  }
-  for (auto& [device, slaves] : rtu_lines) groups.push_back(slaves);
-  std::vector<uint32_t> line_of(s.slaves.size(), 0);
+  for (uint32_t i = 0; i < s.slaves.size(); ++i) describe_link(i, s.slaves[i].name, s.slaves[i].peer());
+  Lanes lanes = make_lanes(s, exchange_, opt);
+  lanes_ = std::move(lanes.lanes);
   planned_row_.assign(s.slaves.size(), 0);
-  for (auto& g : groups) {
-    for (uint32_t slave : g) line_of[slave] = static_cast<uint32_t>(lines_.size());
-    lines_.push_back(std::make_unique<Line>(s, g, exchange_, opt));
-    // A line on a plan shows its classes in its first slave's row.
-    if (const auto& plan = s.slaves[g.front()].plan) {
-      io::describe_planned_link(link_row(g.front()), *plan);
-      planned_row_[g.front()] = 1;
-    }
+  std::set<std::string> planned_lines;
+  for (uint32_t i = 0; i < s.slaves.size(); ++i) {
+    // A line on a plan shows its classes in its first slave's row (the
+    // line's Exchange::planned slot).
+    const auto& plan = s.slaves[i].plan;
+    if (!plan || !planned_lines.insert(s.slaves[i].device).second) continue;
+    io::describe_planned_link(link_row(i), *plan);
+    planned_row_[i] = 1;
   }
   auto slave_index = [&](const std::string& name) -> uint32_t {
     for (uint32_t i = 0; i < s.slaves.size(); ++i) {
@@ -73,7 +67,7 @@ Result<void> ModbusDriver::prepare() {
     Write w;
     copy_text(w.what, sizeof w.what, to_string(m.item));
     w.slave = slave_index(m.slave);
-    w.line = line_of[w.slave];
+    w.lane = lanes.lane_of_slave[w.slave];
     writes_.push_back(w);
   }
   track_.assign(s.slaves.size(), SlaveTrack{});
@@ -94,14 +88,14 @@ Result<void> ModbusDriver::can_send(uint32_t j, double value) const {
 }
 
 Result<void> ModbusDriver::on_start() {
-  for (auto& l : lines_) {
+  for (auto& l : lanes_) {
     if (auto r = l->start(); !r) return make_error(r.error());
   }
   return {};
 }
 
 void ModbusDriver::on_joined() noexcept {
-  for (auto& l : lines_) l->join();
+  for (auto& l : lanes_) l->join();
 }
 
 void ModbusDriver::cycle(int64_t now) noexcept {
@@ -173,7 +167,7 @@ void ModbusDriver::cycle(int64_t now) noexcept {
     job.write = j;
     job.seq = w.next_seq;
     encode(m.item, raw, job.words);
-    if (!lines_[w.line]->push(job)) {
+    if (!lanes_[w.lane]->push(job)) {
       ++track_[w.slave].rejected;  // the line's queue is full: try again next cycle
       continue;
     }

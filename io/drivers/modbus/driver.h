@@ -1,6 +1,7 @@
 // The `modbus` I/O driver (issue 9, item 1; spec io-links.md, "PLC"): the
-// bridge between the process image and the driver's lines (line.h), one per
-// TCP slave and one per RTU device. The bridge thread never blocks:
+// bridge between the process image and the driver's lanes (lane.h): one event
+// loop for all its TCP slaves (tcp_master.h) and one line per RTU device
+// (line.h). The bridge thread never blocks:
 //   reads   each item's latest sample -> the driver's inputs, good while its
 //           slave answers its block, bad (last value kept) after a timeout, an
 //           exception or a lost connection.
@@ -21,7 +22,7 @@
 
 #include "io/drivers/driver.h"
 #include "io/drivers/modbus/config.h"
-#include "io/drivers/modbus/line.h"
+#include "io/drivers/modbus/lane.h"
 
 namespace rtplc::modbus {
 
@@ -35,7 +36,7 @@ class ModbusDriver final : public io::Driver {
  private:
   struct Write {
     char what[48] = {};  // "hr:2:f32", for the log without allocating
-    uint32_t line = 0;
+    uint32_t lane = 0;
     uint32_t slave = 0;
     double last = 0;
     bool sent = false;
@@ -63,7 +64,7 @@ class ModbusDriver final : public io::Driver {
 
   const ModbusSettings& settings_;
   Exchange exchange_;
-  std::vector<std::unique_ptr<Line>> lines_;
+  std::vector<std::unique_ptr<Lane>> lanes_;
   std::vector<ItemSample> reads_;  // last sample per read map
   std::vector<Write> writes_;
   std::vector<SlaveTrack> track_;
