@@ -202,7 +202,11 @@ class BoundedQueue {
     return true;
   }
 
-  // The one consumer thread: true when pop() would return false now.
+  // The one consumer thread: true when pop() would return false now. The
+  // same acquire load of the head cell's sequence as pop(): false means a
+  // producer published that cell, so the consumer's next pop() takes it (no
+  // other thread removes items); true may be stale by the time the caller
+  // acts, as any emptiness test of a concurrent queue is.
   bool empty() const {
     const Cell& c = cells_[head_ & mask_];
     return static_cast<int64_t>(c.seq.load(std::memory_order_acquire)) - static_cast<int64_t>(head_ + 1) < 0;

@@ -57,7 +57,7 @@ struct TcpMaster::Peer {
 };
 
 TcpMaster::TcpMaster(const ModbusSettings& s, const std::vector<uint32_t>& slaves, Exchange& x, LineOptions opt)
-    : s_(s), x_(x), opt_(std::move(opt)), timers_(slaves.size()) {
+    : s_(s), opt_(std::move(opt)), timers_(slaves.size()) {
   peer_of_write_.assign(s.writes.size(), -1);
   for (uint32_t slave : slaves) {
     const auto i = static_cast<int32_t>(peers_.size());

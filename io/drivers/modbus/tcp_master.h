@@ -82,7 +82,6 @@ class TcpMaster final : public Lane {
   bool drained() const noexcept;
 
   const ModbusSettings& s_;
-  Exchange& x_;
   LineOptions opt_;
   std::vector<std::unique_ptr<Peer>> peers_;
   std::vector<int32_t> peer_of_write_;  // write map -> peers_ index, -1: not a TCP slave's

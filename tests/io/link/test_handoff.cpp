@@ -180,7 +180,11 @@ TEST(Handoff, queue_delivers_every_accepted_item_once_and_rejects_when_full) {
     uint64_t v = 0;
     while (true) {
       const bool finished = stop.load();  // read before popping: nothing is missed
-      if (q.pop(v)) {
+      // Not empty: the next pop takes an item (the consumer alone removes them).
+      const bool has = !q.empty();
+      const bool popped = q.pop(v);
+      ASSERT_TRUE(popped || !has) << "empty() said an item was there";
+      if (popped) {
         ASSERT_LT(v, seen.size());
         ASSERT_EQ(seen[v], 0) << "delivered twice";
         seen[v] = 1;
@@ -202,7 +206,9 @@ TEST(Handoff, queue_delivers_every_accepted_item_once_and_rejects_when_full) {
   consumer.join();
   EXPECT_EQ(got, accepted.load());
   BoundedQueue<int> small(2);
+  EXPECT_TRUE(small.empty());
   EXPECT_TRUE(small.push(1));
+  EXPECT_FALSE(small.empty());
   EXPECT_TRUE(small.push(2));
   EXPECT_FALSE(small.push(3));
   uint64_t ticket = 99;
