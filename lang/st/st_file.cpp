@@ -20,6 +20,37 @@ using plcopen::VarSection;
 
 bool word_char(char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; }
 
+// Past whitespace, (* comments *), // comments and {pragmas} from `i`. An
+// unclosed comment or pragma stops at its opener and names it in `unclosed`.
+size_t skip_blank(std::string_view t, size_t i, const char*& unclosed) {
+  unclosed = nullptr;
+  while (i < t.size()) {
+    if (std::isspace(static_cast<unsigned char>(t[i]))) {
+      ++i;
+    } else if (t.substr(i, 2) == "(*") {
+      const size_t e = t.find("*)", i + 2);
+      if (e == std::string_view::npos) {
+        unclosed = "comment '(*' is never closed";
+        return i;
+      }
+      i = e + 2;
+    } else if (t.substr(i, 2) == "//") {
+      const size_t e = t.find('\n', i);
+      i = e == std::string_view::npos ? t.size() : e + 1;
+    } else if (t[i] == '{') {
+      const size_t e = t.find('}', i);
+      if (e == std::string_view::npos) {
+        unclosed = "pragma '{' is never closed";
+        return i;
+      }
+      i = e + 1;
+    } else {
+      break;
+    }
+  }
+  return i;
+}
+
 class Reader {
  public:
   Reader(std::string_view text, DiagnosticList& d) : t_(text), d_(d) {
@@ -100,25 +131,9 @@ class Reader {
 
   // Whitespace, (* comments *), // comments and {pragmas}.
   void skip() {
-    while (i_ < t_.size()) {
-      const char c = t_[i_];
-      if (std::isspace(static_cast<unsigned char>(c))) {
-        ++i_;
-      } else if (t_.substr(i_, 2) == "(*") {
-        const size_t e = t_.find("*)", i_ + 2);
-        if (e == std::string_view::npos) return fail(i_, "comment '(*' is never closed");
-        i_ = e + 2;
-      } else if (t_.substr(i_, 2) == "//") {
-        const size_t e = t_.find('\n', i_);
-        i_ = e == std::string_view::npos ? t_.size() : e + 1;
-      } else if (c == '{') {
-        const size_t e = t_.find('}', i_);
-        if (e == std::string_view::npos) return fail(i_, "pragma '{' is never closed");
-        i_ = e + 1;
-      } else {
-        return;
-      }
-    }
+    const char* unclosed = nullptr;
+    i_ = skip_blank(t_, i_, unclosed);
+    if (unclosed) fail(i_, unclosed);
   }
 
   // The identifier or keyword at the cursor, upper-case (empty: none), and past it.
@@ -774,25 +789,9 @@ std::optional<plcopen::Project> read_st_file(std::string_view text, DiagnosticLi
 }
 
 bool is_st_source(std::string_view text) {
-  size_t i = text.substr(0, 3) == "\xEF\xBB\xBF" ? 3 : 0;
-  for (;;) {
-    while (i < text.size() && std::isspace(static_cast<unsigned char>(text[i]))) ++i;
-    if (text.substr(i, 2) == "(*") {
-      const size_t e = text.find("*)", i + 2);
-      if (e == std::string_view::npos) return false;
-      i = e + 2;
-    } else if (text.substr(i, 2) == "//") {
-      const size_t e = text.find('\n', i);
-      if (e == std::string_view::npos) return false;
-      i = e + 1;
-    } else if (text.substr(i, 1) == "{") {
-      const size_t e = text.find('}', i);
-      if (e == std::string_view::npos) return false;
-      i = e + 1;
-    } else {
-      break;
-    }
-  }
+  const char* unclosed = nullptr;
+  const size_t i = skip_blank(text, text.substr(0, 3) == "\xEF\xBB\xBF" ? 3 : 0, unclosed);
+  if (unclosed) return false;
   size_t e = i;
   while (e < text.size() && word_char(text[e])) ++e;
   const std::string w = plcopen::upper(text.substr(i, e - i));

@@ -5,9 +5,9 @@
 #include <cstdint>
 #include <string_view>
 
-#include "blocks/executor.h"
 #include "lang/compiler.h"
 #include "lang/plcopen/import.h"
+#include "tests/support/fuzz_compile.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   std::string_view src(reinterpret_cast<const char*>(data), size);
@@ -18,13 +18,6 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     (void)rtplc::lang::plcopen::import_plcopen(src, {}, d);
     return 0;
   }
-  if (r.ok()) {
-    (void)rtplc::lang::explain(r);
-    rtplc::TaskArena arena(*r.image);
-    for (int i = 0; i < 3; ++i) rtplc::execute_cycle(*r.image, arena);
-  } else if (!r.diags.has_errors()) {
-    __builtin_trap();  // failing without saying why is a bug too
-  }
-  (void)r.diags.render("fuzz.xml", src);
+  rtplc::testing::exercise_compile(r, src, "fuzz.xml");
   return 0;
 }

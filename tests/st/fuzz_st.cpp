@@ -7,9 +7,9 @@
 #include <string>
 #include <string_view>
 
-#include "blocks/executor.h"
 #include "lang/compiler.h"
 #include "lang/st/st_file.h"
+#include "tests/support/fuzz_compile.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string_view src(reinterpret_cast<const char*>(data), size);
@@ -18,13 +18,6 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   // As a .st file whatever its first word: the reader sees every mutation.
   const rtplc::lang::CompileResult r = rtplc::lang::compile_source(
       rtplc::lang::st::is_st_source(src) ? std::string(src) : "PROGRAM fuzz\n" + std::string(src), o);
-  if (r.ok()) {
-    (void)rtplc::lang::explain(r);
-    rtplc::TaskArena arena(*r.image);
-    for (int i = 0; i < 3; ++i) rtplc::execute_cycle(*r.image, arena);
-  } else if (!r.diags.has_errors()) {
-    __builtin_trap();  // failing without saying why is a bug too
-  }
-  (void)r.diags.render("fuzz.st", src);
+  rtplc::testing::exercise_compile(r, src, "fuzz.st");
   return 0;
 }

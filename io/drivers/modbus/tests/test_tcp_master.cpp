@@ -7,16 +7,18 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
-#include <functional>
 #include <mutex>
 #include <thread>
 #include <vector>
 
 #include "io/drivers/modbus/fake_slave.h"
 #include "io/drivers/modbus/tcp_master.h"
+#include "tests/support/eventually.h"
 
 namespace rtplc::modbus {
 namespace {
+
+using rtplc::testing::eventually;
 
 struct Poll {
   uint32_t slave;
@@ -38,15 +40,6 @@ ChannelMap map_of(const std::string& slave, const char* item) {
   m.slave = slave;
   m.item = *parse_address(item);
   return m;
-}
-
-// Waits (up to 10 s, in 10 ms steps) for `done`.
-bool eventually(const std::function<bool()>& done) {
-  for (int i = 0; i < 1000; ++i) {
-    if (done()) return true;
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  return done();
 }
 
 // A slot's value as the bridge reads it: a load that met the writer
