@@ -58,6 +58,7 @@
 #include <vector>
 
 #include "bench/support/machine.h"
+#include "bench/support/stall_probe.h"
 #include "config/config.h"
 #include "io/drivers/modbus/fake_slave.h"
 #include "io/drivers/modbus/lane.h"
@@ -81,6 +82,7 @@ struct Options {
   int fake_priority = 10;
   int line_cpu = -1;  // pin the driver's loop (and the naive loop) to this CPU; -1: not pinned
   bool naive = true;
+  bool stall_probe = true;
   uint16_t port = 15020;
   int octet = 31;  // slave i listens on 127.<octet>.x.y
 };
@@ -368,12 +370,16 @@ struct SideResult {
   double wall_s = 0;
   double cpu_pct = 0, user_pct = 0, sys_pct = 0, fake_cpu_pct = 0, switches_per_s = 0;
   std::string note;  // the side's own counters
+  int64_t t0 = 0, t1 = 0;  // the window
+  bench::Stalls stalls;    // the machine's own, in the window (stall_probe.h)
 };
 
 SideResult summarize(const Options& o, const std::string& name, std::vector<Track>& tracks, const Window& w,
                  const Cpu& c0, const Cpu& c1, double fake_cpu) {
   SideResult r;
   r.name = name;
+  r.t0 = w.t0;
+  r.t1 = w.t1;
   std::vector<float> all;
   const double wall = static_cast<double>(w.t1 - w.t0) / 1e9;
   const auto slots_per_slave = static_cast<uint64_t>((w.t1 - w.t0 + w.period - 1) / w.period);
@@ -618,12 +624,22 @@ void print(const Options& o, const SideResult& d, const SideResult* n) {
       "");
   row("fake slaves' CPU (not the client's)", fmt::format("{:.1f}%", d.fake_cpu_pct),
       n ? fmt::format("{:.1f}%", n->fake_cpu_pct) : "", "");
+  auto stalls = [](const SideResult& r) {
+    return r.stalls.wakes ? fmt::format("max {:.2f} ms, {} > 2 ms", r.stalls.max_ms, r.stalls.over_2ms) : "-";
+  };
+  row("machine stalls (1 ms probe above all)", stalls(d), n ? stalls(*n) : "", "");
   std::printf("\ndriver: %s\n", d.note.c_str());
   if (n) std::printf("naive:  %s\n", n->note.c_str());
   const bool m = d.missed == 0, l = d.p99 <= 2.0, c = d.cpu_pct < 15.0;
   std::printf("\ntargets (driver, %d slaves x %d registers every %d ms): zero missed live polls: %s; p99 excess <= 2 ms: "
               "%s; CPU < 15%% of a core: %s\n",
               o.slaves, o.registers, o.period_ms, m ? "met" : "NOT met", l ? "met" : "NOT met", c ? "met" : "NOT met");
+  if ((!m || !l) && d.stalls.max_ms * 1e6 >= static_cast<double>(o.period_ms) * 1e6 / 2) {
+    std::printf("note: the machine itself stalled for up to %.1f ms in the driver's window (a probe above the driver's "
+                "priority woke that late, %llu times more than 2 ms late): polls due then are late or missed whatever "
+                "the driver does\n",
+                d.stalls.max_ms, static_cast<unsigned long long>(d.stalls.over_2ms));
+  }
 }
 
 // --- arguments ------------------------------------------------------------------------
@@ -646,7 +662,7 @@ int int_arg(std::string_view name, const char* text, int lo, int hi) {
 const char* kHelp =
     "bench_modbus [--seconds S] [--slaves N] [--registers R] [--period-ms P] [--silent-pct Q]\n"
     "             [--delay-us D] [--timeout-ms T] [--line-priority F] [--line-cpu C] [--fake-priority F]\n"
-    "             [--no-naive]\n"
+    "             [--no-naive] [--no-stall-probe]\n"
     "\n"
     "Polls N fake Modbus TCP slaves (a child process, one epoll loop; Q %% of them accept and never\n"
     "answer) for R holding registers every P ms with the modbus driver's own TCP event loop (one\n"
@@ -667,6 +683,8 @@ const char* kHelp =
     "  --line-cpu C       pin the driver's loop and the naive loop to CPU C (default: not pinned)\n"
     "  --fake-priority F  SCHED_FIFO of the fakes' process (default 10; 0: SCHED_OTHER)\n"
     "  --no-naive         the driver only\n"
+    "  --no-stall-probe   no probe of the machine's own stalls (it wakes every 1 ms at a priority\n"
+    "                     above both sides, in its own process, and says how late it woke)\n"
     "Targets (issue 9): zero missed live polls, p99 excess <= 2 ms, < 15 % of one core.\n";
 
 Options parse(int argc, char** argv) {
@@ -679,6 +697,10 @@ Options parse(int argc, char** argv) {
     }
     if (a == "--no-naive") {
       o.naive = false;
+      continue;
+    }
+    if (a == "--no-stall-probe") {
+      o.stall_probe = false;
       continue;
     }
     if (i + 1 >= argc) usage_error(fmt::format("unknown option or missing value: '{}'", a));
@@ -708,6 +730,8 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "bench_modbus: only %zu file descriptors allowed; %d slaves need more\n", limit, o.slaves);
     return 1;
   }
+  // Forked before any thread, like the fakes; above the fakes and the client.
+  const bench::StallProbe probe(std::max(o.fake_priority, o.line_priority) + 1, o.stall_probe);
   const pid_t fakes = spawn_fakes(o);
   if (fakes < 0) {
     std::fprintf(stderr, "bench_modbus: the fake slaves did not start\n");
@@ -725,11 +749,13 @@ int main(int argc, char** argv) {
   std::printf("machine: %s; load average %s at the start\n", bench::machine_description().c_str(),
               bench::load_average().c_str());
   std::fflush(stdout);
-  const SideResult d = run_driver(o, fakes);
+  SideResult d = run_driver(o, fakes);
+  d.stalls = probe.between(d.t0, d.t1);
   std::optional<SideResult> n;
   if (o.naive) {
     std::this_thread::sleep_for(std::chrono::milliseconds(500));  // the fakes see the driver's connections close
     n = run_naive(o, fakes);
+    n->stalls = probe.between(n->t0, n->t1);
   }
   ::kill(fakes, SIGTERM);
   ::waitpid(fakes, nullptr, 0);

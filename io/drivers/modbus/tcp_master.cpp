@@ -4,6 +4,7 @@
 
 #include <netinet/in.h>
 #include <netinet/tcp.h>
+#include <poll.h>
 #include <sys/epoll.h>
 #include <sys/socket.h>
 #include <time.h>
@@ -23,17 +24,28 @@ namespace rtplc::modbus {
 namespace {
 
 constexpr int64_t kDrainSlackNs = 100'000'000;
+// How many slaves the loop serves (sends to) before it looks for answers.
+constexpr size_t kSendsPerLook = 16;
 // The largest answer frame: MBAP (7) + a 253-byte PDU; the buffer holds two,
 // so a late answer and the awaited one can both be in it.
 constexpr size_t kRxBytes = 2 * (7 + 253);
 
 uint64_t key_of(uint32_t idx, uint32_t gen) { return static_cast<uint64_t>(gen) << 32 | idx; }
 
+// A slave's write queue holds at least one job per write item of the slave:
+// the bridge queues an item only when its value changed, so a whole cycle of
+// changes always fits (BoundedQueue rounds up to a power of two).
+size_t queue_size(const ModbusSettings& s, uint32_t slave) {
+  size_t items = 0;
+  for (const auto& w : s.writes) items += w.slave == s.slaves[slave].name ? 1u : 0u;
+  return std::max<size_t>(64, items);
+}
+
 }  // namespace
 
 struct TcpMaster::Peer {
   Peer(const ModbusSettings& s, uint32_t slave, Exchange& x, const LineOptions& opt)
-      : book(s, std::vector<uint32_t>{slave}, x, opt), queue(64) {}
+      : book(s, std::vector<uint32_t>{slave}, x, opt), queue(queue_size(s, slave)) {}
   UnitBook book;  // one unit: the slave
   UnitBook::Unit& unit() { return book.units.front(); }
   link::Endpoint ep;
@@ -47,6 +59,7 @@ struct TcpMaster::Peer {
   WriteJob write;         // kWrite
   Asked asked;
   uint32_t attempt = 0;
+  bool wrote_last = false;  // the last request was a write: a block due goes next
   uint16_t tid = 0;
   int64_t sent_ns = 0;
   int64_t deadline = 0;   // connecting or a request in flight: when it fails
@@ -109,13 +122,32 @@ void TcpMaster::join() {
 
 // ---- the loop ------------------------------------------------------------------
 
-void TcpMaster::run() noexcept {
+// Waits up to `wait_ns` (0: only looks) and handles what the sockets have.
+// Each event gets its own time: handling a hundred answers takes a while, and
+// an answer's values are available when they are stored, not when epoll woke.
+void TcpMaster::pump(int64_t wait_ns) noexcept {
   std::array<epoll_event, 256> events;
+  const timespec ts{static_cast<time_t>(wait_ns / 1'000'000'000), static_cast<long>(wait_ns % 1'000'000'000)};
+  int n = ::epoll_pwait2(epoll_.get(), events.data(), static_cast<int>(events.size()), &ts, nullptr);
+  if (n < 0 && errno == ENOSYS) {
+    n = ::epoll_wait(epoll_.get(), events.data(), static_cast<int>(events.size()),
+                     static_cast<int>((wait_ns + 999'999) / 1'000'000));
+  }
+  if (wait_ns > 0) wakeups_.fetch_add(1, std::memory_order_relaxed);
+  for (int k = 0; k < n; ++k) {
+    const uint64_t key = events[static_cast<size_t>(k)].data.u64;
+    const auto i = static_cast<uint32_t>(key & 0xFFFFFFFF);
+    if (i >= peers_.size() || peers_[i]->gen != static_cast<uint32_t>(key >> 32)) continue;
+    on_io(i, events[static_cast<size_t>(k)].events, kernel_rt::monotonic_now_ns());
+  }
+}
+
+void TcpMaster::run() noexcept {
   int64_t next_pickup = 0;
   int64_t drain_until = 0;
   while (true) {
     int64_t now = kernel_rt::monotonic_now_ns();
-    if (!stopping_ && stop_.load(std::memory_order_relaxed)) {
+    if (!stopping_ && stop_.load(std::memory_order_acquire)) {
       // From here: no new polls or connects; queued writes still go out.
       stopping_ = true;
       int64_t longest = 0;
@@ -126,7 +158,9 @@ void TcpMaster::run() noexcept {
       drain_until = now + 2 * longest + kDrainSlackNs;
       for (uint32_t i = 0; i < peers_.size(); ++i) {
         Peer& p = *peers_[i];
-        if (p.state == Peer::State::kConnecting) {
+        // A connect under way goes on when it has writes to deliver (within
+        // drain_until); one without is abandoned.
+        if (p.state == Peer::State::kConnecting && p.queue.empty()) {
           ::epoll_ctl(epoll_.get(), EPOLL_CTL_DEL, p.fd.get(), nullptr);
           p.fd.reset();
           p.state = Peer::State::kDown;
@@ -147,10 +181,13 @@ void TcpMaster::run() noexcept {
     }
     // Every service() moves its slave's deadline past `now` (a request sent,
     // a slot taken, a connect begun) or removes it; the bound only guards
-    // against a bug turning that into a livelock.
+    // against a bug turning that into a livelock. Every kSendsPerLook slaves
+    // served, the answers already there are taken (the first slaves of a
+    // period answer while the last ones are still being asked).
     for (size_t n = 0; n < 4 * peers_.size() + 16; ++n) {
       if (timers_.empty() || timers_.next_deadline() > now) break;
       service(timers_.top(), now);
+      if (n % kSendsPerLook == kSendsPerLook - 1) pump(0);
     }
     for (auto& p : peers_) {
       if (p->dirty) {
@@ -159,21 +196,7 @@ void TcpMaster::run() noexcept {
       }
     }
     const int64_t until = std::min(timers_.next_deadline(), stopping_ ? now + 1'000'000 : next_pickup);
-    const int64_t wait = std::max<int64_t>(0, until - kernel_rt::monotonic_now_ns());
-    const timespec ts{static_cast<time_t>(wait / 1'000'000'000), static_cast<long>(wait % 1'000'000'000)};
-    int n = ::epoll_pwait2(epoll_.get(), events.data(), static_cast<int>(events.size()), &ts, nullptr);
-    if (n < 0 && errno == ENOSYS) {
-      n = ::epoll_wait(epoll_.get(), events.data(), static_cast<int>(events.size()),
-                       static_cast<int>((wait + 999'999) / 1'000'000));
-    }
-    wakeups_.fetch_add(1, std::memory_order_relaxed);
-    now = kernel_rt::monotonic_now_ns();
-    for (int k = 0; k < n; ++k) {
-      const uint64_t key = events[static_cast<size_t>(k)].data.u64;
-      const auto i = static_cast<uint32_t>(key & 0xFFFFFFFF);
-      if (i >= peers_.size() || peers_[i]->gen != static_cast<uint32_t>(key >> 32)) continue;
-      on_io(i, events[static_cast<size_t>(k)].events, now);
-    }
+    pump(std::max<int64_t>(1, until - kernel_rt::monotonic_now_ns()));
   }
   const int64_t now = kernel_rt::monotonic_now_ns();
   for (auto& p : peers_) {
@@ -190,7 +213,7 @@ void TcpMaster::run() noexcept {
 
 bool TcpMaster::drained() const noexcept {
   for (const auto& p : peers_) {
-    if (p->state != Peer::State::kUp) continue;
+    if (p->state == Peer::State::kDown) continue;
     if (p->job != Job::kNone || !p->queue.empty()) return false;
   }
   return true;
@@ -225,11 +248,23 @@ void TcpMaster::service(uint32_t i, int64_t now) noexcept {
       }
       break;
     case Peer::State::kConnecting:
-      if (now >= p.deadline) connect_done(p, ETIMEDOUT, now);
+      if (now < p.deadline) break;
+      // The loop may come to the deadline late, after the connect completed:
+      // look at the socket before calling it a timeout.
+      if (pollfd pf{p.fd.get(), POLLOUT, 0}; ::poll(&pf, 1, 0) == 1) {
+        on_io(i, static_cast<uint32_t>(pf.revents & POLLOUT ? EPOLLOUT : EPOLLERR), now);
+        return;  // on_io rescheduled
+      }
+      connect_done(p, ETIMEDOUT, now);
       break;
     case Peer::State::kUp:
       if (p.job != Job::kNone) {
         if (now < p.deadline) break;
+        // An answer that arrived in time may still sit in the socket (the loop
+        // reaches deadlines before it reads): read first.
+        const uint16_t tid = p.tid;
+        receive(i, now);
+        if (p.state != Peer::State::kUp || p.job == Job::kNone || p.tid != tid || now < p.deadline) break;
         finish(p, Outcome{Outcome::Kind::kTimeout, ETIMEDOUT}, nullptr, now);
       } else {
         start_next(p, now);
@@ -286,8 +321,17 @@ void TcpMaster::connect_done(Peer& p, int err, int64_t now) noexcept {
 // when a request went out (or the attempt ended the connection).
 bool TcpMaster::start_next(Peer& p, int64_t now) noexcept {
   UnitBook::Unit& u = p.unit();
-  if (p.queue.pop(p.write)) {
+  // Writes and due polls alternate when both wait, so a task that changes its
+  // outputs every cycle cannot starve the slave's reads.
+  UnitBook::UnitBlock* due = nullptr;
+  if (!stopping_) {
+    for (UnitBook::UnitBlock& b : u.blocks) {
+      if (now >= b.next_due && (!due || b.next_due < due->next_due)) due = &b;
+    }
+  }
+  if (!(due && p.wrote_last) && p.queue.pop(p.write)) {
     p.job = Job::kWrite;
+    p.wrote_last = true;
     const Address& a = s_.writes[p.write.write].item;
     if (!is_writable(a.table)) {  // the config refuses these; never sent
       p.job = Job::kNone;
@@ -297,13 +341,9 @@ bool TcpMaster::start_next(Peer& p, int64_t now) noexcept {
     }
     p.asked = write_request(u.cfg->unit, a, p.write.words);
   } else {
-    if (stopping_) return false;
-    UnitBook::UnitBlock* due = nullptr;
-    for (UnitBook::UnitBlock& b : u.blocks) {
-      if (now >= b.next_due && (!due || b.next_due < due->next_due)) due = &b;
-    }
     if (!due) return false;
     p.job = Job::kRead;
+    p.wrote_last = false;
     p.block = static_cast<uint32_t>(due - u.blocks.data());
     p.due = UnitBook::take_slot(u, *due, now);
     p.asked = read_request(u.cfg->unit, due->block.table, due->block.start, due->block.count);
@@ -328,8 +368,9 @@ void TcpMaster::send_job(Peer& p, int64_t now) noexcept {
   }
 }
 
-// The request in flight ended with `o` (an answer, a timeout, a lost link).
-void TcpMaster::finish(Peer& p, const Outcome& o, const uint16_t* words, int64_t now) noexcept {
+// The request in flight ended with `o` (an answer, a timeout, a lost link;
+// `why_lost` says how a link was lost, for the log).
+void TcpMaster::finish(Peer& p, const Outcome& o, const uint16_t* words, int64_t now, const char* why_lost) noexcept {
   UnitBook::Unit& u = p.unit();
   p.book.record(u, o, p.sent_ns, now);
   p.dirty = true;
@@ -345,11 +386,11 @@ void TcpMaster::finish(Peer& p, const Outcome& o, const uint16_t* words, int64_t
   p.job = Job::kNone;
   if (job == Job::kWrite) {
     p.book.write_done(p.write, &o);
-    if (o.kind == Outcome::Kind::kLink) drop(p, now, "connection lost on a write");
+    if (o.kind == Outcome::Kind::kLink) drop(p, now, why_lost ? why_lost : "connection lost on a write");
     return;
   }
   const char* why = p.book.poll_done(u, u.blocks[p.block], o, words, p.due, now);
-  if (why) drop(p, now, why);
+  if (why) drop(p, now, o.kind == Outcome::Kind::kLink && why_lost ? why_lost : why);
 }
 
 void TcpMaster::drop(Peer& p, int64_t now, const char* why) noexcept {
@@ -383,53 +424,68 @@ void TcpMaster::on_io(uint32_t i, uint32_t events, int64_t now) noexcept {
     return;
   }
   if (p.state != Peer::State::kUp) return;
-  // Everything that arrived, then every whole frame in it.
+  receive(i, now);
+  if (p.state == Peer::State::kUp && p.job == Job::kNone) start_next(p, now);
+  reschedule(i);
+}
+
+// Everything that arrived on a slave's socket: each whole frame as soon as it
+// is in the buffer (so the buffer, room for two of the largest frames, always
+// has room for the rest of a partial one), then a close or error.
+void TcpMaster::receive(uint32_t i, int64_t now) noexcept {
+  Peer& p = *peers_[i];
   int lost = 0;
-  while (true) {
-    if (p.rx_len == sizeof p.rx) {
-      lost = EMSGSIZE;  // cannot happen with frames checked below; guards the buffer
-      break;
-    }
-    const ssize_t n = ::recv(p.fd.get(), p.rx + p.rx_len, sizeof p.rx - p.rx_len, MSG_DONTWAIT);
-    if (n > 0) {
-      p.rx_len += static_cast<size_t>(n);
-      continue;
-    }
-    if (n == 0) lost = ECONNRESET;  // closed by the slave
-    else if (errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR) lost = errno;
-    if (n < 0 && errno == EINTR) continue;
-    break;
-  }
-  size_t used = 0;
+  const char* why = "connection closed by the slave";
   while (p.state == Peer::State::kUp) {
-    Frame f;
-    const FrameStatus st = next_frame(p.rx + used, p.rx_len - used, f);
-    if (st == FrameStatus::kIncomplete) break;
-    if (st == FrameStatus::kBad) {
-      // Not Modbus TCP: the stream cannot be resynchronised. The request in
-      // flight fails as a link loss (no retry on this connection).
-      if (p.job != Job::kNone) finish(p, Outcome{Outcome::Kind::kLink, EMBBADDATA}, nullptr, now);
-      if (p.state == Peer::State::kUp) drop(p, now, "an answer that is not Modbus TCP");
-      reschedule(i);
-      return;
+    const ssize_t n = ::recv(p.fd.get(), p.rx + p.rx_len, sizeof p.rx - p.rx_len, MSG_DONTWAIT);
+    if (n < 0 && errno == EINTR) continue;
+    if (n == 0) lost = ECONNRESET;  // closed by the slave
+    if (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK) {
+      lost = errno;
+      why = "connection lost";
     }
-    used += f.frame_len;
-    if (p.job == Job::kNone || f.transaction != p.tid) continue;  // late, or not asked for
-    uint16_t words[2000];  // the most bits one read asks for
-    const Outcome o = check_answer(p.asked, f, words);
-    finish(p, o, words, now);
-  }
-  if (p.state == Peer::State::kUp) {
+    if (n <= 0) break;
+    const bool emptied = static_cast<size_t>(n) < sizeof p.rx - p.rx_len;
+    p.rx_len += static_cast<size_t>(n);
+    size_t used = 0;
+    while (true) {
+      Frame f;
+      const FrameStatus st = next_frame(p.rx + used, p.rx_len - used, f);
+      if (st == FrameStatus::kIncomplete) break;
+      if (st == FrameStatus::kBad) {
+        // Not Modbus TCP: the stream cannot be resynchronised. The request
+        // in flight fails as a link loss (no retry on this connection).
+        const char* bad = "an answer that is not Modbus TCP";
+        if (p.job != Job::kNone) finish(p, Outcome{Outcome::Kind::kLink, EMBBADDATA}, nullptr, now, bad);
+        if (p.state == Peer::State::kUp) drop(p, now, bad);
+        return;
+      }
+      used += f.frame_len;
+      if (p.job == Job::kNone || f.transaction != p.tid) continue;  // late, or not asked for
+      uint16_t words[2000];  // the most bits one read asks for
+      const Outcome o = check_answer(p.asked, f, words);
+      finish(p, o, words, now);
+      if (p.state != Peer::State::kUp) return;
+    }
     std::memmove(p.rx, p.rx + used, p.rx_len - used);
     p.rx_len -= used;
-    if (lost != 0) {
-      if (p.job != Job::kNone) finish(p, Outcome{Outcome::Kind::kLink, lost}, nullptr, now);
-      if (p.state == Peer::State::kUp) drop(p, now, "connection closed by the slave");
-    } else if (p.job == Job::kNone) {
-      start_next(p, now);
+    // A partial frame is shorter than the largest frame, so the buffer has
+    // room; a full one would mean next_frame accepted a frame past its bound.
+    if (p.rx_len == sizeof p.rx) {
+      lost = EMSGSIZE;
+      why = "an answer longer than Modbus TCP allows";
+      break;
     }
+    // A short read took all the socket held: what comes later wakes epoll
+    // again (level-triggered), so no second recv to hear EAGAIN. On a
+    // virtual machine a system call costs microseconds; a poll is one send
+    // and one recv.
+    if (emptied) break;
   }
-  reschedule(i);
+  if (lost != 0 && p.state == Peer::State::kUp) {
+    if (p.job != Job::kNone) finish(p, Outcome{Outcome::Kind::kLink, lost}, nullptr, now, why);
+    if (p.state == Peer::State::kUp) drop(p, now, why);
+  }
 }
 
 }  // namespace rtplc::modbus

@@ -10,8 +10,8 @@
 // shared with the serial line, line.h):
 //   down        reconnect when its backoff ends; due polls count offline
 //   connecting  a non-blocking connect, failed after the slave's timeout
-//   up          one request in flight at a time: queued writes first, then
-//               the blocks due on the grid; an answer is matched by its
+//   up          one request in flight at a time: queued writes and the
+//               blocks due on the grid, alternating when both wait; an answer is matched by its
 //               transaction id (a late answer to an attempt that timed out is
 //               dropped), a timeout is retried `retries` times, and
 //               several polls without an answer drop the connection
@@ -23,7 +23,10 @@
 // epoll until the earliest deadline or the write pickup (`wake_ns`, the
 // driver's period), whichever comes first. Polls fall on the clock's
 // multiples of their period (UnitBook::take_slot), so all slaves of one
-// period are served in one wake-up.
+// period are served in one wake-up; every 16 requests sent in it, the loop
+// takes the answers already there (pump(0)), so the first slaves' values do
+// not wait for the last slaves' requests. A deadline reached late reads the
+// slave's socket before it calls a timeout: the answer may be there.
 //
 // Handoff with the bridge thread (io/link/handoff.h), nobody ever waits:
 //   writes   the bridge pushes WriteJobs into the slave's BoundedQueue (the
@@ -58,7 +61,9 @@ class TcpMaster final : public Lane {
   TcpMaster& operator=(const TcpMaster&) = delete;
 
   Result<void> start() override;
-  void request_stop() override { stop_.store(true, std::memory_order_relaxed); }
+  // Release: pairs with the loop's acquire load, so whatever the driver did
+  // before asking (its last writes queued) is visible once the loop sees it.
+  void request_stop() override { stop_.store(true, std::memory_order_release); }
   void join() override;
   bool push(const WriteJob& job) override;
 
@@ -70,13 +75,15 @@ class TcpMaster final : public Lane {
   enum class Job : uint8_t { kNone, kRead, kWrite };
 
   void run() noexcept;
+  void pump(int64_t wait_ns) noexcept;
   void service(uint32_t i, int64_t now) noexcept;
   void on_io(uint32_t i, uint32_t events, int64_t now) noexcept;
   void begin_connect(Peer& p, uint32_t i, int64_t now) noexcept;
   void connect_done(Peer& p, int err, int64_t now) noexcept;
   bool start_next(Peer& p, int64_t now) noexcept;
   void send_job(Peer& p, int64_t now) noexcept;
-  void finish(Peer& p, const Outcome& o, const uint16_t* words, int64_t now) noexcept;
+  void receive(uint32_t i, int64_t now) noexcept;
+  void finish(Peer& p, const Outcome& o, const uint16_t* words, int64_t now, const char* why_lost = nullptr) noexcept;
   void drop(Peer& p, int64_t now, const char* why) noexcept;
   void reschedule(uint32_t i) noexcept;
   bool drained() const noexcept;
