@@ -627,7 +627,7 @@ void print(const Options& o, const SideResult& d, const SideResult* n) {
   auto stalls = [](const SideResult& r) {
     return r.stalls.wakes ? fmt::format("max {:.2f} ms, {} > 2 ms", r.stalls.max_ms, r.stalls.over_2ms) : "-";
   };
-  row("machine stalls (1 ms probe above all)", stalls(d), n ? stalls(*n) : "", "");
+  row("machine stalls (probe above all)", stalls(d), n ? stalls(*n) : "", "");
   std::printf("\ndriver: %s\n", d.note.c_str());
   if (n) std::printf("naive:  %s\n", n->note.c_str());
   const bool m = d.missed == 0, l = d.p99 <= 2.0, c = d.cpu_pct < 15.0;
@@ -683,7 +683,7 @@ const char* kHelp =
     "  --line-cpu C       pin the driver's loop and the naive loop to CPU C (default: not pinned)\n"
     "  --fake-priority F  SCHED_FIFO of the fakes' process (default 10; 0: SCHED_OTHER)\n"
     "  --no-naive         the driver only\n"
-    "  --no-stall-probe   no probe of the machine's own stalls (it wakes every 1 ms at a priority\n"
+    "  --no-stall-probe   no probe of the machine's own stalls (it wakes every 4 ms on each CPU at a priority\n"
     "                     above both sides, in its own process, and says how late it woke)\n"
     "Targets (issue 9): zero missed live polls, p99 excess <= 2 ms, < 15 % of one core.\n";
 

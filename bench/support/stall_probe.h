@@ -1,19 +1,22 @@
-// The machine's own stalls during a benchmark: a child process at SCHED_FIFO
-// above everything the benchmark runs wakes every millisecond and writes how
-// late each wake-up was. A virtual machine whose host takes its CPUs away
+// The machine's own stalls during a benchmark: a child process with one
+// thread pinned to each CPU, at SCHED_FIFO above everything the benchmark
+// runs, wakes every 4 ms and writes how late each wake-up was. (One
+// per CPU: a host may stop one virtual CPU and not the other, and a thread
+// on the stopped one cannot move away.) A virtual machine whose host takes its CPUs away
 // (a noisy neighbour, the hypervisor's own work) makes every thread late,
 // however high its priority; a benchmark that misses a deadline can then say
 // whether the machine was stalled at that time (a figure the code under test
 // cannot beat) or was not (the code's own fault).
 //
-// Fork it before any thread starts. Its cost: a thousand wake-ups a second on
-// one CPU, in its own process, so it is not counted in the CPU the benchmark
+// Fork it before any thread starts. Its cost: 250 wake-ups a second on
+// each CPU, in its own process, so it is not counted in the CPU the benchmark
 // measures for itself.
 //
-// Shared memory protocol (one writer, the probe; one reader, the benchmark):
-// the probe writes late_us[k] and then stores ticks = k + 1 with release; the
-// reader loads ticks with acquire and reads only entries below it, so every
-// entry it reads was complete. start_ns is written before fork.
+// Shared memory protocol (per CPU, one writer, that CPU's probe thread; one
+// reader, the benchmark): the thread writes late_us[k] and then stores
+// ticks = k + 1 with release; the reader loads ticks with acquire and reads
+// only entries below it, so every entry it reads was complete. start_ns is
+// written before fork.
 #pragma once
 
 #include <signal.h>
@@ -26,6 +29,7 @@
 #include <atomic>
 #include <cstdint>
 #include <new>
+#include <vector>
 
 #include "kernel_rt/clock.h"
 #include "kernel_rt/rt_thread.h"
@@ -33,15 +37,16 @@
 namespace rtplc::bench {
 
 struct Stalls {
-  double max_ms = 0;      // the latest wake-up in the window
-  uint64_t over_2ms = 0;  // wake-ups more than 2 ms late
-  uint64_t wakes = 0;     // wake-ups in the window
+  double max_ms = 0;      // the latest wake-up in the window, on any CPU
+  uint64_t over_2ms = 0;  // wake-ups more than 2 ms late, all CPUs
+  uint64_t wakes = 0;     // wake-ups in the window, all CPUs
 };
 
 class StallProbe {
  public:
-  static constexpr int64_t kPeriodNs = 1'000'000;
-  static constexpr uint64_t kMaxTicks = 2 * 3600 * 1000;  // two hours; later ticks are not recorded
+  static constexpr int64_t kPeriodNs = 4'000'000;  // sees every stall of 4 ms or more (a poll period is 10)
+  static constexpr uint64_t kMaxTicks = 3600 * 250;  // an hour; later ticks are not recorded
+  static constexpr unsigned kMaxCpus = 8;              // probed CPUs (the first ones allowed)
 
   // priority: SCHED_FIFO priority of the probe (above the benchmark's threads).
   // on: false makes a probe that does nothing and reports no wake-ups.
@@ -71,45 +76,58 @@ class StallProbe {
   Stalls between(int64_t t0, int64_t t1) const {
     Stalls s;
     if (!shm_) return s;
-    const uint64_t n = shm_->ticks.load(std::memory_order_acquire);
     const int64_t start = shm_->start_ns;
     const uint64_t first = t0 <= start ? 0 : static_cast<uint64_t>((t0 - start) / kPeriodNs);
-    for (uint64_t k = first; k < n; ++k) {
-      const int64_t due = start + static_cast<int64_t>(k + 1) * kPeriodNs;
-      if (due < t0) continue;
-      if (due >= t1) break;
-      const uint32_t late = shm_->late_us[k];
-      ++s.wakes;
-      s.max_ms = std::max(s.max_ms, late / 1e3);
-      if (late > 2000) ++s.over_2ms;
+    for (const PerCpu& c : shm_->cpu) {
+      const uint64_t n = c.ticks.load(std::memory_order_acquire);
+      for (uint64_t k = first; k < n; ++k) {
+        const int64_t due = start + static_cast<int64_t>(k + 1) * kPeriodNs;
+        if (due < t0) continue;
+        if (due >= t1) break;
+        const uint32_t late = c.late_us[k];
+        ++s.wakes;
+        s.max_ms = std::max(s.max_ms, late / 1e3);
+        if (late > 2000) ++s.over_2ms;
+      }
     }
     return s;
   }
 
  private:
-  struct Shared {
-    int64_t start_ns = 0;
+  struct PerCpu {
     std::atomic<uint64_t> ticks{0};
     uint32_t late_us[kMaxTicks];
+  };
+  struct Shared {
+    int64_t start_ns = 0;
+    PerCpu cpu[kMaxCpus];
   };
 
   [[noreturn]] void run(int priority) {
     ::prctl(PR_SET_PDEATHSIG, SIGKILL);
-    kernel_rt::ThreadSpec spec;
-    spec.name = "stall-probe";
-    spec.fifo_priority = priority;
-    Shared* shm = shm_;
-    auto t = kernel_rt::start_thread(spec, [shm] {
-      int64_t next = shm->start_ns;
-      for (uint64_t k = 0; k < kMaxTicks; ++k) {
-        next += kPeriodNs;
-        kernel_rt::sleep_until_ns(next);
-        const int64_t late = kernel_rt::monotonic_now_ns() - next;
-        shm->late_us[k] = static_cast<uint32_t>(std::clamp<int64_t>(late / 1000, 0, UINT32_MAX));
-        shm->ticks.store(k + 1, std::memory_order_release);
-      }
-    });
-    if (t) t->join();
+    std::vector<kernel_rt::RtThread> threads;
+    unsigned probed = 0;
+    for (unsigned cpu = 0; cpu < 1024 && probed < kMaxCpus; ++cpu) {
+      if (!kernel_rt::cpu_allowed(cpu)) continue;
+      kernel_rt::ThreadSpec spec;
+      spec.name = "stall-probe";
+      spec.fifo_priority = priority;
+      spec.cpu = cpu;
+      PerCpu* c = &shm_->cpu[probed++];
+      const int64_t start = shm_->start_ns;
+      auto t = kernel_rt::start_thread(spec, [c, start] {
+        int64_t next = start;
+        for (uint64_t k = 0; k < kMaxTicks; ++k) {
+          next += kPeriodNs;
+          kernel_rt::sleep_until_ns(next);
+          const int64_t late = kernel_rt::monotonic_now_ns() - next;
+          c->late_us[k] = static_cast<uint32_t>(std::clamp<int64_t>(late / 1000, 0, UINT32_MAX));
+          c->ticks.store(k + 1, std::memory_order_release);
+        }
+      });
+      if (t) threads.push_back(std::move(*t));
+    }
+    for (auto& t : threads) t.join();
     ::_exit(0);
   }
 
