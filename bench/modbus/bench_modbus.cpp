@@ -79,7 +79,12 @@ struct Options {
   int delay_us = 0;         // every reply waits this long in the fake
   int timeout_ms = 0;       // 0: the driver's default
   int line_priority = std::max(1, config::kDefaultBandLo - 1);  // the runtime's helper priority
-  int fake_priority = 10;
+  // The fakes stand for devices on the network: below the client, so they
+  // never take its CPU from it. Above it (10, until 2026-12-06) a fake woken
+  // by the client's send preempted the client on its own CPU and the client
+  // sat runnable for milliseconds (one send held 2-3 ms, measured with the
+  // loop's schedstat), a cost no remote slave imposes.
+  int fake_priority = std::max(1, config::kDefaultBandLo - 2);
   int line_cpu = -1;  // pin the driver's loop (and the naive loop) to this CPU; -1: not pinned
   bool naive = true;
   bool stall_probe = true;
@@ -681,7 +686,8 @@ const char* kHelp =
     "  --line-priority F  SCHED_FIFO of the driver's loop and of the naive loop (default 9, the\n"
     "                     runtime's helper priority; 0: SCHED_OTHER)\n"
     "  --line-cpu C       pin the driver's loop and the naive loop to CPU C (default: not pinned)\n"
-    "  --fake-priority F  SCHED_FIFO of the fakes' process (default 10; 0: SCHED_OTHER)\n"
+    "  --fake-priority F  SCHED_FIFO of the fakes' process (default 8, below the client: the slaves\n"
+    "                     stand for remote devices; 0: SCHED_OTHER)\n"
     "  --no-naive         the driver only\n"
     "  --no-stall-probe   no probe of the machine's own stalls (it wakes every 4 ms on each CPU at a priority\n"
     "                     above both sides, in its own process, and says how late it woke)\n"
