@@ -87,8 +87,11 @@ int64_t measure_exec_ns(const std::string& source) {
     execute_cycle(*r.image, arena);
     t.push_back(kernel_rt::monotonic_now_ns() - a);
   }
-  std::sort(t.begin(), t.end());
-  return t[t.size() / 2];
+  // The fastest cycle, not the median: this thread is SCHED_OTHER, and on a
+  // loaded machine most of its runs are preempted (beside stress-ng --cpu 2 the
+  // median came out ~3x what the SCHED_FIFO task then took, so a task sized to
+  // overrun did not). The fastest run is the one nobody interrupted.
+  return *std::min_element(t.begin(), t.end());
 }
 
 double channel_value(sched::Runtime& rt, const std::string& label) {

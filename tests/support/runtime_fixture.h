@@ -38,7 +38,8 @@ class RuntimeFixture {
 // The current output of a block (by name, e.g. "F2") in a program's arena.
 double block_value(const sched::LoadedProgram& p, const std::string& name);
 
-// Median execution time of one cycle of `source` on this machine, in ns.
+// Fastest of 21 executions of one cycle of `source` on this machine, in ns
+// (the one no other thread interrupted).
 int64_t measure_exec_ns(const std::string& source);
 
 // Reads a channel of a runtime by label.
