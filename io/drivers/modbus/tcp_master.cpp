@@ -393,6 +393,13 @@ void TcpMaster::finish(Peer& p, const Outcome& o, const uint16_t* words, int64_t
   if (why) drop(p, now, o.kind == Outcome::Kind::kLink && why_lost ? why_lost : why);
 }
 
+// The connection is broken (`err`, `why` for the log): the request in flight
+// fails as a link loss, then the connection is dropped if finishing it did not.
+void TcpMaster::lose_link(Peer& p, int err, const char* why, int64_t now) noexcept {
+  if (p.job != Job::kNone) finish(p, Outcome{Outcome::Kind::kLink, err}, nullptr, now, why);
+  if (p.state == Peer::State::kUp) drop(p, now, why);
+}
+
 void TcpMaster::drop(Peer& p, int64_t now, const char* why) noexcept {
   if (p.job == Job::kWrite) {
     const Outcome lost{Outcome::Kind::kLink, ECONNRESET};
@@ -455,9 +462,7 @@ void TcpMaster::receive(uint32_t i, int64_t now) noexcept {
       if (st == FrameStatus::kBad) {
         // Not Modbus TCP: the stream cannot be resynchronised. The request
         // in flight fails as a link loss (no retry on this connection).
-        const char* bad = "an answer that is not Modbus TCP";
-        if (p.job != Job::kNone) finish(p, Outcome{Outcome::Kind::kLink, EMBBADDATA}, nullptr, now, bad);
-        if (p.state == Peer::State::kUp) drop(p, now, bad);
+        lose_link(p, EMBBADDATA, "an answer that is not Modbus TCP", now);
         return;
       }
       used += f.frame_len;
@@ -482,10 +487,7 @@ void TcpMaster::receive(uint32_t i, int64_t now) noexcept {
     // and one recv.
     if (emptied) break;
   }
-  if (lost != 0 && p.state == Peer::State::kUp) {
-    if (p.job != Job::kNone) finish(p, Outcome{Outcome::Kind::kLink, lost}, nullptr, now, why);
-    if (p.state == Peer::State::kUp) drop(p, now, why);
-  }
+  if (lost != 0 && p.state == Peer::State::kUp) lose_link(p, lost, why, now);
 }
 
 }  // namespace rtplc::modbus

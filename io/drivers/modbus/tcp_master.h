@@ -84,6 +84,7 @@ class TcpMaster final : public Lane {
   void send_job(Peer& p, int64_t now) noexcept;
   void receive(uint32_t i, int64_t now) noexcept;
   void finish(Peer& p, const Outcome& o, const uint16_t* words, int64_t now, const char* why_lost = nullptr) noexcept;
+  void lose_link(Peer& p, int err, const char* why, int64_t now) noexcept;
   void drop(Peer& p, int64_t now, const char* why) noexcept;
   void reschedule(uint32_t i) noexcept;
   bool drained() const noexcept;
