@@ -98,7 +98,8 @@ void run_sim(const SimArgs& a) {
   opt.realtime = a.realtime;
   // Asked for a plant by name: a program that cannot take it is an error, not a logic test.
   opt.open_loop_if_unwired = !a.plant_given;
-  opt.probes = r.program.variables;  // PLCopen: every variable of the program instances
+  opt.probes = r.program.variables;
+  opt.file = a.file;  // PLCopen: every variable of the program instances
   for (const std::string& s : a.steps) opt.steps.push_back(parse_step(s, a.duration));
 
   const bool open_loop = io::runs_open_loop(*r.image, opt);

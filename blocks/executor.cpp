@@ -33,6 +33,7 @@ void TaskArena::resize_for(const TaskImage& image) {
   io_out.assign(h.n_io_out, 0.0);
   total_errors = 0;
   cycles = 0;
+  loop_fault = 0;
 }
 
 void TaskArena::reset() {
@@ -42,6 +43,7 @@ void TaskArena::reset() {
   std::fill(io_out.begin(), io_out.end(), 0.0);
   total_errors = 0;
   cycles = 0;
+  loop_fault = 0;
 }
 
 ExecContext make_context(const TaskImage& image, TaskArena& a) {
@@ -57,6 +59,8 @@ ExecContext make_context(const TaskImage& image, TaskArena& a) {
   c.io_out = a.io_out.data();
   c.total_errors = &a.total_errors;
   c.cycles = &a.cycles;
+  c.loop_budget = a.loop_budget;
+  c.loop_fault = &a.loop_fault;
   return c;
 }
 

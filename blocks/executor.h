@@ -10,6 +10,12 @@
 
 namespace rtplc {
 
+// Backward branches (Loop instructions) a task may take in one cycle before the
+// cycle is cut short as a runaway loop (config key `loop_budget`). 100,000 is
+// ~20x what a cycle sorting 64 values, a CRC over 256 bytes and a 1,000-step
+// search take together, and a few milliseconds of work at most.
+inline constexpr uint64_t kDefaultLoopBudget = 100'000;
+
 // The mutable side of a task: block outputs (values), block memory (state), error
 // counters, and the I/O buffers the runtime fills before and drains after a cycle.
 // All zero-initialised: "a delayed reference reads 0 in the first cycle".
@@ -26,6 +32,12 @@ struct TaskArena {
   std::vector<double> io_out;    // outputs, indexed by Binding::io_index
   uint64_t total_errors = 0;
   uint64_t cycles = 0;
+  uint64_t loop_budget = kDefaultLoopBudget;
+  // 1 + the schedule index of the Loop instruction that exhausted the budget in
+  // the last cycle, 0 when none did. The cycle stopped there: what it wrote is
+  // partial, and the task must not publish it (sched/task.cpp puts the safe
+  // outputs in its place).
+  uint32_t loop_fault = 0;
 };
 
 // Raw pointers resolved once per (image, arena) pair so a cycle is one call.
@@ -41,12 +53,15 @@ struct ExecContext {
   double* io_out = nullptr;
   uint64_t* total_errors = nullptr;
   uint64_t* cycles = nullptr;
+  uint64_t loop_budget = kDefaultLoopBudget;
+  uint32_t* loop_fault = nullptr;  // see TaskArena::loop_fault; written every cycle
 };
 
 ExecContext make_context(const TaskImage& image, TaskArena& arena);
 
-// Runs one cycle: every run of instructions once, in schedule order.
-// Never allocates, locks, throws or makes a system call.
+// Runs one cycle: the runs in schedule order, every run once unless a branch
+// chooses another (Jmp, Jz, Jnz forward; Loop backward, counted against
+// loop_budget). Never allocates, locks, throws or makes a system call.
 void execute_cycle(const ExecContext& ctx) noexcept;
 
 // Which interpreter body execute_cycle runs on this CPU: "avx2" or "baseline".

@@ -207,7 +207,11 @@ Result<void> verify_image(std::span<const std::byte> bytes) {
   }
   uint64_t state_needed = 0;
   // Each value slot has exactly one writer; each output-buffer entry too.
-  std::vector<uint8_t> value_written(h.n_values, 0);
+  // (value_writer: the opcode that writes each slot, kNoWriter before one does;
+  // a Set may only write a slot whose writer is a Var.)
+  constexpr uint8_t kNoWriter = 0xFF;
+  static_assert(kOpCount < kNoWriter);
+  std::vector<uint8_t> value_writer(h.n_values, kNoWriter);
   std::vector<uint8_t> out_written(h.n_io_out, 0);
   for (uint32_t i = 0; i < h.n_instr; ++i) {
     const Instr& in = code[i];
@@ -224,9 +228,14 @@ Result<void> verify_image(std::span<const std::byte> bytes) {
     if (op_is_store(in.op)) {
       if (in.out >= h.n_io_out) return make_error(at_instr(i, "output-buffer index out of range"));
       if (out_written[in.out]++) return make_error(at_instr(i, "second writer of an output"));
+    } else if (in.op == Op::Set) {
+      if (in.out >= h.n_values) return make_error(at_instr(i, "variable slot out of range"));
+    } else if (op_is_branch(in.op)) {
+      // `out` is a run index, checked with the runs below.
     } else {
       if (in.out >= h.n_values) return make_error(at_instr(i, "output slot out of range"));
-      if (value_written[in.out]++) return make_error(at_instr(i, "second writer of a value slot"));
+      if (value_writer[in.out] != kNoWriter) return make_error(at_instr(i, "second writer of a value slot"));
+      value_writer[in.out] = static_cast<uint8_t>(in.op);
     }
     const uint32_t np = op_param_count(in.op);
     if (in.param > h.n_params || np > h.n_params - in.param) {
@@ -252,6 +261,13 @@ Result<void> verify_image(std::span<const std::byte> bytes) {
     if (bi.text_index >= h.n_instr) return make_error(at_instr(i, "bad text index"));
   }
   if (state_needed != h.n_state) return make_error("state size does not match the code");
+  // A Set writes a variable's home and nothing else: never a block's result,
+  // which every reader of that block trusts to be what the block computed.
+  for (uint32_t i = 0; i < h.n_instr; ++i) {
+    if (code[i].op == Op::Set && value_writer[code[i].out] != static_cast<uint8_t>(Op::Var)) {
+      return make_error(at_instr(i, "a Set writes a slot that is not a variable's"));
+    }
+  }
   // Runs cover the code exactly once, in order, and each holds one opcode.
   uint32_t next = 0;
   for (uint32_t r = 0; r < h.n_runs; ++r) {
@@ -263,6 +279,18 @@ Result<void> verify_image(std::span<const std::byte> bytes) {
       if (code[i].op != run.op) return make_error("run " + std::to_string(r) + " mixes opcodes");
     }
     if (run.flags & ~(kRunAffine | kRunUniformParams)) return make_error("bad run flags");
+    if (op_is_branch(run.op)) {
+      // Alone in its run, its target a run boundary: forward for Jmp/Jz/Jnz
+      // (up to n_runs, the end of the cycle), backward or onto itself for
+      // Loop, the only edge that can repeat code and the one the budget counts.
+      const uint32_t target = code[run.begin].out;
+      if (run.end - run.begin != 1) return make_error("run " + std::to_string(r) + ": a branch shares its run");
+      const bool ok = run.op == Op::Loop ? target <= r : target > r && target <= h.n_runs;
+      if (!ok) return make_error("run " + std::to_string(r) + ": branch target out of range");
+    }
+    if ((run.flags & kRunAffine) && (op_is_branch(run.op) || run.op == Op::Set || run.op == Op::Var)) {
+      return make_error("run " + std::to_string(r) + ": this opcode cannot be affine");
+    }
     if (run.flags & kRunAffine) {
       // The executor trusts these formulas instead of the instructions: check
       // every element (the instructions themselves were bounds-checked above).

@@ -21,7 +21,7 @@ uint32_t op_param_count(Op op) {
     case Op::Intg: case Op::Derv: case Op::Filt: case Op::Ramp:
     case Op::ConstA: case Op::ConstD:
     case Op::Ton: case Op::TonEt: case Op::Tof: case Op::TofEt: case Op::Tp: case Op::TpEt:
-    case Op::Ctu: case Op::Ctd:
+    case Op::Ctu: case Op::Ctd: case Op::Var:
       return 1;
     case Op::Scale: case Op::Lim: case Op::Pi: case Op::Epi: case Op::Wrap:
     case Op::Band: case Op::Bor: case Op::Bxor: case Op::Bnot:
@@ -39,7 +39,7 @@ uint32_t op_param_count(Op op) {
 uint32_t op_state_size(Op op, const double* prepared) {
   switch (op) {
     case Op::Time: case Op::Ldlg: case Op::Pi: case Op::Epi:
-    case Op::Rtrig: case Op::Ftrig: case Op::Ton: case Op::TonEt: case Op::Ctud:
+    case Op::Rtrig: case Op::Ftrig: case Op::Ton: case Op::TonEt: case Op::Ctud: case Op::Var:
       return 1;
     case Op::Cnt: case Op::Derv: case Op::Tof: case Op::TofEt:
     case Op::Ctu: case Op::Ctd: case Op::Updn:
@@ -59,6 +59,7 @@ uint32_t op_state_size(Op op, const double* prepared) {
 uint32_t op_input_count(Op op) {
   switch (op) {
     case Op::LoadA: case Op::LoadD: case Op::ConstA: case Op::ConstD:
+    case Op::Var: case Op::Jmp: case Op::Loop:
       return 0;
     case Op::Add: case Op::Sub: case Op::Mult: case Op::Div:
     case Op::Max: case Op::Min: case Op::And2: case Op::Or2: case Op::Exor:
@@ -77,7 +78,11 @@ uint32_t op_input_count(Op op) {
   }
 }
 
-bool op_writes_value(Op op) { return op != Op::StoreA && op != Op::StoreD; }
+bool op_writes_value(Op op) { return !op_is_store(op) && op != Op::Set && !op_is_branch(op); }
+bool op_is_branch(Op op) { return op == Op::Jmp || op == Op::Jz || op == Op::Jnz || op == Op::Loop; }
+bool op_output_is_state(Op op) {
+  return op == Op::Intg || op == Op::Filt || op == Op::Ramp || op == Op::Ldlg || op == Op::Var;
+}
 bool op_is_load(Op op) { return op == Op::LoadA || op == Op::LoadD; }
 bool op_is_store(Op op) { return op == Op::StoreA || op == Op::StoreD; }
 

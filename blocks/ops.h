@@ -49,6 +49,16 @@
 //  Ctud      CV of IEC CTUD from updn's step, load, pv                             pvmin pvmax         cv
 //  Pidc      commissioning PID: limits, conditional integration, tracking of the   Kp ki ad bd         I D' y' primed
 //            applied output fb, filtered derivative, set-point weights b, c        b c lo hi           (u' = own output)
+// Control flow (the textual languages' variables, branches and loops; docs/st.md,
+// "Loops"). A branch is alone in its run and names a *run* index in `out`:
+//  Var       a variable's home slot: holds until a Set writes it; v in the first   v                   primed
+//            cycle (its output is its state, as Intg's)
+//  Set       V[out] <- in0; `out` is a Var's slot (Set has no slot of its own)     -                   -
+//  Jmp       continue at run `out`, forward                                        -                   -
+//  Jz Jnz    continue at run `out`, forward, when in0 == 0 / in0 != 0              -                   -
+//  Loop      continue at run `out` <= its own (a backward edge): one iteration of  -                   -
+//            the task's per-cycle budget; past it the cycle ends and the task
+//            faults (ExecContext::loop_fault)
 #pragma once
 
 #include <cstdint>
@@ -66,7 +76,8 @@ namespace rtplc {
   X(Mod) X(Trunc) X(Round) X(Neg) X(Expt) X(Ln) X(Log) X(Exp) X(Wrap)                       \
   X(Band) X(Bor) X(Bxor) X(Bnot) X(Shl) X(Shr) X(Rol) X(Ror)                                \
   X(Rtrig) X(Ftrig) X(Sr) X(Rs) X(Ton) X(TonEt) X(Tof) X(TofEt) X(Tp) X(TpEt)               \
-  X(Ctu) X(Ctd) X(Updn) X(Ctud) X(Pidc)
+  X(Ctu) X(Ctd) X(Updn) X(Ctud) X(Pidc)                                                    \
+  X(Var) X(Set) X(Jmp) X(Jz) X(Jnz) X(Loop)
 
 enum class Op : uint8_t {
 #define RTPLC_OP_ENUM(name) name,
@@ -96,5 +107,11 @@ bool op_writes_value(Op op);   // false for the two stores
 bool op_is_load(Op op);
 bool op_is_store(Op op);
 bool op_output_digital(Op op);
+
+// Jmp, Jz, Jnz, Loop: instructions that choose the next run.
+bool op_is_branch(Op op);
+// The opcodes whose output is also their state (read back next cycle): the
+// integrator, filter, ramp, lead-lag, and a variable's home.
+bool op_output_is_state(Op op);
 
 }  // namespace rtplc

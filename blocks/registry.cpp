@@ -459,7 +459,48 @@ const std::vector<BlockSpec>& registry() {
   return r;
 }
 
+// The control-flow blocks the textual languages emit (ops.h, "Control flow").
+// Not FBD blocks: find_block() does not know them, so no diagram can name one.
+// A front end takes them from flow_block(); FlatBlock::target says which
+// variable a set writes or which block a branch goes to.
+std::vector<BlockSpec> build_flow_registry() {
+  using G = BlockGroup;
+  std::vector<BlockSpec> r;
+  auto no_output = [](BlockSpec b) {
+    b.has_output = false;
+    return b;
+  };
+  const ParamSpec init{"init", "initial value", 0.0, true, -kBig, kBig, false, false};
+  r.push_back(compute("var", G::kControl, A, {}, {init}, "its value", "an analog variable's home",
+                      "y = init in the first cycle, then what the last set wrote"));
+  r.push_back(compute("dvar", G::kControl, D, {}, {init}, "its value", "a digital variable's home",
+                      "y = init in the first cycle, then what the last dset wrote"));
+  r.push_back(no_output(compute("set", G::kControl, A, {{"value", A}}, {}, "", "assignment to a var",
+                                "the var named by the block's target takes value")));
+  r.push_back(no_output(compute("dset", G::kControl, D, {{"value", D}}, {}, "", "assignment to a dvar",
+                                "the dvar named by the block's target takes value")));
+  r.push_back(no_output(compute("jmp", G::kControl, D, {}, {}, "", "forward jump",
+                                "execution continues at the target block")));
+  r.push_back(no_output(compute("jz", G::kControl, D, {{"cond", D}}, {}, "", "forward jump if false",
+                                "execution continues at the target block when cond is 0")));
+  r.push_back(no_output(compute("jnz", G::kControl, D, {{"cond", D}}, {}, "", "forward jump if true",
+                                "execution continues at the target block when cond is 1")));
+  r.push_back(no_output(compute("loop", G::kControl, D, {}, {}, "", "backward jump",
+                                "execution continues at the target block, at or before this one; "
+                                "counted against the task's loop budget",
+                                "past the budget the cycle ends and the task stops into its safe outputs")));
+  return r;
+}
+
 }  // namespace
+
+const BlockSpec* flow_block(std::string_view name) {
+  static const std::vector<BlockSpec> r = build_flow_registry();
+  for (const BlockSpec& b : r) {
+    if (name == b.name) return &b;
+  }
+  return nullptr;
+}
 
 std::span<const BlockSpec> all_blocks() { return registry(); }
 
@@ -522,6 +563,8 @@ Op block_op(const BlockSpec& b, uint32_t n_inputs) {
       {"ton_et", Op::TonEt}, {"tof", Op::Tof}, {"tof_et", Op::TofEt}, {"tp", Op::Tp},
       {"tp_et", Op::TpEt}, {"ctu", Op::Ctu},  {"ctd", Op::Ctd},   {"updn", Op::Updn},
       {"ctud", Op::Ctud}, {"pidc", Op::Pidc},
+      {"var", Op::Var},   {"dvar", Op::Var},  {"set", Op::Set},   {"dset", Op::Set},
+      {"jmp", Op::Jmp},   {"jz", Op::Jz},     {"jnz", Op::Jnz},   {"loop", Op::Loop},
   };
   if (n == "and") return n_inputs == 3 ? Op::And3 : Op::And2;
   if (n == "or") return n_inputs == 3 ? Op::Or3 : Op::Or2;
@@ -604,7 +647,7 @@ void prepare_params(Op op, std::span<const double> p, double dt, double* out) {
     case Op::Ramp:
       out[0] = at(0) * dt;
       break;
-    case Op::ConstA: case Op::ConstD: case Op::Ctu: case Op::Ctd:
+    case Op::ConstA: case Op::ConstD: case Op::Ctu: case Op::Ctd: case Op::Var:
       out[0] = at(0);
       break;
     case Op::Ctud:

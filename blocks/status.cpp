@@ -24,6 +24,15 @@ StatusRule op_status_rule(Op op) {
     case Op::Or2:
     case Op::Or3:
       return StatusRule::kOr;
+    case Op::Var:
+      return StatusRule::kVar;
+    case Op::Set:
+      return StatusRule::kSet;
+    case Op::Jmp:
+    case Op::Jz:
+    case Op::Jnz:
+    case Op::Loop:
+      return StatusRule::kBranch;
     default:
       return StatusRule::kWorst;
   }
@@ -38,7 +47,14 @@ void StatusLane::resize_for(const TaskImage& image) {
   errors_seen.assign(h.n_instr, 0);
   rule.resize(h.n_instr);
   const std::span<const Instr> code = image.code();
-  for (size_t i = 0; i < code.size() && i < rule.size(); ++i) rule[i] = static_cast<uint8_t>(op_status_rule(code[i].op));
+  n_vars = 0;
+  has_flow = false;
+  for (size_t i = 0; i < code.size() && i < rule.size(); ++i) {
+    const StatusRule r = op_status_rule(code[i].op);
+    rule[i] = static_cast<uint8_t>(r);
+    n_vars += r == StatusRule::kVar;
+    has_flow = has_flow || r == StatusRule::kVar || r == StatusRule::kSet || r == StatusRule::kBranch;
+  }
   errors_at_pass = 0;
   settled = false;
   in_dirty = true;
@@ -57,54 +73,87 @@ bool propagate_status(const TaskImage& image, const TaskArena& arena, StatusLane
   // Error counters only move when their sum does: most passes skip them.
   const bool erred = arena.total_errors != lane.errors_at_pass;
   lane.in_dirty = false;
-  for (size_t i = 0; i < code.size(); ++i) {
-    const Instr& I = code[i];
-    uint8_t s = 0;
-    const auto rule = static_cast<StatusRule>(lane.rule[i]);
-    switch (rule) {
-      case StatusRule::kLoad:
-        s = lane.in[I.in[0]];
-        break;
-      case StatusRule::kStore:
-        lane.out[I.out] = st[I.in[0]];
-        any_output_not_good |= st[I.in[0]] != 0;
-        continue;
-      case StatusRule::kSource:
-        break;
-      case StatusRule::kSelect: {
-        const uint8_t sa = st[I.in[0]], sb = st[I.in[1]], ssel = st[I.in[2]];
-        uint8_t branch = std::max(sa, sb);
-        // The selector's value as the block read it: a delayed selector's slot
-        // already holds this cycle's value, so then both branches count.
-        if ((I.flags & kInstrDelayed2) == 0) branch = v[I.in[2]] != 0.0 ? sb : sa;
-        s = std::max(ssel, branch);
-        break;
+  const bool flow = lane.has_flow;
+  if (flow) {
+    for (size_t i = 0; i < code.size(); ++i) {
+      if (static_cast<StatusRule>(lane.rule[i]) == StatusRule::kVar) st[code[i].out] = 0;
+    }
+  }
+  const uint32_t max_rounds = flow ? 2 * lane.n_vars + 1 : 1;
+  for (uint32_t round = 0; round < max_rounds; ++round) {
+    bool var_worsened = false;
+    for (size_t i = 0; i < code.size(); ++i) {
+      const Instr& I = code[i];
+      uint8_t s = 0;
+      auto rule = static_cast<StatusRule>(lane.rule[i]);
+      if (flow && (rule == StatusRule::kSelect || rule == StatusRule::kAnd || rule == StatusRule::kOr)) {
+        rule = StatusRule::kWorst;
       }
-      case StatusRule::kAnd:
-      case StatusRule::kOr: {
-        // The value a good input must have to decide the result by itself.
-        const bool decisive = rule == StatusRule::kOr;
-        bool decided = false;
-        for (uint32_t k = 0; k < I.n_in && k < 3; ++k) {
-          s = std::max(s, st[I.in[k]]);
-          // (a delayed input read last cycle's value, which its slot no longer holds)
-          const bool delayed = (I.flags & (kInstrDelayed0 << k)) != 0;
-          decided |= !delayed && st[I.in[k]] == 0 && (v[I.in[k]] != 0.0) == decisive;
+      switch (rule) {
+        case StatusRule::kLoad:
+          s = lane.in[I.in[0]];
+          break;
+        case StatusRule::kStore:
+          lane.out[I.out] = st[I.in[0]];
+          any_output_not_good |= st[I.in[0]] != 0;
+          continue;
+        case StatusRule::kSource:
+          break;
+        case StatusRule::kSelect: {
+          const uint8_t sa = st[I.in[0]], sb = st[I.in[1]], ssel = st[I.in[2]];
+          uint8_t branch = std::max(sa, sb);
+          // The selector's value as the block read it: a delayed selector's slot
+          // already holds this cycle's value, so then both branches count.
+          if ((I.flags & kInstrDelayed2) == 0) branch = v[I.in[2]] != 0.0 ? sb : sa;
+          s = std::max(ssel, branch);
+          break;
         }
-        if (decided) s = 0;
-        break;
+        case StatusRule::kAnd:
+        case StatusRule::kOr: {
+          // The value a good input must have to decide the result by itself.
+          const bool decisive = rule == StatusRule::kOr;
+          bool decided = false;
+          for (uint32_t k = 0; k < I.n_in && k < 3; ++k) {
+            s = std::max(s, st[I.in[k]]);
+            // (a delayed input read last cycle's value, which its slot no longer holds)
+            const bool delayed = (I.flags & (kInstrDelayed0 << k)) != 0;
+            decided |= !delayed && st[I.in[k]] == 0 && (v[I.in[k]] != 0.0) == decisive;
+          }
+          if (decided) s = 0;
+          break;
+        }
+        case StatusRule::kWorst:
+          for (uint32_t k = 0; k < I.n_in && k < 3; ++k) s = std::max(s, st[I.in[k]]);
+          break;
+        case StatusRule::kVar:
+          // Its status is what the Sets wrote into it (reset above); the
+          // initial value itself is a constant.
+          if (erred && arena.errors[i] != lane.errors_seen[i]) lane.errors_seen[i] = arena.errors[i];
+          worst_value = std::max(worst_value, st[I.out]);
+          continue;
+        case StatusRule::kSet:
+          if (st[I.in[0]] > st[I.out]) {
+            st[I.out] = st[I.in[0]];
+            var_worsened = true;
+          }
+          worst_value = std::max(worst_value, st[I.out]);
+          continue;
+        case StatusRule::kBranch:
+          if (erred && arena.errors[i] != lane.errors_seen[i]) lane.errors_seen[i] = arena.errors[i];
+          continue;
       }
-      case StatusRule::kWorst:
-        for (uint32_t k = 0; k < I.n_in && k < 3; ++k) s = std::max(s, st[I.in[k]]);
-        break;
+      // A block that erred this cycle held its last value: usable, not current.
+      if (erred && arena.errors[i] != lane.errors_seen[i]) {
+        lane.errors_seen[i] = arena.errors[i];
+        s = std::max(s, static_cast<uint8_t>(Lane::kUncertain));
+      }
+      // A later round never makes a value better than an earlier one found it
+      // (the error mark above is seen in the first round only).
+      if (round > 0) s = std::max(s, st[I.out]);
+      st[I.out] = s;
+      worst_value = std::max(worst_value, s);
     }
-    // A block that erred this cycle held its last value: usable, not current.
-    if (erred && arena.errors[i] != lane.errors_seen[i]) {
-      lane.errors_seen[i] = arena.errors[i];
-      s = std::max(s, static_cast<uint8_t>(Lane::kUncertain));
-    }
-    st[I.out] = s;
-    worst_value = std::max(worst_value, s);
+    if (!var_worsened) break;
   }
   lane.errors_at_pass = arena.total_errors;
   lane.settled = worst_value == 0 && !any_output_not_good;

@@ -59,7 +59,15 @@ inline Quality quality_of(Lane s) {
   return s == Lane::kGood ? Quality::kGood : s == Lane::kUncertain ? Quality::kStale : Quality::kBad;
 }
 
-enum class StatusRule : uint8_t { kWorst, kSelect, kSource, kLoad, kStore, kAnd, kOr };
+// Programs with control flow (Var, Set, branches; docs/st.md "Loops"): one
+// pass in schedule order cannot know which branch ran or what a loop's last
+// iteration read, so the pass treats every Set as possibly run: a variable's
+// status is the worst of everything any Set may write into it (and good for
+// its initial value), found by repeating the pass until no variable gets
+// worse (each can only worsen twice, so at most 2 * variables + 1 passes), and
+// select / and / or fall back to `worst`, the values in their slots being the
+// last iteration's, not necessarily what decided the result.
+enum class StatusRule : uint8_t { kWorst, kSelect, kSource, kLoad, kStore, kAnd, kOr, kVar, kSet, kBranch };
 StatusRule op_status_rule(Op op);
 
 // The statuses of one task's values, beside its TaskArena.
@@ -85,6 +93,8 @@ struct StatusLane {
   std::vector<uint64_t> errors_seen;  // per instruction: its error count at the last pass
   std::vector<uint8_t> rule;  // per instruction: its StatusRule, looked up once
   uint64_t errors_at_pass = 0;
+  uint32_t n_vars = 0;    // Var instructions: the image has control flow when any Var, Set or branch
+  bool has_flow = false;
   bool settled = false;   // the last pass found every value good
   bool in_dirty = true;   // an input status that is not good was written since the last pass
 };

@@ -34,6 +34,8 @@ inline constexpr double kMinPeriod = 10e-6;
 inline constexpr double kMaxPeriod = 3600;
 inline constexpr uint32_t kDefaultStopWatchdog = 3;
 inline constexpr uint32_t kMaxWatchdog = 1000000;
+inline constexpr uint64_t kMaxLoopBudget = 1'000'000'000;
+inline constexpr uint64_t kDefaultLoopBudget = 100'000;  // blocks/executor.h's, checked in sched/runtime.cpp
 inline constexpr unsigned kMaxCpu = 1023;  // CPU_SETSIZE - 1
 inline constexpr double kDefaultRetainEvery = 1.0;  // seconds between state-file writes
 inline constexpr double kMinRetainEvery = 0.01;
@@ -91,6 +93,10 @@ struct TaskConfig {
   SourcePos overrun_pos;
   uint32_t watchdog = 0;  // consecutive overruns before the stop; 0 = never
   SourcePos watchdog_pos;
+  // Backward branches (loop iterations) one cycle may take; past it the task
+  // stops into its safe outputs (docs/st.md, "Loops").
+  uint64_t loop_budget = kDefaultLoopBudget;
+  SourcePos loop_budget_pos;
   std::vector<SafeOutput> safe_outputs;
   std::vector<OnBadPolicy> on_bad;  // outputs not listed: hold
   // Retained block state (docs/runtime.md, "Retained block state"): every

@@ -370,6 +370,10 @@ void parse_task(YamlReader& r, const YAML::Node& node, SourcePos list_pos, Runti
       }
     }
   }
+  if (const Field* x = f.get("loop_budget")) {
+    t.loop_budget_pos = x->pos;
+    if (auto v = r.integer(*x)) t.loop_budget = static_cast<uint64_t>(*v);
+  }
   t.retain_pos = t.pos;
   if (const Field* x = f.get("retain")) parse_retain(r, *x, t);
   if (const Field* x = f.get("on_bad")) parse_on_bad(r, *x, t);

@@ -89,6 +89,11 @@ const KeySpec kTaskKeys[] = {
     {"watchdog", ValueType::kInteger, false, 0, kMaxWatchdog, nullptr, "0 with skip, 3 with stop",
      "Consecutive overruns after which the task is stopped and its outputs take their safe "
      "values; 0 never stops it."},
+    {"loop_budget", ValueType::kInteger, false, 1, kMaxLoopBudget, nullptr, "100000",
+     "Loop iterations (backward jumps of WHILE, REPEAT, FOR, JMP) the program may take in one "
+     "cycle. A cycle past it is a runaway loop: the cycle ends where it is, the task stops "
+     "and its outputs take their safe values, as the watchdog does, and the log names the "
+     "loop's file:line."},
     {"safe_outputs", ValueType::kLabelMap, false, kNoMin, kNoMax, nullptr, "every output 0",
      "`LABEL: value` for the outputs of a stopped task; outputs not listed go to 0."},
     {"on_bad", ValueType::kLabelMap, false, kNoMin, kNoMax, nullptr, "every output hold",

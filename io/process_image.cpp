@@ -78,6 +78,7 @@ const char* task_state_name(TaskState s) {
     case TaskState::kRunning: return "running";
     case TaskState::kStoppedWatchdog: return "STOPPED (watchdog)";
     case TaskState::kStopped: return "stopped";
+    case TaskState::kStoppedLoop: return "STOPPED (runaway loop)";
   }
   return "?";
 }

@@ -330,7 +330,18 @@ struct alignas(64) LinkStatus {
   link::SnapshotSlot<LinkError> last_error;
 };
 
-enum class TaskState : uint8_t { kStarting = 0, kRunning = 1, kStoppedWatchdog = 2, kStopped = 3 };
+// kStoppedWatchdog and kStoppedLoop: stopped by a fault, outputs at their safe
+// values, the code not run until a swap restarts the task.
+enum class TaskState : uint8_t {
+  kStarting = 0,
+  kRunning = 1,
+  kStoppedWatchdog = 2,
+  kStopped = 3,
+  kStoppedLoop = 4,  // a loop ran past the task's loop budget in one cycle
+};
+inline bool stopped_by_fault(TaskState s) {
+  return s == TaskState::kStoppedWatchdog || s == TaskState::kStoppedLoop;
+}
 const char* task_state_name(TaskState s);
 
 // Atomic access to the plain arrays of a snapshot (see the protocol).

@@ -29,27 +29,16 @@
 namespace rtplc::lang {
 namespace {
 
-std::vector<uint32_t> schedule(const CheckedProgram& prog, bool batch) {
-  const auto n = static_cast<uint32_t>(prog.blocks.size());
-  std::vector<uint32_t> order;
-  order.reserve(n);
-  if (!batch) {
-    for (uint32_t i = 0; i < n; ++i) order.push_back(i);
-    return order;
-  }
-  // Edges in CSR form.
+// Blocks [first, end) of one region in list-schedule order, appended to `order`.
+// `edges` (from, to) are the region's ordering constraints.
+void list_schedule(const CheckedProgram& prog, uint32_t first, uint32_t end,
+                   std::vector<std::pair<uint32_t, uint32_t>>& edges, std::vector<uint32_t>& order) {
+  const uint32_t n = end - first;
+  // Edges in CSR form, over local indices.
   std::vector<uint32_t> indeg(n, 0), count(n + 1, 0);
-  std::vector<std::pair<uint32_t, uint32_t>> edges;
-  edges.reserve(size_t{n} * 2);
-  for (uint32_t i = 0; i < n; ++i) {
-    const FlatBlock& b = prog.blocks[i];
-    for (uint32_t k = 0; k < b.n_in; ++k) {
-      const uint32_t j = b.in[k];
-      if (j < i) edges.emplace_back(j, i);
-      else if (j > i) edges.emplace_back(i, j);
-    }
-  }
   for (auto& e : edges) {
+    e.first -= first;
+    e.second -= first;
     ++count[e.first + 1];
     ++indeg[e.second];
   }
@@ -59,9 +48,10 @@ std::vector<uint32_t> schedule(const CheckedProgram& prog, bool batch) {
     std::vector<uint32_t> fill(count.begin(), count.end() - 1);
     for (auto& e : edges) succ[fill[e.first]++] = e.second;
   }
+  auto op_of = [&](uint32_t local) { return static_cast<uint8_t>(prog.blocks[first + local].op); };
   std::vector<std::vector<uint32_t>> ready(kOpCount);
   for (uint32_t i = 0; i < n; ++i) {
-    if (indeg[i] == 0) ready[static_cast<uint8_t>(prog.blocks[i].op)].push_back(i);
+    if (indeg[i] == 0) ready[op_of(i)].push_back(i);
   }
   for (;;) {
     // The opcode with most ready blocks; ties go to the earliest in the text.
@@ -85,14 +75,84 @@ std::vector<uint32_t> schedule(const CheckedProgram& prog, bool batch) {
     batch_now.swap(ready[static_cast<size_t>(best)]);
     std::sort(batch_now.begin(), batch_now.end());
     for (uint32_t i : batch_now) {
-      order.push_back(i);
+      order.push_back(first + i);
       for (uint32_t e = count[i]; e < count[i + 1]; ++e) {
         const uint32_t s = succ[e];
-        if (--indeg[s] == 0) ready[static_cast<uint8_t>(prog.blocks[s].op)].push_back(s);
+        if (--indeg[s] == 0) ready[op_of(s)].push_back(s);
       }
     }
   }
-  return order;  // textual order is a topological order, so every block is placed
+  // textual order is a topological order of these edges, so every block is placed
+}
+
+struct Schedule {
+  std::vector<uint32_t> order;      // schedule position -> block index
+  std::vector<uint8_t> run_starts;  // per position: a run must start here (a region's first)
+};
+
+// Control flow cuts the program into regions: straight-line stretches that
+// execution enters only at their first block and leaves only after their last
+// (a branch is a region of its own; a branch target starts one). Regions keep
+// their textual order, so every data dependence between two of them holds;
+// inside a region blocks are list-scheduled, and a set of a variable stays
+// after the blocks before it that read the variable and before those after it.
+// Without control flow the whole program is one region.
+Schedule schedule(const CheckedProgram& prog, bool batch) {
+  const auto n = static_cast<uint32_t>(prog.blocks.size());
+  Schedule out;
+  out.order.reserve(n);
+  out.run_starts.assign(n, 0);
+  std::vector<uint8_t> leader(n + 1, 0);
+  leader[0] = 1;
+  for (uint32_t i = 0; i < n; ++i) {
+    const FlatBlock& b = prog.blocks[i];
+    if (!op_is_branch(b.op)) continue;
+    leader[i] = 1;
+    leader[i + 1] = 1;
+    if (b.target < n) leader[b.target] = 1;
+  }
+  std::vector<std::pair<uint32_t, uint32_t>> edges;
+  for (uint32_t first = 0; first < n;) {
+    uint32_t end = first + 1;
+    while (end < n && !leader[end]) ++end;
+    out.run_starts[out.order.size()] = 1;
+    if (!batch || end - first == 1) {
+      for (uint32_t i = first; i < end; ++i) out.order.push_back(i);
+      first = end;
+      continue;
+    }
+    edges.clear();
+    std::map<uint32_t, std::vector<uint32_t>> sets;  // var block -> its sets here, in order
+    for (uint32_t i = first; i < end; ++i) {
+      const FlatBlock& b = prog.blocks[i];
+      for (uint32_t k = 0; k < b.n_in; ++k) {
+        const uint32_t j = b.in[k];
+        if (j < first || j >= end || j == i) continue;
+        if (j < i) edges.emplace_back(j, i);
+        else edges.emplace_back(i, j);
+      }
+      if (b.op == Op::Set) sets[b.target].push_back(i);
+    }
+    if (!sets.empty()) {
+      for (uint32_t i = first; i < end; ++i) {
+        const FlatBlock& b = prog.blocks[i];
+        for (uint32_t k = 0; k < b.n_in; ++k) {
+          auto it = sets.find(b.in[k]);
+          if (it == sets.end()) continue;
+          for (uint32_t s : it->second) {
+            if (s < i) edges.emplace_back(s, i);
+            else if (s > i) edges.emplace_back(i, s);
+          }
+        }
+      }
+      for (const auto& [var, list] : sets) {
+        for (size_t k = 1; k < list.size(); ++k) edges.emplace_back(list[k - 1], list[k]);
+      }
+    }
+    list_schedule(prog, first, end, edges, out.order);
+    first = end;
+  }
+  return out;
 }
 
 std::string channel_id(const FlatBlock& b) {
@@ -148,7 +208,8 @@ Result<TaskImage> build_image(const CheckedProgram& prog, const CompileOptions& 
   const double dt = opt.period_override.value_or(prog.period);
   if (!(dt >= 1e-5 && dt <= 3600)) return make_error("task period out of range");
   const auto n = static_cast<uint32_t>(prog.blocks.size());
-  const std::vector<uint32_t> order = schedule(prog, opt.batch);
+  const Schedule plan = schedule(prog, opt.batch);
+  const std::vector<uint32_t>& order = plan.order;
   std::vector<uint32_t> sched_of(n);
   for (uint32_t s = 0; s < n; ++s) sched_of[order[s]] = s;
 
@@ -217,6 +278,12 @@ Result<TaskImage> build_image(const CheckedProgram& prog, const CompileOptions& 
     if (op_is_load(b.op)) {
       in.in[0] = io_index[i];
       in.out = slot[i];
+    } else if (b.op == Op::Set || op_is_branch(b.op)) {
+      for (uint32_t k = 0; k < b.n_in; ++k) {
+        in.in[k] = slot[b.in[k]];
+        if (b.delayed[k]) in.flags = static_cast<uint16_t>(in.flags | (kInstrDelayed0 << k));
+      }
+      in.out = b.op == Op::Set ? slot[b.target] : 0;  // a branch's run index: set below
     } else {
       for (uint32_t k = 0; k < b.n_in; ++k) {
         in.in[k] = slot[b.in[k]];
@@ -245,7 +312,7 @@ Result<TaskImage> build_image(const CheckedProgram& prog, const CompileOptions& 
     ib.raw_params.insert(ib.raw_params.end(), b.params.begin(), b.params.end());
     ib.blocks.push_back(bi);
 
-    if (ib.runs.empty() || ib.runs.back().op != b.op) {
+    if (ib.runs.empty() || ib.runs.back().op != b.op || plan.run_starts[s] != 0) {
       Run run{};
       run.op = b.op;
       run.begin = s;
@@ -255,7 +322,31 @@ Result<TaskImage> build_image(const CheckedProgram& prog, const CompileOptions& 
       ib.runs.back().end = s + 1;
     }
   }
-  for (Run& run : ib.runs) mark_affine(run, ib);
+  for (Run& run : ib.runs) {
+    if (!op_is_branch(run.op) && run.op != Op::Set && run.op != Op::Var) mark_affine(run, ib);
+  }
+  // Branch targets: the run a target block's region starts (its first block is
+  // the region's first in schedule order too: a region's runs begin there).
+  {
+    std::vector<uint32_t> run_of_pos(n, 0);
+    for (uint32_t r = 0; r < ib.runs.size(); ++r) {
+      for (uint32_t s = ib.runs[r].begin; s < ib.runs[r].end; ++s) run_of_pos[s] = r;
+    }
+    // The region of block t starts at the smallest schedule position of its
+    // blocks; regions are contiguous in schedule order and start at leaders.
+    std::vector<uint32_t> region_start(n, 0);
+    uint32_t current = 0;
+    for (uint32_t s = 0; s < n; ++s) {
+      if (plan.run_starts[s]) current = s;
+      region_start[order[s]] = current;
+    }
+    for (uint32_t s = 0; s < n; ++s) {
+      const FlatBlock& b = prog.blocks[order[s]];
+      if (!op_is_branch(b.op)) continue;
+      ib.code[s].out = b.target >= n ? static_cast<uint32_t>(ib.runs.size())
+                                     : run_of_pos[region_start[b.target]];
+    }
+  }
 
   for (uint32_t i = 0; i < n; ++i) {
     const FlatBlock& b = prog.blocks[i];

@@ -28,6 +28,11 @@ struct FlatBlock {
   bool delayed[3] = {false, false, false};  // reads last cycle's value
   SourcePos in_pos[3];
   std::vector<double> params;  // literal parameters, defaults filled in
+  // Control-flow blocks (registry.h, flow_block): for set/dset the var or dvar
+  // block it writes; for jmp/jz/jnz/loop the block execution continues at
+  // (blocks.size() = the end of the cycle). Forward for jmp/jz/jnz, at or
+  // before the branch for loop.
+  uint32_t target = 0;
   // I/O blocks
   uint16_t p = 0, d = 0;
   uint32_t c = 0;

@@ -202,6 +202,7 @@ void check_flat_program(CheckedProgram& p, DiagnosticList& diags) {
   // a list that failed the block checks.
   if (diags.error_count() == errors_before) {
     mark_delayed_inputs(p);
+    check_flow(p, diags);
     check_io_channels(p, diags);
     check_quality_inputs(p, diags);
     warn_unused_results(p, diags);
@@ -219,6 +220,29 @@ void check_quality_inputs(const CheckedProgram& p, DiagnosticList& diags) {
                         src.name + " is " + src.written +
                         (src.spec->signature == Signature::kSetpoint ? ", a set-point, which is always good"
                                                                      : ", which reads no channel"));
+  }
+}
+
+void check_flow(const CheckedProgram& p, DiagnosticList& diags) {
+  const auto n = static_cast<uint32_t>(p.blocks.size());
+  for (uint32_t i = 0; i < n; ++i) {
+    const FlatBlock& b = p.blocks[i];
+    if (b.spec == nullptr || b.spec->signature != Signature::kCompute) continue;
+    const Op op = b.op;
+    if (op == Op::Set) {
+      const FlatBlock* v = b.target < n ? &p.blocks[b.target] : nullptr;
+      if (v == nullptr || v->op != Op::Var || v->spec == nullptr || v->spec->out_kind != b.spec->input_kind[0]) {
+        diags.error(b.pos, std::string(b.spec->name) + " " + b.name + " must write a " +
+                               (b.spec->input_kind[0] == Kind::kDigital ? "dvar" : "var") + " block");
+      }
+    } else if (op_is_branch(op)) {
+      const bool ok = op == Op::Loop ? b.target <= i : b.target > i && b.target <= n;
+      if (!ok) {
+        diags.error(b.pos, std::string(b.spec->name) + " " + b.name + " jumps to block #" +
+                               std::to_string(b.target) + ", outside " +
+                               (op == Op::Loop ? "the blocks before it" : "the blocks after it"));
+      }
+    }
   }
 }
 
@@ -275,7 +299,7 @@ void warn_unused_results(const CheckedProgram& p, DiagnosticList& diags) {
   }
   for (uint32_t i = 0; i < p.blocks.size(); ++i) {
     const FlatBlock& b = p.blocks[i];
-    if (b.call_line != 0 || b.spec->signature != Signature::kCompute) continue;
+    if (b.call_line != 0 || b.spec->signature != Signature::kCompute || !b.spec->has_output) continue;
     if (read.count(i) == 0) {
       diags.warning(b.pos, b.name + " (" + b.written + ") is computed but never used");
     }

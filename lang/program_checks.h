@@ -46,6 +46,10 @@ void check_flat_program(CheckedProgram& p, DiagnosticList& diags);
 // delayed[k] = the input reads a block at or after its reader: last cycle's value.
 void mark_delayed_inputs(CheckedProgram& p);
 
+// Control-flow blocks: a set writes a var of its kind, a jmp/jz/jnz jumps
+// forward, a loop backward (FlatBlock::target).
+void check_flow(const CheckedProgram& p, DiagnosticList& diags);
+
 // One writer per output channel; one definition per set-point; a label names one
 // channel (it is how `rtplc set` and the CSV header find it).
 void check_io_channels(const CheckedProgram& p, DiagnosticList& diags);

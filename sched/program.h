@@ -138,6 +138,10 @@ struct BlockErrorReport {
   uint32_t col = 0;
   char name[48] = {};   // "F10.M4", "instance0.t1"
   char block[16] = {};  // the block as written: "div", "epi"
+  // A runaway loop (the `loop` block ran past the task's budget; count is
+  // the budget): the task stopped into its safe outputs.
+  bool runaway_loop = false;
+  uint64_t budget = 0;
 };
 
 // Copies one input group's values from its region into `io_in`, and each

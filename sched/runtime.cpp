@@ -24,6 +24,9 @@
 #include "lang/compiler.h"
 #include "sched/stats_source.h"
 
+static_assert(rtplc::config::kDefaultLoopBudget == rtplc::kDefaultLoopBudget,
+              "the config's default loop budget is the executor's");
+
 namespace rtplc::sched {
 namespace {
 
@@ -388,6 +391,7 @@ bool Runtime::build(const config::RuntimeConfig& cfg, LoadReport& report) {
     p.cpu = cfg.tasks[t].cpu ? static_cast<int>(*cfg.tasks[t].cpu) : -1;
     p.overrun = cfg.tasks[t].overrun;
     p.watchdog = cfg.tasks[t].watchdog;
+    p.loop_budget = cfg.tasks[t].loop_budget;
     p.count_faults = options_.count_faults;
     p.back_to_back = options_.back_to_back;
     // Four snapshots per state-file write: the file is at most 1.25 retain_every old.
@@ -873,6 +877,19 @@ void Runtime::report_block_errors(const std::function<void(bool, const std::stri
     while (t->pop_block_error(r)) {
       const LoadedProgram& now = t->active();
       const bool same = now.image.header().source_hash == r.source_hash;
+      if (r.runaway_loop) {
+        const std::string where = std::string(r.name) + " at " +
+                                  (same ? now.file : std::string("an earlier program")) + ":" +
+                                  std::to_string(r.line) + ":" + std::to_string(r.col);
+        log(true, "RUNAWAY LOOP: task " + t->params().name + " STOPPED: the loop " + where +
+                      " took more than its loop_budget of " + std::to_string(r.budget) +
+                      " iterations in one cycle; the cycle was cut short and its outputs are at their safe "
+                      "values. Swap in fixed code (rtplc swap " + t->params().name +
+                      " FILE) to restart it, or raise loop_budget in the task's config.");
+        last_block_error_[t->index()] = where + ", " + format_utc(kernel_rt::realtime_now_ns()) +
+                                        ": runaway loop, task stopped";
+        continue;
+      }
       const BlockSpec* spec = find_block(r.block);
       const std::string why = spec != nullptr && spec->errors[0] != '\0' ? spec->errors : "see docs/blocks.md";
       const std::string where = std::string(r.name) + " (" + r.block + ") at " +

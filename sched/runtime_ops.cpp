@@ -206,7 +206,7 @@ Result<std::string> Runtime::force(const std::string& label, double value, uint3
                                                           std::memory_order_relaxed))
                                                     : io::TaskState::kRunning;
   if (rd.kind == static_cast<uint8_t>(io::RegionKind::kTask) &&
-      (task_state == io::TaskState::kStoppedWatchdog || task_state == io::TaskState::kStopped)) {
+      (io::stopped_by_fault(task_state) || task_state == io::TaskState::kStopped)) {
     note = "\nnote: task " + tasks_[rd.owner]->params().name +
            " is not running: its outputs stay at their safe values, the force applies once it runs again";
   }

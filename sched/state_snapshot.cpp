@@ -153,7 +153,7 @@ std::vector<RetainedBlock> retained_blocks(const TaskImage& image, bool all,
     }
   }
   auto output_is_state = [&](const Instr& in) {
-    return in.op == Op::Intg || in.op == Op::Filt || in.op == Op::Ramp || in.op == Op::Ldlg ||
+    return op_output_is_state(in.op) ||
            (in.out < read_next_cycle.size() && read_next_cycle[in.out]);
   };
   // Textual order, so the state file reads like the program.

@@ -129,20 +129,27 @@ void Task::write_outputs(LoadedProgram& p, bool safe) noexcept {
   const uint32_t k = image_.begin_write(region_);
   double* slot = image_.values(region_, k);
   ExecContext ctx = make_context(p.image, p.arena);
-  if (safe) {
-    for (size_t i = 0; i < p.output_slots.size(); ++i) {
-      io::store_value(slot + p.output_slots[i], p.safe_values[i]);
-    }
-  } else if (p.outputs_in_place) {
+  if (!safe && p.outputs_in_place) {
     // The executor writes the outputs straight into the snapshot being built
     // (atomic release stores, see blocks/executor_body.inc and io/process_image.h).
     ctx.io_out = slot;
     execute_cycle(ctx);
-  } else {
+  } else if (!safe) {
     execute_cycle(ctx);
-    const double* out = p.arena.io_out.data();
+    if (p.arena.loop_fault == 0) {
+      const double* out = p.arena.io_out.data();
+      for (size_t i = 0; i < p.output_slots.size(); ++i) {
+        io::store_value(slot + p.output_slots[i], out[i]);
+      }
+    }
+  }
+  // A runaway loop cut the cycle short: what it stored is partial and is never
+  // published; the safe values take its place in this very snapshot, and
+  // run() stops the task.
+  if (!safe && p.arena.loop_fault != 0) safe = true;
+  if (safe) {
     for (size_t i = 0; i < p.output_slots.size(); ++i) {
-      io::store_value(slot + p.output_slots[i], out[i]);
+      io::store_value(slot + p.output_slots[i], p.safe_values[i]);
     }
   }
   for (const LoadedProgram::Dropped& d : p.dropped) io::store_value(slot + d.index, d.safe_value);
@@ -171,6 +178,24 @@ void Task::write_outputs(LoadedProgram& p, bool safe) noexcept {
   image_.end_write(region_, k, kernel_rt::monotonic_now_ns(), p.arena.cycles);
 }
 
+namespace {
+
+// The report of instruction i's errors so far, named and positioned.
+BlockErrorReport block_report(const LoadedProgram& p, uint32_t i, int64_t now_ns) noexcept {
+  BlockErrorReport r;
+  r.count = p.arena.errors[i];
+  r.source_hash = p.image.header().source_hash;
+  r.when_ns = now_ns;
+  const BlockInfo& b = p.image.blocks()[i];
+  r.line = b.line;
+  r.col = b.col;
+  std::strncpy(r.name, p.image.str(b.name), sizeof r.name - 1);
+  std::strncpy(r.block, p.image.str(b.block), sizeof r.block - 1);
+  return r;
+}
+
+}  // namespace
+
 void Task::report_block_errors(LoadedProgram& p, int64_t now_ns) noexcept {
   const auto n = static_cast<uint32_t>(p.errors_reported.size());
   if (n == 0 || p.arena.errors.size() < n) return;
@@ -178,16 +203,8 @@ void Task::report_block_errors(LoadedProgram& p, int64_t now_ns) noexcept {
     const uint32_t i = (p.next_error_scan + k) % n;
     const uint64_t now = p.arena.errors[i];
     if (now <= p.errors_reported[i]) continue;
-    BlockErrorReport r;
-    r.count = now;
+    BlockErrorReport r = block_report(p, i, now_ns);
     r.new_errors = now - p.errors_reported[i];
-    r.source_hash = p.image.header().source_hash;
-    r.when_ns = now_ns;
-    const BlockInfo& b = p.image.blocks()[i];
-    r.line = b.line;
-    r.col = b.col;
-    std::strncpy(r.name, p.image.str(b.name), sizeof r.name - 1);
-    std::strncpy(r.block, p.image.str(b.block), sizeof r.block - 1);
     // Counted as reported even when the queue is full: the image's count says
     // how many there were, and the next report is a second away.
     (void)block_errors_.push(r);
@@ -200,6 +217,21 @@ void Task::report_block_errors(LoadedProgram& p, int64_t now_ns) noexcept {
   }
   // Counters that were reset (a program's own arena reset): start again from them.
   p.errors_reported_total = p.arena.total_errors;
+}
+
+void Task::report_runaway_loop(LoadedProgram& p, int64_t now_ns) noexcept {
+  const uint32_t i = p.arena.loop_fault - 1;
+  if (i >= p.image.blocks().size()) return;
+  BlockErrorReport r = block_report(p, i, now_ns);
+  r.runaway_loop = true;
+  r.budget = p.arena.loop_budget;
+  r.new_errors = 1;
+  // The usual report of this error count is this one.
+  if (i < p.errors_reported.size()) {
+    p.errors_reported_total += p.arena.errors[i] - p.errors_reported[i];
+    p.errors_reported[i] = p.arena.errors[i];
+  }
+  (void)block_errors_.push(r);
 }
 
 void Task::resolve_trace(const LoadedProgram& p) noexcept {
@@ -242,6 +274,7 @@ void Task::run() noexcept {
   uint64_t cycle = 0;
   uint32_t until_snapshot = 1;  // the first cycle takes one, so a restart soon after has it
   uint32_t until_watch = 1;
+  current_->arena.loop_budget = params_.loop_budget;
   info_->state.store(static_cast<uint8_t>(io::TaskState::kRunning), std::memory_order_relaxed);
   while (!stop_.load(std::memory_order_relaxed)) {
     if (params_.back_to_back) {
@@ -257,6 +290,7 @@ void Task::run() noexcept {
     bool swapped = false;
     if (LoadedProgram* next = pending_.load(std::memory_order_acquire)) {
       swapped = true;
+      next->arena.loop_budget = params_.loop_budget;
       if (next->migration.active) apply_migration(next->migration, current_->arena, next->arena);
       for (InputGroup& g : next->inputs) g.seen = 0;  // refresh every input now
       until_snapshot = 1;  // the new program's layout: snapshot it in this cycle
@@ -278,6 +312,11 @@ void Task::run() noexcept {
     if (!stopped) {
       read_inputs(*current_, wake);
       write_outputs(*current_, false);
+      if (current_->arena.loop_fault != 0) {
+        stopped = true;
+        report_runaway_loop(*current_, wake);
+        info_->state.store(static_cast<uint8_t>(io::TaskState::kStoppedLoop), std::memory_order_relaxed);
+      }
       info_->block_errors.store(current_->arena.total_errors, std::memory_order_relaxed);
       if (current_->arena.total_errors != current_->errors_reported_total && wake >= next_error_report_ns_) {
         report_block_errors(*current_, wake);

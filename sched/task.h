@@ -53,6 +53,7 @@ struct TaskParams {
   int cpu = -1;      // -1 = any
   OverrunPolicy overrun = OverrunPolicy::kSkip;
   uint32_t watchdog = 0;  // consecutive overruns before stopping; 0 = never
+  uint64_t loop_budget = kDefaultLoopBudget;  // backward branches per cycle before the task stops
   bool count_faults = false;  // measure minor faults per cycle (test mode: one syscall per cycle)
   // Benchmarks only: run cycles back to back instead of sleeping to each
   // release, so the runtime's own cost per cycle can be measured with warm caches.
@@ -121,6 +122,8 @@ class Task {
   // Queues one block whose error count grew since it was last reported; bounded
   // work (one pass over the program's counters), no allocation.
   void report_block_errors(LoadedProgram& p, int64_t now_ns) noexcept;
+  // Queues the report of the runaway loop that ended this cycle (arena.loop_fault).
+  void report_runaway_loop(LoadedProgram& p, int64_t now_ns) noexcept;
 
   TaskParams params_;
   io::ProcessImage& image_;

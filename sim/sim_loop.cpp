@@ -15,6 +15,7 @@
 
 #include "blocks/executor.h"
 #include "common/files.h"
+#include "common/text.h"
 #include "kernel_rt/clock.h"
 
 namespace rtplc::io {
@@ -205,6 +206,7 @@ Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const Sim
   const double diverge_limit = kDivergenceFactor * scale;
 
   plant.reset();
+  arena.loop_budget = opt.loop_budget;
   ExecContext ctx = make_context(image, arena);
   const auto cycles = static_cast<uint64_t>(std::floor(opt.duration / dt + 1e-9)) + 1;
   tr.rows.reserve(cycles);
@@ -231,6 +233,15 @@ Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const Sim
       arena.io_in[pv->io_index] = y;
     }
     execute_cycle(ctx);
+    if (arena.loop_fault != 0 && arena.loop_fault - 1 < image.blocks().size()) {
+      const BlockInfo& b = image.blocks()[arena.loop_fault - 1];
+      return make_error((opt.file.empty() ? std::string() : opt.file + ":") + std::to_string(b.line) + ":" +
+                        std::to_string(b.col) + ": runaway loop: " + image.str(b.name) + " took more than " +
+                        std::to_string(opt.loop_budget) + " iterations in cycle " + std::to_string(k + 1) +
+                        " (t = " + format_number(t) +
+                        " s); under `rtplc run` the task stops here and its outputs take their safe values "
+                        "(the task's loop_budget sets the limit)");
+    }
     const double u = mv ? arena.io_out[mv->io_index] : 0.0;
     std::vector<double> row;
     row.reserve(cols.size() + 1 + port_out.size());

@@ -10,6 +10,7 @@
 #include <utility>
 #include <vector>
 
+#include "blocks/executor.h"
 #include "blocks/image.h"
 #include "common/result.h"
 #include "io/drivers/sim/plant.h"
@@ -35,6 +36,8 @@ struct SimOptions {
   // Blocks whose output is traced as a column of its own name, after the
   // I/O columns (a PLCopen program's variables, "instance0.level").
   std::vector<std::string> probes;
+  std::string file;  // the program's source, for positioned errors (a runaway loop)
+  uint64_t loop_budget = kDefaultLoopBudget;
 };
 
 struct SimTrace {

@@ -1,0 +1,110 @@
+// A runaway loop under `rtplc run`'s runtime: the loop budget cuts the cycle
+// short, the task stops into its safe outputs (never publishing what the cut
+// cycle wrote), the log names the loop's file:line:col, the other task and
+// the runtime go on, and a swap restarts the task.
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+#include "lang/compiler.h"
+#include "lang/program_checks.h"
+#include "tests/support/eventually.h"
+#include "tests/support/flow_program.h"
+#include "tests/support/runtime_fixture.h"
+
+namespace rtplc::sched {
+namespace {
+
+using rtplc::testing::Builder;
+using rtplc::testing::eventually;
+using rtplc::testing::RuntimeFixture;
+
+// x := 0; REPEAT x := x + 1; UNTIL x >= 5 AND Spin = 0; Count := x.
+// Count is 5 while the set-point Spin is 0; Spin = 1 never ends the loop.
+std::string spin_image(uint32_t* loop_line) {
+  Builder b;
+  const uint32_t spin = b.setpoint(0, 0, "Spin");
+  const uint32_t x = b.var("x");
+  const uint32_t zero = b.k("zero", 0), one = b.k("one", 1), five = b.k("five", 5);
+  b.set(x, zero);
+  const uint32_t head = b.add("add", "x1", {x, one});
+  b.set(x, head);
+  const uint32_t more = b.add("lt", "more", {x, five});
+  const uint32_t spinning = b.add("gt", "spinning", {spin, zero});
+  const uint32_t again = b.add("or", "again", {more, spinning});
+  const uint32_t leave = b.branch("jz", {again}, 0);
+  const uint32_t back = b.branch("loop", {}, head);
+  *loop_line = back + 1;  // the builder's positions: block k at line k + 1
+  b.aim(leave, b.next());
+  b.out(x, 0, "Count");
+  DiagnosticList d;
+  lang::check_flat_program(b.p, d);
+  EXPECT_FALSE(d.has_errors());
+  lang::CompileOptions opt;
+  opt.period_override = 0.01;
+  Result<TaskImage> img = lang::build_image(b.p, opt, 0);
+  EXPECT_TRUE(img);
+  if (!img) return {};
+  const auto bytes = img->bytes();
+  return std::string(reinterpret_cast<const char*>(bytes.data()), bytes.size());
+}
+
+const char* kCalm = "%%\nF1 = asp(d0, c1, 2, \"Gain\")\nF2 = intg(F1, 1)\ndao(F2, p0, d0, c1, \"Calm\")\nEND\n";
+
+TEST(RunawayLoop, stops_its_task_into_the_safe_outputs_and_names_the_loop) {
+  RuntimeFixture fx;
+  uint32_t loop_line = 0;
+  const std::string bytes = spin_image(&loop_line);
+  const std::string img = fx.write("spin.img", bytes);
+  fx.write("calm.fbd", kCalm);
+  auto rt = fx.start(
+      "tasks:\n"
+      "  - {name: spin, program: spin.img, period: 10ms, loop_budget: 5000, safe_outputs: {Count: -3}}\n"
+      "  - {name: calm, program: calm.fbd, period: 10ms}\n"
+      "drivers:\n  - kind: sim\n");
+  ASSERT_NE(rt, nullptr);
+  ASSERT_TRUE(eventually([&] { return rtplc::testing::channel_value(*rt, "Count") == 5.0; }));
+  EXPECT_EQ(static_cast<io::TaskState>(rt->image().task_info(0).state.load()), io::TaskState::kRunning);
+
+  ASSERT_TRUE(rt->set_value("Spin", 1));
+  ASSERT_TRUE(eventually([&] {
+    return rt->image().task_info(0).state.load() == static_cast<uint8_t>(io::TaskState::kStoppedLoop);
+  }));
+  // The cut cycle's partial outputs were never published: the safe value is.
+  EXPECT_EQ(rtplc::testing::channel_value(*rt, "Count"), -3.0);
+
+  std::vector<std::string> log;
+  ASSERT_TRUE(eventually([&] {
+    rt->tick([&](bool, const std::string& l) { log.push_back(l); });
+    for (const std::string& l : log) {
+      if (l.find("RUNAWAY LOOP") != std::string::npos) return true;
+    }
+    return false;
+  }));
+  std::string said;
+  for (const std::string& l : log) {
+    if (l.find("RUNAWAY LOOP") != std::string::npos) said = l;
+  }
+  EXPECT_NE(said.find("task spin STOPPED"), std::string::npos) << said;
+  EXPECT_NE(said.find(img + ":" + std::to_string(loop_line) + ":1"), std::string::npos) << said;
+  EXPECT_NE(said.find("loop_budget of 5000"), std::string::npos) << said;
+  EXPECT_NE(rt->status().find("STOPPED (runaway loop)"), std::string::npos) << rt->status();
+
+  // The other task goes on.
+  const double calm = rtplc::testing::channel_value(*rt, "Calm");
+  EXPECT_TRUE(eventually([&] { return rtplc::testing::channel_value(*rt, "Calm") > calm + 0.05; }));
+  // Stopped means stopped: the output stays safe.
+  EXPECT_EQ(rtplc::testing::channel_value(*rt, "Count"), -3.0);
+
+  // New code restarts it (here: the same code with Spin back at 0).
+  ASSERT_TRUE(rt->set_value("Spin", 0));
+  auto swapped = rt->swap("spin", bytes, img);
+  ASSERT_TRUE(swapped) << swapped.error();
+  ASSERT_TRUE(eventually([&] { return rtplc::testing::channel_value(*rt, "Count") == 5.0; }));
+  EXPECT_EQ(static_cast<io::TaskState>(rt->image().task_info(0).state.load()), io::TaskState::kRunning);
+  rt->stop();
+}
+
+}  // namespace
+}  // namespace rtplc::sched
