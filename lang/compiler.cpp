@@ -88,6 +88,9 @@ void list_schedule(const CheckedProgram& prog, uint32_t first, uint32_t end,
 struct Schedule {
   std::vector<uint32_t> order;      // schedule position -> block index
   std::vector<uint8_t> run_starts;  // per position: a run must start here (a region's first)
+  // Per block index: where execution continues when a branch targets it (the
+  // schedule position its region starts at; n for the end). Set for leaders.
+  std::vector<uint32_t> entry;
 };
 
 // Control flow cuts the program into regions: straight-line stretches that
@@ -96,28 +99,56 @@ struct Schedule {
 // their textual order, so every data dependence between two of them holds;
 // inside a region blocks are list-scheduled, and a set of a variable stays
 // after the blocks before it that read the variable and before those after it.
-// Without control flow the whole program is one region.
+// Without control flow the whole program is one region. With it, constants
+// (no inputs, no state) run first, before any branch: a front end shares one
+// constant block among all its readers, and a constant placed in code a
+// branch skips would never be written.
 Schedule schedule(const CheckedProgram& prog, bool batch) {
   const auto n = static_cast<uint32_t>(prog.blocks.size());
   Schedule out;
   out.order.reserve(n);
   out.run_starts.assign(n, 0);
+  out.entry.assign(n + 1, n);
   std::vector<uint8_t> leader(n + 1, 0);
   leader[0] = 1;
+  bool flow = false;
   for (uint32_t i = 0; i < n; ++i) {
     const FlatBlock& b = prog.blocks[i];
     if (!op_is_branch(b.op)) continue;
+    flow = true;
     leader[i] = 1;
     leader[i + 1] = 1;
     if (b.target < n) leader[b.target] = 1;
   }
+  auto hoisted = [&](uint32_t i) {
+    return flow && (prog.blocks[i].op == Op::ConstA || prog.blocks[i].op == Op::ConstD);
+  };
+  if (flow) {
+    for (uint32_t i = 0; i < n; ++i) {
+      if (hoisted(i)) out.order.push_back(i);
+    }
+    if (!out.order.empty()) out.run_starts[0] = 1;
+  }
   std::vector<std::pair<uint32_t, uint32_t>> edges;
+  std::vector<uint32_t> members;
   for (uint32_t first = 0; first < n;) {
     uint32_t end = first + 1;
     while (end < n && !leader[end]) ++end;
+    // A region whose blocks were all hoisted is empty: entering it is
+    // entering the next one, whose start is this same position.
+    out.entry[first] = static_cast<uint32_t>(out.order.size());
+    members.clear();
+    for (uint32_t i = first; i < end; ++i) {
+      if (!hoisted(i)) members.push_back(i);
+    }
+    if (members.empty()) {
+      first = end;
+      continue;
+    }
     out.run_starts[out.order.size()] = 1;
-    if (!batch || end - first == 1) {
-      for (uint32_t i = first; i < end; ++i) out.order.push_back(i);
+    if (!batch || members.size() == 1 || members.size() != end - first) {
+      // (a region that lost a constant keeps text order: its blocks are few)
+      for (uint32_t i : members) out.order.push_back(i);
       first = end;
       continue;
     }
@@ -325,26 +356,17 @@ Result<TaskImage> build_image(const CheckedProgram& prog, const CompileOptions& 
   for (Run& run : ib.runs) {
     if (!op_is_branch(run.op) && run.op != Op::Set && run.op != Op::Var) mark_affine(run, ib);
   }
-  // Branch targets: the run a target block's region starts (its first block is
-  // the region's first in schedule order too: a region's runs begin there).
+  // Branch targets: the run that starts where the target's region starts (a
+  // run begins at every region's first position), or the end.
   {
-    std::vector<uint32_t> run_of_pos(n, 0);
+    std::vector<uint32_t> run_of_pos(n + 1, static_cast<uint32_t>(ib.runs.size()));
     for (uint32_t r = 0; r < ib.runs.size(); ++r) {
       for (uint32_t s = ib.runs[r].begin; s < ib.runs[r].end; ++s) run_of_pos[s] = r;
-    }
-    // The region of block t starts at the smallest schedule position of its
-    // blocks; regions are contiguous in schedule order and start at leaders.
-    std::vector<uint32_t> region_start(n, 0);
-    uint32_t current = 0;
-    for (uint32_t s = 0; s < n; ++s) {
-      if (plan.run_starts[s]) current = s;
-      region_start[order[s]] = current;
     }
     for (uint32_t s = 0; s < n; ++s) {
       const FlatBlock& b = prog.blocks[order[s]];
       if (!op_is_branch(b.op)) continue;
-      ib.code[s].out = b.target >= n ? static_cast<uint32_t>(ib.runs.size())
-                                     : run_of_pos[region_start[b.target]];
+      ib.code[s].out = run_of_pos[plan.entry[std::min(b.target, n)]];
     }
   }
 

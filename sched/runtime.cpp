@@ -878,10 +878,9 @@ void Runtime::report_block_errors(const std::function<void(bool, const std::stri
       const LoadedProgram& now = t->active();
       const bool same = now.image.header().source_hash == r.source_hash;
       if (r.runaway_loop) {
-        const std::string where = std::string(r.name) + " at " +
-                                  (same ? now.file : std::string("an earlier program")) + ":" +
+        const std::string where = (same ? now.file : std::string("an earlier program")) + ":" +
                                   std::to_string(r.line) + ":" + std::to_string(r.col);
-        log(true, "RUNAWAY LOOP: task " + t->params().name + " STOPPED: the loop " + where +
+        log(true, "RUNAWAY LOOP: task " + t->params().name + " STOPPED: the loop at " + where +
                       " took more than its loop_budget of " + std::to_string(r.budget) +
                       " iterations in one cycle; the cycle was cut short and its outputs are at their safe "
                       "values. Swap in fixed code (rtplc swap " + t->params().name +

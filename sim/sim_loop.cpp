@@ -236,7 +236,7 @@ Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const Sim
     if (arena.loop_fault != 0 && arena.loop_fault - 1 < image.blocks().size()) {
       const BlockInfo& b = image.blocks()[arena.loop_fault - 1];
       return make_error((opt.file.empty() ? std::string() : opt.file + ":") + std::to_string(b.line) + ":" +
-                        std::to_string(b.col) + ": runaway loop: " + image.str(b.name) + " took more than " +
+                        std::to_string(b.col) + ": runaway loop: it took more than " +
                         std::to_string(opt.loop_budget) + " iterations in cycle " + std::to_string(k + 1) +
                         " (t = " + format_number(t) +
                         " s); under `rtplc run` the task stops here and its outputs take their safe values "

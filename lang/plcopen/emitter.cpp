@@ -41,6 +41,14 @@ size_t Emitter::emit(const std::string& written, std::string name, SourcePos pos
   return p_.blocks.size() - 1;
 }
 
+size_t Emitter::emit_flow(const char* written, std::string name, SourcePos pos, std::vector<std::string> ins,
+                          uint32_t target, std::vector<double> params) {
+  const size_t i = emit(written, std::move(name), pos, std::move(ins), std::move(params));
+  p_.blocks[i].spec = flow_block(written);
+  p_.blocks[i].target = target;
+  return i;
+}
+
 void Emitter::adopt(size_t first, const std::function<std::string(uint32_t)>& input_name) {
   for (size_t i = first; i < p_.blocks.size(); ++i) {
     FlatBlock& b = p_.blocks[i];

@@ -45,6 +45,10 @@ class Emitter {
   size_t emit(const std::string& written, std::string name, SourcePos pos,
               std::vector<std::string> ins, std::vector<double> params = {});
   FlatBlock& block(size_t i) { return p_.blocks[i]; }
+  // Appends a control-flow block (registry.h flow_block: var, dvar, set, dset,
+  // jmp, jz, jnz, loop) aimed at block index `target`. Returns its index.
+  size_t emit_flow(const char* written, std::string name, SourcePos pos, std::vector<std::string> ins,
+                   uint32_t target, std::vector<double> params = {});
   // Takes over blocks from `first` on that someone else appended with input
   // indices (lang/iec's lowering): `input_name` names each input's producer,
   // resolved by finish() like every other reference.

@@ -234,21 +234,16 @@ class Parser {
   }
 
   // statement ::= assignment | fb_call | if | case | for | RETURN | EXIT | CONTINUE
-  //               (refused: while, repeat, jmp)
+  //               | while | repeat (refused: jmp)
   std::unique_ptr<Stmt> statement() {
     const Tok& t = peek();
     if (t.t != Tok::T::kIdent) {
       error(t.pos, "expected a statement, found '" + t.text + "'");
       return nullptr;
     }
-    if (t.up == "WHILE" || t.up == "REPEAT") {
-      error(t.pos, t.up + " loops are refused: rtplc runs a fixed data flow every cycle, so a "
-                          "loop must have constant bounds (use FOR with constant bounds)");
-      return nullptr;
-    }
     if (t.up == "RETURN" || t.up == "EXIT" || t.up == "CONTINUE") {
       if (t.up != "RETURN" && loops_ == 0) {
-        error(t.pos, t.up + " outside a FOR loop");
+        error(t.pos, t.up + " outside a loop (FOR, WHILE, REPEAT)");
         return nullptr;
       }
       auto s = std::make_unique<Stmt>();
@@ -260,12 +255,16 @@ class Parser {
       error(t.pos, t.up + " is not ST (IEC 61131-3 has jumps in IL only); use IF");
       return nullptr;
     }
-    if (t.up == "IF" || t.up == "CASE" || t.up == "FOR") {
+    if (t.up == "IF" || t.up == "CASE" || t.up == "FOR" || t.up == "WHILE" || t.up == "REPEAT") {
       if (++nesting_ > 100) {
         error(t.pos, "statements nested deeper than 100");
         return nullptr;
       }
-      auto r = t.up == "IF" ? if_statement() : t.up == "CASE" ? case_statement() : for_statement();
+      auto r = t.up == "IF"      ? if_statement()
+               : t.up == "CASE"  ? case_statement()
+               : t.up == "FOR"   ? for_statement()
+               : t.up == "WHILE" ? while_statement()
+                                 : repeat_statement();
       --nesting_;
       return r;
     }
@@ -415,6 +414,36 @@ class Parser {
     s->body = statements({"END_FOR"});
     --loops_;
     expect_kw("END_FOR", "to close FOR");
+    return failed_ ? nullptr : std::move(s);
+  }
+
+  // while ::= WHILE expr DO stmts END_WHILE
+  std::unique_ptr<Stmt> while_statement() {
+    auto s = std::make_unique<Stmt>();
+    s->kind = Stmt::Kind::kWhile;
+    s->pos = next().pos;
+    s->value = expression();
+    expect_kw("DO", "in WHILE");
+    if (failed_) return nullptr;
+    ++loops_;
+    s->body = statements({"END_WHILE"});
+    --loops_;
+    expect_kw("END_WHILE", "to close WHILE");
+    return failed_ ? nullptr : std::move(s);
+  }
+
+  // repeat ::= REPEAT stmts UNTIL expr END_REPEAT
+  std::unique_ptr<Stmt> repeat_statement() {
+    auto s = std::make_unique<Stmt>();
+    s->kind = Stmt::Kind::kRepeat;
+    s->pos = next().pos;
+    ++loops_;
+    s->body = statements({"UNTIL"});
+    --loops_;
+    expect_kw("UNTIL", "in REPEAT");
+    if (failed_) return nullptr;
+    s->value = expression();
+    expect_kw("END_REPEAT", "to close REPEAT");
     return failed_ ? nullptr : std::move(s);
   }
 

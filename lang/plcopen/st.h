@@ -1,7 +1,7 @@
 // Structured Text (IEC 61131-3) as found in PLCopen bodies: lexer and parser to
 // a small tree (docs/plcopen.md, "ST"). Expressions with IEC precedence,
 // assignments, IF/ELSIF/ELSE, CASE, FOR, RETURN, EXIT and CONTINUE, function
-// and FB calls (formal and informal). WHILE, REPEAT and jumps are parsed only
+// and FB calls (formal and informal), WHILE and REPEAT. Jumps are parsed only
 // to be refused with their position. Positions are file positions: the text sits in
 // an XML element, and `origin` maps its offsets back to the file.
 #pragma once
@@ -49,18 +49,18 @@ struct CaseBranch {
 };
 
 struct Stmt {
-  enum class Kind : uint8_t { kAssign, kIf, kCase, kFor, kCall, kReturn, kExit, kContinue };
+  enum class Kind : uint8_t { kAssign, kIf, kCase, kFor, kCall, kReturn, kExit, kContinue, kWhile, kRepeat };
   Kind kind = Kind::kAssign;
   SourcePos pos;
   std::string target;                // assign: variable path; for: loop variable; call: instance
   std::vector<std::unique_ptr<Expr>> target_index;  // the path's `[#n]` indices (Expr::name)
-  std::unique_ptr<Expr> value;       // assign: value; case: selector
+  std::unique_ptr<Expr> value;       // assign: value; case: selector; while: condition; repeat: UNTIL's
   std::vector<std::pair<std::unique_ptr<Expr>, Block>> branches;  // if / elsif
   Block else_body;
   bool has_else = false;
   std::vector<CaseBranch> cases;
   std::unique_ptr<Expr> from, to, by;  // for
-  Block body;                          // for
+  Block body;                          // for, while, repeat
   std::vector<CallArg> call_args;      // call
 };
 

@@ -1,15 +1,20 @@
-// ST statements -> blocks by if-conversion (docs/plcopen.md, "ST"): the
-// executor has no control flow, so both branches of an IF are computed every
-// cycle and each variable's value after the IF is sel(cond, then, else)
-// (`amux` for numbers, and/or for BOOL). CASE is a chain of IFs; FOR with
-// constant bounds is unrolled. RETURN, EXIT and CONTINUE become conditions:
-// what follows them runs under NOT the condition that they ran. A user FB
+// ST statements -> blocks by if-conversion (docs/plcopen.md, "ST"): both
+// branches of an IF are computed every cycle and each variable's value after
+// the IF is sel(cond, then, else) (`amux` for numbers, and/or for BOOL). CASE
+// is a chain of IFs; FOR with constant bounds (at most 1,000 runs) is
+// unrolled. RETURN, EXIT and CONTINUE become conditions: what follows them
+// runs under NOT the condition that they ran. WHILE, REPEAT and any other FOR
+// are real loops on the executor's control flow (docs/st.md, "Loops"): each
+// variable the loop may write gets a home (a var block) set before the loop,
+// read by the body, set again at the end of each iteration, and read after
+// the loop. A user FB
 // called inside a branch has its variables merged like the caller's (kept
 // when not called); a standard FB called there sees its inputs, and shows
 // its outputs, as they were at its last call (Lowering::call_fb).
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <set>
 
 #include "lang/plcopen/lowering.h"
 
@@ -197,6 +202,8 @@ struct StLowerer {
           count_calls(st->else_body, n, weight);
           break;
         case Stmt::Kind::kFor:
+        case Stmt::Kind::kWhile:
+        case Stmt::Kind::kRepeat:
           count_calls(st->body, n, 2);
           break;
         default:
@@ -283,29 +290,29 @@ struct StLowerer {
         return f;
       }
       case Stmt::Kind::kFor: {
+        // Constant bounds and at most kMaxUnroll runs: unrolled (straight-line
+        // code, batched like any other). Anything else is a real loop.
+        if (!constant_expr(*st.from) || !constant_expr(*st.to) || (st.by && !constant_expr(*st.by))) {
+          return loop(st);
+        }
         const Value from = L.eval(s, *st.from), to = L.eval(s, *st.to);
         const Value by = st.by ? L.eval(s, *st.by) : constant(1, false);
-        if (!from.is_const || !to.is_const || !by.is_const) {
-          L.diags().error(st.pos, "FOR with bounds that are not constant is refused: rtplc unrolls FOR "
-                                  "loops, so FROM, TO and BY must be constants");
-          return {};
-        }
+        if (!from.is_const || !to.is_const || !by.is_const) return loop(st);
         if (by.k == 0) {
           L.diags().error(st.pos, "FOR with BY 0 never ends");
           return {};
         }
         const double n = std::floor((to.k - from.k) / by.k) + 1;
-        if (n > kMaxUnroll) {
-          L.diags().error(st.pos, "FOR runs " + std::to_string(static_cast<long long>(n)) +
-                                      " times; rtplc unrolls at most " + std::to_string(kMaxUnroll));
-          return {};
-        }
+        if (n > kMaxUnroll) return loop(st);
         Var* iv = L.resolve_static(s, st.target, st.target_index, st.pos);
         if (!iv) return {};
         Flow f;
         f.ret = iterations(st, *iv, from.k, to.k, by.k);
         return f;  // EXIT and CONTINUE end with the loop
       }
+      case Stmt::Kind::kWhile:
+      case Stmt::Kind::kRepeat:
+        return loop(st);
       case Stmt::Kind::kCall: {
         Var* fb = st.target_index.empty() && L.is_function(upper(st.target)) &&
                           !L.lookup(s, st.target, st.pos, false)
@@ -369,6 +376,245 @@ struct StLowerer {
       }
     }
     return {};
+  }
+
+  // An expression with no names and no calls: a literal, or operators on them.
+  static bool constant_expr(const Expr& e) {
+    if (e.kind == Expr::Kind::kName || e.kind == Expr::Kind::kCall) return false;
+    for (const auto& a : e.args) {
+      if (a && !constant_expr(*a)) return false;
+    }
+    return true;
+  }
+
+  // The variables a name may denote: a plain variable, or every element or
+  // member of the array, structure or FB instance its base names.
+  static void leaves(Var& v, std::vector<Var*>& out, std::set<const Var*>& seen) {
+    switch (v.role) {
+      case Var::Role::kArray:
+        for (auto& e : v.elems) leaves(*e, out, seen);
+        return;
+      case Var::Role::kStruct:
+      case Var::Role::kUserFb:
+        if (v.fb) {
+          for (auto& [name, m] : v.fb->vars) leaves(*m, out, seen);
+        }
+        return;
+      case Var::Role::kInOut:
+        if (v.alias) leaves(*v.alias, out, seen);
+        return;
+      case Var::Role::kStdFb:
+        return;
+      default:
+        if (seen.insert(&v).second) out.push_back(&v);
+    }
+  }
+  void name_leaves(const std::string& path, SourcePos pos, std::vector<Var*>& out, std::set<const Var*>& seen) {
+    const size_t cut = path.find_first_of(".[");
+    Var* v = L.lookup(s, path.substr(0, cut), pos, false);
+    if (v) leaves(*v, out, seen);
+  }
+  void expr_names(const Expr& e, std::vector<Var*>& out, std::set<const Var*>& seen) {
+    if (e.kind == Expr::Kind::kName) name_leaves(e.name, e.pos, out, seen);
+    for (const auto& a : e.args) {
+      if (a) expr_names(*a, out, seen);
+    }
+  }
+
+  // What a loop body writes (`written`) and reads (`read`), as variables,
+  // over-approximated: an array or structure named with any index counts
+  // whole. False, with the error given, for what a loop cannot hold yet.
+  bool scan(const Block& b, std::vector<Var*>& written, std::set<const Var*>& ws, std::vector<Var*>& read,
+            std::set<const Var*>& rs, bool& returns) {
+    for (const auto& st : b) {
+      for (const auto& ix : st->target_index) {
+        if (ix) expr_names(*ix, read, rs);
+      }
+      if (st->value) expr_names(*st->value, read, rs);
+      for (const auto* e : {st->from.get(), st->to.get(), st->by.get()}) {
+        if (e) expr_names(*e, read, rs);
+      }
+      switch (st->kind) {
+        case Stmt::Kind::kAssign:
+        case Stmt::Kind::kFor:
+          name_leaves(st->target, st->pos, written, ws);
+          name_leaves(st->target, st->pos, read, rs);
+          break;
+        case Stmt::Kind::kCall: {
+          Var* fb = L.lookup(s, st->target.substr(0, st->target.find_first_of(".[")), st->pos, false);
+          if (fb && (fb->role == Var::Role::kStdFb || fb->role == Var::Role::kUserFb)) {
+            L.diags().error(st->pos, "'" + st->target + "' is a function block instance: calling one inside a "
+                                     "WHILE, REPEAT or FOR loop that is not unrolled is not supported yet (a "
+                                     "constant FOR of at most 1,000 runs is unrolled and may call it)");
+            return false;
+          }
+          for (const CallArg& a : st->call_args) {
+            if (a.output) {
+              name_leaves(a.target, a.pos, written, ws);
+            } else if (a.value) {
+              expr_names(*a.value, read, rs);
+              // A variable passed as an argument may be a VAR_IN_OUT: written.
+              if (a.value->kind == Expr::Kind::kName) name_leaves(a.value->name, a.pos, written, ws);
+            }
+          }
+          break;
+        }
+        case Stmt::Kind::kReturn:
+          returns = true;
+          break;
+        default:
+          break;
+      }
+      for (const auto& [c, body] : st->branches) {
+        if (c) expr_names(*c, read, rs);
+        if (!scan(body, written, ws, read, rs, returns)) return false;
+      }
+      for (const CaseBranch& cb : st->cases) {
+        for (const auto& [lo, hi] : cb.labels) {
+          if (lo) expr_names(*lo, read, rs);
+          if (hi) expr_names(*hi, read, rs);
+        }
+        if (!scan(cb.body, written, ws, read, rs, returns)) return false;
+      }
+      if (!scan(st->else_body, written, ws, read, rs, returns)) return false;
+      if (!scan(st->body, written, ws, read, rs, returns)) return false;
+    }
+    return true;
+  }
+
+  // A variable's home in a loop: a var block, and its value as the body reads it.
+  struct Home {
+    Var* var = nullptr;  // nullptr: the loop's RETURN flag
+    std::string name;
+    size_t block = 0;
+    Value value;
+  };
+  Home make_home(const std::string& stem, bool digital, bool integer, SourcePos pos) {
+    Emitter& em = L.em();
+    Home h;
+    h.name = em.fresh(stem + "$loop");
+    h.block = em.emit_flow(digital ? "dvar" : "var", h.name, pos, {}, 0, {0.0});
+    h.value.ref = h.name;
+    h.value.digital = digital;
+    h.value.integer = integer;
+    return h;
+  }
+  void set_home(const Home& h, const Value& v, SourcePos pos) {
+    Emitter& em = L.em();
+    const Value k = h.value.digital ? em.to_digital(v, pos) : em.to_analog(v, pos);
+    em.emit_flow(h.value.digital ? "dset" : "set", em.fresh(h.name + "$set"), pos, {em.ref(k, pos)},
+                 static_cast<uint32_t>(h.block));
+  }
+  static bool same(const Value& a, const Value& b) {
+    return a.is_const == b.is_const && (a.is_const ? a.k == b.k : a.ref == b.ref);
+  }
+
+  // WHILE, REPEAT, and a FOR that is not unrolled, as a loop of the executor:
+  //
+  //   homes := the values before the loop        (straight-line)
+  //   H: [WHILE/FOR: jz (cond AND active) -> X]
+  //      body
+  //      homes := their values now; [jnz (EXIT or RETURN) -> X]
+  //      [FOR: counter := counter + BY] [REPEAT: jnz (UNTIL OR NOT active) -> X]
+  //      loop -> H
+  //   X: every variable reads its home
+  //
+  // `active` is the if-conversion's path: a loop inside an IF branch not
+  // taken runs no iteration (a REPEAT's one run is discarded by the merge).
+  Flow loop(const Stmt& st) {
+    Emitter& em = L.em();
+    const SourcePos pos = st.pos;
+    std::vector<Var*> written, read;
+    std::set<const Var*> ws, rs;
+    bool returns = false;
+    if (!scan(st.body, written, ws, read, rs, returns)) return {};
+    Var* iv = nullptr;
+    if (st.kind == Stmt::Kind::kFor) {
+      iv = L.resolve_static(s, st.target, st.target_index, pos);
+      if (!iv) return {};
+      L.assign(*iv, L.eval(s, *st.from), pos);
+      if (ws.insert(iv).second) written.push_back(iv);
+    }
+    if (L.diags().has_errors()) return {};
+    // Everything the loop reads or caches is made here, in code that always
+    // runs: a value first made inside the body would be stale after a cycle
+    // in which the body did not run.
+    for (Var* v : read) {
+      if (v->role == Var::Role::kPlain || v->role == Var::Role::kInput || v->role == Var::Role::kSetpoint) {
+        (void)L.read(*v, pos);
+      }
+    }
+    const bool guarded = L.conditional();
+    const Value active = guarded ? L.active(pos) : constant(1, true);
+    std::vector<Home> homes;
+    for (Var* v : written) {
+      if (v->role != Var::Role::kPlain || (v->decl && v->decl->constant)) continue;
+      const Value before = L.read(*v, pos);
+      Home h = make_home(v->path, v->digital, v->integer, pos);
+      h.var = v;
+      set_home(h, before, pos);
+      v->cur = h.value;
+      homes.push_back(std::move(h));
+    }
+    std::optional<Home> ret;
+    if (returns) {
+      ret = make_home(s.path + ".$return", true, false, pos);
+      set_home(*ret, constant(0, true), pos);
+    }
+    const auto head = static_cast<uint32_t>(em.size());
+    std::vector<size_t> exits;
+    Value by = constant(1, false);
+    if (st.kind != Stmt::Kind::kRepeat) {
+      Value c;
+      if (st.kind == Stmt::Kind::kWhile) {
+        c = em.to_digital(L.eval(s, *st.value), pos);
+      } else {
+        const Value to = L.eval(s, *st.to);
+        if (st.by) by = L.eval(s, *st.by);
+        const Value i = L.read(*iv, pos);
+        if (by.is_const && by.k == 0) {
+          L.diags().error(pos, "FOR with BY 0 never ends");
+          return {};
+        }
+        // As the C a MatIEC project compiles to: TO and BY are evaluated again
+        // before each iteration, and a positive BY counts up to TO, any other
+        // down to it.
+        const Value up = em.binary(BinOp::kLe, i, to, pos), down = em.binary(BinOp::kGe, i, to, pos);
+        c = by.is_const ? (by.k > 0 ? up : down)
+                        : em.select(em.binary(BinOp::kGt, by, constant(0, false), pos), up, down, pos);
+      }
+      if (guarded) c = em.binary(BinOp::kAnd, c, active, pos);
+      exits.push_back(em.emit_flow("jz", em.fresh(s.path + ".$while"), pos, {em.ref(c, pos)}, 0));
+    }
+    const Flow f = block(st.body);
+    if (L.diags().has_errors()) return {};
+    for (const Home& h : homes) {
+      const Value now = L.read(*h.var, pos);
+      if (!same(now, h.value)) set_home(h, now, pos);
+    }
+    if (ret && !never(f.ret)) set_home(*ret, f.ret, pos);
+    const Value stop = either(f.ret, f.exit, pos);
+    if (!never(stop)) {
+      exits.push_back(em.emit_flow("jnz", em.fresh(s.path + ".$exit"), pos, {em.ref(em.to_digital(stop, pos), pos)}, 0));
+    }
+    if (st.kind == Stmt::Kind::kFor) {
+      L.assign(*iv, L.operate(BinOp::kAdd, L.read(*iv, pos), by, pos), pos);
+      for (const Home& h : homes) {
+        if (h.var == iv) set_home(h, L.read(*iv, pos), pos);
+      }
+    } else if (st.kind == Stmt::Kind::kRepeat) {
+      Value u = em.to_digital(L.eval(s, *st.value), pos);
+      if (guarded) u = em.binary(BinOp::kOr, u, em.unary_not(active, pos), pos);
+      exits.push_back(em.emit_flow("jnz", em.fresh(s.path + ".$until"), pos, {em.ref(u, pos)}, 0));
+    }
+    if (L.diags().has_errors()) return {};
+    em.emit_flow("loop", em.fresh(s.path + ".$loop"), pos, {}, head);
+    const auto after = static_cast<uint32_t>(em.size());
+    for (size_t x : exits) em.block(x).target = after;
+    for (const Home& h : homes) h.var->cur = h.value;
+    Flow out;
+    if (ret) out.ret = ret->value;  // EXIT and CONTINUE end with the loop
+    return out;
   }
 
   // The unrolled iterations of a FOR from `i` on; the condition under which

@@ -368,7 +368,7 @@ TEST(PlcopenConditional, exit_and_continue_in_an_unrolled_for) {
 }
 
 TEST(PlcopenConditional, refuses_exit_outside_a_loop_and_jumps_in_st) {
-  for (const auto& [body, msg] : {std::pair<std::string, std::string>{"x := 1;\nEXIT;", "EXIT outside a FOR loop"},
+  for (const auto& [body, msg] : {std::pair<std::string, std::string>{"x := 1;\nEXIT;", "EXIT outside a loop"},
                                   {"x := 1;\nJMP l1;", "JMP is not ST"}}) {
     const std::string src = project(kNs201, st_program("<localVars>" + var("x", "INT") + "</localVars>", body));
     CompileResult r = compile_source(src);

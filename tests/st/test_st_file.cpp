@@ -108,6 +108,147 @@ TEST(StFile, computes_cycle_by_cycle_what_the_text_says) {
   EXPECT_DOUBLE_EQ(h.out("out"), 16);
 }
 
+// Loops on the executor's control flow (docs/st.md, "Loops"), values worked
+// by hand for several inputs, each cycle computing them afresh.
+const char* kLoops = R"(PROGRAM Main
+VAR
+  n AT %IW0 : INT;
+  sum : DINT;
+  i : INT;
+  k : INT;
+  found : INT;
+  after : INT;
+END_VAR
+  sum := 0;
+  i := 1;
+  WHILE i <= n DO
+    sum := sum + i;
+    i := i + 1;
+  END_WHILE;
+  k := 0;
+  REPEAT
+    k := k + 1;
+    IF k * k > n THEN EXIT; END_IF;
+  UNTIL k >= 100
+  END_REPEAT;
+  found := 0;
+  FOR i := n TO 1 BY -1 DO
+    IF i MOD 3 = 0 THEN CONTINUE; END_IF;
+    found := found + i;
+  END_FOR;
+  after := i;
+END_PROGRAM
+)";
+
+TEST(StFile, while_repeat_and_for_loop_as_many_times_as_their_conditions_say) {
+  FbdHarness h(kLoops, 0.01, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("loops.st", kLoops);
+  // n: sum 1..n; the first k with k*k > n; the sum of 1..n without the
+  // multiples of 3; i after a FOR counting down to 1 is 0 (one step past).
+  struct Case {
+    double n, sum, k, found;
+  };
+  for (const Case& c : {Case{10, 55, 4, 37}, Case{0, 0, 1, 0}, Case{1, 1, 2, 1}, Case{100, 5050, 11, 3367},
+                        Case{-5, 0, 1, 0}}) {
+    h.set("n", c.n);
+    h.step();
+    EXPECT_EQ(h.value("Main.sum"), c.sum) << "n = " << c.n;
+    EXPECT_EQ(h.value("Main.k"), c.k) << "n = " << c.n;
+    EXPECT_EQ(h.value("Main.found"), c.found) << "n = " << c.n;
+    EXPECT_EQ(h.value("Main.after"), c.n >= 1 ? 0 : c.n) << "n = " << c.n;
+    EXPECT_EQ(h.arena().loop_fault, 0u);
+  }
+}
+
+TEST(StFile, nested_loops_sort_an_array_with_indices_known_only_at_run_time) {
+  const char* src = R"(PROGRAM Main
+VAR
+  n AT %IW0 : INT;
+  a : ARRAY [0..7] OF INT := [5, 3, 8, 1, 9, 2, 7, 4];
+  i, j : INT;
+  t : INT;
+  swaps : INT;
+END_VAR
+  swaps := 0;
+  FOR i := 0 TO n - 2 DO
+    FOR j := 0 TO n - 2 - i DO
+      IF a[j] > a[j + 1] THEN
+        t := a[j]; a[j] := a[j + 1]; a[j + 1] := t; swaps := swaps + 1;
+      END_IF;
+    END_FOR;
+  END_FOR;
+END_PROGRAM
+)";
+  FbdHarness h(src, 0.01, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("sort.st", src);
+  h.set("n", 4);  // sorts the first four only: 5 3 8 1 -> 1 3 5 8 (4 swaps)
+  h.step();
+  const double first[] = {1, 3, 5, 8, 9, 2, 7, 4};
+  for (int e = 0; e < 8; ++e) EXPECT_EQ(h.value("Main.a[" + std::to_string(e) + "]"), first[e]) << e;
+  EXPECT_EQ(h.value("Main.swaps"), 4);
+  h.set("n", 8);  // then all eight: 1 3 5 8 9 2 7 4 -> 1 2 3 4 5 7 8 9
+  h.step();
+  const double sorted[] = {1, 2, 3, 4, 5, 7, 8, 9};
+  for (int e = 0; e < 8; ++e) EXPECT_EQ(h.value("Main.a[" + std::to_string(e) + "]"), sorted[e]) << e;
+  // A swap per inversion: 3>2; 5>2, 5>4; 8>2, 8>7, 8>4; 9>2, 9>7, 9>4; 7>4.
+  EXPECT_EQ(h.value("Main.swaps"), 10);
+  h.step();  // sorted already: nothing moves
+  EXPECT_EQ(h.value("Main.swaps"), 0);
+}
+
+TEST(StFile, a_loop_in_an_if_branch_not_taken_runs_no_iteration_and_return_leaves_the_loop) {
+  const char* src = R"(PROGRAM Main
+VAR
+  go AT %IX0.0 : BOOL;
+  limit AT %IW0 : DINT;
+  c : DINT;
+  s : INT;
+  i : INT;
+  after : INT;
+END_VAR
+  c := 0;
+  IF go THEN
+    WHILE c < limit DO c := c + 1; END_WHILE;
+  END_IF;
+  s := 0;
+  after := 0;
+  FOR i := 1 TO limit DO
+    IF i = 3 THEN RETURN; END_IF;
+    s := s + i;
+  END_FOR;
+  after := 1;
+END_PROGRAM
+)";
+  FbdHarness h(src, 0.01, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("if.st", src);
+  h.set("limit", 1e9);  // a billion: only a loop that does not run survives it
+  h.set("go", 0);
+  h.step();
+  EXPECT_EQ(h.arena().loop_fault, 0u);
+  EXPECT_EQ(h.value("Main.c"), 0);
+  // RETURN at i = 3: s = 1 + 2, and the statement after the loop is skipped.
+  EXPECT_EQ(h.value("Main.s"), 3);
+  EXPECT_EQ(h.value("Main.after"), 0);
+  h.set("limit", 2);  // no RETURN: the loop ends, `after` runs
+  h.set("go", 1);
+  h.step();
+  EXPECT_EQ(h.value("Main.c"), 2);
+  EXPECT_EQ(h.value("Main.s"), 3);
+  EXPECT_EQ(h.value("Main.after"), 1);
+}
+
+TEST(StFile, a_loop_that_never_ends_is_cut_at_the_budget_and_named) {
+  const char* src = "PROGRAM Main\nVAR x : DINT; END_VAR\n  x := 0;\n  WHILE TRUE DO\n    x := x + 1;\n  END_WHILE;\nEND_PROGRAM\n";
+  FbdHarness h(src, 0.01, true, true);
+  ASSERT_TRUE(h.ok());
+  h.arena().loop_budget = 1000;
+  h.step();
+  ASSERT_NE(h.arena().loop_fault, 0u);
+  const BlockInfo& b = h.image().blocks()[h.arena().loop_fault - 1];
+  EXPECT_EQ(b.line, 4u);  // the WHILE
+  EXPECT_EQ(b.col, 3u);
+}
+
 TEST(StFile, the_tank_example_keeps_its_band_and_counts_the_pumps_starts) {
   std::ifstream f(std::string(RTPLC_SOURCE_DIR) + "/examples/tank_pump.st");
   const std::string src((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
@@ -207,9 +348,12 @@ TEST(StFile, refuses_what_it_cannot_run_at_its_position_naming_it) {
   EXPECT_EQ(first_error("PROGRAM P\n  VAR x : INT;\n").substr(0, 35), "2:3: VAR is never closed by END_VAR");
   EXPECT_EQ(first_error("PROGRAM P\n  VAR x : INT; END_VAR\n  x := 1;\n").substr(0, 38),
             "1:1: PROGRAM P is never closed by END_");
-  EXPECT_EQ(first_error("PROGRAM P VAR i : INT; END_VAR\nWHILE i < 3 DO i := i + 1; END_WHILE;\nEND_PROGRAM")
-                .substr(0, 24),
-            "2:1: WHILE loops are ref");
+  EXPECT_EQ(first_error("PROGRAM P VAR i : INT; t1 : TON; END_VAR\nWHILE i < 3 DO t1(IN := TRUE); i := i + 1; "
+                        "END_WHILE;\nEND_PROGRAM")
+                .substr(0, 48),
+            "2:16: 't1' is a function block instance: calling");
+  EXPECT_EQ(first_error("PROGRAM P VAR i : INT; END_VAR\nFOR i := 1 TO 5 BY 0 DO i := i; END_FOR;\nEND_PROGRAM"),
+            "2:1: FOR with BY 0 never ends");
   EXPECT_EQ(first_error("PROGRAM P VAR x : INT; END_VAR x := 1; END_PROGRAM\nMETHOD M END_METHOD").substr(0, 15),
             "2:1: 'METHOD' c");
   EXPECT_EQ(first_error("PROGRAM P VAR x : INT; END_VAR x := 1; END_PROGRAM\nCONFIGURATION C\n"
