@@ -106,5 +106,79 @@ TEST(RunawayLoop, stops_its_task_into_the_safe_outputs_and_names_the_loop) {
   rt->stop();
 }
 
+// The same under an ST program as a user writes it: the operator's set-point
+// `spin` keeps the WHILE going; the fixed program swapped in keeps `total`,
+// the count of completed cycles, by its instance path.
+const char* kSpinSt = R"(PROGRAM Main
+  VAR
+    spin AT %MX0.0 : BOOL;
+    count AT %QW0 : INT;
+    x : INT;
+    total : DINT;
+  END_VAR
+  x := 0;
+  WHILE x < 5 OR spin DO
+    x := x + 1;
+  END_WHILE;
+  total := total + 1;
+  count := x;
+END_PROGRAM
+)";
+const char* kFixedSt = R"(PROGRAM Main
+  VAR
+    spin AT %MX0.0 : BOOL;
+    count AT %QW0 : INT;
+    x : INT;
+    total : DINT;
+  END_VAR
+  x := 0;
+  WHILE x < 5 OR (spin AND x < 1000) DO
+    x := x + 1;
+  END_WHILE;
+  total := total + 1;
+  count := x;
+END_PROGRAM
+)";
+
+TEST(RunawayLoop, an_st_while_that_never_ends_stops_its_task_and_a_swap_restarts_it_keeping_state) {
+  RuntimeFixture fx;
+  const std::string file = fx.write("spin.st", kSpinSt);
+  auto rt = fx.start(
+      "tasks:\n"
+      "  - {name: spin, program: spin.st, period: 10ms, safe_outputs: {count: -1}}\n"
+      "drivers:\n  - kind: sim\n");
+  ASSERT_NE(rt, nullptr);
+  ASSERT_TRUE(eventually([&] { return rtplc::testing::channel_value(*rt, "count") == 5.0; }));
+  ASSERT_TRUE(rt->set_value("spin", 1));
+  ASSERT_TRUE(eventually([&] {
+    return rt->image().task_info(0).state.load() == static_cast<uint8_t>(io::TaskState::kStoppedLoop);
+  }));
+  EXPECT_EQ(rtplc::testing::channel_value(*rt, "count"), -1.0);
+  std::vector<std::string> log;
+  ASSERT_TRUE(eventually([&] {
+    rt->tick([&](bool, const std::string& l) { log.push_back(l); });
+    for (const std::string& l : log) {
+      if (l.find("RUNAWAY LOOP") != std::string::npos) return true;
+    }
+    return false;
+  }));
+  std::string said;
+  for (const std::string& l : log) {
+    if (l.find("RUNAWAY LOOP") != std::string::npos) said = l;
+  }
+  EXPECT_NE(said.find("the loop at " + file + ":9:3"), std::string::npos) << said;  // the WHILE
+
+  auto swapped = rt->swap("spin", kFixedSt, fx.write("fixed.st", kFixedSt));
+  ASSERT_TRUE(swapped) << swapped.error();
+  // The completed-cycle count goes on from where the stopped program left it.
+  const size_t kept = swapped->find("kept state:");
+  ASSERT_NE(kept, std::string::npos) << *swapped;
+  EXPECT_NE(swapped->find("Main.total", kept), std::string::npos) << *swapped;
+  EXPECT_LT(swapped->find("Main.total", kept), swapped->find("reset:")) << *swapped;
+  ASSERT_TRUE(eventually([&] { return rtplc::testing::channel_value(*rt, "count") == 1000.0; }));
+  EXPECT_EQ(static_cast<io::TaskState>(rt->image().task_info(0).state.load()), io::TaskState::kRunning);
+  rt->stop();
+}
+
 }  // namespace
 }  // namespace rtplc::sched

@@ -249,6 +249,30 @@ TEST(StFile, a_loop_that_never_ends_is_cut_at_the_budget_and_named) {
   EXPECT_EQ(b.col, 3u);
 }
 
+TEST(StFile, the_median_example_keeps_a_spike_out_of_its_output) {
+  std::ifstream f(std::string(RTPLC_SOURCE_DIR) + "/examples/median.st");
+  const std::string src((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  ASSERT_FALSE(src.empty());
+  FbdHarness h(src, 0.05, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("median.st", src);
+  // Four readings, then the window is 900 101 102 100 0 0 0 0: sorted, the
+  // middle two are 0 and 100.
+  for (double level : {100.0, 102.0, 101.0, 900.0}) {
+    h.set("level", level);
+    h.step();
+  }
+  EXPECT_EQ(h.out("filtered"), 50);
+  // Eight: 101 100 103 99 900 101 102 100, sorted 99 100 100 101 101 102 103
+  // 900: the median is 101, the spike nowhere.
+  for (double level : {99.0, 103.0, 100.0, 101.0}) {
+    h.set("level", level);
+    h.step();
+  }
+  EXPECT_EQ(h.out("filtered"), 101);
+  EXPECT_EQ(h.arena().loop_fault, 0u);
+  EXPECT_EQ(h.arena().total_errors, 0u);
+}
+
 TEST(StFile, the_tank_example_keeps_its_band_and_counts_the_pumps_starts) {
   std::ifstream f(std::string(RTPLC_SOURCE_DIR) + "/examples/tank_pump.st");
   const std::string src((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
