@@ -16,6 +16,7 @@ inline void exercise_compile(const lang::CompileResult& r, std::string_view src,
   if (r.ok()) {
     (void)lang::explain(r);
     TaskArena arena(*r.image);
+    arena.loop_budget = 1000;  // a runaway loop ends each cycle quickly (and must end it)
     for (int i = 0; i < 3; ++i) execute_cycle(*r.image, arena);
     if (!TaskImage::from_bytes(r.image->bytes()).ok()) __builtin_trap();
   } else if (!r.diags.has_errors()) {
