@@ -230,6 +230,8 @@ Result<void> verify_image(std::span<const std::byte> bytes) {
       if (out_written[in.out]++) return make_error(at_instr(i, "second writer of an output"));
     } else if (in.op == Op::Set) {
       if (in.out >= h.n_values) return make_error(at_instr(i, "variable slot out of range"));
+    } else if (in.op == Op::Put) {
+      // It writes through its table, checked with the parameters below.
     } else if (op_is_branch(in.op)) {
       // `out` is a run index, checked with the runs below.
     } else {
@@ -237,11 +239,25 @@ Result<void> verify_image(std::span<const std::byte> bytes) {
       if (value_writer[in.out] != kNoWriter) return make_error(at_instr(i, "second writer of a value slot"));
       value_writer[in.out] = static_cast<uint8_t>(in.op);
     }
-    const uint32_t np = op_param_count(in.op);
+    uint32_t np = op_param_count(in.op);
     if (in.param > h.n_params || np > h.n_params - in.param) {
       return make_error(at_instr(i, "parameters out of range"));
     }
     const double* p = np > 0 ? params.data() + in.param : nullptr;
+    if (in.op == Op::Pick || in.op == Op::Put) {
+      // n, lo, then n value slots: every one a whole number inside the arena.
+      if (!(p[0] >= 1 && p[0] <= kMaxPickTable && p[0] == std::floor(p[0])) || p[1] != std::floor(p[1]) ||
+          std::fabs(p[1]) > 1e15) {
+        return make_error(at_instr(i, "index table header invalid"));
+      }
+      np = instr_param_count(in.op, p);
+      if (np > h.n_params - in.param) return make_error(at_instr(i, "index table out of range"));
+      for (uint32_t k = 2; k < np; ++k) {
+        if (!(p[k] >= 0 && p[k] < h.n_values && p[k] == std::floor(p[k]))) {
+          return make_error(at_instr(i, "index table names a slot out of range"));
+        }
+      }
+    }
     if (in.op == Op::Dely) {
       if (!(p[0] >= 0) || p[0] > static_cast<double>(kMaxDelaySamples) || p[0] != std::floor(p[0])) {
         return make_error(at_instr(i, "dely sample count invalid"));
@@ -267,6 +283,15 @@ Result<void> verify_image(std::span<const std::byte> bytes) {
     if (code[i].op == Op::Set && value_writer[code[i].out] != static_cast<uint8_t>(Op::Var)) {
       return make_error(at_instr(i, "a Set writes a slot that is not a variable's"));
     }
+    if (code[i].op == Op::Put) {
+      const double* p = params.data() + code[i].param;
+      const uint32_t n = static_cast<uint32_t>(p[0]);
+      for (uint32_t k = 0; k < n; ++k) {
+        if (value_writer[static_cast<uint32_t>(p[2 + k])] != static_cast<uint8_t>(Op::Var)) {
+          return make_error(at_instr(i, "a Put writes a slot that is not a variable's"));
+        }
+      }
+    }
   }
   // Runs cover the code exactly once, in order, and each holds one opcode.
   uint32_t next = 0;
@@ -288,7 +313,8 @@ Result<void> verify_image(std::span<const std::byte> bytes) {
       const bool ok = run.op == Op::Loop ? target <= r : target > r && target <= h.n_runs;
       if (!ok) return make_error("run " + std::to_string(r) + ": branch target out of range");
     }
-    if ((run.flags & kRunAffine) && (op_is_branch(run.op) || run.op == Op::Set || run.op == Op::Var)) {
+    if ((run.flags & kRunAffine) && (op_is_branch(run.op) || run.op == Op::Set || run.op == Op::Var ||
+                                     run.op == Op::Pick || run.op == Op::Put)) {
       return make_error("run " + std::to_string(r) + ": this opcode cannot be affine");
     }
     if (run.flags & kRunAffine) {

@@ -23,7 +23,7 @@ uint32_t op_param_count(Op op) {
     case Op::Ton: case Op::TonEt: case Op::Tof: case Op::TofEt: case Op::Tp: case Op::TpEt:
     case Op::Ctu: case Op::Ctd: case Op::Var:
       return 1;
-    case Op::Scale: case Op::Lim: case Op::Pi: case Op::Epi: case Op::Wrap:
+    case Op::Scale: case Op::Lim: case Op::Pi: case Op::Epi: case Op::Wrap: case Op::Pick: case Op::Put:
     case Op::Band: case Op::Bor: case Op::Bxor: case Op::Bnot:
     case Op::Shl: case Op::Shr: case Op::Rol: case Op::Ror: case Op::Ctud:
       return 2;
@@ -34,6 +34,14 @@ uint32_t op_param_count(Op op) {
     default:
       return 0;
   }
+}
+
+uint32_t instr_param_count(Op op, const double* prepared) {
+  const uint32_t fixed = op_param_count(op);
+  if ((op == Op::Pick || op == Op::Put) && prepared != nullptr) {
+    return fixed + static_cast<uint32_t>(prepared[0]);
+  }
+  return fixed;
 }
 
 uint32_t op_state_size(Op op, const double* prepared) {
@@ -68,7 +76,7 @@ uint32_t op_input_count(Op op) {
     case Op::Mod: case Op::Expt: case Op::Band: case Op::Bor: case Op::Bxor:
     case Op::Shl: case Op::Shr: case Op::Rol: case Op::Ror: case Op::Sr: case Op::Rs:
     case Op::Ton: case Op::TonEt: case Op::Tof: case Op::TofEt: case Op::Tp: case Op::TpEt:
-    case Op::Ctu: case Op::Updn:
+    case Op::Ctu: case Op::Updn: case Op::Put:
       return 2;
     case Op::And3: case Op::Or3: case Op::Amux: case Op::Ctd: case Op::Ctud:
     case Op::Pidc:
@@ -78,7 +86,7 @@ uint32_t op_input_count(Op op) {
   }
 }
 
-bool op_writes_value(Op op) { return !op_is_store(op) && op != Op::Set && !op_is_branch(op); }
+bool op_writes_value(Op op) { return !op_is_store(op) && op != Op::Set && op != Op::Put && !op_is_branch(op); }
 bool op_is_branch(Op op) { return op == Op::Jmp || op == Op::Jz || op == Op::Jnz || op == Op::Loop; }
 bool op_output_is_state(Op op) {
   return op == Op::Intg || op == Op::Filt || op == Op::Ramp || op == Op::Ldlg || op == Op::Var;

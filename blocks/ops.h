@@ -59,6 +59,10 @@
 //  Loop      continue at run `out` <= its own (a backward edge): one iteration of  -                   -
 //            the task's per-cycle budget; past it the cycle ends and the task
 //            faults (ExecContext::loop_fault)
+//  Pick      y = V[table[k]], k = round(in0) - lo; 0 when k is outside the table   n lo table[n]       -
+//  Put       V[table[k]] <- in1, k as Pick; each table slot a Var's; nothing when   n lo table[n]       -
+//            k is outside (an array element written through an index known only
+//            at run time)
 #pragma once
 
 #include <cstdint>
@@ -77,7 +81,7 @@ namespace rtplc {
   X(Band) X(Bor) X(Bxor) X(Bnot) X(Shl) X(Shr) X(Rol) X(Ror)                                \
   X(Rtrig) X(Ftrig) X(Sr) X(Rs) X(Ton) X(TonEt) X(Tof) X(TofEt) X(Tp) X(TpEt)               \
   X(Ctu) X(Ctd) X(Updn) X(Ctud) X(Pidc)                                                    \
-  X(Var) X(Set) X(Jmp) X(Jz) X(Jnz) X(Loop)
+  X(Var) X(Set) X(Jmp) X(Jz) X(Jnz) X(Loop) X(Pick) X(Put)
 
 enum class Op : uint8_t {
 #define RTPLC_OP_ENUM(name) name,
@@ -93,8 +97,13 @@ inline constexpr uint8_t kOpCount = 0
 
 const char* op_name(Op op);
 
-// Prepared parameters an instruction of this opcode reads from the pool.
+// Prepared parameters an instruction of this opcode reads from the pool (for
+// Pick and Put, the fixed part: n and lo; their table of n slots follows).
 uint32_t op_param_count(Op op);
+// All the parameters one instruction reads: op_param_count, plus the table of
+// Pick and Put, whose length is their first prepared parameter `p[0]`.
+uint32_t instr_param_count(Op op, const double* prepared);
+inline constexpr uint32_t kMaxPickTable = 4096;  // elements of one array
 
 // State doubles the opcode needs; for Dely it depends on its prepared n, passed in
 // `prepared_params` (may be null for every other op).

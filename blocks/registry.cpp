@@ -479,6 +479,17 @@ std::vector<BlockSpec> build_flow_registry() {
                                 "the var named by the block's target takes value")));
   r.push_back(no_output(compute("dset", G::kControl, D, {{"value", D}}, {}, "", "assignment to a dvar",
                                 "the dvar named by the block's target takes value")));
+  const ParamSpec lo{"lo", "the first index", 0.0, true, -1e15, 1e15, false, true};
+  r.push_back(compute("pick", G::kControl, A, {{"index", A}}, {lo}, "", "an analog array element by index",
+                      "y = the value of table[round(index) - lo], 0 outside the table"));
+  r.push_back(compute("dpick", G::kControl, D, {{"index", A}}, {lo}, "", "a digital array element by index",
+                      "y = the value of table[round(index) - lo], 0 outside the table"));
+  r.push_back(no_output(compute("put", G::kControl, A, {{"index", A}, {"value", A}}, {lo}, "",
+                                "write an analog array element by index",
+                                "the var table[round(index) - lo] takes value; nothing outside the table")));
+  r.push_back(no_output(compute("dput", G::kControl, D, {{"index", A}, {"value", D}}, {lo}, "",
+                                "write a digital array element by index",
+                                "the dvar table[round(index) - lo] takes value; nothing outside the table")));
   r.push_back(no_output(compute("jmp", G::kControl, D, {}, {}, "", "forward jump",
                                 "execution continues at the target block")));
   r.push_back(no_output(compute("jz", G::kControl, D, {{"cond", D}}, {}, "", "forward jump if false",
@@ -565,6 +576,7 @@ Op block_op(const BlockSpec& b, uint32_t n_inputs) {
       {"ctud", Op::Ctud}, {"pidc", Op::Pidc},
       {"var", Op::Var},   {"dvar", Op::Var},  {"set", Op::Set},   {"dset", Op::Set},
       {"jmp", Op::Jmp},   {"jz", Op::Jz},     {"jnz", Op::Jnz},   {"loop", Op::Loop},
+      {"pick", Op::Pick}, {"dpick", Op::Pick}, {"put", Op::Put},  {"dput", Op::Put},
   };
   if (n == "and") return n_inputs == 3 ? Op::And3 : Op::And2;
   if (n == "or") return n_inputs == 3 ? Op::Or3 : Op::Or2;

@@ -72,7 +72,8 @@ std::span<const BlockSpec> all_blocks();
 // Looks a block up by name or alias; nullptr if unknown.
 const BlockSpec* find_block(std::string_view name);
 
-// A control-flow block (var, dvar, set, dset, jmp, jz, jnz, loop) for the
+// A control-flow block (var, dvar, set, dset, jmp, jz, jnz, loop, pick, dpick,
+// put, dput) for the
 // textual front ends; nullptr if unknown. Never found by find_block().
 const BlockSpec* flow_block(std::string_view name);
 

@@ -28,6 +28,10 @@ StatusRule op_status_rule(Op op) {
       return StatusRule::kVar;
     case Op::Set:
       return StatusRule::kSet;
+    case Op::Pick:
+      return StatusRule::kPick;
+    case Op::Put:
+      return StatusRule::kPut;
     case Op::Jmp:
     case Op::Jz:
     case Op::Jnz:
@@ -53,7 +57,8 @@ void StatusLane::resize_for(const TaskImage& image) {
     const StatusRule r = op_status_rule(code[i].op);
     rule[i] = static_cast<uint8_t>(r);
     n_vars += r == StatusRule::kVar;
-    has_flow = has_flow || r == StatusRule::kVar || r == StatusRule::kSet || r == StatusRule::kBranch;
+    has_flow = has_flow || r == StatusRule::kVar || r == StatusRule::kSet || r == StatusRule::kBranch ||
+               r == StatusRule::kPut;
   }
   errors_at_pass = 0;
   settled = false;
@@ -138,6 +143,25 @@ bool propagate_status(const TaskImage& image, const TaskArena& arena, StatusLane
           }
           worst_value = std::max(worst_value, st[I.out]);
           continue;
+        case StatusRule::kPick: {
+          const double* P = image.params().data() + I.param;
+          s = st[I.in[0]];
+          for (uint32_t k = 0; k < static_cast<uint32_t>(P[0]); ++k) s = std::max(s, st[static_cast<uint32_t>(P[2 + k])]);
+          break;
+        }
+        case StatusRule::kPut: {
+          const double* P = image.params().data() + I.param;
+          const uint8_t w = std::max(st[I.in[0]], st[I.in[1]]);
+          for (uint32_t k = 0; k < static_cast<uint32_t>(P[0]); ++k) {
+            uint8_t& t = st[static_cast<uint32_t>(P[2 + k])];
+            if (w > t) {
+              t = w;
+              var_worsened = true;
+            }
+            worst_value = std::max(worst_value, t);
+          }
+          continue;
+        }
         case StatusRule::kBranch:
           if (erred && arena.errors[i] != lane.errors_seen[i]) lane.errors_seen[i] = arena.errors[i];
           continue;

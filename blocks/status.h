@@ -67,7 +67,9 @@ inline Quality quality_of(Lane s) {
 // worse (each can only worsen twice, so at most 2 * variables + 1 passes), and
 // select / and / or fall back to `worst`, the values in their slots being the
 // last iteration's, not necessarily what decided the result.
-enum class StatusRule : uint8_t { kWorst, kSelect, kSource, kLoad, kStore, kAnd, kOr, kVar, kSet, kBranch };
+// Pick is as good as its index and every element it may pick; Put makes every
+// variable it may write as bad as its index and value.
+enum class StatusRule : uint8_t { kWorst, kSelect, kSource, kLoad, kStore, kAnd, kOr, kVar, kSet, kBranch, kPick, kPut };
 StatusRule op_status_rule(Op op);
 
 // The statuses of one task's values, beside its TaskArena.

@@ -138,16 +138,20 @@ Schedule schedule(const CheckedProgram& prog, bool batch) {
     // entering the next one, whose start is this same position.
     out.entry[first] = static_cast<uint32_t>(out.order.size());
     members.clear();
+    bool indexed = false;  // a pick or put reads or writes through its table
     for (uint32_t i = first; i < end; ++i) {
       if (!hoisted(i)) members.push_back(i);
+      indexed = indexed || prog.blocks[i].op == Op::Pick || prog.blocks[i].op == Op::Put;
     }
     if (members.empty()) {
       first = end;
       continue;
     }
     out.run_starts[out.order.size()] = 1;
-    if (!batch || members.size() == 1 || members.size() != end - first) {
-      // (a region that lost a constant keeps text order: its blocks are few)
+    if (!batch || members.size() == 1 || members.size() != end - first || indexed) {
+      // (a region that lost a constant keeps text order: its blocks are few;
+      // so does one with a pick or put, whose table edges the scheduler
+      // does not model)
       for (uint32_t i : members) out.order.push_back(i);
       first = end;
       continue;
@@ -309,7 +313,7 @@ Result<TaskImage> build_image(const CheckedProgram& prog, const CompileOptions& 
     if (op_is_load(b.op)) {
       in.in[0] = io_index[i];
       in.out = slot[i];
-    } else if (b.op == Op::Set || op_is_branch(b.op)) {
+    } else if (b.op == Op::Set || b.op == Op::Put || op_is_branch(b.op)) {
       for (uint32_t k = 0; k < b.n_in; ++k) {
         in.in[k] = slot[b.in[k]];
         if (b.delayed[k]) in.flags = static_cast<uint16_t>(in.flags | (kInstrDelayed0 << k));
@@ -324,8 +328,15 @@ Result<TaskImage> build_image(const CheckedProgram& prog, const CompileOptions& 
     }
     in.param = static_cast<uint32_t>(ib.params.size());
     const uint32_t np = op_param_count(b.op);
-    ib.params.resize(ib.params.size() + np);
-    prepare_params(b.op, b.params, dt, ib.params.data() + in.param);
+    if (b.op == Op::Pick || b.op == Op::Put) {
+      // n, lo, then the slot of each table entry (a put's: its var's).
+      ib.params.push_back(static_cast<double>(b.table.size()));
+      ib.params.push_back(b.params.empty() ? 0.0 : b.params[0]);
+      for (uint32_t t : b.table) ib.params.push_back(static_cast<double>(slot[t]));
+    } else {
+      ib.params.resize(ib.params.size() + np);
+      prepare_params(b.op, b.params, dt, ib.params.data() + in.param);
+    }
     in.state = ib.n_state;
     ib.n_state += op_state_size(b.op, np ? ib.params.data() + in.param : nullptr);
     ib.code.push_back(in);

@@ -33,6 +33,9 @@ struct FlatBlock {
   // (blocks.size() = the end of the cycle). Forward for jmp/jz/jnz, at or
   // before the branch for loop.
   uint32_t target = 0;
+  // pick/dpick: the blocks whose values it chooses among; put/dput: the var or
+  // dvar blocks it writes into (element k for index lo + k, lo = params[0]).
+  std::vector<uint32_t> table;
   // I/O blocks
   uint16_t p = 0, d = 0;
   uint32_t c = 0;

@@ -235,6 +235,19 @@ void check_flow(const CheckedProgram& p, DiagnosticList& diags) {
         diags.error(b.pos, std::string(b.spec->name) + " " + b.name + " must write a " +
                                (b.spec->input_kind[0] == Kind::kDigital ? "dvar" : "var") + " block");
       }
+    } else if (op == Op::Pick || op == Op::Put) {
+      const bool put = op == Op::Put;
+      const Kind kind = put ? b.spec->input_kind[1] : b.spec->out_kind;
+      bool ok = !b.table.empty() && b.table.size() <= kMaxPickTable;
+      for (uint32_t t : b.table) {
+        const FlatBlock* e = t < n ? &p.blocks[t] : nullptr;
+        ok = ok && e != nullptr && e->spec != nullptr && e->spec->has_output && e->spec->out_kind == kind &&
+             (!put || e->op == Op::Var);
+      }
+      if (!ok) {
+        diags.error(b.pos, std::string(b.spec->name) + " " + b.name + " needs a table of 1 to " +
+                               std::to_string(kMaxPickTable) + (put ? " var blocks" : " blocks") + " of its kind");
+      }
     } else if (op_is_branch(op)) {
       const bool ok = op == Op::Loop ? b.target <= i : b.target > i && b.target <= n;
       if (!ok) {

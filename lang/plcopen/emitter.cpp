@@ -49,6 +49,13 @@ size_t Emitter::emit_flow(const char* written, std::string name, SourcePos pos, 
   return i;
 }
 
+size_t Emitter::emit_indexed(const char* written, std::string name, SourcePos pos, std::vector<std::string> ins,
+                             std::vector<std::string> table, double lo) {
+  const size_t i = emit_flow(written, std::move(name), pos, std::move(ins), 0, {lo});
+  tables_[i] = std::move(table);
+  return i;
+}
+
 void Emitter::adopt(size_t first, const std::function<std::string(uint32_t)>& input_name) {
   for (size_t i = first; i < p_.blocks.size(); ++i) {
     FlatBlock& b = p_.blocks[i];
@@ -316,6 +323,19 @@ bool Emitter::finish() {
         continue;
       }
       b.in[k] = it->second;
+    }
+  }
+  for (const auto& [i, names] : tables_) {
+    FlatBlock& b = p_.blocks[i];
+    b.table.clear();
+    for (const std::string& n : names) {
+      auto it = index.find(n);
+      if (it == index.end()) {
+        d_.error(b.pos, "internal: block " + b.name + " indexes '" + n + "', which the PLCopen lowering never made");
+        ok = false;
+        continue;
+      }
+      b.table.push_back(it->second);
     }
   }
   return ok;

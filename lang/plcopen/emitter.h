@@ -49,6 +49,10 @@ class Emitter {
   // jmp, jz, jnz, loop) aimed at block index `target`. Returns its index.
   size_t emit_flow(const char* written, std::string name, SourcePos pos, std::vector<std::string> ins,
                    uint32_t target, std::vector<double> params = {});
+  // A pick/dpick or put/dput block: `table` names the blocks (resolved by
+  // finish() like inputs), `lo` the index of the first.
+  size_t emit_indexed(const char* written, std::string name, SourcePos pos, std::vector<std::string> ins,
+                      std::vector<std::string> table, double lo);
   // Takes over blocks from `first` on that someone else appended with input
   // indices (lang/iec's lowering): `input_name` names each input's producer,
   // resolved by finish() like every other reference.
@@ -98,6 +102,7 @@ class Emitter {
   DiagnosticList& d_;
   std::vector<std::vector<std::string>> refs_;  // per block its input names
   std::vector<bool> resolved_;                  // per block: in[] set by append_resolved
+  std::map<size_t, std::vector<std::string>> tables_;  // pick/put blocks: their table by name
   std::map<std::string, std::string> consts_;
   std::map<std::string, bool> reported_missing_;
   size_t counter_ = 0;

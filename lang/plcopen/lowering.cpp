@@ -681,8 +681,43 @@ Var* Lowering::resolve_static(Scope& s, const std::string& path, const std::vect
   return ps[0].var;
 }
 
+Var* Lowering::indexed_array(Scope& s, const std::string& path, const std::vector<std::unique_ptr<Expr>>& index,
+                             SourcePos pos, Value& index_value) {
+  if (loops_.empty() || index.size() != 1 || path.size() < 5 || path.compare(path.size() - 4, 4, "[#1]") != 0) {
+    return nullptr;
+  }
+  const std::string base = path.substr(0, path.size() - 4);
+  if (base.find_first_of(".[%") != std::string::npos) return nullptr;
+  Var* a = lookup(s, base, pos, false);
+  if (!a || a->role != Var::Role::kArray || !a->array || a->array->dims.size() != 1 || a->elems.empty()) return nullptr;
+  for (const auto& e : a->elems) {
+    if (e->role != Var::Role::kPlain) return nullptr;
+  }
+  // Evaluated once here; the caller uses it instead of places() evaluating it.
+  index_value = eval(s, *index[0]);
+  if (index_value.is_const) return nullptr;
+  return a;
+}
+
 Value Lowering::load(Scope& s, const std::string& path, const std::vector<std::unique_ptr<Expr>>& index,
                      SourcePos pos) {
+  {
+    Value ix;
+    if (Var* a = indexed_array(s, path, index, pos, ix)) {
+      std::vector<std::string> table;
+      for (const auto& e : a->elems) table.push_back(em_.ref(read(*e, pos), pos));
+      const Var& e0 = *a->elems[0];
+      Value r;
+      r.ref = em_.fresh("pick");
+      r.digital = e0.digital;
+      r.integer = e0.integer;
+      if (e0.integer) r.int_type = iec_type(e0.decl->type.base);
+      em_.emit_indexed(e0.digital ? "dpick" : "pick", r.ref, pos, {em_.ref(em_.to_analog(ix, pos), pos)},
+                       std::move(table), static_cast<double>(a->array->dims[0].first));
+      return r;
+    }
+    if (d_.has_errors()) return constant(0, false);
+  }
   if (index.empty() && path.find('.') == std::string::npos && !lookup(s, path, pos, false)) {
     if (auto k = proj_.enum_value(path)) {  // an enumeration's value: its position
       Value v = constant(*k, false);
@@ -709,6 +744,53 @@ Value Lowering::load(Scope& s, const std::string& path, const std::vector<std::u
 
 void Lowering::store(Scope& s, const std::string& path, const std::vector<std::unique_ptr<Expr>>& index,
                      const Value& v, SourcePos pos) {
+  {
+    Value ix;
+    Var* a = indexed_array(s, path, index, pos, ix);
+    if (d_.has_errors()) return;
+    static const std::map<const Var*, LoopHome> kNone;
+    const auto& homes = loops_.empty() ? kNone : loops_.back();
+    const bool homed = a && std::all_of(a->elems.begin(), a->elems.end(),
+                                        [&](const auto& e) { return homes.count(e.get()) != 0; });
+    if (a && homed) {
+      const Var& e0 = *a->elems[0];
+      const double lo = static_cast<double>(a->array->dims[0].first);
+      std::vector<std::string> table;
+      for (const auto& e : a->elems) {
+        // Every element in its home first: the put writes there, and a later
+        // read of any element reads there.
+        const LoopHome& h = homes.at(e.get());
+        const Value now = read(*e, pos);
+        if (now.is_const || now.ref != h.value.ref) {
+          const Value k = e->digital ? em_.to_digital(now, pos) : em_.to_analog(now, pos);
+          em_.emit_flow(e->digital ? "dset" : "set", em_.fresh(h.value.ref + "$set"), pos, {em_.ref(k, pos)},
+                        static_cast<uint32_t>(h.block));
+          e->cur = h.value;
+        }
+        table.push_back(h.value.ref);
+      }
+      Value at = em_.to_analog(ix, pos);
+      // Inside an IF branch (computed whatever the condition), a write that
+      // is not taken goes nowhere: the index points before the table.
+      if (!path_.empty()) at = em_.select(active(pos), at, constant(lo - 1, false), pos);
+      const Value val = coerce(const_cast<Var&>(e0), v, pos);
+      em_.emit_indexed(e0.digital ? "dput" : "put", em_.fresh("put"), pos, {em_.ref(at, pos), em_.ref(val, pos)},
+                       std::move(table), lo);
+      return;
+    }
+    if (a) {
+      // Not every element has a home here: the choice among the elements,
+      // on the index already evaluated.
+      for (size_t k = 0; k < a->elems.size(); ++k) {
+        Var& e = *a->elems[k];
+        const Value when =
+            em_.binary(BinOp::kEq, ix, constant(static_cast<double>(a->array->dims[0].first) + static_cast<double>(k), false), pos);
+        assign(e, em_.select(when, v, read(e, pos), pos), pos);
+        if (d_.has_errors()) return;
+      }
+      return;
+    }
+  }
   for (const Place& p : places(s, path, index, pos)) {
     if (!p.output.empty()) {
       d_.error(pos, "'" + path_text(path) + "' is an output of function block '" + p.var->decl->name +
@@ -815,6 +897,10 @@ void Lowering::assign(Var& v, Value value, SourcePos pos) {
     d_.error(pos, "internal: set-point '" + v.decl->name + "' written");
     return;
   }
+  v.cur = coerce(v, value, pos);
+}
+
+Value Lowering::coerce(Var& v, Value value, SourcePos pos) {
   value = v.digital ? em_.to_digital(value, pos) : em_.to_analog(value, pos);
   if (v.integer && !value.is_const) {
     // IEC integers wrap (an INT counter goes 32767 -> -32768): the value is
@@ -830,7 +916,7 @@ void Lowering::assign(Var& v, Value value, SourcePos pos) {
     }
   }
   value.integer = v.integer;
-  v.cur = value;
+  return value;
 }
 
 Value Lowering::rising(const Value& v, const std::string& mem, SourcePos pos) {

@@ -189,6 +189,17 @@ class Lowering {
   void lower_st_guarded(Scope& s, const Block& b, const Value& cond, SourcePos pos);
   Value eval(Scope& s, const Expr& e);
 
+  // Real loops (st_lowering.cpp, "loop"): while one is lowered, an array
+  // indexed by a value known only at run time is read with one pick block and,
+  // when all its elements have homes in the innermost loop, written with one
+  // put block, instead of a choice among every element.
+  struct LoopHome {
+    Value value;     // the home's value as the body reads it
+    size_t block = 0;  // its var block
+  };
+  void enter_loop(std::map<const Var*, LoopHome> homes) { loops_.push_back(std::move(homes)); }
+  void leave_loop() { loops_.pop_back(); }
+
   // Values of every variable's `cur` (if-conversion).
   std::vector<std::optional<Value>> save() const;
   void restore(const std::vector<std::optional<Value>>& st);
@@ -242,6 +253,13 @@ class Lowering {
   std::vector<std::unique_ptr<Scope>> function_scopes_;
   std::vector<std::string> written_;  // upper-case names written by the program bodies
   int call_depth_ = 0;
+  std::vector<std::map<const Var*, LoopHome>> loops_;  // per real loop, innermost last: its homes
+  // The plain one-dimensional array `path` ("a[#1]") names, when a loop is
+  // being lowered and its index is not a constant (then in `index_value`).
+  Var* indexed_array(Scope& s, const std::string& path, const std::vector<std::unique_ptr<Expr>>& index,
+                     SourcePos pos, Value& index_value);
+  // `value` as variable `v` holds it: its kind, and wrapped into its integer type.
+  Value coerce(Var& v, Value value, SourcePos pos);
   size_t elements_ = 0;
   std::vector<const Var*> outputs_;  // %Q variables that drive their output
   std::optional<Value> il_result_;  // array elements made so far, at most kMaxArrayElements

@@ -556,6 +556,15 @@ struct StLowerer {
       v->cur = h.value;
       homes.push_back(std::move(h));
     }
+    {
+      std::map<const Var*, Lowering::LoopHome> index;
+      for (const Home& h : homes) index[h.var] = Lowering::LoopHome{h.value, h.block};
+      L.enter_loop(std::move(index));
+    }
+    struct Leave {
+      Lowering& l;
+      ~Leave() { l.leave_loop(); }
+    } leave{L};
     std::optional<Home> ret;
     if (returns) {
       ret = make_home(s.path + ".$return", true, false, pos);

@@ -352,5 +352,111 @@ TEST(ControlFlow, a_bad_value_carried_backward_by_a_loop_reaches_what_was_read_b
   EXPECT_EQ(lane.out[0], static_cast<uint8_t>(Lane::kBad));
 }
 
+TEST(ControlFlow, pick_and_put_reach_an_element_by_an_index_known_at_run_time) {
+  // a[1..3] := [10, 20, 30]; a[k] := a[k] + 5 for k = 0..4 (0 and 4 outside:
+  // read 0, write nothing); out0 := a[k] after the write, out1..3 := a[1..3].
+  Builder b;
+  const uint32_t k = b.var("k");
+  const uint32_t a1 = b.var("a1", 10), a2 = b.var("a2", 20), a3 = b.var("a3", 30);
+  const uint32_t one = b.k("one", 1), five = b.k("five", 5), limit = b.k("limit", 4);
+  const uint32_t zero = b.k("zero", 0);
+  b.set(k, zero);
+  const uint32_t head = b.add("le", "more", {k, limit});
+  const uint32_t exit = b.branch("jz", {head}, 0);
+  const uint32_t old = b.pick({a1, a2, a3}, k, 1);
+  const uint32_t sum = b.add("add", "sum", {old, five});
+  b.put({a1, a2, a3}, k, sum, 1);
+  const uint32_t k1 = b.add("add", "k1", {k, one});
+  b.set(k, k1);
+  b.branch("loop", {}, head);
+  b.aim(exit, b.next());
+  const uint32_t last = b.pick({a1, a2, a3}, k, 1);  // k = 5 after the loop: outside
+  b.out(last, 0);
+  b.out(a1, 1);
+  b.out(a2, 2);
+  b.out(a3, 3);
+  Compiled c = compile(b);
+  ASSERT_TRUE(c.ok) << errors_of(c.diags);
+  TaskArena arena(c.image);
+  execute_cycle(c.image, arena);
+  EXPECT_EQ(arena.loop_fault, 0u);
+  EXPECT_EQ(arena.io_out[0], 0.0);
+  EXPECT_EQ(arena.io_out[1], 15.0);
+  EXPECT_EQ(arena.io_out[2], 25.0);
+  EXPECT_EQ(arena.io_out[3], 35.0);
+  execute_cycle(c.image, arena);  // the variables keep their values: +5 again
+  EXPECT_EQ(arena.io_out[3], 40.0);
+}
+
+TEST(ControlFlow, the_verifier_and_the_checks_refuse_tables_that_reach_outside) {
+  {
+    Builder b;
+    const uint32_t k = b.k("k", 1), v = b.var("v");
+    b.put({k}, k, k);  // a put into a constant's result
+    b.out(v, 0);
+    Compiled c = compile(b);
+    EXPECT_FALSE(c.ok);
+    EXPECT_NE(errors_of(c.diags).find("needs a table"), std::string::npos) << errors_of(c.diags);
+  }
+  Builder b;
+  const uint32_t i = b.k("i", 0), v = b.var("v"), w = b.var("w");
+  b.put({v, w}, i, i);
+  const uint32_t got = b.pick({v, w}, i);
+  b.out(got, 0);
+  Compiled c = compile(b);
+  ASSERT_TRUE(c.ok) << errors_of(c.diags);
+  const auto code = c.image.code();
+  uint32_t put = 0, pick = 0;
+  for (uint32_t s = 0; s < code.size(); ++s) {
+    if (code[s].op == Op::Put) put = s;
+    if (code[s].op == Op::Pick) pick = s;
+  }
+  ASSERT_TRUE(Bytes(c.image).verify());
+  auto table_of = [](Bytes& x, uint32_t s) {
+    ImageHeader h;
+    std::memcpy(&h, x.words.data(), sizeof h);
+    return reinterpret_cast<double*>(reinterpret_cast<std::byte*>(x.words.data()) + h.off_params) + x.instr(s).param;
+  };
+  {
+    Bytes x(c.image);
+    table_of(x, pick)[2] = 1e6;  // a slot past the arena
+    EXPECT_FALSE(x.verify());
+  }
+  {
+    Bytes x(c.image);
+    table_of(x, pick)[0] = 1e9;  // a table longer than the pool
+    EXPECT_FALSE(x.verify());
+  }
+  {
+    Bytes x(c.image);
+    table_of(x, put)[3] = code[pick].out;  // write into the pick's own result
+    const Result<void> r = x.verify();
+    ASSERT_FALSE(r);
+    EXPECT_NE(r.error().find("not a variable"), std::string::npos) << r.error();
+  }
+}
+
+TEST(ControlFlow, a_picked_element_is_as_good_as_the_elements_it_may_pick) {
+  Builder b;
+  const uint32_t x = b.in(0);
+  const uint32_t v = b.var("v"), w = b.var("w");
+  const uint32_t i = b.k("i", 1);
+  b.set(v, x);
+  const uint32_t got = b.pick({v, w}, i);  // picks w, but v may be picked with another i
+  b.out(got, 0);
+  Compiled c = compile(b);
+  ASSERT_TRUE(c.ok) << errors_of(c.diags);
+  TaskArena arena(c.image);
+  StatusLane lane(c.image);
+  lane.set_in(0, static_cast<uint8_t>(Lane::kBad));
+  execute_cycle(c.image, arena);
+  propagate_status(c.image, arena, lane);
+  EXPECT_EQ(lane.out[0], static_cast<uint8_t>(Lane::kBad));
+  lane.set_in(0, static_cast<uint8_t>(Lane::kGood));
+  execute_cycle(c.image, arena);
+  propagate_status(c.image, arena, lane);
+  EXPECT_EQ(lane.out[0], static_cast<uint8_t>(Lane::kGood));
+}
+
 }  // namespace
 }  // namespace rtplc::lang

@@ -39,6 +39,16 @@ struct Builder {
   uint32_t branch(const std::string& op, std::vector<uint32_t> cond, uint32_t target) {
     return add(op, op + std::to_string(p.blocks.size()), std::move(cond), {}, target);
   }
+  uint32_t pick(std::vector<uint32_t> table, uint32_t index, double lo = 0) {
+    const uint32_t b = add("pick", "pick" + std::to_string(p.blocks.size()), {index}, {lo});
+    p.blocks[b].table = std::move(table);
+    return b;
+  }
+  uint32_t put(std::vector<uint32_t> table, uint32_t index, uint32_t value, double lo = 0) {
+    const uint32_t b = add("put", "put" + std::to_string(p.blocks.size()), {index, value}, {lo});
+    p.blocks[b].table = std::move(table);
+    return b;
+  }
   // Patches a forward branch once its target exists.
   void aim(uint32_t branch_block, uint32_t target) { p.blocks[branch_block].target = target; }
   uint32_t next() const { return static_cast<uint32_t>(p.blocks.size()); }
