@@ -639,6 +639,9 @@ std::optional<double> parse_literal(std::string_view text, bool* is_bool, bool* 
 }
 
 std::optional<BaseType> elementary_type(std::string_view name) {
+  // Beremiz SVGHMI's HMI_BOOL, HMI_INT, HMI_REAL...: their elementary type,
+  // exposed to an HMI (docs/st.md, "Types").
+  if (name.size() > 4 && (name.substr(0, 4) == "HMI_" || name.substr(0, 4) == "hmi_")) name.remove_prefix(4);
   const iec::IecTypeInfo* t = iec::find_iec_type(name);
   if (t == nullptr) return std::nullopt;
   return static_cast<BaseType>(t->type);  // the same order (project.h)

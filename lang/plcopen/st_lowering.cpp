@@ -387,6 +387,14 @@ struct StLowerer {
     return true;
   }
 
+  static bool has_call(const Expr& e) {
+    if (e.kind == Expr::Kind::kCall) return true;
+    for (const auto& a : e.args) {
+      if (a && has_call(*a)) return true;
+    }
+    return false;
+  }
+
   // The variables a name may denote: a plain variable, or every element or
   // member of the array, structure or FB instance its base names.
   static void leaves(Var& v, std::vector<Var*>& out, std::set<const Var*>& seen) {
@@ -546,6 +554,20 @@ struct StLowerer {
     }
     const bool guarded = L.conditional();
     const Value active = guarded ? L.active(pos) : constant(1, true);
+    // A FOR's TO and BY that read nothing the loop writes (and call nothing)
+    // have the same value before every iteration: evaluated once, here.
+    std::optional<Value> to_before, by_before;
+    if (st.kind == Stmt::Kind::kFor) {
+      auto invariant = [&](const Expr& e) {
+        if (has_call(e)) return false;
+        std::vector<Var*> names;
+        std::set<const Var*> seen;
+        expr_names(e, names, seen);
+        return std::none_of(names.begin(), names.end(), [&](const Var* v) { return ws.count(v) != 0; });
+      };
+      if (invariant(*st.to)) to_before = L.eval(s, *st.to);
+      if (st.by && invariant(*st.by)) by_before = L.eval(s, *st.by);
+    }
     std::vector<Home> homes;
     for (Var* v : written) {
       if (v->role != Var::Role::kPlain || (v->decl && v->decl->constant)) continue;
@@ -578,8 +600,8 @@ struct StLowerer {
       if (st.kind == Stmt::Kind::kWhile) {
         c = em.to_digital(L.eval(s, *st.value), pos);
       } else {
-        const Value to = L.eval(s, *st.to);
-        if (st.by) by = L.eval(s, *st.by);
+        const Value to = to_before ? *to_before : L.eval(s, *st.to);
+        if (st.by) by = by_before ? *by_before : L.eval(s, *st.by);
         const Value i = L.read(*iv, pos);
         if (by.is_const && by.k == 0) {
           L.diags().error(pos, "FOR with BY 0 never ends");
@@ -588,9 +610,13 @@ struct StLowerer {
         // As the C a MatIEC project compiles to: TO and BY are evaluated again
         // before each iteration, and a positive BY counts up to TO, any other
         // down to it.
-        const Value up = em.binary(BinOp::kLe, i, to, pos), down = em.binary(BinOp::kGe, i, to, pos);
-        c = by.is_const ? (by.k > 0 ? up : down)
-                        : em.select(em.binary(BinOp::kGt, by, constant(0, false), pos), up, down, pos);
+        // (Only the test a constant BY needs is made.)
+        if (by.is_const) {
+          c = em.binary(by.k > 0 ? BinOp::kLe : BinOp::kGe, i, to, pos);
+        } else {
+          const Value up = em.binary(BinOp::kLe, i, to, pos), down = em.binary(BinOp::kGe, i, to, pos);
+          c = em.select(em.binary(BinOp::kGt, by, constant(0, false), pos), up, down, pos);
+        }
       }
       if (guarded) c = em.binary(BinOp::kAnd, c, active, pos);
       exits.push_back(em.emit_flow("jz", em.fresh(s.path + ".$while"), pos, {em.ref(c, pos)}, 0));

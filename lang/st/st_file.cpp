@@ -447,7 +447,7 @@ class Reader {
       r.array = std::move(a);
       return r;
     }
-    if (w == "STRING" || w == "WSTRING") {
+    if (w == "STRING" || w == "WSTRING" || w == "HMI_STRING" || w == "HMI_WSTRING") {
       fail(at, "type " + w + " is not supported yet: rtplc values are numbers (docs/st.md)");
       return std::nullopt;
     }

@@ -249,6 +249,30 @@ TEST(StFile, a_loop_that_never_ends_is_cut_at_the_budget_and_named) {
   EXPECT_EQ(b.col, 3u);
 }
 
+std::string first_error(const std::string& src);
+
+TEST(StFile, beremiz_svghmi_types_are_their_elementary_types) {
+  const char* src = R"(PROGRAM Main
+VAR
+  level : HMI_INT := 32767;
+  on : HMI_BOOL;
+  speed : HMI_REAL := 1.5;
+END_VAR
+  level := level + 1;
+  on := NOT on;
+  speed := speed * 2.0;
+END_PROGRAM
+)";
+  FbdHarness h(src, 0.01, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("hmi.st", src);
+  h.step();
+  EXPECT_EQ(h.value("Main.level"), -32768);  // an INT: wraps
+  EXPECT_EQ(h.value("Main.on"), 1);
+  EXPECT_EQ(h.value("Main.speed"), 3.0);
+  EXPECT_EQ(first_error("PROGRAM P\n  VAR s : HMI_STRING; END_VAR\nEND_PROGRAM\n").substr(0, 42),
+            "2:11: type HMI_STRING is not supported yet");
+}
+
 TEST(StFile, the_median_example_keeps_a_spike_out_of_its_output) {
   std::ifstream f(std::string(RTPLC_SOURCE_DIR) + "/examples/median.st");
   const std::string src((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
