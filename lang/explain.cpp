@@ -67,6 +67,15 @@ std::string explain(const CompileResult& r) {
         if (k) prm += ", ";
         prm += std::string(b.spec->params[k].name) + "=" + format_number(b.params[k]);
       }
+      // Control flow (docs/st.md, "Loops"): where it goes, what it writes.
+      if (b.op == Op::Set) {
+        prm = "-> " + (b.target < p.blocks.size() ? p.blocks[b.target].name : std::string("?"));
+      } else if (op_is_branch(b.op)) {
+        prm = "-> #" + std::to_string(b.target) + (b.target >= p.blocks.size() ? " (end)" : "");
+      } else if (b.op == Op::Pick || b.op == Op::Put) {
+        prm += std::string(prm.empty() ? "" : ", ") + std::to_string(b.table.size()) + " elements" +
+               (b.table.empty() ? "" : " from " + p.blocks[b.table[0]].name);
+      }
     } else if (b.spec->signature == Signature::kSetpoint) {
       prm = "d" + std::to_string(b.d) + ".c" + std::to_string(b.c) + " init=" + format_number(b.init) +
             " \"" + b.label + "\"";
