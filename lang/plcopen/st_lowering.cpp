@@ -395,6 +395,23 @@ struct StLowerer {
     return false;
   }
 
+  // `v` itself when it is a standard FB instance, else the first one a user
+  // FB instance `v` holds (at any depth); nullptr when there is none.
+  static const Var* standard_fb_in(const Var& v) {
+    if (v.role == Var::Role::kStdFb) return &v;
+    if (v.role == Var::Role::kArray) {
+      for (const auto& e : v.elems) {
+        if (const Var* f = standard_fb_in(*e)) return f;
+      }
+    }
+    if (v.role == Var::Role::kUserFb && v.fb) {
+      for (const auto& [name, m] : v.fb->vars) {
+        if (const Var* f = standard_fb_in(*m)) return f;
+      }
+    }
+    return nullptr;
+  }
+
   // The variables a name may denote: a plain variable, or every element or
   // member of the array, structure or FB instance its base names.
   static void leaves(Var& v, std::vector<Var*>& out, std::set<const Var*>& seen) {
@@ -450,12 +467,22 @@ struct StLowerer {
           break;
         case Stmt::Kind::kCall: {
           Var* fb = L.lookup(s, st->target.substr(0, st->target.find_first_of(".[")), st->pos, false);
-          if (fb && (fb->role == Var::Role::kStdFb || fb->role == Var::Role::kUserFb)) {
-            L.diags().error(st->pos, "'" + st->target + "' is a function block instance: calling one inside a "
-                                     "WHILE, REPEAT or FOR loop that is not unrolled is not supported yet (a "
-                                     "constant FOR of at most 1,000 runs is unrolled and may call it)");
+          // A user function block runs its body inline: its variables are the
+          // loop's like any other. A standard one (TON, CTU, R_TRIG...), or a
+          // user one holding one, is not supported in such a loop yet: its
+          // blocks keep per-cycle state (a timer's time advances per call).
+          const Var* std_fb = fb ? standard_fb_in(*fb) : nullptr;
+          if (std_fb != nullptr) {
+            L.diags().error(st->pos, "'" + st->target + "' " +
+                                         (std_fb == fb ? std::string("is a standard function block instance")
+                                                       : "holds the standard function block instance '" +
+                                                             std_fb->decl->name + "'") +
+                                         ": calling one inside a WHILE, REPEAT or FOR loop that is not unrolled "
+                                         "is not supported yet (a constant FOR of at most 1,000 runs is unrolled "
+                                         "and may call it)");
             return false;
           }
+          if (fb && fb->role == Var::Role::kUserFb) leaves(*fb, written, ws);
           for (const CallArg& a : st->call_args) {
             if (a.output) {
               name_leaves(a.target, a.pos, written, ws);
