@@ -50,9 +50,18 @@ inline constexpr size_t kMaxArrayElements = 4096;
 struct ArrayType {
   std::vector<std::pair<int64_t, int64_t>> dims;
   TypeRef element;
+  // Saturates past kMaxArrayElements (the readers refuse such an array), so a
+  // crafted bound never wraps the product.
   size_t size() const {
     size_t n = 1;
-    for (const auto& [lo, hi] : dims) n *= static_cast<size_t>(hi - lo + 1);
+    for (const auto& [lo, hi] : dims) {
+      const int64_t span = hi - lo + 1;
+      if (span <= 0) return 0;
+      if (static_cast<uint64_t>(span) > kMaxArrayElements || n > kMaxArrayElements / static_cast<size_t>(span)) {
+        return kMaxArrayElements + 1;
+      }
+      n *= static_cast<size_t>(span);
+    }
     return n;
   }
 };

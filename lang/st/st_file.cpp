@@ -4,6 +4,7 @@
 #include "lang/iec/iec_functions.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cctype>
 #include <charconv>
 #include <cstdint>
@@ -405,6 +406,12 @@ class Reader {
     const auto v = plcopen::parse_literal(t_.substr(b, i_ - b));
     if (!v || b == i_) {
       fail(b, "expected a whole number (array bounds and subranges are constants)");
+      return std::nullopt;
+    }
+    // (as PLCopen's array bounds: a bound farther out could not be an index)
+    if (std::fabs(*v) > 1e9) {
+      fail(b, "the bound " + std::string(t_.substr(b, std::min<size_t>(i_ - b, 24))) +
+                  " is out of range (at most 1,000,000,000 either way)");
       return std::nullopt;
     }
     return static_cast<int64_t>(*v);

@@ -456,6 +456,15 @@ TEST(StFile, refuses_what_it_cannot_run_at_its_position_naming_it) {
   EXPECT_EQ(first_error("TYPE pt : STRUCT x : INT; END_STRUCT; END_TYPE\n"
                         "PROGRAM P VAR p : pt := (x := 1, z := 2); END_VAR p.x := 1; END_PROGRAM"),
             "2:34: structure pt has no member 'z'");
+  // Bounds a double cannot hold as an index, or whose product wraps (found by
+  // fuzz_st: the element count became 0 and a division by it crashed).
+  EXPECT_EQ(first_error("PROGRAM P VAR m : ARRAY [1..2, 88888888888888888888888888881..2] OF INT; END_VAR\nEND_PROGRAM")
+                .substr(0, 24),
+            "1:32: the bound 88888888");
+  EXPECT_NE(first_error("PROGRAM P VAR m : ARRAY [0..99999999, 0..99999999, 0..99999999] OF INT; END_VAR\n"
+                        "m[0, 0, 0] := 1;\nEND_PROGRAM")
+                .find("4096"),
+            std::string::npos);
   // A name declared twice (found by fuzz_st: it once freed a variable the
   // lowering still used).
   EXPECT_EQ(first_error("PROGRAM P\n VAR x : BOOL; END_VAR\n VAR x AT %QX0.0 : BOOL; END_VAR\n x := TRUE;\nEND_PROGRAM"),
