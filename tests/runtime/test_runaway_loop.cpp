@@ -50,6 +50,19 @@ std::string spin_image(uint32_t* loop_line) {
   return std::string(reinterpret_cast<const char*>(bytes.data()), bytes.size());
 }
 
+// The runtime's log line about the runaway loop, once the control thread has
+// logged it (empty if it never does).
+std::string runaway_line(Runtime& rt) {
+  std::string said;
+  (void)eventually([&] {
+    rt.tick([&](bool, const std::string& l) {
+      if (l.find("RUNAWAY LOOP") != std::string::npos) said = l;
+    });
+    return !said.empty();
+  });
+  return said;
+}
+
 const char* kCalm = "%%\nF1 = asp(d0, c1, 2, \"Gain\")\nF2 = intg(F1, 1)\ndao(F2, p0, d0, c1, \"Calm\")\nEND\n";
 
 TEST(RunawayLoop, stops_its_task_into_the_safe_outputs_and_names_the_loop) {
@@ -74,18 +87,8 @@ TEST(RunawayLoop, stops_its_task_into_the_safe_outputs_and_names_the_loop) {
   // The cut cycle's partial outputs were never published: the safe value is.
   EXPECT_EQ(rtplc::testing::channel_value(*rt, "Count"), -3.0);
 
-  std::vector<std::string> log;
-  ASSERT_TRUE(eventually([&] {
-    rt->tick([&](bool, const std::string& l) { log.push_back(l); });
-    for (const std::string& l : log) {
-      if (l.find("RUNAWAY LOOP") != std::string::npos) return true;
-    }
-    return false;
-  }));
-  std::string said;
-  for (const std::string& l : log) {
-    if (l.find("RUNAWAY LOOP") != std::string::npos) said = l;
-  }
+  const std::string said = runaway_line(*rt);
+  ASSERT_FALSE(said.empty()) << "no RUNAWAY LOOP line was logged";
   EXPECT_NE(said.find("task spin STOPPED"), std::string::npos) << said;
   EXPECT_NE(said.find(img + ":" + std::to_string(loop_line) + ":1"), std::string::npos) << said;
   EXPECT_NE(said.find("loop_budget of 5000"), std::string::npos) << said;
@@ -154,18 +157,8 @@ TEST(RunawayLoop, an_st_while_that_never_ends_stops_its_task_and_a_swap_restarts
     return rt->image().task_info(0).state.load() == static_cast<uint8_t>(io::TaskState::kStoppedLoop);
   }));
   EXPECT_EQ(rtplc::testing::channel_value(*rt, "count"), -1.0);
-  std::vector<std::string> log;
-  ASSERT_TRUE(eventually([&] {
-    rt->tick([&](bool, const std::string& l) { log.push_back(l); });
-    for (const std::string& l : log) {
-      if (l.find("RUNAWAY LOOP") != std::string::npos) return true;
-    }
-    return false;
-  }));
-  std::string said;
-  for (const std::string& l : log) {
-    if (l.find("RUNAWAY LOOP") != std::string::npos) said = l;
-  }
+  const std::string said = runaway_line(*rt);
+  ASSERT_FALSE(said.empty()) << "no RUNAWAY LOOP line was logged";
   EXPECT_NE(said.find("the loop at " + file + ":9:3"), std::string::npos) << said;  // the WHILE
 
   auto swapped = rt->swap("spin", kFixedSt, fx.write("fixed.st", kFixedSt));
