@@ -2,6 +2,10 @@
 # folder (io/drivers/<kind>/tests/).
 if(RTPLC_BUILD_TESTS)
   include(GoogleTest)
+  # What `ctest -L concurrency` runs, and the binary those tests start: the
+  # ThreadSanitizer pass of scripts/test builds only this (its libraries are all
+  # built anyway, each file on its own), not every other test and benchmark.
+  add_custom_target(rtplc_concurrency_tests)
 endif()
 # rtplc_test(<name> SOURCES a.cpp ... LIBS lib ... [LABELS l ...] [ENV VAR=value ...] [SERIAL])
 function(rtplc_test name)
@@ -11,6 +15,9 @@ function(rtplc_test name)
   cmake_parse_arguments(T "SERIAL" "TIMEOUT" "SOURCES;LIBS;LABELS;ENV" ${ARGN})
   add_executable(${name} ${T_SOURCES})
   set_target_properties(${name} PROPERTIES UNITY_BUILD OFF)
+  if("concurrency" IN_LIST T_LABELS)
+    add_dependencies(rtplc_concurrency_tests ${name})
+  endif()
   target_link_libraries(${name} PRIVATE ${T_LIBS} GTest::gtest GTest::gtest_main GTest::gmock
                         rtplc_warnings Threads::Threads)
   target_compile_definitions(${name} PRIVATE RTPLC_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
