@@ -267,6 +267,12 @@ Value Emitter::select(const Value& cond, const Value& a, const Value& b, SourceP
   if (c.is_const) return c.k != 0 ? a : b;
   if (a.is_const && b.is_const && a.k == b.k && a.digital == b.digital) return a;
   if (!a.is_const && !b.is_const && a.ref == b.ref) return a;
+  if (a.digital && b.digital && (a.is_const || b.is_const)) {
+    // One side known: an AND or an OR (a flow's reasons are mostly constants).
+    if (a.is_const && b.is_const) return a.k != 0 ? c : unary_not(c, pos);
+    if (a.is_const) return a.k != 0 ? binary(BinOp::kOr, c, b, pos) : binary(BinOp::kAnd, unary_not(c, pos), b, pos);
+    return b.k != 0 ? binary(BinOp::kOr, unary_not(c, pos), a, pos) : binary(BinOp::kAnd, c, a, pos);
+  }
   if (a.digital && b.digital) {
     Value r;
     r.digital = true;

@@ -161,6 +161,7 @@ class Lowering {
   void begin_gathered(Var& v);
   void end_gathered(Var& v, SourcePos pos);
   bool gathered(const Var& v) const { return gathered_.count(&v) != 0; }
+  size_t gathering() const { return gathered_.size(); }  // instances being gathered now
   bool fb_output_digital(const Var& v, const std::string& name) const;
 
   void lower_body(Scope& s);

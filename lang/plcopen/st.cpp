@@ -155,6 +155,16 @@ class Parser {
         if (peek().t == Tok::T::kIdent && peek().up == e) return out;
       }
       if (accept_op(";")) continue;
+      if (peek().t == Tok::T::kIdent && peek(1).t == Tok::T::kOp && peek(1).text == ":") {
+        // `name:` labels the statement that follows (or the end of the list).
+        auto l = std::make_unique<Stmt>();
+        l->kind = Stmt::Kind::kLabel;
+        l->pos = peek().pos;
+        l->target = next().up;
+        ++i_;
+        out.push_back(std::move(l));
+        continue;
+      }
       auto s = statement();
       if (failed_) break;
       if (s) out.push_back(std::move(s));
@@ -234,7 +244,7 @@ class Parser {
   }
 
   // statement ::= assignment | fb_call | if | case | for | RETURN | EXIT | CONTINUE
-  //               | while | repeat (refused: jmp)
+  //               | while | repeat | JMP label   (a label `name:` is taken by statements())
   std::unique_ptr<Stmt> statement() {
     const Tok& t = peek();
     if (t.t != Tok::T::kIdent) {
@@ -251,8 +261,19 @@ class Parser {
       s->pos = next().pos;
       return s;
     }
-    if (t.up == "JMP" || t.up == "GOTO") {
-      error(t.pos, t.up + " is not ST (IEC 61131-3 has jumps in IL only); use IF");
+    if (t.up == "GOTO") {
+      error(t.pos, "GOTO is not ST: a jump is JMP label");
+      return nullptr;
+    }
+    if (t.up == "JMP" && peek(1).t == Tok::T::kIdent) {
+      auto s = std::make_unique<Stmt>();
+      s->kind = Stmt::Kind::kJump;
+      s->pos = next().pos;
+      s->target = next().up;
+      return s;
+    }
+    if (t.up == "JMP") {
+      error(peek(1).pos, "expected a label after JMP, found '" + peek(1).text + "'");
       return nullptr;
     }
     if (t.up == "IF" || t.up == "CASE" || t.up == "FOR" || t.up == "WHILE" || t.up == "REPEAT") {

@@ -1,8 +1,8 @@
 // Structured Text (IEC 61131-3) as found in PLCopen bodies: lexer and parser to
 // a small tree (docs/plcopen.md, "ST"). Expressions with IEC precedence,
 // assignments, IF/ELSIF/ELSE, CASE, FOR, RETURN, EXIT and CONTINUE, function
-// and FB calls (formal and informal), WHILE and REPEAT. Jumps are parsed only
-// to be refused with their position. Positions are file positions: the text sits in
+// and FB calls (formal and informal), WHILE and REPEAT, labels and JMP (as
+// CODESYS writes them; IEC 61131-3 and MatIEC have jumps in IL only). Positions are file positions: the text sits in
 // an XML element, and `origin` maps its offsets back to the file.
 #pragma once
 
@@ -49,7 +49,11 @@ struct CaseBranch {
 };
 
 struct Stmt {
-  enum class Kind : uint8_t { kAssign, kIf, kCase, kFor, kCall, kReturn, kExit, kContinue, kWhile, kRepeat };
+  enum class Kind : uint8_t {
+    kAssign, kIf, kCase, kFor, kCall, kReturn, kExit, kContinue, kWhile, kRepeat,
+    kLabel,  // `name:` before a statement: target = the label, upper-case
+    kJump,   // JMP name: target = the label, upper-case
+  };
   Kind kind = Kind::kAssign;
   SourcePos pos;
   std::string target;                // assign: variable path; for: loop variable; call: instance

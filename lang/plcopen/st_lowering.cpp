@@ -94,6 +94,13 @@ Value Lowering::eval(Scope& s, const Expr& e) {
 
 namespace {
 
+constexpr const char* kInLoop =
+    ": calling one inside a WHILE, REPEAT or FOR loop that is not unrolled is not supported yet (a constant FOR "
+    "of at most 1,000 runs is unrolled and may call it)";
+constexpr const char* kInBackwardJump =
+    ": calling one in a statement list that a JMP goes back in is not supported yet (it could run more than "
+    "once in a cycle)";
+
 struct StLowerer {
   Lowering& L;
   Scope& s;
@@ -113,17 +120,24 @@ struct StLowerer {
   // The statements from `from` on. After one that may leave (RETURN, EXIT,
   // CONTINUE under some condition), the rest runs by if-conversion under
   // NOT that condition.
-  Flow block(const Block& b, size_t from = 0) {
-    for (size_t i = from; i < b.size(); ++i) {
+  Flow block(const Block& b, size_t from = 0, size_t to = static_cast<size_t>(-1)) {
+    to = std::min(to, b.size());
+    if (from == 0 && to == b.size() &&
+        std::any_of(b.begin(), b.end(), [](const auto& st) { return st->kind == Stmt::Kind::kLabel; })) {
+      return region(b);
+    }
+    for (size_t i = from; i < to; ++i) {
       if (L.diags().has_errors()) return {};
       const Flow f = statement(*b[i]);
       const SourcePos pos = b[i]->pos;
       const Value leave = either(either(f.ret, f.exit, pos), f.cont, pos);
       if (never(leave)) continue;
-      if (leave.is_const || i + 1 == b.size()) return f;  // always leaves, or nothing follows
+      if (leave.is_const || i + 1 == to) return f;  // always leaves, or nothing follows
       Flow rest;
-      branch(L.em().unary_not(leave, pos), pos, [&] { rest = block(b, i + 1); }, [] {});
-      return Flow{either(f.ret, rest.ret, pos), either(f.exit, rest.exit, pos), either(f.cont, rest.cont, pos)};
+      branch(L.em().unary_not(leave, pos), pos, [&] { rest = block(b, i + 1, to); }, [] {});
+      // The rest's reasons count only where it ran: computed by if-conversion
+      // whatever `leave` was, they may be TRUE in a cycle that left here.
+      return pick(leave, f, rest, pos);
     }
     return {};
   }
@@ -276,6 +290,13 @@ struct StLowerer {
         f.cont = constant(1, true);
         return f;
       }
+      case Stmt::Kind::kJump:
+        jump(st);
+        return {};
+      case Stmt::Kind::kLabel:  // only where region() did not cut the list (a CASE branch)
+        L.diags().error(st.pos, "a label cannot start a CASE branch's statements ('" + st.target +
+                                    ":' reads as a CASE label there)");
+        return {};
       case Stmt::Kind::kIf: {
         const std::vector<Var*> g = gather(st);
         const Flow f = if_chain(st, 0);
@@ -449,8 +470,9 @@ struct StLowerer {
   // What a loop body writes (`written`) and reads (`read`), as variables,
   // over-approximated: an array or structure named with any index counts
   // whole. False, with the error given, for what a loop cannot hold yet.
+  // `refusal` says why a standard FB may not be called there (nullptr: it may).
   bool scan(const Block& b, std::vector<Var*>& written, std::set<const Var*>& ws, std::vector<Var*>& read,
-            std::set<const Var*>& rs, bool& returns) {
+            std::set<const Var*>& rs, bool& returns, const char* refusal = kInLoop) {
     for (const auto& st : b) {
       for (const auto& ix : st->target_index) {
         if (ix) expr_names(*ix, read, rs);
@@ -472,14 +494,12 @@ struct StLowerer {
           // user one holding one, is not supported in such a loop yet: its
           // blocks keep per-cycle state (a timer's time advances per call).
           const Var* std_fb = fb ? standard_fb_in(*fb) : nullptr;
-          if (std_fb != nullptr) {
+          if (std_fb != nullptr && refusal != nullptr) {
             L.diags().error(st->pos, "'" + st->target + "' " +
                                          (std_fb == fb ? std::string("is a standard function block instance")
                                                        : "holds the standard function block instance '" +
                                                              std_fb->decl->name + "'") +
-                                         ": calling one inside a WHILE, REPEAT or FOR loop that is not unrolled "
-                                         "is not supported yet (a constant FOR of at most 1,000 runs is unrolled "
-                                         "and may call it)");
+                                         refusal);
             return false;
           }
           if (fb && fb->role == Var::Role::kUserFb) leaves(*fb, written, ws);
@@ -502,17 +522,17 @@ struct StLowerer {
       }
       for (const auto& [c, body] : st->branches) {
         if (c) expr_names(*c, read, rs);
-        if (!scan(body, written, ws, read, rs, returns)) return false;
+        if (!scan(body, written, ws, read, rs, returns, refusal)) return false;
       }
       for (const CaseBranch& cb : st->cases) {
         for (const auto& [lo, hi] : cb.labels) {
           if (lo) expr_names(*lo, read, rs);
           if (hi) expr_names(*hi, read, rs);
         }
-        if (!scan(cb.body, written, ws, read, rs, returns)) return false;
+        if (!scan(cb.body, written, ws, read, rs, returns, refusal)) return false;
       }
-      if (!scan(st->else_body, written, ws, read, rs, returns)) return false;
-      if (!scan(st->body, written, ws, read, rs, returns)) return false;
+      if (!scan(st->else_body, written, ws, read, rs, returns, refusal)) return false;
+      if (!scan(st->body, written, ws, read, rs, returns, refusal)) return false;
     }
     return true;
   }
@@ -679,6 +699,197 @@ struct StLowerer {
     return out;
   }
 
+  // Labels and JMP (docs/st.md, "Jumps"). A statement list holding labels is
+  // a region: cut at its labels into segments, each lowered as any list. Every
+  // variable the list may write gets a home (as in a loop), set at the end of
+  // each segment and before each JMP to one of its labels, and read after
+  // each label, so a label's code sees the same values whether control fell
+  // through or jumped. A forward JMP is a jnz (jmp) to its label's first run;
+  // a backward one is a counted loop instruction, under a jz on the path when
+  // the JMP sits in an IF branch. A segment that may RETURN, EXIT or CONTINUE
+  // leaves the region by a real jump, its reasons in flag homes read at the
+  // end: the if-conversion that guards what follows such a statement never
+  // reaches past a label, where control may arrive by a jump.
+  struct Region {
+    std::map<std::string, size_t> labels;                // label -> its index in the list
+    std::map<std::string, uint32_t> placed;              // label -> its first run, once lowered
+    std::map<std::string, std::vector<size_t>> pending;  // label -> the forward jumps to it
+    std::vector<Home> homes;
+    size_t gathering = 0;  // standard FB instances gathered around the region
+  };
+  std::vector<Region*> regions_;
+  std::map<std::string, SourcePos> labels_seen_;  // every label of the body: each name once
+
+  // The labels the JMPs in `st` (at any depth) go to.
+  static void jumps_in(const Stmt& st, std::vector<std::string>& out) {
+    if (st.kind == Stmt::Kind::kJump) out.push_back(st.target);
+    auto list = [&](const Block& b) {
+      for (const auto& x : b) jumps_in(*x, out);
+    };
+    for (const auto& [c, body] : st.branches) list(body);
+    for (const CaseBranch& cb : st.cases) list(cb.body);
+    list(st.else_body);
+    list(st.body);
+  }
+  // Whether `b` may EXIT or CONTINUE a loop around it (not one inside it).
+  static void loop_leaves(const Block& b, bool& exit, bool& cont) {
+    for (const auto& st : b) {
+      if (st->kind == Stmt::Kind::kExit) exit = true;
+      if (st->kind == Stmt::Kind::kContinue) cont = true;
+      if (st->kind == Stmt::Kind::kFor || st->kind == Stmt::Kind::kWhile || st->kind == Stmt::Kind::kRepeat) {
+        continue;
+      }
+      for (const auto& [c, body] : st->branches) loop_leaves(body, exit, cont);
+      for (const CaseBranch& cb : st->cases) loop_leaves(cb.body, exit, cont);
+      loop_leaves(st->else_body, exit, cont);
+    }
+  }
+  void sync_homes(const std::vector<Home>& homes, SourcePos pos) {
+    for (const Home& h : homes) {
+      const Value now = L.read(*h.var, pos);
+      if (!same(now, h.value)) set_home(h, now, pos);
+    }
+  }
+
+  Flow region(const Block& b) {
+    Emitter& em = L.em();
+    const SourcePos pos = b.front()->pos;
+    Region r;
+    for (size_t i = 0; i < b.size(); ++i) {
+      if (b[i]->kind != Stmt::Kind::kLabel) continue;
+      // (The same label lowered again is an unrolled FOR's next iteration.)
+      const auto [it, fresh] = labels_seen_.emplace(b[i]->target, b[i]->pos);
+      if (!fresh && (it->second.line != b[i]->pos.line || it->second.col != b[i]->pos.col)) {
+        L.diags().error(b[i]->pos, "label '" + b[i]->target + "' is already defined at line " +
+                                       std::to_string(it->second.line));
+        return {};
+      }
+      r.labels[b[i]->target] = i;
+    }
+    bool backward = false;
+    for (size_t i = 0; i < b.size(); ++i) {
+      std::vector<std::string> js;
+      jumps_in(*b[i], js);
+      for (const std::string& j : js) {
+        auto it = r.labels.find(j);
+        if (it != r.labels.end() && it->second < i) backward = true;
+      }
+    }
+    std::vector<Var*> written, read;
+    std::set<const Var*> ws, rs;
+    bool returns = false, exits = false, conts = false;
+    if (!scan(b, written, ws, read, rs, returns, backward ? kInBackwardJump : nullptr)) return {};
+    loop_leaves(b, exits, conts);
+    // What the list reads, and the path's condition, made here in code that
+    // always runs (a value first made in a segment a jump skips would be stale).
+    for (Var* v : read) {
+      if (v->role == Var::Role::kPlain || v->role == Var::Role::kInput || v->role == Var::Role::kSetpoint) {
+        (void)L.read(*v, pos);
+      }
+    }
+    if (L.conditional()) (void)L.active(pos);
+    for (Var* v : written) {
+      if (v->role != Var::Role::kPlain || (v->decl && v->decl->constant)) continue;
+      const Value before = L.read(*v, pos);
+      Home h = make_home(v->path, v->digital, v->integer, pos);
+      h.var = v;
+      set_home(h, before, pos);
+      v->cur = h.value;
+      r.homes.push_back(std::move(h));
+    }
+    std::optional<Home> flag[3];  // RETURN, EXIT, CONTINUE
+    const bool may[3] = {returns, exits, conts};
+    const char* const what[3] = {"$return", "$exit", "$continue"};
+    for (int k = 0; k < 3; ++k) {
+      if (!may[k]) continue;
+      flag[k] = make_home(s.path + ".$jump" + what[k], true, false, pos);
+      set_home(*flag[k], constant(0, true), pos);
+    }
+    {
+      std::map<const Var*, Lowering::LoopHome> index;
+      for (const Home& h : r.homes) index[h.var] = Lowering::LoopHome{h.value, h.block};
+      L.enter_loop(std::move(index));
+    }
+    r.gathering = L.gathering();
+    regions_.push_back(&r);
+    struct Leave {
+      StLowerer& t;
+      ~Leave() {
+        t.regions_.pop_back();
+        t.L.leave_loop();
+      }
+    } leave{*this};
+    std::vector<size_t> to_end;
+    size_t begin = 0;
+    for (size_t i = 0; i <= b.size(); ++i) {
+      if (i < b.size() && b[i]->kind != Stmt::Kind::kLabel) continue;
+      const Flow f = block(b, begin, i);
+      if (L.diags().has_errors()) return {};
+      const SourcePos at = i < b.size() ? b[i]->pos : b.back()->pos;
+      sync_homes(r.homes, at);
+      const Value out = either(either(f.ret, f.exit, at), f.cont, at);
+      if (!never(out)) {
+        const Value* reason[3] = {&f.ret, &f.exit, &f.cont};
+        for (int k = 0; k < 3; ++k) {
+          if (flag[k] && !never(*reason[k])) set_home(*flag[k], *reason[k], at);
+        }
+        if (i < b.size()) {
+          to_end.push_back(em.emit_flow("jnz", em.fresh(s.path + ".$leave"), at, {em.ref(em.to_digital(out, at), at)}, 0));
+        }
+      }
+      if (i == b.size()) break;
+      const auto here = static_cast<uint32_t>(em.size());
+      r.placed[b[i]->target] = here;
+      for (size_t x : r.pending[b[i]->target]) em.block(x).target = here;
+      for (const Home& h : r.homes) h.var->cur = h.value;
+      begin = i + 1;
+    }
+    const auto end = static_cast<uint32_t>(em.size());
+    for (size_t x : to_end) em.block(x).target = end;
+    for (const Home& h : r.homes) h.var->cur = h.value;
+    Flow f;
+    if (flag[0]) f.ret = flag[0]->value;
+    if (flag[1]) f.exit = flag[1]->value;
+    if (flag[2]) f.cont = flag[2]->value;
+    return f;
+  }
+
+  void jump(const Stmt& st) {
+    Emitter& em = L.em();
+    const SourcePos pos = st.pos;
+    Region* r = nullptr;
+    for (auto it = regions_.rbegin(); it != regions_.rend() && !r; ++it) {
+      if ((*it)->labels.count(st.target) != 0) r = *it;
+    }
+    if (!r) {
+      L.diags().error(pos, "JMP " + st.target + ": no label '" + st.target +
+                               "' in this statement list or one around it (a jump may leave an IF, CASE or loop, "
+                               "never enter one)");
+      return;
+    }
+    if (L.gathering() > r->gathering) {
+      L.diags().error(pos, "JMP " + st.target + " inside an IF or CASE that calls one standard function block "
+                               "instance in several branches is not supported yet (the call runs at its END_IF)");
+      return;
+    }
+    const Value c = L.conditional() ? L.active(pos) : constant(1, true);
+    sync_homes(r->homes, pos);
+    const std::string name = em.fresh(s.path + ".$jmp_" + st.target);
+    if (auto it = r->placed.find(st.target); it != r->placed.end()) {
+      // Backward: the only way back, so counted against the task's loop_budget.
+      std::optional<size_t> skip;
+      if (!(c.is_const && c.k != 0)) {
+        skip = em.emit_flow("jz", name + "$skip", pos, {em.ref(em.to_digital(c, pos), pos)}, 0);
+      }
+      em.emit_flow("loop", name, pos, {}, it->second);
+      if (skip) em.block(*skip).target = static_cast<uint32_t>(em.size());
+      return;
+    }
+    const size_t x = c.is_const && c.k != 0 ? em.emit_flow("jmp", name, pos, {}, 0)
+                                            : em.emit_flow("jnz", name, pos, {em.ref(em.to_digital(c, pos), pos)}, 0);
+    r->pending[st.target].push_back(x);
+  }
+
   // The unrolled iterations of a FOR from `i` on; the condition under which
   // one of them ran RETURN. After an iteration that may EXIT (or RETURN), the
   // rest run under NOT that condition; CONTINUE ends only its own iteration.
@@ -695,8 +906,13 @@ struct StLowerer {
       Value rest = constant(0, true);
       const double next = i + by;
       branch(L.em().unary_not(stop, st.pos), st.pos, [&] { rest = iterations(st, iv, next, to, by); }, [] {});
-      return either(f.ret, rest, st.pos);
+      // The later iterations' RETURN counts only when they ran (see block()).
+      return L.em().select(L.em().to_digital(stop, st.pos), f.ret, rest, st.pos);
     }
+    // As a loop that is not unrolled: the counter ends one step past TO.
+    Value k = constant(i, false);
+    k.integer = true;
+    L.assign(iv, k, st.pos);
     return constant(0, true);
   }
 
@@ -729,7 +945,7 @@ struct StLowerer {
 }  // namespace
 
 void Lowering::lower_st(Scope& s, const Block& b) {
-  StLowerer st{*this, s};
+  StLowerer st{*this, s, {}, {}};
   st.block(b);
 }
 
@@ -739,7 +955,7 @@ void Lowering::lower_st_guarded(Scope& s, const Block& b, const Value& cond, Sou
 
 void Lowering::guarded(const Value& cond, SourcePos pos, const std::function<void()>& f) {
   Scope none;
-  StLowerer st{*this, none};
+  StLowerer st{*this, none, {}, {}};
   st.branch(cond, pos, [&] { f(); }, [] {});
 }
 

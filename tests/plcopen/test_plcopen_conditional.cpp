@@ -367,9 +367,9 @@ TEST(PlcopenConditional, exit_and_continue_in_an_unrolled_for) {
   EXPECT_EQ(m.value("main.sum"), 55 - 5 - 10);
 }
 
-TEST(PlcopenConditional, refuses_exit_outside_a_loop_and_jumps_in_st) {
+TEST(PlcopenConditional, refuses_exit_outside_a_loop_and_a_jump_to_no_label_in_st) {
   for (const auto& [body, msg] : {std::pair<std::string, std::string>{"x := 1;\nEXIT;", "EXIT outside a loop"},
-                                  {"x := 1;\nJMP l1;", "JMP is not ST"}}) {
+                                  {"x := 1;\nJMP l1;", "no label 'L1'"}}) {
     const std::string src = project(kNs201, st_program("<localVars>" + var("x", "INT") + "</localVars>", body));
     CompileResult r = compile_source(src);
     ASSERT_FALSE(r.ok()) << body;
