@@ -4,11 +4,15 @@
 // and R are guarded likewise, a conditional jump splits P into the part that
 // jumps (carried to its label with its CR) and the part that falls through,
 // and a label ORs the predicates that reach it and selects their CRs. Only
-// one path is taken in a cycle, so the selections are exact. A backward jump
-// (a loop) is refused; a conditional CAL is if-converted like an ST IF (a
-// user FB keeps its variables, a standard FB its state, when not called).
+// one path is taken in a cycle, so the selections are exact. A conditional
+// CAL is if-converted like an ST IF (a user FB keeps its variables, a
+// standard FB its state, when not called). A backward jump is a real loop
+// (docs/plcopen.md, "IL"): the body's variables, CR and P get homes, set
+// where control falls into the label and before the jump, read after the
+// label; the jump is the executor's counted Loop instruction.
 #include <cctype>
 #include <map>
+#include <optional>
 #include <set>
 
 #include "lang/plcopen/lowering.h"
@@ -118,7 +122,60 @@ void Lowering::lower_il(Scope& s, const Body& body) {
     }
   }
 
+  // The labels a backward jump goes to (each is a loop's head).
+  std::set<std::string> loop_heads;
+  for (size_t n = 0; n < lines.size(); ++n) {
+    const Line& l = lines[n];
+    size_t i = l.begin;
+    while (i < l.end && ident_char(t[i])) ++i;
+    const std::string op = upper(t.substr(l.begin, i - l.begin));
+    if (op != "JMP" && op != "JMPC" && op != "JMPCN") continue;
+    while (i < l.end && std::isspace(static_cast<unsigned char>(t[i]))) ++i;
+    auto it = label_line.find(upper(t.substr(i, l.end - i)));
+    if (it != label_line.end() && it->second <= n) loop_heads.insert(it->first);
+  }
+
   Emitter& em = em_;
+  // With a loop: a home for every variable the body may write (all of its
+  // POU's, and the globals it names), for CR and for P, made here where
+  // they always run.
+  std::vector<std::pair<Var*, LoopHome>> homes;
+  struct Head {
+    LoopHome cr;                // CR as it falls in or jumps back
+    std::optional<LoopHome> p;  // P, when not every path reaches the head
+    uint32_t run = 0;           // its first run
+  };
+  std::map<std::string, Head> heads;
+  const SourcePos body_pos = body.pos;
+  if (!loop_heads.empty()) {
+    std::vector<Var*> vs;
+    std::set<const Var*> seen;
+    for (auto& [name, v] : s.vars) var_leaves(*v, vs, seen);
+    if (s.globals) {
+      for (size_t i = 0; i < t.size();) {
+        if (!ident_char(t[i]) || std::isdigit(static_cast<unsigned char>(t[i]))) {
+          ++i;
+          continue;
+        }
+        size_t j = i;
+        while (j < t.size() && ident_char(t[j])) ++j;
+        auto g = s.globals->vars.find(upper(t.substr(i, j - i)));
+        if (g != s.globals->vars.end()) var_leaves(*g->second, vs, seen);
+        i = j;
+      }
+    }
+    if (conditional()) (void)active(body_pos);
+    for (Var* v : vs) {
+      if (v->role != Var::Role::kPlain || (v->decl && v->decl->constant)) continue;
+      homes.emplace_back(v, make_home(v->path, v->digital, v->integer, body_pos));
+    }
+  }
+  auto sync_homes = [&](SourcePos pos) {
+    for (auto& [v, h] : homes) {
+      const Value now = read(*v, pos);
+      if (now.is_const || now.ref != h.value.ref) set_home(h, now, pos);
+    }
+  };
   Value P = constant(1, true);
   PathSet paths;  // which paths P covers
   std::vector<int> parent{0};
@@ -170,6 +227,22 @@ void Lowering::lower_il(Scope& s, const Body& body) {
         }
         if (paths.all()) P = constant(1, true);  // every path is back
         pending.erase(it);
+      }
+      if (loop_heads.count(l.label) != 0) {
+        // A loop's head: what falls in goes to the homes, the jump back sets
+        // them too, and from here on everything reads them.
+        sync_homes(l.label_pos);
+        Head& hd = heads[l.label];
+        hd.cr = make_home(s.path + ".$cr", CR.digital, CR.integer, l.label_pos);
+        set_home(hd.cr, CR, l.label_pos);
+        if (!(P.is_const && P.k != 0)) {
+          hd.p = make_home(s.path + ".$p", true, false, l.label_pos);
+          set_home(*hd.p, P, l.label_pos);
+        }
+        hd.run = static_cast<uint32_t>(em.size());
+        for (auto& [v, h] : homes) v->cur = h.value;
+        CR = hd.cr.value;
+        if (hd.p) P = hd.p->value;
       }
     }
     if (l.end <= l.begin) continue;
@@ -252,12 +325,31 @@ void Lowering::lower_il(Scope& s, const Body& body) {
         d_.error(pos, "jump to label '" + target + "', which this body does not define");
         return;
       }
-      if (it->second <= n) {
-        d_.error(pos, "backward jump to " + target + " (line " + std::to_string(lines[it->second].label_pos.line) +
-                          ") is refused: it makes a loop, and rtplc runs a fixed data flow every cycle");
-        return;
-      }
       const Value c = em.to_digital(CR, pos);
+      if (it->second <= n) {
+        // Back to a loop's head: taken where P (and the condition, and the
+        // branch around the body) holds; falling through leaves P as it was
+        // (past a JMPC, P true means the condition was false).
+        Value pred = op == "JMP" ? P
+                     : op == "JMPC" ? em.binary(BinOp::kAnd, P, c, pos)
+                                    : em.binary(BinOp::kAnd, P, em.unary_not(c, pos), pos);
+        if (conditional()) pred = em.binary(BinOp::kAnd, pred, active(pos), pos);
+        const Head& hd = heads.at(target);
+        sync_homes(pos);
+        set_home(hd.cr, CR, pos);
+        if (hd.p) set_home(*hd.p, constant(1, true), pos);
+        std::optional<size_t> skip;
+        if (!(pred.is_const && pred.k != 0)) {
+          skip = em.emit_flow("jz", em.fresh(s.path + ".$il_back"), pos, {em.ref(em.to_digital(pred, pos), pos)}, 0);
+        }
+        em.emit_flow("loop", em.fresh(s.path + ".$il_loop"), pos, {}, hd.run);
+        if (skip) em.block(*skip).target = static_cast<uint32_t>(em.size());
+        if (op == "JMP") {
+          paths.atoms.clear();
+          P = constant(0, true);
+        }
+        continue;
+      }
       const Value pred = op == "JMP" ? P
                          : op == "JMPC" ? em.binary(BinOp::kAnd, P, c, pos)
                                         : em.binary(BinOp::kAnd, P, em.unary_not(c, pos), pos);
@@ -289,6 +381,19 @@ void Lowering::lower_il(Scope& s, const Body& body) {
       if (call.find('(') == std::string::npos) {
         d_.error(pos, "CAL " + call + " without arguments: give them in the call, CAL " + call + "(IN := ...)");
         return;
+      }
+      if (!loop_heads.empty()) {
+        std::string name = call.substr(0, call.find('('));
+        while (!name.empty() && std::isspace(static_cast<unsigned char>(name.back()))) name.pop_back();
+        const Var* fb = lookup(s, name, pos, false);
+        if (const Var* std_fb = fb ? standard_fb_in(*fb) : nullptr) {
+          d_.error(pos, "'" + name + "' " +
+                            (std_fb == fb ? std::string("is a standard function block instance")
+                                          : "holds the standard function block instance '" + std_fb->decl->name + "'") +
+                            ": calling one in an IL body with a backward jump is not supported yet (it could run "
+                            "more than once in a cycle)");
+          return;
+        }
       }
       Block blk = parse_st_range(src, ob, l.end, origin, d_);
       if (d_.has_errors()) return;

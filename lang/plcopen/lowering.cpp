@@ -699,6 +699,21 @@ Var* Lowering::indexed_array(Scope& s, const std::string& path, const std::vecto
   return a;
 }
 
+Lowering::LoopHome Lowering::make_home(const std::string& stem, bool digital, bool integer, SourcePos pos) {
+  LoopHome h;
+  h.value.ref = em_.fresh(stem + "$loop");
+  h.block = em_.emit_flow(digital ? "dvar" : "var", h.value.ref, pos, {}, 0, {0.0});
+  h.value.digital = digital;
+  h.value.integer = integer;
+  return h;
+}
+
+void Lowering::set_home(const LoopHome& h, const Value& v, SourcePos pos) {
+  const Value k = h.value.digital ? em_.to_digital(v, pos) : em_.to_analog(v, pos);
+  em_.emit_flow(h.value.digital ? "dset" : "set", em_.fresh(h.value.ref + "$set"), pos, {em_.ref(k, pos)},
+                static_cast<uint32_t>(h.block));
+}
+
 Value Lowering::load(Scope& s, const std::string& path, const std::vector<std::unique_ptr<Expr>>& index,
                      SourcePos pos) {
   {
@@ -762,9 +777,7 @@ void Lowering::store(Scope& s, const std::string& path, const std::vector<std::u
         const LoopHome& h = homes.at(e.get());
         const Value now = read(*e, pos);
         if (now.is_const || now.ref != h.value.ref) {
-          const Value k = e->digital ? em_.to_digital(now, pos) : em_.to_analog(now, pos);
-          em_.emit_flow(e->digital ? "dset" : "set", em_.fresh(h.value.ref + "$set"), pos, {em_.ref(k, pos)},
-                        static_cast<uint32_t>(h.block));
+          set_home(h, now, pos);
           e->cur = h.value;
         }
         table.push_back(h.value.ref);

@@ -14,6 +14,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <set>
 #include <optional>
 #include <string>
 #include <vector>
@@ -198,6 +199,10 @@ class Lowering {
     Value value;     // the home's value as the body reads it
     size_t block = 0;  // its var block
   };
+  // A home: a var block (its value read as `value`) that keeps a variable's
+  // value across a backward jump, set by set_home (a set block).
+  LoopHome make_home(const std::string& stem, bool digital, bool integer, SourcePos pos);
+  void set_home(const LoopHome& h, const Value& v, SourcePos pos);
   void enter_loop(std::map<const Var*, LoopHome> homes) { loops_.push_back(std::move(homes)); }
   void leave_loop() { loops_.pop_back(); }
 
@@ -286,6 +291,13 @@ class Lowering {
   std::string trigger_;
   SourcePos trigger_pos_;
 };
+
+// `v` itself when it is a standard FB instance, else the first one a user FB
+// instance (or an array of them) `v` holds, at any depth; nullptr when none.
+const Var* standard_fb_in(const Var& v);
+// The variables a name may denote: a plain variable, or every element or
+// member of the array, structure or FB instance `v` (not a standard FB's).
+void var_leaves(Var& v, std::vector<Var*>& out, std::set<const Var*>& seen);
 
 // Upper-case names a POU body assigns (ST `x :=`, FBD/LD outVariable and coil
 // targets): a located %M variable nobody writes is an operator set-point.

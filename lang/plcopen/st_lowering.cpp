@@ -23,6 +23,42 @@ namespace {
 constexpr int kMaxUnroll = 1000;
 }
 
+const Var* standard_fb_in(const Var& v) {
+  if (v.role == Var::Role::kStdFb) return &v;
+  if (v.role == Var::Role::kArray) {
+    for (const auto& e : v.elems) {
+      if (const Var* f = standard_fb_in(*e)) return f;
+    }
+  }
+  if (v.role == Var::Role::kUserFb && v.fb) {
+    for (const auto& [name, m] : v.fb->vars) {
+      if (const Var* f = standard_fb_in(*m)) return f;
+    }
+  }
+  return nullptr;
+}
+
+void var_leaves(Var& v, std::vector<Var*>& out, std::set<const Var*>& seen) {
+  switch (v.role) {
+    case Var::Role::kArray:
+      for (auto& e : v.elems) var_leaves(*e, out, seen);
+      return;
+    case Var::Role::kStruct:
+    case Var::Role::kUserFb:
+      if (v.fb) {
+        for (auto& [name, m] : v.fb->vars) var_leaves(*m, out, seen);
+      }
+      return;
+    case Var::Role::kInOut:
+      if (v.alias) var_leaves(*v.alias, out, seen);
+      return;
+    case Var::Role::kStdFb:
+      return;
+    default:
+      if (seen.insert(&v).second) out.push_back(&v);
+  }
+}
+
 Var* Lowering::in_out_argument(Scope& s, const Expr& e, const std::string& formal, SourcePos pos) {
   if (e.kind != Expr::Kind::kName) {
     d_.error(pos, "VAR_IN_OUT '" + formal + "' needs a variable, not an expression");
@@ -416,49 +452,10 @@ struct StLowerer {
     return false;
   }
 
-  // `v` itself when it is a standard FB instance, else the first one a user
-  // FB instance `v` holds (at any depth); nullptr when there is none.
-  static const Var* standard_fb_in(const Var& v) {
-    if (v.role == Var::Role::kStdFb) return &v;
-    if (v.role == Var::Role::kArray) {
-      for (const auto& e : v.elems) {
-        if (const Var* f = standard_fb_in(*e)) return f;
-      }
-    }
-    if (v.role == Var::Role::kUserFb && v.fb) {
-      for (const auto& [name, m] : v.fb->vars) {
-        if (const Var* f = standard_fb_in(*m)) return f;
-      }
-    }
-    return nullptr;
-  }
-
-  // The variables a name may denote: a plain variable, or every element or
-  // member of the array, structure or FB instance its base names.
-  static void leaves(Var& v, std::vector<Var*>& out, std::set<const Var*>& seen) {
-    switch (v.role) {
-      case Var::Role::kArray:
-        for (auto& e : v.elems) leaves(*e, out, seen);
-        return;
-      case Var::Role::kStruct:
-      case Var::Role::kUserFb:
-        if (v.fb) {
-          for (auto& [name, m] : v.fb->vars) leaves(*m, out, seen);
-        }
-        return;
-      case Var::Role::kInOut:
-        if (v.alias) leaves(*v.alias, out, seen);
-        return;
-      case Var::Role::kStdFb:
-        return;
-      default:
-        if (seen.insert(&v).second) out.push_back(&v);
-    }
-  }
   void name_leaves(const std::string& path, SourcePos pos, std::vector<Var*>& out, std::set<const Var*>& seen) {
     const size_t cut = path.find_first_of(".[");
     Var* v = L.lookup(s, path.substr(0, cut), pos, false);
-    if (v) leaves(*v, out, seen);
+    if (v) var_leaves(*v, out, seen);
   }
   void expr_names(const Expr& e, std::vector<Var*>& out, std::set<const Var*>& seen) {
     if (e.kind == Expr::Kind::kName) name_leaves(e.name, e.pos, out, seen);
@@ -502,7 +499,7 @@ struct StLowerer {
                                          refusal);
             return false;
           }
-          if (fb && fb->role == Var::Role::kUserFb) leaves(*fb, written, ws);
+          if (fb && fb->role == Var::Role::kUserFb) var_leaves(*fb, written, ws);
           for (const CallArg& a : st->call_args) {
             if (a.output) {
               name_leaves(a.target, a.pos, written, ws);
@@ -537,29 +534,16 @@ struct StLowerer {
     return true;
   }
 
-  // A variable's home in a loop: a var block, and its value as the body reads it.
-  struct Home {
-    Var* var = nullptr;  // nullptr: the loop's RETURN flag
-    std::string name;
-    size_t block = 0;
-    Value value;
+  // A variable's home in a loop (Lowering::make_home), and whose it is.
+  struct Home : Lowering::LoopHome {
+    Var* var = nullptr;  // nullptr: a flag (RETURN, EXIT, CONTINUE)
   };
   Home make_home(const std::string& stem, bool digital, bool integer, SourcePos pos) {
-    Emitter& em = L.em();
     Home h;
-    h.name = em.fresh(stem + "$loop");
-    h.block = em.emit_flow(digital ? "dvar" : "var", h.name, pos, {}, 0, {0.0});
-    h.value.ref = h.name;
-    h.value.digital = digital;
-    h.value.integer = integer;
+    static_cast<Lowering::LoopHome&>(h) = L.make_home(stem, digital, integer, pos);
     return h;
   }
-  void set_home(const Home& h, const Value& v, SourcePos pos) {
-    Emitter& em = L.em();
-    const Value k = h.value.digital ? em.to_digital(v, pos) : em.to_analog(v, pos);
-    em.emit_flow(h.value.digital ? "dset" : "set", em.fresh(h.name + "$set"), pos, {em.ref(k, pos)},
-                 static_cast<uint32_t>(h.block));
-  }
+  void set_home(const Home& h, const Value& v, SourcePos pos) { L.set_home(h, v, pos); }
   static bool same(const Value& a, const Value& b) {
     return a.is_const == b.is_const && (a.is_const ? a.k == b.k : a.ref == b.ref);
   }
@@ -627,7 +611,7 @@ struct StLowerer {
     }
     {
       std::map<const Var*, Lowering::LoopHome> index;
-      for (const Home& h : homes) index[h.var] = Lowering::LoopHome{h.value, h.block};
+      for (const Home& h : homes) index[h.var] = h;
       L.enter_loop(std::move(index));
     }
     struct Leave {
@@ -807,7 +791,7 @@ struct StLowerer {
     }
     {
       std::map<const Var*, Lowering::LoopHome> index;
-      for (const Home& h : r.homes) index[h.var] = Lowering::LoopHome{h.value, h.block};
+      for (const Home& h : r.homes) index[h.var] = h;
       L.enter_loop(std::move(index));
     }
     r.gathering = L.gathering();
