@@ -34,6 +34,7 @@ struct CheckArgs {
   bool iec = false;
   bool paths = false;
   std::string entry;
+  std::string semantics = "auto";
   std::string name;
 };
 
@@ -61,6 +62,7 @@ lang::CompileOptions options_from(const CheckArgs& a) {
   lang::CompileOptions o;
   if (a.period > 0) o.period_override = a.period;
   o.entry = a.entry;
+  o.semantics = *lang::parse_editor_semantics(a.semantics);
   return o;
 }
 
@@ -246,6 +248,8 @@ void add_check_commands(CLI::App& app) {
                     "(`rtplc run CONFIG --name NAME`): its retained values, state and saved programs")
       ->check(runtime_name());
   check->add_option("--entry", args->entry, "PLCopen XML: the task, program instance or program to check (default: the project's only one)");
+  check->add_option("--semantics", args->semantics, "PLCopen XML and ST: whose behaviour where the editors differ (SFC order, TIME conversions): auto (the file header's editor: CODESYS for a CODESYS export, else MatIEC as Beremiz and OpenPLC), matiec or codesys (docs/plcopen.md)")
+      ->check(CLI::IsMember({"auto", "matiec", "codesys"}));
   check->add_option("--period", args->period, "override stime: task period in seconds")
       ->check(positive_seconds());
   check->callback([args] { run_check(*args); });
@@ -259,6 +263,8 @@ void add_check_commands(CLI::App& app) {
                   "  rtplc compile examples/seed_pid.fbd -o pid.img\n  rtplc sim pid.img --duration 10");
   compile->add_option("file", args->file, "control algorithm file (.fbd), SFC program (.sfc) or PLCopen XML project (.xml)")->required();
   compile->add_option("--entry", args->entry, "PLCopen XML: the task, program instance or program to compile (default: the project's only one)");
+  compile->add_option("--semantics", args->semantics, "PLCopen XML and ST: whose behaviour where the editors differ (SFC order, TIME conversions): auto (the file header's editor: CODESYS for a CODESYS export, else MatIEC as Beremiz and OpenPLC), matiec or codesys (docs/plcopen.md)")
+      ->check(CLI::IsMember({"auto", "matiec", "codesys"}));
   compile->add_option("-o,--output", args->output, "image file (default: FILE with .img)");
   compile->add_flag("--werror", args->werror, "treat warnings as errors");
   compile->add_option("--period", args->period, "override stime: task period in seconds")

@@ -27,6 +27,7 @@ struct SimArgs {
   std::vector<std::string> steps;
   double period = 0;
   std::string entry;
+  std::string semantics = "auto";
   bool realtime = false;
   bool quiet = false;
   bool allow_unstable = false;
@@ -76,6 +77,7 @@ void run_sim(const SimArgs& a) {
   lang::CompileOptions copt;
   if (a.period > 0) copt.period_override = a.period;
   copt.entry = a.entry;
+  copt.semantics = *lang::parse_editor_semantics(a.semantics);
   lang::CompileResult r = lang::compile_file(a.file, copt);
   if (!r.diags.items().empty()) {
     std::string err;
@@ -190,6 +192,8 @@ void add_sim_command(CLI::App& app) {
       "  rtplc sim examples/plcopen_tank.xml --duration 5 --csv tank.csv   (a column per variable)");
   sim->add_option("file", a->file, "control algorithm file (.fbd), SFC program (.sfc) or PLCopen XML project (.xml)")->required();
   sim->add_option("--entry", a->entry, "PLCopen XML: the task, program instance or program to simulate (default: the project's only one)");
+  sim->add_option("--semantics", a->semantics, "PLCopen XML and ST: whose behaviour where the editors differ (SFC order, TIME conversions): auto (the file header's editor: CODESYS for a CODESYS export, else MatIEC as Beremiz and OpenPLC), matiec or codesys (docs/plcopen.md)")
+      ->check(CLI::IsMember({"auto", "matiec", "codesys"}));
   sim->add_option("--duration", a->duration, "simulated seconds (default 30)")
       ->check(seconds_between(1e-3, 1e7));
   sim->add_option("--plant", a->plant, "plant model (default second-order = 1/(s^2+s+1))")

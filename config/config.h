@@ -83,6 +83,7 @@ struct TaskConfig {
   std::string program;  // resolved against the config file's folder
   SourcePos program_pos;
   std::string program_instance;  // PLCopen XML: what of the project runs (empty: its only one)
+  std::string semantics = "auto";  // PLCopen XML, ST: auto | matiec | codesys (lang::EditorSemantics)
   std::optional<double> period_s;  // overrides the program's stime() when set
   SourcePos period_pos;
   std::optional<int> priority;  // SCHED_FIFO, inside the band; unset: rate-monotonic

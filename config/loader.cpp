@@ -340,6 +340,9 @@ void parse_task(YamlReader& r, const YAML::Node& node, SourcePos list_pos, Runti
   if (const Field* x = f.get("program_instance")) {
     if (auto v = r.name(*x)) t.program_instance = *v;
   }
+  if (const Field* x = f.get("semantics")) {
+    if (auto v = r.choice(*x)) t.semantics = *v;
+  }
   if (const Field* x = f.get("period")) {
     t.period_pos = x->pos;
     t.period_s = r.duration(*x);

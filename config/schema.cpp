@@ -75,6 +75,11 @@ const KeySpec kTaskKeys[] = {
      "the project's only task or program",
      "For a PLCopen XML or ST (.st) program: the task, program instance or program POU "
      "of the project this task runs."},
+    {"semantics", ValueType::kChoice, false, kNoMin, kNoMax, "auto|matiec|codesys", "auto",
+     "For a PLCopen XML or ST program: whose behaviour it gets where the editors' runtimes "
+     "differ (the order of an SFC's cycle, TIME conversions; docs/plcopen.md, \"Which editor's "
+     "semantics\"): `auto` takes the file header's editor (CODESYS for a CODESYS export, else "
+     "MatIEC as Beremiz and OpenPLC run), or name one."},
     {"period", ValueType::kDuration, false, kMinPeriod, kMaxPeriod, nullptr,
      "the program's `stime()`", "Overrides the program's period."},
     {"priority", ValueType::kInteger, false, kMinFifoPriority, kMaxFifoPriority, nullptr,

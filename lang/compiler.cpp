@@ -409,6 +409,13 @@ Result<TaskImage> build_image(const CheckedProgram& prog, const CompileOptions& 
   return ib.finish();
 }
 
+std::optional<EditorSemantics> parse_editor_semantics(std::string_view text) {
+  if (text == "auto") return EditorSemantics::kFromHeader;
+  if (text == "matiec") return EditorSemantics::kMatiec;
+  if (text == "codesys") return EditorSemantics::kCodesys;
+  return std::nullopt;
+}
+
 std::optional<std::string> read_text_file(const std::string& path, std::string* error) {
   Result<std::string> text = read_file_bounded(path, kMaxSourceBytes);
   if (!text) {

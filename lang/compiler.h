@@ -14,6 +14,16 @@
 
 namespace rtplc::lang {
 
+// Where the editors' runtimes differ, whose behaviour a project gets
+// (docs/plcopen.md, "Which editor's semantics"): the one its file header
+// names (CODESYS's for a CODESYS export, MatIEC's for anything else:
+// Beremiz, OpenPLC Editor, .st files), or the one the user chose.
+enum class EditorSemantics : uint8_t { kFromHeader, kMatiec, kCodesys };
+
+// "auto", "matiec" or "codesys" (the --semantics option and the task key);
+// nullopt for anything else.
+std::optional<EditorSemantics> parse_editor_semantics(std::string_view text);
+
 struct CompileOptions {
   std::string name;                       // program name stored in the image
   std::optional<double> period_override;  // seconds; replaces stime (runtime config)
@@ -25,6 +35,7 @@ struct CompileOptions {
   // PLCopen XML: the task, program instance or program to run (empty: the
   // project's only one). docs/plcopen.md, "What runs".
   std::string entry;
+  EditorSemantics semantics = EditorSemantics::kFromHeader;
 };
 
 struct CompileResult {

@@ -216,6 +216,7 @@ bool Runtime::build(const config::RuntimeConfig& cfg, LoadReport& report) {
     lang::CompileOptions o;
     o.name = tc.name;
     o.entry = tc.program_instance;
+    o.semantics = lang::parse_editor_semantics(tc.semantics).value_or(lang::EditorSemantics::kFromHeader);
     if (tc.period_s) o.period_override = *tc.period_s;
     // The boot program: what this task ran last, unless the config says otherwise.
     std::optional<ProgramVersion> saved = cfg.programs_from_config ? std::nullopt : programs_.current(tc.name);
@@ -297,7 +298,11 @@ bool Runtime::build(const config::RuntimeConfig& cfg, LoadReport& report) {
   channel_by_key_ = plan_.channel_by_key;
   task_output_keys_ = plan_.task_output_keys;
   task_entries_.clear();
-  for (const config::TaskConfig& tc : cfg.tasks) task_entries_.push_back(tc.program_instance);
+  for (const config::TaskConfig& tc : cfg.tasks) {
+    task_entries_.push_back(tc.program_instance);
+    task_semantics_.push_back(
+        lang::parse_editor_semantics(tc.semantics).value_or(lang::EditorSemantics::kFromHeader));
+  }
   setpoint_region_ = plan_.setpoint_region;
   unwired_region_ = plan_.unwired_region;
   safe_outputs_.assign(n_tasks, {});

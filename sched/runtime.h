@@ -37,6 +37,7 @@
 
 namespace rtplc::lang {
 struct CompileResult;
+enum class EditorSemantics : uint8_t;
 }
 
 namespace rtplc::sched {
@@ -283,6 +284,7 @@ class Runtime {
   std::vector<std::unique_ptr<LoadedProgram>> graveyard_;  // retired, freed by reap()
   std::vector<std::vector<std::string>> task_output_keys_; // per task: region index -> channel key
   std::vector<std::string> task_entries_;  // per task: the PLCopen program_instance (swap recompiles it)
+  std::vector<lang::EditorSemantics> task_semantics_;  // per task: its `semantics` (swap recompiles with it)
   std::vector<config::SafeOutput> no_safe_;
   std::vector<std::vector<config::SafeOutput>> safe_outputs_;
   std::map<std::string, uint32_t> channel_by_key_;  // key -> channel index in the image

@@ -287,6 +287,7 @@ lang::CompileResult Runtime::compile_for(const Task& t, const std::string& sourc
   o.period_override = static_cast<double>(t.params().period_ns) / 1e9;  // the task keeps its grid
   o.output_layout = task_output_keys_[t.index()];
   if (t.index() < task_entries_.size()) o.entry = task_entries_[t.index()];
+  if (t.index() < task_semantics_.size()) o.semantics = task_semantics_[t.index()];
   return lang::compile_source(source, o);
 }
 

@@ -95,6 +95,13 @@ uint32_t Emitter::convert(uint32_t p, IecType from, IecType to) {
   if (to == IecType::kBool) return digital(p);
   if (from == IecType::kBool) return analog(p);  // 0 or 1 fits every type
   uint32_t v = analog(p);
+  if (time_in_seconds_ && (from == IecType::kTime) != (to == IecType::kTime)) {
+    // MatIEC: a number of seconds either way; into an integer type the
+    // fraction is dropped (its __time_to_int returns tv_sec).
+    if (to == IecType::kTime || !t.integer) return v;
+    v = block("trunc", {v});
+    return wrap(v, to);
+  }
   // TIME counts in milliseconds when it meets a number (TIME_TO_DINT(T#1s) = 1000),
   // as CODESYS does (MatIEC counts whole seconds: docs/language.md); rtplc keeps TIME in seconds.
   if (from == IecType::kTime && to != IecType::kTime) v = block("scale", {v}, {1000.0, 0.0});

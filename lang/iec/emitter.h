@@ -48,6 +48,10 @@ class Emitter {
   uint32_t wrap(uint32_t producer, IecType t);
   // A `*_TO_*` conversion (docs/language.md says which rounding and scaling).
   uint32_t convert(uint32_t producer, IecType from, IecType to);
+  // How TIME meets numbers in conversions: milliseconds (CODESYS, the
+  // default: TIME_TO_DINT(T#1.5s) = 1500) or whole seconds (MatIEC:
+  // TIME_TO_DINT(T#1.5s) = 1, DINT_TO_TIME(2) = T#2s, TIME_TO_REAL = seconds).
+  void set_time_in_seconds(bool on) { time_in_seconds_ = on; }
 
   // An operand the front end has not made as a block yet: the PLCopen importer
   // names its producers and resolves the names once every block exists, so a
@@ -70,6 +74,7 @@ class Emitter {
   std::string prefix_;
   SourcePos pos_;
   uint32_t call_line_;
+  bool time_in_seconds_ = false;
   std::map<std::string, uint32_t, std::less<>> used_roles_;
   std::map<std::pair<double, int>, uint32_t> constants_;
   std::vector<Kind> externals_;

@@ -85,6 +85,7 @@ std::vector<Value> Lowering::lower_iec(const iec::IecFunction& f, const std::str
   for (const auto& a : args) arg_names.push_back(a ? em_.ref(*a, pos) : std::string());
   const size_t first = out_.blocks.size();
   iec::Emitter ie(out_, prefix, pos);
+  ie.set_time_in_seconds(semantics_ == EditorSemantics::kMatiec);
   iec::IecCall call;
   call.type = operand_type(f, args);
   std::vector<size_t> slot_arg;

@@ -73,6 +73,13 @@ void Emitter::append_resolved(FlatBlock b) {
   resolved_.push_back(true);
 }
 
+void Emitter::append_named(FlatBlock b, std::vector<std::string> ins) {
+  b.call_line = 0;
+  p_.blocks.push_back(std::move(b));
+  refs_.push_back(std::move(ins));
+  resolved_.push_back(false);
+}
+
 std::string Emitter::fresh(const std::string& scope) {
   return scope + ".$" + std::to_string(++counter_);
 }

@@ -60,6 +60,9 @@ class Emitter {
   // Appends a block whose inputs are already indices (one another front end
   // built, lang/sfc for an SFC body); later blocks may read it by name.
   void append_resolved(FlatBlock b);
+  // Appends a block another builder made, its inputs given by name (resolved
+  // by finish(), like emit()'s).
+  void append_named(FlatBlock b, std::vector<std::string> ins);
   size_t size() const { return p_.blocks.size(); }
 
   // A unique name under `scope` ("main" -> "main.$7").

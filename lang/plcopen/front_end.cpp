@@ -14,6 +14,7 @@ constexpr const char* kExtensions[] = {".xml"};
 CheckedProgram read_plcopen(std::string_view source, const CompileOptions& options, DiagnosticList& diags) {
   ImportOptions io;
   io.entry = options.entry;
+  io.semantics = options.semantics;
   return import_plcopen(source, io, diags).program;
 }
 

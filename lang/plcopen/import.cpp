@@ -162,6 +162,31 @@ ImportResult import_project(const Project& p, const ImportOptions& opt, Diagnost
   }
 
   Lowering L(p, res.program, diags);
+  {
+    // Whose semantics (docs/plcopen.md, "Which editor's semantics").
+    const auto contains = [](const std::string& text, const char* what) {
+      return upper(text).find(what) != std::string::npos;
+    };
+    const bool codesys_header = contains(p.product, "CODESYS") || contains(p.company, "CODESYS") ||
+                                contains(p.company, "3S-SMART");
+    EditorSemantics sem = opt.semantics;
+    std::string why;
+    if (sem == EditorSemantics::kFromHeader) {
+      sem = codesys_header ? EditorSemantics::kCodesys : EditorSemantics::kMatiec;
+      why = p.product.empty() && p.company.empty()
+                ? "no editor named in the file"
+                : "the file header names " + (p.product.empty() ? p.company : p.product);
+    } else {
+      why = "chosen by --semantics or the task's semantics key";
+    }
+    L.set_semantics(sem);
+    res.program.notes.push_back(std::string("semantics: ") +
+                                (sem == EditorSemantics::kCodesys
+                                     ? "CODESYS's (SFC: actions first, steps switch for the next cycle)"
+                                     : "MatIEC's, as Beremiz and OpenPLC run (SFC: transitions first, the "
+                                       "new steps' actions in the same cycle)") +
+                                " - " + why);
+  }
   std::vector<const Variable*> globals;
   for (const Configuration& c : p.configurations) {
     for (const Variable& v : c.globals) globals.push_back(&v);

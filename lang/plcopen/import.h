@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "common/diagnostic.h"
+#include "lang/compiler.h"
 #include "lang/flat_program.h"
 
 namespace rtplc::lang::plcopen {
@@ -19,6 +20,7 @@ struct ImportOptions {
   // name, or a program POU name. Empty: the only task of the project, or its
   // only program when it has no configuration.
   std::string entry;
+  EditorSemantics semantics = EditorSemantics::kFromHeader;
 };
 
 // What was imported: the flat program (for check_flat_program) and what runs.

@@ -14,11 +14,12 @@
 #include <functional>
 #include <map>
 #include <memory>
-#include <set>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
+#include "lang/compiler.h"
 #include "lang/iec/iec_functions.h"
 #include "lang/plcopen/emitter.h"
 #include "lang/plcopen/project.h"
@@ -180,6 +181,7 @@ class Lowering {
   // Programs lowered after this run only in cycles where `trigger` rises
   // (a task with single="..."); SourcePos for its messages.
   void set_trigger(const std::string& variable, SourcePos pos);
+  void set_semantics(EditorSemantics s) { semantics_ = s; }
   void lower_graph(Scope& s, const XmlElement& body, bool ladder);
   void lower_st(Scope& s, const Block& b);
   void lower_il(Scope& s, const Body& body);
@@ -290,6 +292,7 @@ class Lowering {
   std::map<const Var*, std::vector<GatheredCall>> gathered_;
   std::string trigger_;
   SourcePos trigger_pos_;
+  EditorSemantics semantics_ = EditorSemantics::kMatiec;
 };
 
 // `v` itself when it is a standard FB instance, else the first one a user FB

@@ -118,7 +118,11 @@ class Reader {
           }
         }
       }
-      // fileHeader, contentHeader, addData: descriptive only.
+      if (c.name == "fileHeader") {
+        p.company = attr(c, "companyName");
+        p.product = attr(c, "productName");
+      }
+      // contentHeader, addData: descriptive only.
     }
     // CODESYS V3 keeps an application's POUs in its resource's addData.
     for (Pou& pou : vendor_pous_) p.pous.push_back(std::move(pou));

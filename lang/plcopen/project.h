@@ -167,6 +167,8 @@ struct Project {
   std::vector<Pou> pous;
   std::vector<DataType> data_types;
   std::vector<Configuration> configurations;
+  // <fileHeader>'s companyName and productName: which editor wrote it.
+  std::string company, product;
 
   const Pou* pou(std::string_view name) const;  // case-insensitive
   const DataType* data_type(std::string_view name) const;  // case-insensitive

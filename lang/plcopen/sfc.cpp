@@ -335,212 +335,285 @@ void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
   const sfc::Chart& chart = g.chart;
   const std::vector<SfcActionUse>& uses = g.uses;
   Emitter& em = em_;
-  // Conditions drawn in the SFC body itself (Beremiz): FBD and LD elements
-  // beside the steps, lowered once as one graph, each feeding a condition's
-  // <connectionPointIn>.
-  std::vector<Value> drawn(g.transitions.size());
-  {
-    std::set<std::string> sfc_ids;
-    bool graph_elements = false;
-    for (const XmlElement& e : body.children) {
-      if (is_sfc_element(e.name)) sfc_ids.insert(attr(e, "localId"));
-      graph_elements = graph_elements || is_graph_element(e.name);
-    }
-    std::vector<const XmlElement*> points;
-    std::vector<size_t> point_of;
-    for (size_t i = 0; i < g.transitions.size(); ++i) {
-      const XmlElement* c = g.transitions[i]->child("condition");
-      const XmlElement* cp = c ? c->child("connectionPointIn") : nullptr;
-      if (!cp) continue;
-      const std::string id = attr(*g.transitions[i], "localId");
-      if (inputs_of(*c).empty()) {
-        d_.error(cp->pos, "the condition of transition localId " + id + " has nothing connected to it");
-        return;
-      }
-      for (const std::string& src : inputs_of(*c)) {
-        if (sfc_ids.count(src)) {
-          d_.error(cp->pos, "the condition of transition localId " + id + " is connected to localId " + src +
-                                ", an SFC element: a condition takes its value from FBD or LD elements");
-          return;
-        }
-      }
-      points.push_back(cp);
-      point_of.push_back(i);
-    }
-    if (graph_elements || !points.empty()) {
-      std::vector<Value> v = lower_sfc_graph_inputs(*this, s, body, points);
-      if (d_.has_errors()) return;
-      for (size_t k = 0; k < points.size(); ++k) drawn[point_of[k]] = v[k];
-    }
-  }
-
-  // Each condition, lowered in the importer's blocks, is held in a block the
-  // chart reads as a host signal.
+  const bool actions_first = semantics_ == EditorSemantics::kCodesys;
   std::map<std::string, uint32_t> host_blocks;  // host signal -> block index
-  for (size_t i = 0; i < g.transitions.size(); ++i) {
-    const XmlElement& t = *g.transitions[i];
-    const std::string id = attr(t, "localId");
-    Value cond = constant(0, true);
-    const XmlElement* c = t.child("condition");
-    if (!c) {
-      d_.error(t.pos, "<transition> localId " + id + " has no <condition>");
-      return;
-    }
-    const XmlElement* inl = c->child("inline");
-    const XmlElement* ref = c->child("reference");
-    Body inline_b;
-    if (drawn[i].valid()) {
-      cond = em.to_digital(drawn[i], t.pos);
-    } else if (inl && read_inline_body(*inl, d_, &inline_b) && inline_b.language == BodyLanguage::kSt) {
-      auto ex = parse_st_expression(inline_b.source, *inline_b.text, d_);
-      if (!ex) return;
-      cond = em.to_digital(eval(s, *ex), t.pos);
-    } else if (inl) {
-      if (d_.has_errors()) return;
-      const bool ladder = inline_b.language == BodyLanguage::kLd;
-      const std::string name = attr(*inl, "name");
-      if (inline_b.language == BodyLanguage::kIl) {
-        // IL: the current result at the end of the body.
-        lower_il(s, inline_b);
-        if (!il_result()) return;
-        cond = em.to_digital(*il_result(), t.pos);
-      } else if (inline_b.language != BodyLanguage::kFbd && !ladder) {
-        d_.error(inline_b.pos, std::string("an inline transition condition in ") + language_name(inline_b.language) +
-                                   " is not supported (ST, FBD, LD and IL are)");
-        return;
-      } else if (name.empty() && !ladder) {
-        d_.error(inl->pos, "an inline FBD condition needs <inline name=...> and an outVariable of that name (its value)");
-        return;
-      } else {
-        Value v = lower_graph_result(*this, s, *inline_b.graph, ladder, name,
-                                     "the inline condition of transition localId " + id, inl->pos);
-        if (!v.valid()) return;
-        cond = em.to_digital(v, t.pos);
-      }
-    } else if (ref) {
-      const std::string n = attr(*ref, "name");
-      const NamedBody* nb = nullptr;
-      for (const NamedBody& b : s.pou->transitions) {
-        if (iequals(b.name, n)) nb = &b;
-      }
-      if (!nb) {
-        d_.error(ref->pos, "transition '" + n + "' is not declared in the POU's <transitions>");
-        return;
-      }
-      if (nb->body.language == BodyLanguage::kFbd || nb->body.language == BodyLanguage::kLd) {
-        // The value of the outVariable or coil named after the transition.
-        Value v = lower_graph_result(*this, s, *nb->body.graph, nb->body.language == BodyLanguage::kLd, nb->name,
-                                     "transition '" + nb->name + "'", nb->pos);
-        if (!v.valid()) return;
-        cond = em.to_digital(v, t.pos);
-      } else if (nb->body.language == BodyLanguage::kIl) {
-        lower_il(s, nb->body);  // the current result at the end is the condition
-        if (!il_result()) return;
-        cond = em.to_digital(*il_result(), t.pos);
-      } else if (nb->body.language != BodyLanguage::kSt) {
-        d_.error(nb->pos, "transition '" + n + "': a transition body in " + language_name(nb->body.language) +
-                              " is not supported yet (ST, FBD, LD and IL are)");
-        return;
-      } else {
-        // An expression, or `NAME := expression;`.
-        std::string text = nb->body.source;
-        const size_t assign = text.find(":=");
-        size_t begin = 0, end = text.size();
-        if (assign != std::string::npos) {
-          begin = assign + 2;
-          const size_t semi = text.rfind(';');
-          if (semi != std::string::npos && semi > begin) end = semi;
-        } else if (const size_t semi = text.rfind(';'); semi != std::string::npos) {
-          end = semi;
-        }
-        auto ex = parse_st_expression(text, *nb->body.text, d_, begin, end);
-        if (!ex) return;
-        cond = em.to_digital(eval(s, *ex), t.pos);
-      }
-    } else {
-      d_.error(c->pos, "a transition's <condition> needs a <reference>, an <inline> body or a <connectionPointIn>");
-      return;
-    }
-    if (attr(*c, "negated") == "true") cond = em.unary_not(cond, t.pos);
-    const std::string x = em.ref(cond, t.pos);
-    host_blocks[chart.transitions[i].condition.name] =
-        static_cast<uint32_t>(em.emit("or", s.path + ".$sfc.cond." + id, t.pos, {x, x}));
-  }
-
-  const sfc::ChartIndex index = sfc::check_chart(chart, d_);
-  if (d_.has_errors()) return;
   sfc::HostLink host;
   host.prefix = s.path + ".$sfc.";
-  host.first_index = static_cast<uint32_t>(em.size());
-  host.resolve = [&](const std::string& name) -> std::optional<uint32_t> {
-    auto it = host_blocks.find(name);
-    if (it == host_blocks.end()) return std::nullopt;
-    return it->second;
-  };
-  CheckedProgram built = sfc::build_flat_program(chart, index, d_, &host);
-  if (d_.has_errors()) return;
-  for (FlatBlock& b : built.blocks) em.append_resolved(std::move(b));
-
-  // Step flags under the names a PLCopen user knows (and `rtplc sim` traces).
-  for (const sfc::Step& st : chart.steps) {
-    Value x;
-    x.ref = sfc::step_flag_block(host, st.name);
-    x.digital = true;
-    const std::string name = s.path + ".step." + st.name + ".X";
-    em.copy_as(x, name, st.pos);
-    out_.variables.push_back(name);
-  }
-
-  for (const std::string& tgt : g.targets) {
-    SourcePos pos;
-    const SfcActionUse* first = nullptr;
-    for (const SfcActionUse& u : uses) {
-      if (upper(u.target) != tgt) continue;
-      if (!first) first = &u;
-      pos = u.pos;
-    }
-    Value on;
-    on.ref = sfc::action_flag_block(host, sfc_output_name(first->target));
-    on.digital = true;
-    // A named action with a body, an inline body, or a BOOL variable.
-    const NamedBody* nb = nullptr;
-    for (const NamedBody& b : s.pou->actions) {
-      if (iequals(b.name, first->target)) nb = &b;
-    }
-    const XmlElement* text = nullptr;
-    std::string source;
-    if (first->inline_body) {
-      Body b;
-      if (!read_inline_body(*first->inline_body, d_, &b)) return;
-      if (b.language == BodyLanguage::kSfc) {
-        d_.error(b.pos, "an SFC inside an SFC action is not supported");
-        return;
+  host.actions_first = actions_first;
+  // The transitions' conditions, each lowered in the importer's blocks and
+  // held in a block (named .$sfc.cond.<localId>) the chart reads as a host
+  // signal.
+  auto conditions = [&]() -> bool {
+    // Conditions drawn in the SFC body itself (Beremiz): FBD and LD elements
+    // beside the steps, lowered once as one graph, each feeding a condition's
+    // <connectionPointIn>.
+    std::vector<Value> drawn(g.transitions.size());
+    {
+      std::set<std::string> sfc_ids;
+      bool graph_elements = false;
+      for (const XmlElement& e : body.children) {
+        if (is_sfc_element(e.name)) sfc_ids.insert(attr(e, "localId"));
+        graph_elements = graph_elements || is_graph_element(e.name);
       }
-      if (b.language != BodyLanguage::kSt) {
-        // FBD, LD or IL: runs, if-converted, while the action is active.
-        guarded(on, pos, [&] { lower_body_of(s, b); });
+      std::vector<const XmlElement*> points;
+      std::vector<size_t> point_of;
+      for (size_t i = 0; i < g.transitions.size(); ++i) {
+        const XmlElement* c = g.transitions[i]->child("condition");
+        const XmlElement* cp = c ? c->child("connectionPointIn") : nullptr;
+        if (!cp) continue;
+        const std::string id = attr(*g.transitions[i], "localId");
+        if (inputs_of(*c).empty()) {
+          d_.error(cp->pos, "the condition of transition localId " + id + " has nothing connected to it");
+          return false;
+        }
+        for (const std::string& src : inputs_of(*c)) {
+          if (sfc_ids.count(src)) {
+            d_.error(cp->pos, "the condition of transition localId " + id + " is connected to localId " + src +
+                                  ", an SFC element: a condition takes its value from FBD or LD elements");
+            return false;
+          }
+        }
+        points.push_back(cp);
+        point_of.push_back(i);
+      }
+      if (graph_elements || !points.empty()) {
+        std::vector<Value> v = lower_sfc_graph_inputs(*this, s, body, points);
+        if (d_.has_errors()) return false;
+        for (size_t k = 0; k < points.size(); ++k) drawn[point_of[k]] = v[k];
+      }
+    }
+
+    // Each condition, lowered in the importer's blocks, is held in a block the
+    // chart reads as a host signal.
+    for (size_t i = 0; i < g.transitions.size(); ++i) {
+      const XmlElement& t = *g.transitions[i];
+      const std::string id = attr(t, "localId");
+      Value cond = constant(0, true);
+      const XmlElement* c = t.child("condition");
+      if (!c) {
+        d_.error(t.pos, "<transition> localId " + id + " has no <condition>");
+        return false;
+      }
+      const XmlElement* inl = c->child("inline");
+      const XmlElement* ref = c->child("reference");
+      Body inline_b;
+      if (drawn[i].valid()) {
+        cond = em.to_digital(drawn[i], t.pos);
+      } else if (inl && read_inline_body(*inl, d_, &inline_b) && inline_b.language == BodyLanguage::kSt) {
+        auto ex = parse_st_expression(inline_b.source, *inline_b.text, d_);
+        if (!ex) return false;
+        cond = em.to_digital(eval(s, *ex), t.pos);
+      } else if (inl) {
+        if (d_.has_errors()) return false;
+        const bool ladder = inline_b.language == BodyLanguage::kLd;
+        const std::string name = attr(*inl, "name");
+        if (inline_b.language == BodyLanguage::kIl) {
+          // IL: the current result at the end of the body.
+          lower_il(s, inline_b);
+          if (!il_result()) return false;
+          cond = em.to_digital(*il_result(), t.pos);
+        } else if (inline_b.language != BodyLanguage::kFbd && !ladder) {
+          d_.error(inline_b.pos, std::string("an inline transition condition in ") + language_name(inline_b.language) +
+                                     " is not supported (ST, FBD, LD and IL are)");
+          return false;
+        } else if (name.empty() && !ladder) {
+          d_.error(inl->pos, "an inline FBD condition needs <inline name=...> and an outVariable of that name (its value)");
+          return false;
+        } else {
+          Value v = lower_graph_result(*this, s, *inline_b.graph, ladder, name,
+                                       "the inline condition of transition localId " + id, inl->pos);
+          if (!v.valid()) return false;
+          cond = em.to_digital(v, t.pos);
+        }
+      } else if (ref) {
+        const std::string n = attr(*ref, "name");
+        const NamedBody* nb = nullptr;
+        for (const NamedBody& b : s.pou->transitions) {
+          if (iequals(b.name, n)) nb = &b;
+        }
+        if (!nb) {
+          d_.error(ref->pos, "transition '" + n + "' is not declared in the POU's <transitions>");
+          return false;
+        }
+        if (nb->body.language == BodyLanguage::kFbd || nb->body.language == BodyLanguage::kLd) {
+          // The value of the outVariable or coil named after the transition.
+          Value v = lower_graph_result(*this, s, *nb->body.graph, nb->body.language == BodyLanguage::kLd, nb->name,
+                                       "transition '" + nb->name + "'", nb->pos);
+          if (!v.valid()) return false;
+          cond = em.to_digital(v, t.pos);
+        } else if (nb->body.language == BodyLanguage::kIl) {
+          lower_il(s, nb->body);  // the current result at the end is the condition
+          if (!il_result()) return false;
+          cond = em.to_digital(*il_result(), t.pos);
+        } else if (nb->body.language != BodyLanguage::kSt) {
+          d_.error(nb->pos, "transition '" + n + "': a transition body in " + language_name(nb->body.language) +
+                                " is not supported yet (ST, FBD, LD and IL are)");
+          return false;
+        } else {
+          // An expression, or `NAME := expression;`.
+          std::string text = nb->body.source;
+          const size_t assign = text.find(":=");
+          size_t begin = 0, end = text.size();
+          if (assign != std::string::npos) {
+            begin = assign + 2;
+            const size_t semi = text.rfind(';');
+            if (semi != std::string::npos && semi > begin) end = semi;
+          } else if (const size_t semi = text.rfind(';'); semi != std::string::npos) {
+            end = semi;
+          }
+          auto ex = parse_st_expression(text, *nb->body.text, d_, begin, end);
+          if (!ex) return false;
+          cond = em.to_digital(eval(s, *ex), t.pos);
+        }
+      } else {
+        d_.error(c->pos, "a transition's <condition> needs a <reference>, an <inline> body or a <connectionPointIn>");
+        return false;
+      }
+      if (attr(*c, "negated") == "true") cond = em.unary_not(cond, t.pos);
+      const std::string x = em.ref(cond, t.pos);
+      host_blocks[chart.transitions[i].condition.name] =
+          static_cast<uint32_t>(em.emit("or", s.path + ".$sfc.cond." + id, t.pos, {x, x}));
+    }
+
+    return !d_.has_errors();
+  };
+  // The actions: each target's flag drives a BOOL variable or guards a body.
+  auto actions = [&]() -> bool {
+    for (const std::string& tgt : g.targets) {
+      SourcePos pos;
+      const SfcActionUse* first = nullptr;
+      for (const SfcActionUse& u : uses) {
+        if (upper(u.target) != tgt) continue;
+        if (!first) first = &u;
+        pos = u.pos;
+      }
+      Value on;
+      on.ref = sfc::action_flag_block(host, sfc_output_name(first->target));
+      on.digital = true;
+      // CODESYS runs an action body once more in the cycle after its step is
+      // left (IEC steps' last call); MatIEC does not.
+      // (on OR was: `was` is a block made just below, read as last cycle's.)
+      Value run = on;
+      if (actions_first) {
+        Value was;
+        was.ref = s.path + ".$sfc.was." + tgt;
+        was.digital = true;
+        run = em.binary(BinOp::kOr, on, was, pos);
+        em.emit("or", was.ref, pos, {on.ref, on.ref});
+      }
+      // A named action with a body, an inline body, or a BOOL variable.
+      const NamedBody* nb = nullptr;
+      for (const NamedBody& b : s.pou->actions) {
+        if (iequals(b.name, first->target)) nb = &b;
+      }
+      const XmlElement* text = nullptr;
+      std::string source;
+      if (first->inline_body) {
+        Body b;
+        if (!read_inline_body(*first->inline_body, d_, &b)) return false;
+        if (b.language == BodyLanguage::kSfc) {
+          d_.error(b.pos, "an SFC inside an SFC action is not supported");
+          return false;
+        }
+        if (b.language != BodyLanguage::kSt) {
+          // FBD, LD or IL: runs, if-converted, while the action is active.
+          guarded(run, pos, [&] { lower_body_of(s, b); });
+          continue;
+        }
+        text = b.text;
+        source = b.source;
+      } else if (nb) {
+        // FBD, LD, ST or IL: the body runs, if-converted, while the action is active.
+        guarded(run, pos, [&] { lower_body_of(s, nb->body); });
         continue;
       }
-      text = b.text;
-      source = b.source;
-    } else if (nb) {
-      // FBD, LD, ST or IL: the body runs, if-converted, while the action is active.
-      guarded(on, pos, [&] { lower_body_of(s, nb->body); });
-      continue;
-    }
-    if (text) {
-      Block blk = parse_st(source, *text, d_);
-      if (d_.has_errors()) return;
-      lower_st_guarded(s, blk, on, pos);
-    } else {
-      Var* v = lookup(s, first->target, first->pos, false);
-      if (!v || !v->digital) {
-        d_.error(first->pos, "action '" + first->target + "' is neither an action of this POU nor a BOOL variable");
-        return;
+      if (text) {
+        Block blk = parse_st(source, *text, d_);
+        if (d_.has_errors()) return false;
+        lower_st_guarded(s, blk, run, pos);
+      } else {
+        Var* v = lookup(s, first->target, first->pos, false);
+        if (!v || !v->digital) {
+          d_.error(first->pos, "action '" + first->target + "' is neither an action of this POU nor a BOOL variable");
+          return false;
+        }
+        assign(*v, on, pos);
       }
-      assign(*v, on, pos);
     }
+    return !d_.has_errors();
+  };
+  auto step_flags = [&]() {
+    // Step flags under the names a PLCopen user knows (and `rtplc sim` traces).
+    for (const sfc::Step& st : chart.steps) {
+      Value x;
+      x.ref = sfc::step_flag_block(host, st.name);
+      x.digital = true;
+      const std::string name = s.path + ".step." + st.name + ".X";
+      em.copy_as(x, name, st.pos);
+      out_.variables.push_back(name);
+    }
+  };
+
+  if (!actions_first) {
+    // MatIEC's order: conditions, the chart (transitions, steps, the actions'
+    // flags), the action bodies.
+    if (!conditions()) return;
+    const sfc::ChartIndex index = sfc::check_chart(chart, d_);
+    if (d_.has_errors()) return;
+    host.first_index = static_cast<uint32_t>(em.size());
+    host.resolve = [&](const std::string& name) -> std::optional<uint32_t> {
+      auto it = host_blocks.find(name);
+      if (it == host_blocks.end()) return std::nullopt;
+      return it->second;
+    };
+    CheckedProgram built = sfc::build_flat_program(chart, index, d_, &host);
+    if (d_.has_errors()) return;
+    for (FlatBlock& b : built.blocks) em.append_resolved(std::move(b));
+    step_flags();
+    actions();
+    return;
   }
+  // CODESYS's order: the actions' flags from the steps active at the start of
+  // the cycle, the action bodies, the conditions (seeing what the actions
+  // did), then the transitions and steps for the next cycle. The chart's two
+  // parts go in by name, so the blocks between them do not move its inputs.
+  const sfc::ChartIndex index = sfc::check_chart(chart, d_);
+  if (d_.has_errors()) return;
+  constexpr uint32_t kConditionBase = 0x40000000u;  // stands for condition i until the names are known
+  std::map<std::string, uint32_t> condition_of;
+  std::vector<std::string> condition_block;
+  for (size_t i = 0; i < g.transitions.size() && i < chart.transitions.size(); ++i) {
+    condition_of[chart.transitions[i].condition.name] = kConditionBase + static_cast<uint32_t>(i);
+    condition_block.push_back(s.path + ".$sfc.cond." + attr(*g.transitions[i], "localId"));
+  }
+  host.first_index = 0;
+  host.resolve = [&](const std::string& name) -> std::optional<uint32_t> {
+    auto it = condition_of.find(name);
+    if (it == condition_of.end()) return std::nullopt;
+    return it->second;
+  };
+  size_t split = 0;
+  CheckedProgram built = sfc::build_flat_program(chart, index, d_, &host, &split);
+  if (d_.has_errors()) return;
+  for (FlatBlock& b : built.blocks) {
+    if (b.name.empty()) b.name = em.fresh(host.prefix + "b");
+  }
+  auto append = [&](size_t from, size_t to) {
+    for (size_t i = from; i < to; ++i) {
+      FlatBlock b = built.blocks[i];
+      std::vector<std::string> ins;
+      for (uint32_t k = 0; k < b.n_in && k < 3; ++k) {
+        ins.push_back(b.in[k] >= kConditionBase ? condition_block[b.in[k] - kConditionBase]
+                                                : built.blocks[b.in[k]].name);
+      }
+      em.append_named(std::move(b), std::move(ins));
+    }
+  };
+  append(0, split);
+  if (!actions()) return;
+  if (!conditions()) return;
+  append(split, built.blocks.size());
+  step_flags();
 }
 
 }  // namespace rtplc::lang::plcopen

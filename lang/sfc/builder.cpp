@@ -15,7 +15,12 @@
 //      output block;
 //   7. sfc.one = NOT sfc.zero.
 // So evolution reads only last cycle's step flags (every step lasts at least a
-// cycle, SFC semantics), and actions see this cycle's. Hot swap matches blocks
+// cycle, SFC semantics), and actions see this cycle's. A host may ask for
+// CODESYS's order instead (HostLink::actions_first): after 2., last cycle's
+// `prev` (step.S.prev2, for the P/P0 edges), `prev` (with sfc.first for an
+// initial step), the actions from `prev`; then 4., 5. and 7.: the actions run
+// for the steps active at the start of the cycle, the new flags take effect
+// in the next one. Hot swap matches blocks
 // by name and opcode: every step's flag is the `or` block named step.S, so an
 // edited chart keeps its active steps by name, and each timer is named after
 // its step, qualifier and output.
@@ -35,7 +40,7 @@ namespace {
 class Builder {
  public:
   Builder(const Chart& c, const ChartIndex& ix, DiagnosticList& d, const HostLink* host)
-      : c_(c), ix_(ix), d_(d), host_(host) {}
+      : c_(c), ix_(ix), d_(d), host_(host), actions_first_(host != nullptr && host->actions_first) {}
 
   CheckedProgram run() {
     p_.period = c_.has_stime ? c_.period : kDefaultPeriod;
@@ -43,18 +48,44 @@ class Builder {
     p_.stime_pos = c_.stime_pos;
     emit("and", "sfc.zero", c_.pos, {"sfc.zero", "sfc.zero"});
     emit("not", "sfc.first", c_.pos, {"sfc.one"});
+    // In a host a transition may fire in the first cycle (the initial steps
+    // are active before it): TRUE must be 1 there too, and sfc.one (made
+    // last) reads 0 then.
+    if (host_ != nullptr) emit("not", "sfc.true", c_.pos, {"sfc.zero"});
     for (const Signal& s : c_.signals) {
       if (s.role != Signal::Role::kOutput && s.role != Signal::Role::kHost) signal_block(s);
     }
-    for (const Step& st : c_.steps)
-      emit("or", prev(st.name), st.pos, {flag(st.name), flag(st.name)});
+    if (actions_first_) {
+      // Last cycle's `prev`, for the P and P0 edges of the actions run from
+      // `prev` (a reference to the later block: the previous cycle's value).
+      for (const Step& st : c_.steps) emit("or", prev2(st.name), st.pos, {prev(st.name), prev(st.name)});
+      // The steps active now: last cycle's new flags, and the initial steps
+      // in the first cycle (their actions run then, their transitions too).
+      for (const Step& st : c_.steps) {
+        emit("or", prev(st.name), st.pos, {flag(st.name), st.initial ? "sfc.first" : flag(st.name)});
+      }
+      for (const Signal& s : c_.signals) {
+        if (s.role == Signal::Role::kOutput) output(s);
+      }
+      actions_end_ = p_.blocks.size();
+    } else {
+      // In a host (MatIEC's order) the initial steps are active before the
+      // first cycle, so their transitions may fire in it, as a MatIEC chart's
+      // do; a .sfc chart enters them in the first cycle instead.
+      for (const Step& st : c_.steps) {
+        emit("or", prev(st.name), st.pos,
+             {flag(st.name), st.initial && host_ != nullptr ? "sfc.first" : flag(st.name)});
+      }
+    }
     for (size_t i = 0; i < c_.transitions.size(); ++i) transition(i);
     for (size_t s = 0; s < c_.steps.size(); ++s) step(s);
     if (host_ == nullptr) {
       for (size_t s = 0; s < c_.steps.size(); ++s) step_output(s);
     }
-    for (const Signal& s : c_.signals) {
-      if (s.role == Signal::Role::kOutput) output(s);
+    if (!actions_first_) {
+      for (const Signal& s : c_.signals) {
+        if (s.role == Signal::Role::kOutput) output(s);
+      }
     }
     emit("not", "sfc.one", c_.pos, {"sfc.zero"});
     resolve();
@@ -67,9 +98,17 @@ class Builder {
   }
 
   static std::string flag(const std::string& step) { return "step." + step; }
+  size_t actions_end() const { return actions_end_; }
 
  private:
   static std::string prev(const std::string& step) { return "step." + step + ".prev"; }
+  static std::string prev2(const std::string& step) { return "step." + step + ".prev2"; }
+  // A block that is 1 whenever something reads it.
+  std::string one() const { return host_ != nullptr ? "sfc.true" : "sfc.one"; }
+  // What an action reads: whether its step is active when the actions run,
+  // and whether it was when they last ran (its P and P0 edges).
+  std::string active(const std::string& step) const { return actions_first_ ? prev(step) : flag(step); }
+  std::string was_active(const std::string& step) const { return actions_first_ ? prev2(step) : prev(step); }
 
   // Appends a block; its inputs are names, resolved once every block exists
   // (a reference to a later block is legal and reads last cycle's value).
@@ -225,7 +264,7 @@ class Builder {
   std::string condition(const Expr& e, const std::string& base, uint32_t& counter) {
     switch (e.op) {
       case Expr::Op::kTrue:
-        return "sfc.one";
+        return one();
       case Expr::Op::kFalse:
         return "sfc.zero";
       case Expr::Op::kName:
@@ -275,7 +314,7 @@ class Builder {
 
   void step(size_t s) {
     const Step& st = c_.steps[s];
-    std::string go = "sfc.one";
+    std::string go = one();
     if (!ix_.leaving[s].empty()) {
       std::vector<std::string> leave;
       for (size_t t : ix_.leaving[s]) leave.push_back("tr." + c_.transitions[t].name);
@@ -286,7 +325,7 @@ class Builder {
     }
     emit("and", flag(st.name) + ".stay", st.pos, {prev(st.name), go});
     std::vector<std::string> enter = {flag(st.name) + ".stay"};
-    if (st.initial) enter.push_back("sfc.first");
+    if (st.initial && host_ == nullptr) enter.push_back("sfc.first");  // in a host: in `prev` already
     for (size_t t : ix_.entering[s]) enter.push_back("tr." + c_.transitions[t].name);
     if (enter.size() == 1)
       enter.push_back("sfc.zero");  // the flag stays an `or` (hot swap matches the opcode)
@@ -325,7 +364,7 @@ class Builder {
     for (const Step& st : c_.steps) {
       for (const Action& a : st.actions) {
         if (a.target != o.name) continue;
-        if (a.qualifier == "R") resets.push_back(flag(st.name));
+        if (a.qualifier == "R") resets.push_back(active(st.name));
         stored = stored || a.qualifier == "S" || a.qualifier == "SD" || a.qualifier == "DS" ||
                  a.qualifier == "SL";
       }
@@ -339,7 +378,7 @@ class Builder {
       for (const Action& a : st.actions) {
         if (a.target != o.name) continue;
         const std::string base = "act." + st.name + "." + a.qualifier + "." + o.name;
-        const std::string x = flag(st.name);
+        const std::string x = active(st.name);
         const double secs = a.seconds.value_or(0);
         const std::string& q = a.qualifier;
         if (q == "N") {
@@ -347,12 +386,12 @@ class Builder {
         } else if (q == "S") {
           sets.push_back(x);
         } else if (q == "P" || q == "P1") {  // the step's rising edge: active now, not last cycle
-          emit("not", base + ".n", a.pos, {prev(st.name)});
+          emit("not", base + ".n", a.pos, {was_active(st.name)});
           emit("and", base, a.pos, {x, base + ".n"});
           terms.push_back(base);
         } else if (q == "P0") {  // the falling edge: active last cycle, not now
           emit("not", base + ".n", a.pos, {x});
-          emit("and", base, a.pos, {prev(st.name), base + ".n"});
+          emit("and", base, a.pos, {was_active(st.name), base + ".n"});
           terms.push_back(base);
         } else if (q == "L") {  // active and the time not yet elapsed
           emit("time", base + ".t", a.pos, {x}, {secs});
@@ -446,6 +485,8 @@ class Builder {
   const ChartIndex& ix_;
   DiagnosticList& d_;
   const HostLink* host_;
+  bool actions_first_ = false;
+  size_t actions_end_ = 0;
   CheckedProgram p_;
   std::vector<std::vector<std::string>> refs_;
 };
@@ -461,8 +502,11 @@ std::string action_flag_block(const HostLink& host, const std::string& output) {
 }
 
 CheckedProgram build_flat_program(const Chart& chart, const ChartIndex& index,
-                                  DiagnosticList& diags, const HostLink* host) {
-  return Builder(chart, index, diags, host).run();
+                                  DiagnosticList& diags, const HostLink* host, size_t* actions_end) {
+  Builder b(chart, index, diags, host);
+  CheckedProgram p = b.run();
+  if (actions_end != nullptr) *actions_end = b.actions_end();
+  return p;
 }
 
 Chart parse_chart(std::string_view source, DiagnosticList& diags, ChartIndex* index, bool* ok) {

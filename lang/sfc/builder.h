@@ -36,6 +36,18 @@ struct HostLink {
   uint32_t first_index = 0;  // the host program's size when the chart's blocks are appended
   // The host block holding a kHost signal's value; nullopt is reported as undefined.
   std::function<std::optional<uint32_t>(const std::string& name)> resolve;
+  // The order of one cycle (docs/plcopen.md, "Which editor's semantics"):
+  //  - transitions first (MatIEC: Beremiz, OpenPLC; the .sfc language): the
+  //    transitions from last cycle's step flags, the new flags, then the
+  //    actions of the steps active now, so a step's actions start in the
+  //    cycle it is entered;
+  //  - actions first (CODESYS): the actions of the steps active at the start
+  //    of the cycle, then the transitions from those steps (seeing what the
+  //    actions did), and the new flags for the next cycle. The chart's blocks
+  //    are then two parts: the actions' flags (the first `actions_end` blocks,
+  //    which the host follows with the action bodies and the conditions), then
+  //    the transitions and steps.
+  bool actions_first = false;
 };
 
 // The block holding step `step`'s flag (this cycle's) and the OR of the
@@ -45,8 +57,10 @@ std::string action_flag_block(const HostLink& host, const std::string& output);
 
 // Translates a chart that passed check_chart() without errors. With `host`,
 // block names carry its prefix and inputs are indices in the host's program.
+// With host->actions_first, `actions_end` receives the size of the first part.
 CheckedProgram build_flat_program(const Chart& chart, const ChartIndex& index,
-                                  DiagnosticList& diags, const HostLink* host = nullptr);
+                                  DiagnosticList& diags, const HostLink* host = nullptr,
+                                  size_t* actions_end = nullptr);
 
 // The whole SFC front end: text -> tokens -> chart -> name rules -> flat
 // program. The caller runs check_flat_program() and build_image() when `diags`

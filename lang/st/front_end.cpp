@@ -17,6 +17,7 @@ CheckedProgram read_st(std::string_view source, const CompileOptions& options, D
   if (!project) return {};
   plcopen::ImportOptions io;
   io.entry = options.entry;
+  io.semantics = options.semantics;
   return plcopen::import_project(*project, io, diags).program;
 }
 

@@ -773,7 +773,45 @@ TEST(Plcopen, maps_located_variables_to_channels) {
   EXPECT_EQ(find("mem"), nullptr);  // written by the program: internal
   Machine run(std::move(*r.image));
   run.cycles(1);
-  EXPECT_EQ(run.value("main.mem"), 1500);  // TIME converts in milliseconds
+  EXPECT_EQ(run.value("main.mem"), 1);  // MatIEC's (no CODESYS header): whole seconds
+  CompileOptions o;
+  o.semantics = EditorSemantics::kCodesys;
+  CompileResult c = compile_source(src, o);
+  ASSERT_TRUE(c.ok());
+  Machine cr(std::move(*c.image));
+  cr.cycles(1);
+  EXPECT_EQ(cr.value("main.mem"), 1500);  // CODESYS's: milliseconds
+}
+
+// TIME meeting numbers, as each editor's runtime converts (docs/plcopen.md,
+// "Which editor's semantics"): MatIEC in whole seconds (its __time_to_int is
+// tv_sec, __int_to_time makes seconds), CODESYS in milliseconds.
+TEST(Plcopen, time_conversions_follow_the_chosen_editor) {
+  const std::string src = project(
+      kNs201, st_program("<localVars>" + var("a", "DINT") + var("b", "DINT") + var("c", "REAL") + var("d", "TIME") +
+                             var("e", "TIME") + "</localVars>",
+                         "a := TIME_TO_DINT(T#1.5s); b := TIME_TO_DINT(T#-1.5s); c := TIME_TO_REAL(T#1.5s);\n"
+                         "d := DINT_TO_TIME(2); e := REAL_TO_TIME(2.5);"));
+  struct Want {
+    EditorSemantics sem;
+    double a, b, c, d, e;  // TIME in seconds, as rtplc keeps it
+  };
+  for (const Want& w : {Want{EditorSemantics::kMatiec, 1, -1, 1.5, 2, 2.5},
+                        Want{EditorSemantics::kFromHeader, 1, -1, 1.5, 2, 2.5},  // no CODESYS header
+                        Want{EditorSemantics::kCodesys, 1500, -1500, 1500, 0.002, 0.0025}}) {
+    CompileOptions o;
+    o.semantics = w.sem;
+    CompileResult r = compile_source(src, o);
+    ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
+    Machine run(std::move(*r.image));
+    run.cycles(1);
+    const int k = static_cast<int>(w.sem);
+    EXPECT_EQ(run.value("main.a"), w.a) << k;
+    EXPECT_EQ(run.value("main.b"), w.b) << k;
+    EXPECT_DOUBLE_EQ(run.value("main.c"), w.c) << k;
+    EXPECT_DOUBLE_EQ(run.value("main.d"), w.d) << k;
+    EXPECT_DOUBLE_EQ(run.value("main.e"), w.e) << k;
+  }
 }
 
 // An FBD body imported gives the same trace as the seed-language program it stands for.

@@ -50,6 +50,63 @@ uint32_t line_of(const std::string& text, const std::string& needle) {
   return static_cast<uint32_t>(1 + std::count(text.begin(), text.begin() + static_cast<long>(std::min(at, text.size())), '\n'));
 }
 
+// sfc_order.xml (A -go-> B -(n1 >= 2)-> A, each step's N action counting),
+// cycle by cycle with go TRUE from the start: "n0 n1 step" per cycle.
+std::string order_trace(const std::string& src, EditorSemantics sem) {
+  CompileOptions o;
+  o.semantics = sem;
+  CompileResult r = compile_source(src, o);
+  EXPECT_TRUE(r.ok()) << r.diags.render("sfc_order.xml", src);
+  if (!r.ok()) return "";
+  Machine run(std::move(*r.image));
+  std::string got;
+  for (int k = 0; k < 5; ++k) {
+    run.set("go", 1);
+    run.cycles(1);
+    got += std::to_string(static_cast<int>(run.value("o.n0"))) + std::to_string(static_cast<int>(run.value("o.n1"))) +
+           (run.value("o.step.A.X") != 0 ? "A" : "") + (run.value("o.step.B.X") != 0 ? "B" : "") + " ";
+  }
+  return got;
+}
+
+TEST(PlcopenSfcOrder, matiec_fires_from_the_first_cycle_and_runs_the_new_steps_actions_in_the_same_cycle) {
+  const std::string src = read_data("sfc_order.xml");  // its header names Beremiz
+  // Cycle 1: A is active before it, go fires, B's action runs (A's never did).
+  // Cycle 2: n1 = 1 < 2, B stays. Cycle 3: n1 = 2 fires, A's action (n0 = 1).
+  // Cycle 4: go fires again, n1 = 3. Cycle 5: n1 >= 2 fires at once, n0 = 2.
+  const std::string want = "01B 02B 12A 13B 23A ";
+  EXPECT_EQ(order_trace(src, EditorSemantics::kFromHeader), want);
+  EXPECT_EQ(order_trace(src, EditorSemantics::kMatiec), want);
+  // The explain notes say whose and why.
+  CompileResult r = compile_source(src);
+  ASSERT_TRUE(r.ok());
+  const auto& notes = r.program.notes;
+  EXPECT_TRUE(std::any_of(notes.begin(), notes.end(), [](const std::string& n) {
+    return n.find("semantics: MatIEC's") == 0 && n.find("names Beremiz") != std::string::npos;
+  }));
+}
+
+TEST(PlcopenSfcOrder, codesys_runs_the_actions_first_with_a_last_call_and_switches_for_the_next_cycle) {
+  const std::string src = edited(read_data("sfc_order.xml"), "productName=\"Beremiz\"", "productName=\"CODESYS\"");
+  // Cycle 1: A's action (n0 = 1), then go: B next. Cycle 2: B's action (n1 =
+  // 1) and A's last call (n0 = 2). Cycle 3: n1 = 2, the transition sees it:
+  // A next. Cycle 4: A's action (n0 = 3), B's last call (n1 = 3), go: B next.
+  // Cycle 5: B (n1 = 4), A's last call (n0 = 4); n1 >= 2: A next. The step
+  // shown is the one active for the next cycle.
+  const std::string want = "10B 21B 22A 33B 44A ";
+  EXPECT_EQ(order_trace(src, EditorSemantics::kFromHeader), want);
+  EXPECT_EQ(order_trace(src, EditorSemantics::kCodesys), want);
+  // Overridden both ways.
+  EXPECT_EQ(order_trace(src, EditorSemantics::kMatiec), "01B 02B 12A 13B 23A ");
+  EXPECT_EQ(order_trace(read_data("sfc_order.xml"), EditorSemantics::kCodesys), want);
+  // CODESYS's own exports name it in companyName or in a 3S addData; an empty
+  // productName with "3S-Smart Software Solutions" as the company counts too.
+  EXPECT_EQ(order_trace(edited(read_data("sfc_order.xml"), "companyName=\"Unknown\" productName=\"Beremiz\"",
+                               "companyName=\"3S-Smart Software Solutions GmbH\" productName=\"\""),
+                        EditorSemantics::kFromHeader),
+            want);
+}
+
 // sfc_qualifiers.xml at 100 ms, cycle by cycle: go, stop and rst as "100"...;
 // per cycle the active step's initial and p1_out p0_out sd_out ds_out sl_out.
 TEST(PlcopenSfcQualifiers, p1_p0_sd_ds_and_sl_follow_the_hand_worked_trace) {
