@@ -83,6 +83,8 @@ std::string format_index(double k) {
   return buf;
 }
 
+}  // namespace
+
 // "a[#1].x" as the user wrote it, near enough: "a[...].x".
 std::string path_text(const std::string& path) {
   std::string r;
@@ -97,7 +99,6 @@ std::string path_text(const std::string& path) {
   }
   return r;
 }
-}  // namespace
 
 Lowering::Lowering(const Project& p, CheckedProgram& out, DiagnosticList& d)
     : proj_(p), em_(out, d), d_(d), out_(out) {

@@ -295,6 +295,9 @@ class Lowering {
   EditorSemantics semantics_ = EditorSemantics::kMatiec;
 };
 
+// A path as the user wrote it, near enough: "a[#1].x" -> "a[...].x".
+std::string path_text(const std::string& path);
+
 // `v` itself when it is a standard FB instance, else the first one a user FB
 // instance (or an array of them) `v` holds, at any depth; nullptr when none.
 const Var* standard_fb_in(const Var& v);

@@ -371,6 +371,16 @@ struct StLowerer {
       case Stmt::Kind::kRepeat:
         return loop(st);
       case Stmt::Kind::kCall: {
+        if (!st.target_index.empty()) {
+          // An element of an array of FB instances: `t[i](...)` with `i`
+          // known only at run time calls the element it names.
+          std::vector<Place> ps = L.places(s, st.target, st.target_index, st.pos);
+          if (L.diags().has_errors()) return {};
+          if (ps.size() > 1 || (ps.size() == 1 && !(ps[0].when.is_const && ps[0].when.k != 0))) {
+            indexed_call(st, ps);
+            return {};
+          }
+        }
         Var* fb = st.target_index.empty() && L.is_function(upper(st.target)) &&
                           !L.lookup(s, st.target, st.pos, false)
                       ? nullptr
@@ -433,6 +443,46 @@ struct StLowerer {
       }
     }
     return {};
+  }
+
+  // `a[i](...)` with an index known only at run time: the inputs evaluated
+  // once, then each element called under the condition that `i` names it
+  // (an IF per element, if-converted like any other: only the element named
+  // is called, and a standard FB's state advances only there); an index out
+  // of range calls none. Outputs (`Q => x`) are read from the element called.
+  void indexed_call(const Stmt& st, const std::vector<Place>& ps) {
+    for (const Place& p : ps) {
+      if (!p.var || !p.output.empty() || (p.var->role != Var::Role::kStdFb && p.var->role != Var::Role::kUserFb)) {
+        L.diags().error(st.pos, "'" + path_text(st.target) + "' is not a function block instance to call");
+        return;
+      }
+    }
+    std::vector<std::pair<std::string, Value>> ins;
+    for (const CallArg& a : st.call_args) {
+      if (a.output) continue;
+      if (L.is_in_out(ps[0].var, "", a.formal) || L.whole_member(ps[0].var, a.formal)) {
+        L.diags().error(a.pos, "'" + a.formal + "': a VAR_IN_OUT or a whole structure or array is not passed to an "
+                                                "element chosen at run time yet; call it with a constant index");
+        return;
+      }
+      ins.emplace_back(a.formal, L.eval(s, *a.value));
+    }
+    if (L.diags().has_errors()) return;
+    for (const Place& p : ps) {
+      branch(p.when, st.pos, [&] {
+        L.call_fb(*p.var, ins, st.pos);
+        for (const CallArg& a : st.call_args) {
+          if (!a.output || L.diags().has_errors()) continue;
+          if (L.whole_member(p.var, a.formal)) {
+            L.diags().error(a.pos, "'" + a.formal + "' is a whole structure or array: not read from an element "
+                                                    "chosen at run time yet");
+            return;
+          }
+          L.store(s, a.target, a.target_index, L.fb_output(*p.var, a.formal, a.pos), a.pos);
+        }
+      }, [] {});
+      if (L.diags().has_errors()) return;
+    }
   }
 
   // An expression with no names and no calls: a literal, or operators on them.
@@ -499,7 +549,7 @@ struct StLowerer {
                                          refusal);
             return false;
           }
-          if (fb && fb->role == Var::Role::kUserFb) var_leaves(*fb, written, ws);
+          if (fb && (fb->role == Var::Role::kUserFb || fb->role == Var::Role::kArray)) var_leaves(*fb, written, ws);
           for (const CallArg& a : st->call_args) {
             if (a.output) {
               name_leaves(a.target, a.pos, written, ws);

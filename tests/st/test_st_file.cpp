@@ -280,6 +280,62 @@ END_PROGRAM
             "3:20: 'w' holds the standard function block instance 't': cal");
 }
 
+TEST(StFile, an_array_of_function_blocks_calls_the_element_an_index_names_at_run_time) {
+  const char* src = R"(FUNCTION_BLOCK Acc
+VAR_INPUT x : INT; END_VAR
+VAR_OUTPUT total : INT; END_VAR
+  total := total + x;
+END_FUNCTION_BLOCK
+PROGRAM Main
+VAR
+  k AT %IW0 : INT;
+  go AT %IX0.0 : BOOL;
+  t : ARRAY[1..3] OF TON;
+  a : ARRAY[0..2] OF Acc;
+  b : ARRAY[0..2] OF Acc;
+  q : BOOL;
+  tot : INT;
+  i : INT;
+END_VAR
+  t[k](IN := go, PT := T#250ms, Q => q);
+  a[k - 1](x := k, total => tot);
+  i := 0;
+  WHILE i < 3 DO
+    b[i](x := i + 1);
+    i := i + 1;
+  END_WHILE;
+END_PROGRAM
+)";
+  FbdHarness h(src, 0.1, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("fbarr.st", src);
+  h.set("k", 2);
+  h.set("go", 1);
+  for (int c = 1; c <= 4; ++c) {
+    h.step();
+    EXPECT_EQ(h.value("Main.a[1].total"), 2 * c);  // only a[1] is called, with x = k
+    EXPECT_EQ(h.value("Main.tot"), 2 * c);
+    EXPECT_EQ(h.value("Main.b[2].total"), 3 * c);  // the loop calls each b[i] once per cycle
+  }
+  EXPECT_EQ(h.value("Main.a[0].total"), 0);
+  EXPECT_EQ(h.value("Main.a[2].total"), 0);
+  // t[2] ran four cycles of 0.1 s with IN: past its 250 ms; the others never ran.
+  EXPECT_EQ(h.value("Main.t[2].Q"), 1);
+  EXPECT_EQ(h.value("Main.q"), 1);
+  EXPECT_EQ(h.value("Main.t[1].ET"), 0);
+  EXPECT_EQ(h.value("Main.t[3].ET"), 0);
+  h.set("k", 3);  // now t[3] starts from nothing; t[2] keeps what it had
+  h.step();
+  EXPECT_EQ(h.value("Main.t[3].Q"), 0);
+  EXPECT_EQ(h.value("Main.q"), 0);
+  EXPECT_EQ(h.value("Main.t[2].Q"), 1);
+  EXPECT_EQ(h.value("Main.a[2].total"), 3);
+  h.set("k", 7);  // out of range: nothing is called, the outputs keep their values
+  h.step();
+  EXPECT_EQ(h.value("Main.tot"), 3);
+  EXPECT_EQ(h.value("Main.a[2].total"), 3);
+  EXPECT_EQ(h.value("Main.q"), 0);
+}
+
 TEST(StFile, a_loop_that_never_ends_is_cut_at_the_budget_and_named) {
   const char* src = "PROGRAM Main\nVAR x : DINT; END_VAR\n  x := 0;\n  WHILE TRUE DO\n    x := x + 1;\n  END_WHILE;\nEND_PROGRAM\n";
   FbdHarness h(src, 0.01, true, true);
