@@ -142,6 +142,8 @@ const Variable& Lowering::resolved_decl(const Variable& decl) {
   if (t && t->kind == DataType::Kind::kEnum) {
     // An enumeration is an INT holding the value's position (0, 1, ...).
     if (r->initial.empty()) r->initial = t->initial;
+    // Without one, the first value (not 0, when the values are numbered).
+    if (r->initial.empty() && !r->initial_xml && !t->values.empty()) r->initial = t->values[0];
     r->type = TypeRef{BaseType::kInt, {}, nullptr};
     if (!r->initial.empty()) {
       auto k = r->initial.find('#') != std::string::npos ? proj_.enum_value(r->initial)

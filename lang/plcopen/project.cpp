@@ -195,9 +195,18 @@ class Reader {
             d_.error(v.pos, "an enumeration <value> without a name");
             continue;
           }
-          if (!attr(v, "value").empty())
-            d_.error(v.pos, "enumeration value '" + n + "' with an explicit value is not supported yet");
+          // A given value (CODESYS writes them), else one past the previous.
+          int number = t.numbers.empty() ? 0 : t.numbers.back() + 1;
+          if (const std::string given = attr(v, "value"); !given.empty()) {
+            const auto k = parse_literal(given);
+            if (!k || *k != std::floor(*k) || std::fabs(*k) > 2147483647.0) {
+              d_.error(v.pos, "enumeration value '" + n + "': '" + given + "' is not a whole number of a DINT");
+              continue;
+            }
+            number = static_cast<int>(*k);
+          }
           t.values.push_back(n);
+          t.numbers.push_back(number);
         }
       }
       if (t.values.empty()) d_.error(body->pos, "enumeration '" + t.name + "' has no values");
@@ -702,7 +711,7 @@ std::optional<int> Project::enum_value(std::string_view n) const {
   for (const DataType& t : data_types) {
     if (t.kind != DataType::Kind::kEnum || (!type.empty() && !iequals(t.name, type))) continue;
     for (size_t k = 0; k < t.values.size(); ++k) {
-      if (iequals(t.values[k], value)) return static_cast<int>(k);
+      if (iequals(t.values[k], value)) return k < t.numbers.size() ? t.numbers[k] : static_cast<int>(k);
     }
   }
   return std::nullopt;

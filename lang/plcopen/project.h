@@ -91,7 +91,8 @@ struct DataType {
   enum class Kind : uint8_t { kAlias, kEnum, kStruct, kArray } kind = Kind::kAlias;
   std::string name;
   TypeRef alias;                     // kAlias: the type it renames (a subrange's base too)
-  std::vector<std::string> values;   // kEnum, in order: value k is the integer k
+  std::vector<std::string> values;   // kEnum, in order
+  std::vector<int> numbers;          // kEnum: each value's integer (given, else one past the previous, from 0)
   std::vector<Variable> members;     // kStruct
   std::shared_ptr<const ArrayType> array;  // kArray
   std::string initial;               // the type's own initial value (alias, enum)

@@ -500,9 +500,14 @@ class Reader {
       if (accept("(")) {
         dt.kind = plcopen::DataType::Kind::kEnum;
         do {
-          const size_t vat = i_;
           dt.values.push_back(name("an enumeration value"));
-          if (accept(":=")) fail(vat, "enumeration values with given numbers are not supported (docs/st.md)");
+          int number = dt.numbers.empty() ? 0 : dt.numbers.back() + 1;
+          if (accept(":=")) {
+            const auto k = integer();
+            if (!ok_ || !k) return;
+            number = static_cast<int>(*k);
+          }
+          dt.numbers.push_back(number);
         } while (ok_ && accept(","));
         expect(")", "after the enumeration's values");
       } else if (at_word("STRUCT")) {

@@ -336,6 +336,27 @@ END_PROGRAM
   EXPECT_EQ(h.value("Main.q"), 0);
 }
 
+TEST(StFile, enumeration_values_may_be_numbered_and_the_rest_count_on) {
+  const char* src = R"(TYPE Mode : (low := 2, mid, high := 10); END_TYPE
+PROGRAM Main
+VAR m : Mode; n : Mode := high; k, j : INT; END_VAR
+  k := 0;
+  IF m = low THEN k := 1; END_IF;
+  CASE n OF mid: j := 2; high: j := 3; END_CASE;
+  m := mid;
+END_PROGRAM
+)";
+  FbdHarness h(src, 0.1, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("enum.st", src);
+  h.step();  // m starts at its first value, low = 2
+  EXPECT_EQ(h.value("Main.k"), 1);
+  EXPECT_EQ(h.value("Main.j"), 3);
+  EXPECT_EQ(h.value("Main.n"), 10);
+  EXPECT_EQ(h.value("Main.m"), 3);  // mid: one past low
+  h.step();
+  EXPECT_EQ(h.value("Main.k"), 0);
+}
+
 TEST(StFile, a_loop_that_never_ends_is_cut_at_the_budget_and_named) {
   const char* src = "PROGRAM Main\nVAR x : DINT; END_VAR\n  x := 0;\n  WHILE TRUE DO\n    x := x + 1;\n  END_WHILE;\nEND_PROGRAM\n";
   FbdHarness h(src, 0.01, true, true);
