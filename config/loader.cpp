@@ -386,8 +386,9 @@ void parse_task(YamlReader& r, const YAML::Node& node, SourcePos list_pos, Runti
                                          [](const OnBadPolicy& p) { return p.policy == OnBad::kSafe; });
     if (t.watchdog == 0 && !t.safe_outputs.empty() && !used_on_bad) {
       r.warning(x->key_pos,
-                "these safe outputs are never applied: with watchdog 0 the task is never "
-                "stopped and no output is 'on_bad: safe'; set 'watchdog' or 'overrun: stop'",
+                "these safe outputs apply only if a loop of the program runs past its loop_budget: "
+                "with watchdog 0 an overrun never stops the task, and no output is 'on_bad: safe'; "
+                "set 'watchdog' or 'overrun: stop' for them to cover overruns too",
                 YamlReader::width(x->key));
     }
   }

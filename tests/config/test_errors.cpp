@@ -275,7 +275,7 @@ TEST(ConfigErrors, safe_outputs_without_a_watchdog_are_a_warning) {
       "  - program: a.fbd\n"
       "    safe_outputs: {MV: 0}\n");
   EXPECT_TRUE(r.ok()) << r.render();
-  EXPECT_TRUE(has_diag(r, 3, 5, "these safe outputs are never applied", Severity::kWarning));
+  EXPECT_TRUE(has_diag(r, 3, 5, "these safe outputs apply only if a loop of the program runs past its loop_budget", Severity::kWarning));
 }
 
 TEST(ConfigErrors, unknown_driver_kind_lists_the_known_ones_and_nothing_else) {
