@@ -171,10 +171,7 @@ void Lowering::lower_il(Scope& s, const Body& body) {
     }
   }
   auto sync_homes = [&](SourcePos pos) {
-    for (auto& [v, h] : homes) {
-      const Value now = read(*v, pos);
-      if (now.is_const || now.ref != h.value.ref) set_home(h, now, pos);
-    }
+    for (auto& [v, h] : homes) sync_home(*v, h, pos);
   };
   Value P = constant(1, true);
   PathSet paths;  // which paths P covers

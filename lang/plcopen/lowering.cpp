@@ -717,6 +717,13 @@ void Lowering::set_home(const LoopHome& h, const Value& v, SourcePos pos) {
                 static_cast<uint32_t>(h.block));
 }
 
+bool Lowering::sync_home(Var& v, const LoopHome& h, SourcePos pos) {
+  const Value now = read(v, pos);
+  if (!now.is_const && now.ref == h.value.ref) return false;
+  set_home(h, now, pos);
+  return true;
+}
+
 Value Lowering::load(Scope& s, const std::string& path, const std::vector<std::unique_ptr<Expr>>& index,
                      SourcePos pos) {
   {
@@ -778,11 +785,7 @@ void Lowering::store(Scope& s, const std::string& path, const std::vector<std::u
         // Every element in its home first: the put writes there, and a later
         // read of any element reads there.
         const LoopHome& h = homes.at(e.get());
-        const Value now = read(*e, pos);
-        if (now.is_const || now.ref != h.value.ref) {
-          set_home(h, now, pos);
-          e->cur = h.value;
-        }
+        if (sync_home(*e, h, pos)) e->cur = h.value;
         table.push_back(h.value.ref);
       }
       Value at = em_.to_analog(ix, pos);

@@ -205,6 +205,9 @@ class Lowering {
   // value across a backward jump, set by set_home (a set block).
   LoopHome make_home(const std::string& stem, bool digital, bool integer, SourcePos pos);
   void set_home(const LoopHome& h, const Value& v, SourcePos pos);
+  // Sets `v`'s home `h` to `v`'s value now, unless that is the home's own
+  // value already; true when it set it.
+  bool sync_home(Var& v, const LoopHome& h, SourcePos pos);
   void enter_loop(std::map<const Var*, LoopHome> homes) { loops_.push_back(std::move(homes)); }
   void leave_loop() { loops_.pop_back(); }
 

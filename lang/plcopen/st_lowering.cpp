@@ -594,8 +594,39 @@ struct StLowerer {
     return h;
   }
   void set_home(const Home& h, const Value& v, SourcePos pos) { L.set_home(h, v, pos); }
-  static bool same(const Value& a, const Value& b) {
-    return a.is_const == b.is_const && (a.is_const ? a.k == b.k : a.ref == b.ref);
+  // Everything a loop or a labelled list reads or caches, made here in code
+  // that always runs: a value first made inside it would be stale after a
+  // cycle in which that part did not run (a loop without iterations, a
+  // segment a jump skipped).
+  void read_ahead(const std::vector<Var*>& read, SourcePos pos) {
+    for (Var* v : read) {
+      if (v->role == Var::Role::kPlain || v->role == Var::Role::kInput || v->role == Var::Role::kSetpoint) {
+        (void)L.read(*v, pos);
+      }
+    }
+  }
+  // A home for each plain variable in `written`, holding its value now; from
+  // here on it is read there. The homes are entered as the innermost loop's
+  // (Lowering::enter_loop: a Put writes into them); the caller leaves it.
+  std::vector<Home> home_all(const std::vector<Var*>& written, SourcePos pos) {
+    std::vector<Home> homes;
+    std::map<const Var*, Lowering::LoopHome> index;
+    for (Var* v : written) {
+      if (v->role != Var::Role::kPlain || (v->decl && v->decl->constant)) continue;
+      const Value before = L.read(*v, pos);
+      Home h = make_home(v->path, v->digital, v->integer, pos);
+      h.var = v;
+      set_home(h, before, pos);
+      v->cur = h.value;
+      index[v] = h;
+      homes.push_back(std::move(h));
+    }
+    L.enter_loop(std::move(index));
+    return homes;
+  }
+  // Each home takes its variable's value now (where it differs).
+  void sync_homes(const std::vector<Home>& homes, SourcePos pos) {
+    for (const Home& h : homes) L.sync_home(*h.var, h, pos);
   }
 
   // WHILE, REPEAT, and a FOR that is not unrolled, as a loop of the executor:
@@ -625,14 +656,7 @@ struct StLowerer {
       if (ws.insert(iv).second) written.push_back(iv);
     }
     if (L.diags().has_errors()) return {};
-    // Everything the loop reads or caches is made here, in code that always
-    // runs: a value first made inside the body would be stale after a cycle
-    // in which the body did not run.
-    for (Var* v : read) {
-      if (v->role == Var::Role::kPlain || v->role == Var::Role::kInput || v->role == Var::Role::kSetpoint) {
-        (void)L.read(*v, pos);
-      }
-    }
+    read_ahead(read, pos);
     const bool guarded = L.conditional();
     const Value active = guarded ? L.active(pos) : constant(1, true);
     // A FOR's TO and BY that read nothing the loop writes (and call nothing)
@@ -649,21 +673,7 @@ struct StLowerer {
       if (invariant(*st.to)) to_before = L.eval(s, *st.to);
       if (st.by && invariant(*st.by)) by_before = L.eval(s, *st.by);
     }
-    std::vector<Home> homes;
-    for (Var* v : written) {
-      if (v->role != Var::Role::kPlain || (v->decl && v->decl->constant)) continue;
-      const Value before = L.read(*v, pos);
-      Home h = make_home(v->path, v->digital, v->integer, pos);
-      h.var = v;
-      set_home(h, before, pos);
-      v->cur = h.value;
-      homes.push_back(std::move(h));
-    }
-    {
-      std::map<const Var*, Lowering::LoopHome> index;
-      for (const Home& h : homes) index[h.var] = h;
-      L.enter_loop(std::move(index));
-    }
+    const std::vector<Home> homes = home_all(written, pos);
     struct Leave {
       Lowering& l;
       ~Leave() { l.leave_loop(); }
@@ -704,10 +714,7 @@ struct StLowerer {
     }
     const Flow f = block(st.body);
     if (L.diags().has_errors()) return {};
-    for (const Home& h : homes) {
-      const Value now = L.read(*h.var, pos);
-      if (!same(now, h.value)) set_home(h, now, pos);
-    }
+    sync_homes(homes, pos);
     if (ret && !never(f.ret)) set_home(*ret, f.ret, pos);
     const Value stop = either(f.ret, f.exit, pos);
     if (!never(stop)) {
@@ -778,12 +785,6 @@ struct StLowerer {
       loop_leaves(st->else_body, exit, cont);
     }
   }
-  void sync_homes(const std::vector<Home>& homes, SourcePos pos) {
-    for (const Home& h : homes) {
-      const Value now = L.read(*h.var, pos);
-      if (!same(now, h.value)) set_home(h, now, pos);
-    }
-  }
 
   Flow region(const Block& b) {
     Emitter& em = L.em();
@@ -814,23 +815,10 @@ struct StLowerer {
     bool returns = false, exits = false, conts = false;
     if (!scan(b, written, ws, read, rs, returns, backward ? kInBackwardJump : nullptr)) return {};
     loop_leaves(b, exits, conts);
-    // What the list reads, and the path's condition, made here in code that
-    // always runs (a value first made in a segment a jump skips would be stale).
-    for (Var* v : read) {
-      if (v->role == Var::Role::kPlain || v->role == Var::Role::kInput || v->role == Var::Role::kSetpoint) {
-        (void)L.read(*v, pos);
-      }
-    }
+    // The path's condition too is made before any segment a jump may skip.
+    read_ahead(read, pos);
     if (L.conditional()) (void)L.active(pos);
-    for (Var* v : written) {
-      if (v->role != Var::Role::kPlain || (v->decl && v->decl->constant)) continue;
-      const Value before = L.read(*v, pos);
-      Home h = make_home(v->path, v->digital, v->integer, pos);
-      h.var = v;
-      set_home(h, before, pos);
-      v->cur = h.value;
-      r.homes.push_back(std::move(h));
-    }
+    r.homes = home_all(written, pos);
     std::optional<Home> flag[3];  // RETURN, EXIT, CONTINUE
     const bool may[3] = {returns, exits, conts};
     const char* const what[3] = {"$return", "$exit", "$continue"};
@@ -838,11 +826,6 @@ struct StLowerer {
       if (!may[k]) continue;
       flag[k] = make_home(s.path + ".$jump" + what[k], true, false, pos);
       set_home(*flag[k], constant(0, true), pos);
-    }
-    {
-      std::map<const Var*, Lowering::LoopHome> index;
-      for (const Home& h : r.homes) index[h.var] = h;
-      L.enter_loop(std::move(index));
     }
     r.gathering = L.gathering();
     regions_.push_back(&r);
