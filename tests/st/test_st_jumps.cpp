@@ -128,29 +128,26 @@ END_PROGRAM
 )";
   FbdHarness h(src, 0.01, true, true);
   ASSERT_TRUE(h.ok()) << h.result().diags.render("j.st", src);
-  // i = 1: j 1..3, cnt 1. i = 2: CONTINUE. i = 3: j 4..6, cnt 2. i = 4: j 7..9,
-  // cnt 3. i = 5: j 10..12, EXIT before counting.
-  h.set("stop", 5);
-  h.step();
-  EXPECT_EQ(h.value("Main.i"), 5);
-  EXPECT_EQ(h.value("Main.j"), 12);
-  EXPECT_EQ(h.value("Main.cnt"), 3);
-  EXPECT_EQ(h.value("Main.after"), 1);
-  // stop = 2: i = 2 is skipped by CONTINUE before the tests; at i = 3 (= stop
-  // + 1), after j 4..6, RETURN: only i = 1 counted, `after` not reached.
-  h.set("stop", 2);
-  h.step();
-  EXPECT_EQ(h.value("Main.i"), 3);
-  EXPECT_EQ(h.value("Main.j"), 6);
-  EXPECT_EQ(h.value("Main.cnt"), 1);
-  EXPECT_EQ(h.value("Main.after"), 0);
-  // stop = 20: neither; nine iterations count (all but i = 2), j = 27.
-  h.set("stop", 20);
-  h.step();
-  EXPECT_EQ(h.value("Main.i"), 11);
-  EXPECT_EQ(h.value("Main.j"), 27);
-  EXPECT_EQ(h.value("Main.cnt"), 9);
-  EXPECT_EQ(h.value("Main.after"), 1);
+  struct Case {
+    double stop, i, j, cnt, after;
+  };
+  for (const Case& c : {
+           // i = 1: j 1..3, cnt 1. i = 2: CONTINUE. i = 3: j 4..6, cnt 2. i = 4:
+           // j 7..9, cnt 3. i = 5: j 10..12, EXIT before counting.
+           Case{5, 5, 12, 3, 1},
+           // i = 2 is skipped by CONTINUE before the tests; at i = 3 (= stop + 1),
+           // after j 4..6, RETURN: only i = 1 counted, `after` not reached.
+           Case{2, 3, 6, 1, 0},
+           // Neither: nine iterations count (all but i = 2), j = 27.
+           Case{20, 11, 27, 9, 1},
+       }) {
+    h.set("stop", c.stop);
+    h.step();
+    EXPECT_EQ(h.value("Main.i"), c.i) << "stop " << c.stop;
+    EXPECT_EQ(h.value("Main.j"), c.j) << "stop " << c.stop;
+    EXPECT_EQ(h.value("Main.cnt"), c.cnt) << "stop " << c.stop;
+    EXPECT_EQ(h.value("Main.after"), c.after) << "stop " << c.stop;
+  }
 }
 
 TEST(StJumps, a_standard_block_after_a_forward_jump_is_called_only_when_not_jumped_over) {
@@ -188,12 +185,10 @@ TEST(StJumps, a_backward_jump_that_never_ends_is_cut_at_the_budget_and_named) {
   const char* src = "PROGRAM Main\nVAR x : DINT; END_VAR\n  x := 0;\nspin:\n  x := x + 1;\n  JMP spin;\nEND_PROGRAM\n";
   FbdHarness h(src, 0.01, true, true);
   ASSERT_TRUE(h.ok()) << h.result().diags.render("spin.st", src);
-  h.arena().loop_budget = 1000;
-  h.step();
-  ASSERT_NE(h.arena().loop_fault, 0u);
-  const BlockInfo& b = h.image().blocks()[h.arena().loop_fault - 1];
-  EXPECT_EQ(b.line, 6u);  // the JMP
-  EXPECT_EQ(b.col, 3u);
+  const BlockInfo* b = testing::runaway_loop_in(h);
+  ASSERT_NE(b, nullptr);
+  EXPECT_EQ(b->line, 6u);  // the JMP
+  EXPECT_EQ(b->col, 3u);
 }
 
 TEST(StJumps, refuses_a_jump_it_cannot_take_at_its_position_naming_it) {

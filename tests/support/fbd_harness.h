@@ -102,4 +102,12 @@ inline FbdHarness with_inputs(const std::string& body, double dt = 0.1) {
   return FbdHarness(std::string(kSetpointInputs) + body, dt);
 }
 
+// One cycle of a program (any language) with a loop budget of 1,000: the
+// block whose loop ran past it, or nullptr when none did.
+inline const BlockInfo* runaway_loop_in(FbdHarness& h) {
+  h.arena().loop_budget = 1000;
+  h.step();
+  return h.arena().loop_fault == 0 ? nullptr : &h.image().blocks()[h.arena().loop_fault - 1];
+}
+
 }  // namespace rtplc::testing
