@@ -13,6 +13,7 @@
 // branches so affine loops stay vectorisable; the count of failures is summed
 // per run and added to the task's total once.
 #include "blocks/executor.h"
+#include "blocks/int_math.h"
 
 #include <algorithm>
 #include <atomic>

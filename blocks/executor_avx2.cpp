@@ -8,6 +8,7 @@
 #include <cmath>
 
 #include "blocks/executor.h"
+#include "blocks/int_math.h"
 
 namespace rtplc::exec_avx2 {
 #include "blocks/executor_body.inc"

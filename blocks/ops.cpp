@@ -23,7 +23,7 @@ uint32_t op_param_count(Op op) {
     case Op::Ton: case Op::TonEt: case Op::Tof: case Op::TofEt: case Op::Tp: case Op::TpEt:
     case Op::Ctu: case Op::Ctd: case Op::Var:
       return 1;
-    case Op::Scale: case Op::Lim: case Op::Pi: case Op::Epi: case Op::Wrap: case Op::Pick: case Op::Put:
+    case Op::Scale: case Op::Lim: case Op::Pi: case Op::Epi: case Op::Wrap: case Op::Imul: case Op::Pick: case Op::Put:
     case Op::Band: case Op::Bor: case Op::Bxor: case Op::Bnot:
     case Op::Shl: case Op::Shr: case Op::Rol: case Op::Ror: case Op::Ctud:
       return 2;
@@ -76,7 +76,7 @@ uint32_t op_input_count(Op op) {
     case Op::Mod: case Op::Expt: case Op::Band: case Op::Bor: case Op::Bxor:
     case Op::Shl: case Op::Shr: case Op::Rol: case Op::Ror: case Op::Sr: case Op::Rs:
     case Op::Ton: case Op::TonEt: case Op::Tof: case Op::TofEt: case Op::Tp: case Op::TpEt:
-    case Op::Ctu: case Op::Updn: case Op::Put:
+    case Op::Ctu: case Op::Updn: case Op::Put: case Op::Imul:
       return 2;
     case Op::And3: case Op::Or3: case Op::Amux: case Op::Ctd: case Op::Ctud:
     case Op::Pidc:

@@ -36,9 +36,10 @@
 //  ConstA ConstD       y = v (no inputs)                                           v                   -
 //  D2a A2d   kind change: y = (a != 0)                                             -                   -
 //  Mod       a - b*trunc(a/b) (fmod), b == 0 -> 0                                  -                   -
-//  Trunc Round Neg     toward zero / nearest, ties away from zero / -a             -                   -
+//  Trunc Round Neg     toward zero / nearest, ties to even / -a                    -                   -
 //  Expt Ln Log Exp     a^b, ln a, log10 a, e^a    domain error -> err              -                   -
 //  Wrap      trunc(a) wrapped into the integer type's range                        2^bits half         -
+//  Imul      trunc(a)*trunc(b) wrapped as Wrap, in 64-bit integers (exact)          2^bits half         -
 //  Band Bor Bxor Bnot  bitwise on trunc(a) mod 2^bits                              2^bits bits         -
 //  Shl Shr Rol Ror     shift/rotate a by n bits within `bits`                      2^bits bits         -
 //  Rtrig Ftrig         edge of in (IEC R_TRIG / F_TRIG)                            -                   M
@@ -81,7 +82,8 @@ namespace rtplc {
   X(Band) X(Bor) X(Bxor) X(Bnot) X(Shl) X(Shr) X(Rol) X(Ror)                                \
   X(Rtrig) X(Ftrig) X(Sr) X(Rs) X(Ton) X(TonEt) X(Tof) X(TofEt) X(Tp) X(TpEt)               \
   X(Ctu) X(Ctd) X(Updn) X(Ctud) X(Pidc)                                                    \
-  X(Var) X(Set) X(Jmp) X(Jz) X(Jnz) X(Loop) X(Pick) X(Put)
+  X(Var) X(Set) X(Jmp) X(Jz) X(Jnz) X(Loop) X(Pick) X(Put)                                 \
+  X(Imul)
 
 enum class Op : uint8_t {
 #define RTPLC_OP_ENUM(name) name,

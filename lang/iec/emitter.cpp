@@ -95,7 +95,7 @@ uint32_t Emitter::convert(uint32_t p, IecType from, IecType to) {
   if (to == IecType::kBool) return digital(p);
   if (from == IecType::kBool) return analog(p);  // 0 or 1 fits every type
   uint32_t v = analog(p);
-  if (time_in_seconds_ && (from == IecType::kTime) != (to == IecType::kTime)) {
+  if (matiec_ && (from == IecType::kTime) != (to == IecType::kTime)) {
     // MatIEC: a number of seconds either way; into an integer type the
     // fraction is dropped (its __time_to_int returns tv_sec).
     if (to == IecType::kTime || !t.integer) return v;
@@ -110,6 +110,8 @@ uint32_t Emitter::convert(uint32_t p, IecType from, IecType to) {
   }
   if (!t.integer) return v;
   const bool from_real = !f.integer;  // REAL, LREAL, or TIME in ms
+  // MatIEC's __real_to_uint: a negative value becomes 0, not a wrapped one.
+  if (from_real && matiec_ && !t.is_signed) v = block("max", {v, constant(0, Kind::kAnalog)});
   if (from_real) v = block("round", {v});
   if (!from_real && range_contains(t, f)) return v;
   return wrap(v, to);

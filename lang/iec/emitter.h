@@ -48,10 +48,12 @@ class Emitter {
   uint32_t wrap(uint32_t producer, IecType t);
   // A `*_TO_*` conversion (docs/language.md says which rounding and scaling).
   uint32_t convert(uint32_t producer, IecType from, IecType to);
-  // How TIME meets numbers in conversions: milliseconds (CODESYS, the
-  // default: TIME_TO_DINT(T#1.5s) = 1500) or whole seconds (MatIEC:
-  // TIME_TO_DINT(T#1.5s) = 1, DINT_TO_TIME(2) = T#2s, TIME_TO_REAL = seconds).
-  void set_time_in_seconds(bool on) { time_in_seconds_ = on; }
+  // Whose conversions: CODESYS's (the default) or MatIEC's. They differ where
+  // TIME meets numbers: milliseconds (CODESYS: TIME_TO_DINT(T#1.5s) = 1500) or
+  // whole seconds (MatIEC: TIME_TO_DINT(T#1.5s) = 1, DINT_TO_TIME(2) = T#2s,
+  // TIME_TO_REAL = seconds); and for a negative REAL into an unsigned type or a
+  // bit string, which MatIEC's __real_to_uint makes 0 (CODESYS's wraps).
+  void set_matiec_conversions(bool on) { matiec_ = on; }
 
   // An operand the front end has not made as a block yet: the PLCopen importer
   // names its producers and resolves the names once every block exists, so a
@@ -74,7 +76,7 @@ class Emitter {
   std::string prefix_;
   SourcePos pos_;
   uint32_t call_line_;
-  bool time_in_seconds_ = false;
+  bool matiec_ = false;
   std::map<std::string, uint32_t, std::less<>> used_roles_;
   std::map<std::pair<double, int>, uint32_t> constants_;
   std::vector<Kind> externals_;

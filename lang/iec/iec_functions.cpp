@@ -40,8 +40,18 @@ Out chain(const IecFunction& f, Emitter& e, const IecCall& c, const char* prim, 
 Out lower_add(const IecFunction& f, Emitter& e, const IecCall& c) {
   return chain(f, e, c, "add", true);
 }
+// On an integer type every product is `imul`, exact in 64-bit integers and
+// wrapped into the type (a double product rounds past 2^53 before any wrap).
 Out lower_mul(const IecFunction& f, Emitter& e, const IecCall& c) {
-  return chain(f, e, c, "mult", true);
+  const IecTypeInfo& t = type_info(c.type);
+  if (!t.integer || c.type == IecType::kBool) return chain(f, e, c, "mult", true);
+  if (auto r = numeric(f, c); !r) return make_error(r.error());
+  uint32_t acc = e.analog_or_zero(arg(c, 0));
+  for (size_t k = 1; k < count(f, c); ++k) {
+    acc = e.block("imul", {acc, e.analog_or_zero(arg(c, k))},
+                  {static_cast<double>(t.bits), t.is_signed ? 1.0 : 0.0});
+  }
+  return one(count(f, c) > 1 ? acc : e.wrap(acc, c.type));
 }
 Out lower_sub(const IecFunction& f, Emitter& e, const IecCall& c) {
   return chain(f, e, c, "sub", true);
@@ -261,20 +271,49 @@ const IecTypeInfo& counter_type(const IecFunction& f, const IecCall& c) {
   return type_info(c.type).integer ? type_info(c.type) : type_info(IecType::kInt);
 }
 
+// The counters count where the standard's bodies say, with the limits MatIEC
+// (its counter.txt) and CODESYS (PV: "upper limit for incrementing") give
+// PVmax and PVmin: CTU up while CV < PV, CTD down while CV > 0, CTUD both.
+// Each is one `ctud` whose step is gated on last cycle's CV (the read of the
+// ctud, made before it, is a delayed one): step = updn(CU, CD), +1, -1 or 0
+// on the rising edges (whose memories follow CU and CD every cycle, as the
+// R_TRIG instances do), counted only when the limit allows it.
+uint32_t gated_counter(Emitter& e, uint32_t step, uint32_t up_limit, bool up, bool down, uint32_t ld,
+                       uint32_t load, const IecTypeInfo& t) {
+  const uint32_t zero = e.constant(0, Kind::kAnalog);
+  // The limit checks read CV, made last: their first input is set to it below.
+  std::vector<uint32_t> reads_cv;
+  uint32_t up_ok = 0, down_ok = 0;
+  if (up) reads_cv.push_back(up_ok = e.block("lt", {zero, up_limit}));
+  if (down) reads_cv.push_back(down_ok = e.block("gt", {zero, zero}));
+  uint32_t ok = up ? up_ok : down_ok;
+  if (up && down) {
+    const uint32_t rising = e.block("gt", {step, zero});
+    ok = e.block("or", {e.block("and", {rising, up_ok}),
+                        e.block("and", {e.block("not", {rising}), down_ok})});
+  }
+  const uint32_t counted = e.block("amux", {zero, step, ok});
+  const uint32_t cv = e.block("ctud", {counted, ld, load}, {t.min_value(), t.max_value()}, "CV");
+  for (uint32_t i : reads_cv) e.program().blocks[i].in[0] = cv;  // last cycle's CV
+  return cv;
+}
+
 Out lower_ctu(const IecFunction& f, Emitter& e, const IecCall& c) {
   const IecTypeInfo& t = counter_type(f, c);
-  const uint32_t cv = e.block("ctu", {e.digital_or_false(arg(c, 0)), e.digital_or_false(arg(c, 1))},
-                              {t.max_value()}, "CV");
-  const uint32_t q = e.block("ge", {cv, e.analog_or_zero(arg(c, 2))}, {}, "Q");
+  const uint32_t cu = e.digital_or_false(arg(c, 0)), r = e.digital_or_false(arg(c, 1));
+  const uint32_t pv = e.analog_or_zero(arg(c, 2));
+  const uint32_t step = e.block("updn", {cu, e.constant(0, Kind::kDigital)});
+  const uint32_t cv = gated_counter(e, step, pv, true, false, r, e.constant(0, Kind::kAnalog), t);
+  const uint32_t q = e.block("ge", {cv, pv}, {}, "Q");
   return std::vector<uint32_t>{q, cv};
 }
 
 Out lower_ctd(const IecFunction& f, Emitter& e, const IecCall& c) {
   const IecTypeInfo& t = counter_type(f, c);
-  const uint32_t cv = e.block(
-      "ctd",
-      {e.digital_or_false(arg(c, 0)), e.digital_or_false(arg(c, 1)), e.analog_or_zero(arg(c, 2))},
-      {t.min_value()}, "CV");
+  const uint32_t cd = e.digital_or_false(arg(c, 0)), ld = e.digital_or_false(arg(c, 1));
+  const uint32_t pv = e.analog_or_zero(arg(c, 2));
+  const uint32_t step = e.block("updn", {e.constant(0, Kind::kDigital), cd});
+  const uint32_t cv = gated_counter(e, step, pv, false, true, ld, pv, t);
   const uint32_t q = e.block("le", {cv, e.constant(0, Kind::kAnalog)}, {}, "Q");
   return std::vector<uint32_t>{q, cv};
 }
@@ -288,7 +327,7 @@ Out lower_ctud(const IecFunction& f, Emitter& e, const IecCall& c) {
   const uint32_t ld = e.block("or", {r, e.digital_or_false(arg(c, 3))});
   const uint32_t pv = e.analog_or_zero(arg(c, 4));
   const uint32_t load = e.block("amux", {pv, e.constant(0, Kind::kAnalog), r});
-  const uint32_t cv = e.block("ctud", {step, ld, load}, {t.min_value(), t.max_value()}, "CV");
+  const uint32_t cv = gated_counter(e, step, pv, true, true, ld, load, t);
   const uint32_t qu = e.block("ge", {cv, pv}, {}, "QU");
   const uint32_t qd = e.block("le", {cv, e.constant(0, Kind::kAnalog)}, {}, "QD");
   return std::vector<uint32_t>{qu, qd, cv};
@@ -320,7 +359,7 @@ IecFunction fb(const char* name, std::vector<const char*> ins, std::vector<const
 std::vector<IecFunction> build_table() {
   std::vector<IecFunction> t;
   t.push_back(fn("ADD", {"IN1", "IN2"}, lower_add, "add chain; integers: + wrap", true));
-  t.push_back(fn("MUL", {"IN1", "IN2"}, lower_mul, "mult chain; integers: + wrap", true));
+  t.push_back(fn("MUL", {"IN1", "IN2"}, lower_mul, "mult chain; integers: imul chain", true));
   t.push_back(fn("SUB", {"IN1", "IN2"}, lower_sub, "sub; integers: + wrap"));
   t.push_back(
       fn("DIV", {"IN1", "IN2"}, lower_div, "div; integers: + wrap (truncates toward zero)"));
@@ -367,10 +406,10 @@ std::vector<IecFunction> build_table() {
   t.push_back(fb("F_TRIG", {"CLK"}, {"Q"}, lower_ftrig, "ftrig"));
   t.push_back(fb("SR", {"S1", "R"}, {"Q1"}, lower_sr, "sr"));
   t.push_back(fb("RS", {"S", "R1"}, {"Q1"}, lower_rs, "rs"));
-  t.push_back(fb("CTU", {"CU", "R", "PV"}, {"Q", "CV"}, lower_ctu, "ctu (CV), ge(CV, PV) (Q)"));
-  t.push_back(fb("CTD", {"CD", "LD", "PV"}, {"Q", "CV"}, lower_ctd, "ctd (CV), le(CV, 0) (Q)"));
+  t.push_back(fb("CTU", {"CU", "R", "PV"}, {"Q", "CV"}, lower_ctu, "updn, lt, amux, ctud (CV), ge(CV, PV) (Q)"));
+  t.push_back(fb("CTD", {"CD", "LD", "PV"}, {"Q", "CV"}, lower_ctd, "updn, gt, amux, ctud (CV), le(CV, 0) (Q)"));
   t.push_back(fb("CTUD", {"CU", "CD", "R", "LD", "PV"}, {"QU", "QD", "CV"}, lower_ctud,
-                 "updn, or, amux, ctud (CV), ge (QU), le (QD)"));
+                 "updn, or, lt, gt, and, not, amux, ctud (CV), ge (QU), le (QD)"));
   // The typed counters of the third edition: the same blocks with the type's limits.
   for (IecType ty :
        {IecType::kInt, IecType::kDint, IecType::kLint, IecType::kUdint, IecType::kUlint}) {
@@ -499,7 +538,8 @@ std::string iec_functions_markdown() {
       "timers, counters) are in [language.md](language.md), \"IEC 61131-3 types and standard\n"
       "blocks\". Names are matched in any case. An overloaded function takes its operand type "
       "from\n"
-      "the caller: on an integer type ADD, SUB, MUL, DIV, ABS, NEG wrap their result (`wrap`);\n"
+      "the caller: on an integer type ADD, SUB, DIV, ABS, NEG wrap their result (`wrap`) and MUL\n"
+      "multiplies exactly in 64-bit integers and wraps (`imul`);\n"
       "AND, OR, XOR, NOT are bitwise on bit strings and logical on BOOL.\n\n"
       "| IEC name | kind | inputs | outputs | lowers to |\n"
       "|---|---|---|---|---|\n";
@@ -517,7 +557,7 @@ std::string iec_functions_markdown() {
        "with the type's "
        "limits |\n";
   s += "| `X_TO_Y`, `TO_Y` | function | IN | OUT | the conversion rules above (round, wrap, d2a, "
-       "a2d, TIME in ms) |\n";
+       "a2d, TIME as the editor counts it) |\n";
   return s;
 }
 

@@ -4,6 +4,7 @@
 // call, user FBs lowered in their scope.
 #include <algorithm>
 
+#include "blocks/int_math.h"
 #include "lang/iec/iec_functions.h"
 #include "lang/plcopen/lowering.h"
 
@@ -85,7 +86,7 @@ std::vector<Value> Lowering::lower_iec(const iec::IecFunction& f, const std::str
   for (const auto& a : args) arg_names.push_back(a ? em_.ref(*a, pos) : std::string());
   const size_t first = out_.blocks.size();
   iec::Emitter ie(out_, prefix, pos);
-  ie.set_time_in_seconds(semantics_ == EditorSemantics::kMatiec);
+  ie.set_matiec_conversions(semantics_ == EditorSemantics::kMatiec);
   iec::IecCall call;
   call.type = operand_type(f, args);
   std::vector<size_t> slot_arg;
@@ -243,7 +244,21 @@ std::optional<Value> Lowering::call_function(Scope& s, const std::string& name, 
 // ---- operators ----
 
 Value Lowering::operate(BinOp op, const Value& a, const Value& b, SourcePos pos) {
-  if (a.is_const && b.is_const) return em_.binary(op, a, b, pos);
+  if (a.is_const && b.is_const) {
+    Value r = em_.binary(op, a, b, pos);
+    // Folded in the operands' integer type as the task would compute it:
+    // wrapped (4000000000 * 3 in UDINT is 3410065408), the product exact.
+    std::optional<iec::IecType> t = a.int_type;
+    if (b.int_type && (!t || iec::type_info(*b.int_type).bits > iec::type_info(*t).bits)) t = b.int_type;
+    const bool arith = op == BinOp::kAdd || op == BinOp::kSub || op == BinOp::kMul || op == BinOp::kDiv;
+    if (r.is_const && r.integer && t && arith && iec::type_info(*t).integer) {
+      const iec::IecTypeInfo& ti = iec::type_info(*t);
+      const double m = int_math::type_modulus(ti.bits), half = int_math::type_half(ti.bits, ti.is_signed);
+      r.k = op == BinOp::kMul ? int_math::wrapped_product(a.k, b.k, m, half) : int_math::wrap_whole(r.k, m, half);
+      r.int_type = t;
+    }
+    return r;
+  }
   static constexpr const char* kName[] = {"ADD", "SUB", "MUL", "DIV", "MOD", "EXPT", "AND", "OR",
                                           "XOR", "EQ",  "NE",  "LT",  "LE",  "GT",  "GE"};
   const iec::IecFunction* f = iec::find_iec(kName[static_cast<size_t>(op)]);

@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <map>
 
+#include "blocks/int_math.h"
 #include "blocks/registry.h"
 
 namespace rtplc::lang::plcopen {
@@ -921,7 +922,13 @@ void Lowering::assign(Var& v, Value value, SourcePos pos) {
 
 Value Lowering::coerce(Var& v, Value value, SourcePos pos) {
   value = v.digital ? em_.to_digital(value, pos) : em_.to_analog(value, pos);
-  if (v.integer && !value.is_const) {
+  if (v.integer && value.is_const) {
+    // A constant is wrapped here, by the rule `wrap` follows at run time.
+    const iec::IecTypeInfo& t = iec::type_info(iec_type(v.decl->type.base));
+    if (t.integer) {
+      value.k = int_math::wrap_whole(value.k, int_math::type_modulus(t.bits), int_math::type_half(t.bits, t.is_signed));
+    }
+  } else if (v.integer) {
     // IEC integers wrap (an INT counter goes 32767 -> -32768): the value is
     // truncated and wrapped into the variable's range.
     const iec::IecTypeInfo& t = iec::type_info(iec_type(v.decl->type.base));

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "blocks/int_math.h"
 #include "tests/support/fbd_harness.h"
 
 namespace rtplc {
@@ -74,13 +75,58 @@ TEST(IecArithmetic, mod_keeps_the_dividends_sign_and_mod_zero_is_zero) {
   EXPECT_EQ(eval("mod(F10, F11)", 5.5, 2), 1.5);
 }
 
-TEST(IecArithmetic, trunc_rounds_toward_zero_and_round_takes_halves_away_from_zero) {
+TEST(IecArithmetic, trunc_rounds_toward_zero_and_round_sends_an_exact_half_to_the_even_neighbour) {
   EXPECT_EQ(eval("trunc(F10)", -2.7), -2);
   EXPECT_EQ(eval("trunc(F10)", 2.7), 2);
-  EXPECT_EQ(eval("round(F10)", 2.5), 3);
-  EXPECT_EQ(eval("round(F10)", -2.5), -3);
+  EXPECT_EQ(eval("round(F10)", 2.5), 2);
+  EXPECT_EQ(eval("round(F10)", -2.5), -2);
+  EXPECT_EQ(eval("round(F10)", 3.5), 4);
   EXPECT_EQ(eval("round(F10)", 1.4999), 1);
   EXPECT_EQ(eval("neg(F10)", 4), -4);
+  for (const auto& [x, want] : {std::pair{0.5, 0.0}, {1.5, 2.0}, {2.5, 2.0}, {3.5, 4.0}, {-2.5, -2.0},
+                                {-3.5, -4.0}, {2.4999999999999996, 2.0}, {2.6, 3.0}, {-0.5, -0.0},
+                                {4503599627370497.0, 4503599627370497.0}}) {
+    EXPECT_EQ(int_math::round_half_even(x), want) << x;
+  }
+}
+
+// imul: the product in 64-bit integers, wrapped as wrap does (hand-worked).
+TEST(IecArithmetic, imul_is_exact_to_sixty_four_bits_and_holds_on_garbage) {
+  struct Case {
+    double a, b;
+    int bits;
+    bool is_signed;
+    double want;
+  };
+  for (const Case& c : {Case{4000000000, 3, 32, false, 3410065408},
+                        Case{-1, -1, 32, false, 1},
+                        Case{-1, 1, 32, false, 4294967295},
+                        Case{65535, 65535, 16, true, 1},  // 0xFFFE0001 mod 2^16
+                        Case{32767, 2, 16, true, -2},
+                        Case{std::ldexp(1.0, 62), 4, 64, true, 0},  // 2^64 wraps to 0
+                        Case{std::ldexp(1.0, 62), 2, 64, true, -std::ldexp(1.0, 63)},
+                        Case{std::ldexp(1.0, 62), 2, 64, false, std::ldexp(1.0, 63)},
+                        Case{2.9, -2.9, 8, true, -4}}) {  // operands truncated first
+    const double m = int_math::type_modulus(c.bits), half = int_math::type_half(c.bits, c.is_signed);
+    EXPECT_EQ(int_math::wrapped_product(c.a, c.b, m, half), c.want) << c.a << " * " << c.b << " in " << c.bits;
+  }
+  EXPECT_TRUE(std::isnan(int_math::wrapped_product(NAN, 1, 256, 128)));
+  EXPECT_TRUE(std::isnan(int_math::wrapped_product(int_math::kTwo64, 1, 256, 128)));
+  EXPECT_TRUE(std::isnan(int_math::wrapped_product(3, 1, 0, 0)));  // a crafted modulus
+
+  // In a task, where a double product would have lost the low bits.
+  EXPECT_EQ(eval("imul(F10, F11, 32, 0)", 4000000000, 3), 3410065408);
+  EXPECT_EQ(eval("imul(F10, F11, 32, 0)", 1103515245, 3554416254), 2802055078);
+  auto h = with("F10 = imul(F1, F2, 32, 1)\n");
+  ASSERT_TRUE(h.ok());
+  h.set("a", 100000);
+  h.set("b", 100000);
+  h.step();
+  EXPECT_EQ(h.value("F10"), 1410065408);
+  h.set("b", 1e300);  // not a number below 2^64: the output holds, one error
+  h.step();
+  EXPECT_EQ(h.value("F10"), 1410065408);
+  EXPECT_EQ(h.errors("F10"), 1u);
 }
 
 TEST(IecArithmetic, expt_ln_log_exp_and_their_domain_errors) {

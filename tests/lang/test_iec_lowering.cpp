@@ -152,7 +152,10 @@ TEST(IecLowering, ctud_follows_the_standard_with_reset_over_load) {
   };
   for (Row w : {Row{1, 0, 0, 0, 1, 0, 0}, Row{0, 0, 0, 0, 1, 0, 0}, Row{1, 0, 0, 0, 2, 1, 0},
                 Row{0, 1, 0, 0, 1, 0, 0}, Row{0, 0, 0, 1, 2, 1, 0}, Row{0, 0, 1, 1, 0, 0, 1},
-                Row{1, 1, 0, 0, 0, 0, 1}, Row{0, 0, 0, 0, 0, 0, 1}, Row{0, 1, 0, 0, -1, 0, 1}}) {
+                Row{1, 1, 0, 0, 0, 0, 1}, Row{0, 0, 0, 0, 0, 0, 1},
+                Row{0, 1, 0, 0, 0, 0, 1},   // at 0: CD counts no further (MatIEC's and CODESYS's CTUD)
+                Row{1, 0, 0, 0, 1, 0, 0}, Row{0, 0, 0, 0, 1, 0, 0}, Row{1, 0, 0, 0, 2, 1, 0},
+                Row{0, 0, 0, 0, 2, 1, 0}, Row{1, 0, 0, 0, 2, 1, 0}}) {  // at PV: CU counts no further
     p.set("cu", w.cu);
     p.set("cd", w.cd);
     p.set("r", w.r);
@@ -164,20 +167,44 @@ TEST(IecLowering, ctud_follows_the_standard_with_reset_over_load) {
   }
 }
 
-TEST(IecLowering, ctu_stops_at_its_types_limit) {
+// CTU counts up while CV < PV, CTD down while CV > 0 (MatIEC's counter.txt,
+// CODESYS's PV "upper limit for incrementing"); a PV raised later lets CTU go on.
+TEST(IecLowering, ctu_stops_at_pv_and_ctd_at_zero) {
   Lowered p;
   const uint32_t cu = p.input("cu", Kind::kDigital), pv = p.input("pv", Kind::kAnalog);
+  const uint32_t ld = p.input("ld", Kind::kDigital);
   const auto o = p.call("CTU", {cu, kUnconnected, pv});
+  const auto d = p.call("CTD", {cu, ld, pv});
   ASSERT_TRUE(p.build());
   p.set("pv", 3);
-  for (int k = 0; k < 3; ++k) {
-    p.set("cu", 1);
-    p.step();
-    p.set("cu", 0);
-    p.step();
-  }
-  EXPECT_EQ(p.value(o[1]), 3);
+  p.set("ld", 1);
+  p.step();
+  EXPECT_EQ(p.value(d[1]), 3);
+  p.set("ld", 0);
+  auto pulses = [&](int n) {
+    for (int k = 0; k < n; ++k) {
+      p.set("cu", 1);
+      p.step();
+      p.set("cu", 0);
+      p.step();
+    }
+  };
+  pulses(5);
+  EXPECT_EQ(p.value(o[1]), 3);  // not 5
   EXPECT_EQ(p.value(o[0]), 1);
+  EXPECT_EQ(p.value(d[1]), 0);  // not -2
+  EXPECT_EQ(p.value(d[0]), 1);
+  p.set("pv", 4);
+  pulses(2);
+  EXPECT_EQ(p.value(o[1]), 4);
+  EXPECT_EQ(p.value(d[1]), 0);
+  // A CU held high while at PV is no edge once PV rises: the edge memory
+  // followed CU all along (as MatIEC's R_TRIG instance does).
+  p.set("cu", 1);
+  p.step();
+  p.set("pv", 9);
+  p.step();
+  EXPECT_EQ(p.value(o[1]), 4);
 }
 
 TEST(IecLowering, integer_arithmetic_wraps_and_divides_toward_zero) {
@@ -221,7 +248,7 @@ TEST(IecLowering, conversions_round_wrap_and_scale_time_to_milliseconds) {
   p.set("x", 2.5);
   p.set("d", 1);
   p.step();
-  EXPECT_EQ(p.value(r2i), 3);
+  EXPECT_EQ(p.value(r2i), 2);  // an exact half goes to the even neighbour
   EXPECT_EQ(p.value(i2r), 2.5);  // the importer's INT never holds 2.5; the value passes unchanged
   EXPECT_EQ(p.value(t2d), 2500);
   EXPECT_EQ(p.value(d2t), 0.0025);
@@ -230,8 +257,8 @@ TEST(IecLowering, conversions_round_wrap_and_scale_time_to_milliseconds) {
   EXPECT_EQ(p.value(tr), 2);
   p.set("x", -2.5);
   p.step();
-  EXPECT_EQ(p.value(r2i), -3);
-  EXPECT_EQ(p.value(r2u), 253);  // -3 as a USINT
+  EXPECT_EQ(p.value(r2i), -2);
+  EXPECT_EQ(p.value(r2u), 254);  // -2 as a USINT (the default conversions wrap; MatIEC's give 0)
   EXPECT_EQ(p.value(tr), -2);
   p.set("x", 40000);
   p.step();

@@ -169,7 +169,7 @@ TEST(Plcopen, runs_st_with_for_case_globals_and_fb_calls) {
     run.set("raw", 60);
     run.cycles(1);
   }
-  EXPECT_EQ(run.value("scale1.n"), 4);  // the 500 edge and three more
+  EXPECT_EQ(run.value("scale1.n"), 3);  // the 500 edge and three more, stopped at PV = 3
   EXPECT_EQ(run.value("scale1.pulses.Q"), 1);
 }
 
@@ -413,7 +413,7 @@ TEST(Plcopen, wires_the_standard_function_blocks) {
     run.cycles(1);
     EXPECT_EQ(run.value("main.fell"), 0);
   }
-  EXPECT_EQ(run.value("main.cv"), 4);
+  EXPECT_EQ(run.value("main.cv"), 3);  // four pulses; CTUD counts up only while CV < PV = 3
   EXPECT_EQ(run.value("main.qu"), 1);
   EXPECT_EQ(run.value("main.q_sr"), 1);
   EXPECT_EQ(run.value("main.q_rs"), 1);
@@ -422,7 +422,7 @@ TEST(Plcopen, wires_the_standard_function_blocks) {
   EXPECT_EQ(run.value("main.off"), 0);
   run.set("dn", 1);
   run.cycles(1);
-  EXPECT_EQ(run.value("main.cv"), 3);
+  EXPECT_EQ(run.value("main.cv"), 2);
   run.set("up", 1);  // up AND dn: SR keeps (set dominant), RS resets
   run.cycles(1);
   EXPECT_EQ(run.value("main.q_sr"), 1);
@@ -787,18 +787,23 @@ TEST(Plcopen, maps_located_variables_to_channels) {
 // "Which editor's semantics"): MatIEC in whole seconds (its __time_to_int is
 // tv_sec, __int_to_time makes seconds), CODESYS in milliseconds.
 TEST(Plcopen, time_conversions_follow_the_chosen_editor) {
+  // r is a variable (its value reaches the conversion at run time, not folded).
   const std::string src = project(
       kNs201, st_program("<localVars>" + var("a", "DINT") + var("b", "DINT") + var("c", "REAL") + var("d", "TIME") +
-                             var("e", "TIME") + "</localVars>",
+                             var("e", "TIME") + var("f", "UINT") + var("g", "INT") + var("h", "INT") +
+                             var("r", "REAL", "", "-3.4") + var("q", "REAL", "", "2.5") + "</localVars>",
                          "a := TIME_TO_DINT(T#1.5s); b := TIME_TO_DINT(T#-1.5s); c := TIME_TO_REAL(T#1.5s);\n"
-                         "d := DINT_TO_TIME(2); e := REAL_TO_TIME(2.5);"));
+                         "d := DINT_TO_TIME(2); e := REAL_TO_TIME(2.5);\n"
+                         "f := REAL_TO_UINT(r); g := REAL_TO_INT(q); h := REAL_TO_INT(-q);\n"
+                         "r := r + 0.0; q := q + 0.0;"));
   struct Want {
     EditorSemantics sem;
     double a, b, c, d, e;  // TIME in seconds, as rtplc keeps it
+    double f;              // REAL_TO_UINT(-3.4): MatIEC's __real_to_uint gives 0, CODESYS's wraps -3
   };
-  for (const Want& w : {Want{EditorSemantics::kMatiec, 1, -1, 1.5, 2, 2.5},
-                        Want{EditorSemantics::kFromHeader, 1, -1, 1.5, 2, 2.5},  // no CODESYS header
-                        Want{EditorSemantics::kCodesys, 1500, -1500, 1500, 0.002, 0.0025}}) {
+  for (const Want& w : {Want{EditorSemantics::kMatiec, 1, -1, 1.5, 2, 2.5, 0},
+                        Want{EditorSemantics::kFromHeader, 1, -1, 1.5, 2, 2.5, 0},  // no CODESYS header
+                        Want{EditorSemantics::kCodesys, 1500, -1500, 1500, 0.002, 0.0025, 65536 - 3}}) {
     CompileOptions o;
     o.semantics = w.sem;
     CompileResult r = compile_source(src, o);
@@ -811,6 +816,9 @@ TEST(Plcopen, time_conversions_follow_the_chosen_editor) {
     EXPECT_DOUBLE_EQ(run.value("main.c"), w.c) << k;
     EXPECT_DOUBLE_EQ(run.value("main.d"), w.d) << k;
     EXPECT_DOUBLE_EQ(run.value("main.e"), w.e) << k;
+    EXPECT_EQ(run.value("main.f"), w.f) << k;
+    EXPECT_EQ(run.value("main.g"), 2) << k;   // 2.5: the tie goes to the even neighbour
+    EXPECT_EQ(run.value("main.h"), -2) << k;  // -2.5 likewise
   }
 }
 

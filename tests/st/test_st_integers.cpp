@@ -1,0 +1,94 @@
+// Exact integer arithmetic in ST (docs/language.md, "Types"): a product on an
+// integer type is computed in 64-bit integers and wrapped, in a real loop, in
+// an unrolled one and when the compiler folds constants (the `imul` block's
+// own edge cases are in tests/blocks/test_iec_blocks.cpp). The expected values are worked by hand (Python's
+// unbounded integers: x = (x * 1103515245 + 12345) % 2**32).
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "lang/compiler.h"
+#include "tests/support/fbd_harness.h"
+
+namespace rtplc::lang {
+namespace {
+
+using testing::FbdHarness;
+
+// The UDINT linear congruential generator from seed 12345, 1,000 steps: its
+// 32-bit products reach 2^62, past what a double holds exactly, so a double
+// product wrapped afterwards gives 832443392. Exact: 1603858065.
+constexpr double kLcg1000 = 1603858065;
+
+// The generator, FOR i := 1 TO `to`; `n` is an input.
+std::string generator(const std::string& to) {
+  return "PROGRAM Main\nVAR\n  n AT %IW0 : INT;\n  x : UDINT;\n  i : INT;\nEND_VAR\n"
+         "  x := 12345;\n  FOR i := 1 TO " + to + " DO\n    x := x * 1103515245 + 12345;\n  END_FOR;\n"
+         "END_PROGRAM\n";
+}
+
+TEST(StIntegers, a_udint_generator_in_a_real_loop_is_exact) {
+  const std::string src = generator("n");
+  FbdHarness h(src, 0.01, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("lcg.st", src);
+  h.set("n", 1000);
+  h.step();
+  EXPECT_EQ(h.value("Main.x"), kLcg1000);
+  h.set("n", 1);
+  h.step();
+  EXPECT_EQ(h.value("Main.x"), 3554416254);  // 12345 * 1103515245 + 12345 mod 2^32
+}
+
+TEST(StIntegers, the_same_generator_unrolled_and_folded_is_exact) {
+  // Constant bounds: the FOR is unrolled and every step folded at compile time
+  // (before, the folded product grew unwrapped until the compiler refused an
+  // infinite constant).
+  const std::string src = generator("1000");
+  FbdHarness h(src, 0.01, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("lcg.st", src);
+  h.step();
+  EXPECT_EQ(h.value("Main.x"), kLcg1000);
+}
+
+TEST(StIntegers, products_and_sums_wrap_in_their_type) {
+  const char* src = R"(PROGRAM Main
+VAR
+  a AT %IW0 : DINT;
+  b AT %IW1 : DINT;
+  u : UDINT;
+  k : UDINT;
+  d : DINT;
+  e : DINT;
+  s : SINT;
+  w : UINT;
+END_VAR
+  u := 4000000000;
+  u := u * 3;          (* folded: 12,000,000,000 mod 2^32 *)
+  k := 4000000000;
+  k := k + 500000000;  (* folded: 4,500,000,000 mod 2^32 *)
+  d := a * b;          (* at run time *)
+  e := a * b * b;
+  s := a * b;
+  w := b - a;
+END_PROGRAM
+)";
+  FbdHarness h(src, 0.01, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("w.st", src);
+  h.set("a", 100000);
+  h.set("b", 100000);
+  h.step();
+  EXPECT_EQ(h.value("Main.u"), 3410065408);
+  EXPECT_EQ(h.value("Main.k"), 205032704);
+  EXPECT_EQ(h.value("Main.d"), 1410065408);   // 10^10 mod 2^32, below 2^31
+  EXPECT_EQ(h.value("Main.e"), -1530494976);  // 1410065408 * 100000 mod 2^32 = 2764472320, read as DINT
+  EXPECT_EQ(h.value("Main.s"), 0);            // DINT's 1410065408 = 16#540BE400, its low byte into SINT
+  EXPECT_EQ(h.value("Main.w"), 0);
+  h.set("a", -3);
+  h.set("b", 1431655766);
+  h.step();
+  EXPECT_EQ(h.value("Main.d"), -2);           // -4294967298 + 2^32
+  EXPECT_EQ(h.value("Main.w"), (1431655766 + 3) % 65536);
+}
+
+}  // namespace
+}  // namespace rtplc::lang
