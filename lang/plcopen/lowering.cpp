@@ -922,6 +922,11 @@ void Lowering::assign(Var& v, Value value, SourcePos pos) {
 
 Value Lowering::coerce(Var& v, Value value, SourcePos pos) {
   value = v.digital ? em_.to_digital(value, pos) : em_.to_analog(value, pos);
+  if (value.is_const && !std::isfinite(value.k)) {
+    d_.error(pos, "the value assigned to '" + v.decl->name +
+                      "' is a constant expression that overflows (or divides by zero): folded, it is not a finite number");
+    value.k = 0;  // one error, not a second one at the constant block
+  }
   if (v.integer && value.is_const) {
     // A constant is wrapped here, by the rule `wrap` follows at run time.
     const iec::IecTypeInfo& t = iec::type_info(iec_type(v.decl->type.base));

@@ -90,5 +90,17 @@ END_PROGRAM
   EXPECT_EQ(h.value("Main.w"), (1431655766 + 3) % 65536);
 }
 
+TEST(StIntegers, a_folded_constant_that_overflows_is_refused_where_it_is_assigned) {
+  const std::string src =
+      "PROGRAM Main\nVAR\n  y : REAL;\n  d : DINT;\nEND_VAR\n  d := 5;\n  y := 1e300 * 1e300;\nEND_PROGRAM\n";
+  const CompileResult r = compile_source(src);
+  ASSERT_FALSE(r.ok());
+  ASSERT_EQ(r.diags.items().size(), 1u) << r.diags.render("o.st", src);
+  const Diagnostic& d = r.diags.items()[0];
+  EXPECT_EQ(d.pos.line, 7u);
+  EXPECT_EQ(d.pos.col, 3u);
+  EXPECT_NE(d.message.find("'y' is a constant expression that overflows"), std::string::npos) << d.message;
+}
+
 }  // namespace
 }  // namespace rtplc::lang
