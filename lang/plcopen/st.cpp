@@ -101,9 +101,9 @@ std::vector<Tok> lex(std::string_view s, const XmlElement& origin, DiagnosticLis
       t.t = Tok::T::kIdent;
     } else if (ident_start(c)) {
       while (i < s.size() && ident_char(s[i])) ++i;
-      if (i < s.size() && s[i] == '#') {  // T#1s, INT#5, BOOL#TRUE
+      if (i < s.size() && s[i] == '#') {  // T#1s, INT#5, BOOL#TRUE, WORD#16#F0F0
         ++i;
-        while (i < s.size() && (ident_char(s[i]) || s[i] == '.' || s[i] == '-' || s[i] == '+')) {
+        while (i < s.size() && (ident_char(s[i]) || s[i] == '.' || s[i] == '-' || s[i] == '+' || s[i] == '#')) {
           if ((s[i] == '-' || s[i] == '+') && !(s[i - 1] == 'e' || s[i - 1] == 'E' || s[i - 1] == '#'))
             break;
           ++i;

@@ -90,6 +90,18 @@ END_PROGRAM
   EXPECT_EQ(h.value("Main.w"), (1431655766 + 3) % 65536);
 }
 
+TEST(StIntegers, typed_literals_take_a_base) {
+  const std::string src =
+      "PROGRAM Main\nVAR\n  w : WORD;\n  d : DINT;\n  b : BYTE;\nEND_VAR\n"
+      "  w := SHL(WORD#16#F0F0, 3) XOR 16#FF;\n  d := DINT#2#1010 + INT#-3;\n  b := BYTE#8#377;\nEND_PROGRAM\n";
+  FbdHarness h(src, 0.01, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("t.st", src);
+  h.step();
+  EXPECT_EQ(h.value("Main.w"), 0x877F);  // 16#F0F0 shifted 3 within 16 bits = 16#8780
+  EXPECT_EQ(h.value("Main.d"), 7);
+  EXPECT_EQ(h.value("Main.b"), 255);
+}
+
 TEST(StIntegers, a_folded_constant_that_overflows_is_refused_where_it_is_assigned) {
   const std::string src =
       "PROGRAM Main\nVAR\n  y : REAL;\n  d : DINT;\nEND_VAR\n  d := 5;\n  y := 1e300 * 1e300;\nEND_PROGRAM\n";
