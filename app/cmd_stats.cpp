@@ -183,7 +183,9 @@ void run_monitor(const ViewArgs& a) {
       const bool unwired = r.kind == static_cast<uint8_t>(io::RegionKind::kUnwired);
       // An output no driver sends reaches nothing: computed, but not good to
       // anyone looking at the plant (a driver that sends it reports delivery).
-      const bool unsent = d.dir == static_cast<uint8_t>(io::ChannelDir::kOutput) && d.has_delivery == 0;
+      // An HMI variable's output is for the console and `monitor` themselves:
+      // it shows its value's own quality (docs/st.md, "HMI variables").
+      const bool unsent = d.dir == static_cast<uint8_t>(io::ChannelDir::kOutput) && d.has_delivery == 0 && d.hmi == 0;
       // A forced value says so in capitals; a forced output its driver cannot
       // deliver shows the delivery's quality, and FORCED beside the writer.
       const char* quality = !live.alive ? "stale"
@@ -194,7 +196,8 @@ void run_monitor(const ViewArgs& a) {
                                                                          : quality_name(v.quality);
       const std::string writer = std::string(unwired ? "(no driver)" : r.name) +
                                  (v.forced && v.quality != Quality::kForced ? " (FORCED)" : "") +
-                                 (unsent ? " (no driver sends it)" : "") + on_bad_text(d);
+                                 (unsent ? " (no driver sends it)" : "") + (d.hmi != 0 ? " (HMI)" : "") +
+                                 on_bad_text(d);
       std::snprintf(line, sizeof line, "  %-20s %-9s %-24s %14s  %-7s %8s  %s\n", d.label, dir, d.key,
                     fmt_value(v.value, d.kind).c_str(), quality, age, writer.c_str());
       out += line;

@@ -78,6 +78,11 @@ static_assert(sizeof(Run) == 36);
 // fills its input slot with 1 (good or forced) or 0 (bad, stale, unfed).
 enum class BindingDir : uint8_t { kInput, kSetpoint, kOutput, kQuality };
 
+// Binding flags.
+// The channel of an HMI variable (Beremiz SVGHMI's HMI_INT...: docs/st.md,
+// "HMI variables"): the runtime marks it so for the web console.
+inline constexpr uint32_t kBindingHmi = 1u << 0;
+
 // One I/O channel the task reads or writes, addressed the seed's way (p, d, c).
 struct Binding {
   BindingDir dir;

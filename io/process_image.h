@@ -134,7 +134,7 @@ struct ChannelDesc {
   uint32_t delivery_index;  // ... at this index: quality bad while it cannot send
   int64_t max_age_ns;       // inputs: a good value older than this is stale (judge_quality); 0 never
   uint8_t on_bad;           // outputs: config::OnBad, what drivers send while it is not good
-  uint8_t pad;
+  uint8_t hmi;              // 1: an HMI variable's channel (docs/st.md, "HMI variables")
   // Which tasks' programs use the channel: bit t for task t (at most 16 tasks).
   // Written by the runtime's control thread when a program starts, is swapped
   // in or rolled back (set_channel_users(), a release store); read by any

@@ -404,6 +404,7 @@ Result<TaskImage> build_image(const CheckedProgram& prog, const CompileOptions& 
     bd.label = ib.add_string(ch.label);
     bd.line = b.pos.line;
     bd.init = quality ? 0 : b.init;
+    bd.flags = ch.hmi ? kBindingHmi : 0;
     ib.bindings.push_back(bd);
   }
   return ib.finish();

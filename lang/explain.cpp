@@ -150,8 +150,9 @@ std::string explain(const CompileResult& r) {
                                  std::to_string(b.c);
     std::string label = std::string(img.str(b.label));
     if (b.dir == BindingDir::kSetpoint) label += " =" + format_number(b.init);
+    if (b.flags & kBindingHmi) label += " (HMI)";
     line("  " + pad_right(dir, 9) + pad_right(group, 7) + pad_right(addr, 15) + pad_right(kind_name(b.kind), 9) +
-         pad_right(label, 18) + std::to_string(b.line));
+         pad_right(label + " ", 18) + std::to_string(b.line));
   }
 
   line("");

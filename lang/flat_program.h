@@ -41,6 +41,7 @@ struct FlatBlock {
   uint32_t c = 0;
   std::string label;
   double init = 0;
+  bool hmi = false;  // an HMI variable's channel (Binding kBindingHmi)
 };
 
 struct CheckedProgram {

@@ -164,9 +164,11 @@ bool plan_image(const config::RuntimeConfig& cfg, const std::string& name,
         descs.push_back(channel_desc(label, key, io::ChannelDir::kOutput, static_cast<uint8_t>(b.kind),
                                      static_cast<uint32_t>(t), b.io_index));
         descs.back().max_age_ns = output_max_age_ns(img.header().period_ns);
+        descs.back().hmi = (b.flags & kBindingHmi) != 0 ? 1 : 0;
         set_output_policy(cfg.tasks[t], label, descs.back());
       } else if (existing == by_key.end()) {
         io::ChannelDesc d = channel_desc(label, key, io::ChannelDir::kInput, static_cast<uint8_t>(b.kind), 0, 0);
+        d.hmi = (b.flags & kBindingHmi) != 0 ? 1 : 0;
         if (b.dir == BindingDir::kSetpoint) {
           d.dir = static_cast<uint8_t>(io::ChannelDir::kSetpoint);
           d.region = static_cast<uint16_t>(out.setpoint_region);

@@ -379,6 +379,7 @@ std::string monitor_json(const io::ProcessImage& img, const io::Liveness& live, 
                        "\"quality\": \"{}\", \"age_s\": {}, \"writer\": \"{}\", \"forced\": {}",
                        first ? "" : ",", d.label, d.dir == 0 ? "input" : output ? "output" : "setpoint", d.key, value,
                        quality, age, unwired ? "" : r.name, v.forced ? "true" : "false");
+    if (d.hmi != 0) out += ", \"hmi\": true";  // an HMI variable's channel (docs/st.md)
     if (output) {
       const auto p = static_cast<config::OnBad>(d.on_bad);
       out += fmt::format(", \"sent_by_a_driver\": {}, \"on_bad\": \"{}\"", unsent ? "false" : "true",

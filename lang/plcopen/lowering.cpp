@@ -10,6 +10,7 @@
 #include <map>
 
 #include "blocks/int_math.h"
+#include "blocks/image.h"
 #include "blocks/registry.h"
 
 namespace rtplc::lang::plcopen {
@@ -117,7 +118,8 @@ void Lowering::emit_channel(Var& v) {
   b.p = static_cast<uint16_t>(l.p);
   b.d = static_cast<uint16_t>(l.d);
   b.c = l.c;
-  b.label = v.decl->name;
+  b.label = v.hmi ? v.path : v.decl->name;
+  b.hmi = v.hmi;
   if (v.role == Var::Role::kSetpoint && !v.decl->initial.empty()) {
     if (auto k = parse_literal(v.decl->initial)) b.init = v.digital ? (*k != 0 ? 1.0 : 0.0) : *k;
   }
@@ -332,6 +334,7 @@ std::unique_ptr<Var> Lowering::make_var(const Variable& decl0, const std::string
     }
     return v;
   }
+  if (decl.type.hmi && decl.address.empty()) return hmi_var(std::move(v), in_function);
   if (!decl.address.empty()) {
     std::string err;
     v->loc = parse_location(decl.address, &err);
@@ -351,6 +354,44 @@ std::unique_ptr<Var> Lowering::make_var(const Variable& decl0, const std::string
     else if (v->role == Var::Role::kInput || v->role == Var::Role::kSetpoint)
       emit_channel(*v);
   }
+  return v;
+}
+
+// An HMI variable (docs/st.md, "HMI variables") is a channel labelled with its
+// path: an operator set-point when the program never writes it, an output the
+// console shows when it does. Its address is a hash of the path, so it stays
+// the same across edits and swaps and differs between tasks: set-points at
+// SETP d8..d255, outputs at DIO p8..p255 (the located ones stay below 8).
+std::unique_ptr<Var> Lowering::hmi_var(std::unique_ptr<Var> v, bool in_function) {
+  const Variable& decl = *v->decl;
+  const bool has_storage = decl.section == VarSection::kLocal || decl.section == VarSection::kOutput ||
+                           decl.section == VarSection::kGlobal;
+  if (in_function || !has_storage) return v;  // a parameter or a reference: the HMI sees the variable it names
+  const uint64_t h = fnv1a64(v->path);
+  const auto high = static_cast<uint32_t>(8 + (h >> 16) % 248), low = static_cast<uint32_t>(h & 0xFFFF);
+  Location l;
+  l.size = v->digital ? 'X' : 'W';
+  if (!written(*v)) {
+    l.area = 'M';
+    l.d = high;
+    l.c = low;
+    v->role = Var::Role::kSetpoint;
+  } else {
+    l.area = 'Q';
+    l.p = high;
+    l.c = low;
+  }
+  v->loc = l;
+  v->hmi = true;
+  const uint32_t address = high << 16 | low;
+  for (const auto& [other, path] : hmi_addresses_) {
+    if (other == address) {
+      d_.error(decl.pos, "HMI variables '" + path + "' and '" + v->path +
+                             "' hash to one channel address: rename one of them");
+    }
+  }
+  hmi_addresses_.emplace_back(address, v->path);
+  if (v->role == Var::Role::kSetpoint) emit_channel(*v);
   return v;
 }
 
@@ -1044,7 +1085,8 @@ void Lowering::finalize_var(Var& v) {
       b.p = static_cast<uint16_t>(v.loc->p);
       b.d = static_cast<uint16_t>(v.loc->d);
       b.c = v.loc->c;
-      b.label = v.decl->name;
+      b.label = v.hmi ? v.path : v.decl->name;
+      b.hmi = v.hmi;
     }
   }
 }

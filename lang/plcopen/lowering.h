@@ -49,6 +49,7 @@ struct Var {
   bool integer = false;
   enum class Role : uint8_t { kPlain, kInput, kSetpoint, kUserFb, kStdFb, kStruct, kArray, kInOut } role = Role::kPlain;
   std::optional<Location> loc;
+  bool hmi = false;  // an HMI variable: its channel is labelled with its path
   std::optional<Value> start;  // the value at the start of the cycle
   std::optional<Value> cur;    // after the last assignment so far
   std::unique_ptr<Scope> fb;   // kUserFb: the instance's own variables; kStruct: its members
@@ -227,6 +228,7 @@ class Lowering {
  private:
   std::unique_ptr<Scope> make_scope(const Pou& pou, const std::string& path, int depth);
   std::unique_ptr<Var> make_var(const Variable& decl, const std::string& path, int depth, bool in_function);
+  std::unique_ptr<Var> hmi_var(std::unique_ptr<Var> v, bool in_function);
   void finalize(Scope& s);
   void finalize_var(Var& v);
   bool written(const Var& v) const;  // some body assigns it
@@ -273,6 +275,7 @@ class Lowering {
   Value coerce(Var& v, Value value, SourcePos pos);
   size_t elements_ = 0;
   std::vector<const Var*> outputs_;  // %Q variables that drive their output
+  std::vector<std::pair<uint32_t, std::string>> hmi_addresses_;  // HMI variables' channels (hmi_var)
   std::optional<Value> il_result_;  // array elements made so far, at most kMaxArrayElements
   std::vector<std::unique_ptr<Variable>> owned_decls_;  // function result variables
   struct PendingOutput {

@@ -327,6 +327,7 @@ class Reader {
         }
         if (auto b = elementary_type(r.derived)) {
           r.base = *b;
+          r.hmi = is_hmi_type(r.derived);
           r.derived.clear();
         }
         return r;
@@ -651,10 +652,14 @@ std::optional<double> parse_literal(std::string_view text, bool* is_bool, bool* 
   return v;
 }
 
+bool is_hmi_type(std::string_view name) {
+  return name.size() > 4 && (name.substr(0, 4) == "HMI_" || name.substr(0, 4) == "hmi_");
+}
+
 std::optional<BaseType> elementary_type(std::string_view name) {
   // Beremiz SVGHMI's HMI_BOOL, HMI_INT, HMI_REAL...: their elementary type,
-  // exposed to an HMI (docs/st.md, "Types").
-  if (name.size() > 4 && (name.substr(0, 4) == "HMI_" || name.substr(0, 4) == "hmi_")) name.remove_prefix(4);
+  // exposed to an HMI (docs/st.md, "HMI variables").
+  if (is_hmi_type(name)) name.remove_prefix(4);
   const iec::IecTypeInfo* t = iec::find_iec_type(name);
   if (t == nullptr) return std::nullopt;
   return static_cast<BaseType>(t->type);  // the same order (project.h)

@@ -40,6 +40,9 @@ struct TypeRef {
   std::string derived;  // the FB or user data type name when base == kDerived
   // An inline ARRAY [..] OF ... (base == kDerived, derived empty).
   std::shared_ptr<const ArrayType> array;
+  // Beremiz SVGHMI's HMI_BOOL, HMI_INT...: the elementary type, exposed to an
+  // HMI (a channel the web console shows: docs/st.md, "HMI variables").
+  bool hmi = false;
   bool is_bool() const { return base == BaseType::kBool; }
 };
 
@@ -70,6 +73,9 @@ struct ArrayType {
 std::string type_name(const TypeRef& t);
 // Parses "INT", "T#..." aside: an elementary type name, case-insensitive.
 std::optional<BaseType> elementary_type(std::string_view name);
+// True for a Beremiz SVGHMI type name (HMI_INT, hmi_bool): elementary_type()
+// reads it as its elementary type.
+bool is_hmi_type(std::string_view name);
 
 enum class VarSection : uint8_t { kInput, kOutput, kInOut, kLocal, kTemp, kExternal, kGlobal };
 const char* section_name(VarSection s);

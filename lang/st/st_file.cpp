@@ -465,6 +465,7 @@ class Reader {
     TypeRef r;
     if (auto b = plcopen::elementary_type(w)) {
       r.base = *b;
+      r.hmi = plcopen::is_hmi_type(w);
     } else {
       r.base = BaseType::kDerived;
       r.derived = original(at);

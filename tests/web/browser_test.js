@@ -56,6 +56,17 @@ async function value(page, label) {
     await page.waitForFunction((was) => Number(document.querySelector('[data-testid="value-ProcVal"]').textContent) !== was, c);
     await page.fill('#search', '');
     await page.waitForFunction(() => liveWants === null);
+    // HMI variables (an ST panel's HMI_REAL): marked in the table, found by "hmi",
+    // set like any set-point; the one the program writes shows what it computed.
+    await page.fill('#search', 'hmi');
+    await page.waitForFunction(() => JSON.stringify(liveWants) === '["Panel.speed","Panel.doubled"]' ||
+                                     JSON.stringify(liveWants) === '["Panel.doubled","Panel.speed"]');
+    assert.match(await page.textContent('[data-testid="channel-Panel.speed"]'), /setpoint \(HMI\)/);
+    assert.match(await page.textContent('[data-testid="channel-Panel.doubled"]'), /output \(HMI\)/);
+    await page.waitForFunction(() => Number(document.querySelector('[data-testid="value-Panel.doubled"]').textContent) === 5);
+    assert.strictEqual(await page.textContent('[data-testid="quality-Panel.doubled"]'), 'good');
+    await page.fill('#search', '');
+    await page.waitForFunction(() => liveWants === null);
 
     // Set the set-point; the value in the table and the loop follow.
     await page.click('[data-testid="nav-operations"]');
@@ -68,7 +79,12 @@ async function value(page, label) {
     await page.click('[data-testid="set-submit"]');
     await page.waitForFunction(() => /outside the range/.test(document.querySelector('[data-testid="op-result"]').textContent));
     await page.screenshot({ path: path.join(shots, 'operations.png'), fullPage: true });
+    await page.selectOption('[data-testid="set-label"]', 'Panel.speed');
+    await page.fill('[data-testid="set-value"]', '4');
+    await page.click('[data-testid="set-submit"]');
+    await page.waitForFunction(() => /Panel.speed = 4 \(was /.test(document.querySelector('[data-testid="op-result"]').textContent));
     await page.click('[data-testid="nav-overview"]');
+    await page.waitForFunction(() => Number(document.querySelector('[data-testid="value-Panel.doubled"]').textContent) === 8);
     await page.waitForFunction(() => Number(document.querySelector('[data-testid="value-Setpoint"]').textContent) === 70);
     await page.waitForFunction(() => Number(document.querySelector('[data-testid="value-ProcVal"]').textContent) > 60,
       null, { timeout: 20000 });

@@ -30,6 +30,16 @@ F1 = prr(p1, d0, c0, "FieldLevel")
 pwr(F1, p1, d0, c1, "FieldEcho")
 END
 FBD
+# An operator panel in ST with Beremiz SVGHMI variables: the console marks them.
+cat > "$dir/panel.st" <<'ST'
+PROGRAM Panel
+VAR
+  speed : HMI_REAL := 2.5;
+  doubled : HMI_REAL;
+END_VAR
+  doubled := speed * 2.0;
+END_PROGRAM
+ST
 port="$(/usr/bin/python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])')"
 "$bin" modbus fake-slave --port "$port" --set hr:0:f32=21.5 > "$dir/slave.log" 2>&1 &
 slave_pid=$!
@@ -45,6 +55,7 @@ tasks:
     setpoints: {Setpoint: {min: 0, max: 100}}
   - {name: sequence, program: tank.sfc, period: 100ms}
   - {name: field, program: field.fbd, period: 100ms}
+  - {name: panel, program: panel.st, period: 100ms}
 drivers:
   - kind: sim
   - kind: modbus

@@ -81,7 +81,7 @@ async function loadChannels() {
     const tr = el('tr');
     tr.dataset.testid = 'channel-' + c.label;
     const cells = {
-      label: el('td', c.label), dir: el('td', c.dir), addr: el('td', c.channel),
+      label: el('td', c.label), dir: el('td', c.hmi ? c.dir + ' (HMI)' : c.dir), addr: el('td', c.channel),
       value: el('td', fmt(c.value), 'num'), quality: el('td', c.quality), age: el('td', '', 'num'),
       writer: el('td', c.writer + (c.on_bad ? ', on bad: ' + c.on_bad : '')),
     };
@@ -207,7 +207,9 @@ setInterval(() => { if (session) loadStatus(); }, 5000);
 function filter() {
   const q = $('search').value.trim().toLowerCase();
   channels.forEach((c) => {
-    c.row.hidden = q !== '' && !(c.desc.label.toLowerCase().includes(q) || c.desc.channel.toLowerCase().includes(q));
+    // An HMI variable's channel is found by "hmi" too (its direction reads "setpoint (HMI)").
+    c.row.hidden = q !== '' && !(c.desc.label.toLowerCase().includes(q) || c.desc.channel.toLowerCase().includes(q) ||
+                                 c.cells.dir.textContent.toLowerCase().includes(q));
   });
   clearTimeout(filter.timer);
   if (live) filter.timer = setTimeout(resubscribe, 300);  // once typing pauses
