@@ -383,12 +383,12 @@ void Lowering::lower_il(Scope& s, const Body& body) {
         std::string name = call.substr(0, call.find('('));
         while (!name.empty() && std::isspace(static_cast<unsigned char>(name.back()))) name.pop_back();
         const Var* fb = lookup(s, name, pos, false);
-        if (const Var* std_fb = fb ? standard_fb_in(*fb) : nullptr) {
+        if (const Var* std_fb = fb ? standard_fb_in(*fb, true) : nullptr) {
           d_.error(pos, "'" + name + "' " +
-                            (std_fb == fb ? std::string("is a standard function block instance")
-                                          : "holds the standard function block instance '" + std_fb->decl->name + "'") +
-                            ": calling one in an IL body with a backward jump is not supported yet (it could run "
-                            "more than once in a cycle)");
+                            (std_fb == fb ? std::string("is a standard timer instance (") + std_fb->std_fb.type + ")"
+                                          : "holds the standard timer instance '" + std_fb->decl->name + "'") +
+                            ": calling a timer in an IL body with a backward jump is not supported yet (its time "
+                            "would advance at every call)");
           return;
         }
       }

@@ -23,16 +23,19 @@ namespace {
 constexpr int kMaxUnroll = 1000;
 }
 
-const Var* standard_fb_in(const Var& v) {
-  if (v.role == Var::Role::kStdFb) return &v;
+const Var* standard_fb_in(const Var& v, bool timers_only) {
+  if (v.role == Var::Role::kStdFb) {
+    const std::string& t = v.std_fb.type;
+    return !timers_only || t == "TON" || t == "TOF" || t == "TP" ? &v : nullptr;
+  }
   if (v.role == Var::Role::kArray) {
     for (const auto& e : v.elems) {
-      if (const Var* f = standard_fb_in(*e)) return f;
+      if (const Var* f = standard_fb_in(*e, timers_only)) return f;
     }
   }
   if (v.role == Var::Role::kUserFb && v.fb) {
     for (const auto& [name, m] : v.fb->vars) {
-      if (const Var* f = standard_fb_in(*m)) return f;
+      if (const Var* f = standard_fb_in(*m, timers_only)) return f;
     }
   }
   return nullptr;
@@ -131,11 +134,12 @@ Value Lowering::eval(Scope& s, const Expr& e) {
 namespace {
 
 constexpr const char* kInLoop =
-    ": calling one inside a WHILE, REPEAT or FOR loop that is not unrolled is not supported yet (a constant FOR "
-    "of at most 1,000 runs is unrolled and may call it)";
+    ": calling a timer inside a WHILE, REPEAT or FOR loop that is not unrolled is not supported yet (its time "
+    "is the cycle's and would advance at every call; a constant FOR of at most 1,000 runs is unrolled and may "
+    "call it)";
 constexpr const char* kInBackwardJump =
-    ": calling one in a statement list that a JMP goes back in is not supported yet (it could run more than "
-    "once in a cycle)";
+    ": calling a timer in a statement list that a JMP goes back in is not supported yet (its time would "
+    "advance at every call)";
 
 struct StLowerer {
   Lowering& L;
@@ -537,14 +541,16 @@ struct StLowerer {
         case Stmt::Kind::kCall: {
           Var* fb = L.lookup(s, st->target.substr(0, st->target.find_first_of(".[")), st->pos, false);
           // A user function block runs its body inline: its variables are the
-          // loop's like any other. A standard one (TON, CTU, R_TRIG...), or a
-          // user one holding one, is not supported in such a loop yet: its
-          // blocks keep per-cycle state (a timer's time advances per call).
-          const Var* std_fb = fb ? standard_fb_in(*fb) : nullptr;
+          // loop's like any other. A standard one's blocks keep its state and
+          // run at each call, each call one step of its machine (an edge, a
+          // count), as the standard's bodies do. A timer (or a user FB holding
+          // one) is not supported in such a loop yet: its blocks count the
+          // cycles, so its time would advance at every call.
+          const Var* std_fb = fb ? standard_fb_in(*fb, true) : nullptr;
           if (std_fb != nullptr && refusal != nullptr) {
             L.diags().error(st->pos, "'" + st->target + "' " +
-                                         (std_fb == fb ? std::string("is a standard function block instance")
-                                                       : "holds the standard function block instance '" +
+                                         (std_fb == fb ? std::string("is a standard timer instance (") + std_fb->std_fb.type + ")"
+                                                       : "holds the standard timer instance '" +
                                                              std_fb->decl->name + "'") +
                                          refusal);
             return false;

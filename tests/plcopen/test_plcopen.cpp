@@ -250,12 +250,29 @@ TEST(Plcopen, an_il_loop_that_never_ends_is_cut_at_the_budget_at_its_jump) {
   EXPECT_EQ(run.img.blocks()[run.arena.loop_fault - 1].line, 8u);  // the JMP (the body starts at line 5)
 }
 
-TEST(Plcopen, refuses_a_standard_block_called_in_an_il_body_with_a_backward_jump) {
+// A counter CALled in an IL loop steps at each call (x = 0..5: CU = T F T F T F).
+TEST(Plcopen, a_counter_called_in_an_il_loop_counts_each_call) {
+  CompileResult r = compile_source(il_program("<localVars>" + var("x", "INT") + var("e", "BOOL") + fb("c", "CTU") +
+                                                  var("cv", "INT") + "</localVars>",
+                                              "top: LD x\n MOD 2\n EQ 0\n ST e\n CAL c(CU := e, PV := 100)\n"
+                                              " LD x\n ADD 1\n ST x\n LT 6\n JMPC top\n LD c.CV\n ST cv\n"));
+  ASSERT_TRUE(r.ok()) << r.diags.render("il.xml", "");
+  Machine run(std::move(*r.image));
+  run.cycles(1);
+  EXPECT_EQ(run.value("main.x"), 6);
+  EXPECT_EQ(run.value("main.cv"), 3);
+  run.cycles(1);  // x = 6: once through, CU rises again
+  EXPECT_EQ(run.value("main.cv"), 4);
+  run.cycles(1);  // x = 7: CU falls
+  EXPECT_EQ(run.value("main.cv"), 4);
+}
+
+TEST(Plcopen, refuses_a_timer_called_in_an_il_body_with_a_backward_jump) {
   CompileResult r = compile_source(il_program("<localVars>" + var("x", "INT") + fb("t", "TON") + "</localVars>",
                                               "top: CAL t(IN := TRUE, PT := T#1s)\n LD x\n ADD 1\n ST x\n LT 3\n"
                                               " JMPC top\n"));
   ASSERT_FALSE(r.ok());
-  EXPECT_NE(r.diags.items()[0].message.find("'t' is a standard function block instance: calling one in an IL body "
+  EXPECT_NE(r.diags.items()[0].message.find("'t' is a standard timer instance (TON): calling a timer in an IL body "
                                             "with a backward jump"),
             std::string::npos)
       << r.diags.items()[0].message;

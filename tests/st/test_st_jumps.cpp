@@ -203,11 +203,59 @@ TEST(StJumps, refuses_a_jump_it_cannot_take_at_its_position_naming_it) {
             "3:1: label 'A' is already defined at line 2");
   EXPECT_EQ(first_error("PROGRAM P VAR x : INT; END_VAR\nGOTO a;\nEND_PROGRAM"), "2:1: GOTO is not ST: a jump is JMP label");
   EXPECT_EQ(first_error("PROGRAM P VAR x : INT; END_VAR\nJMP ;\nEND_PROGRAM"), "2:5: expected a label after JMP, found ';'");
-  // A standard FB in a list that a jump goes back in could run twice in a cycle.
+  // A timer in a list that a jump goes back in would see its time advance at every call.
   EXPECT_EQ(first_error("PROGRAM P VAR x : INT; t : TON; END_VAR\nback: t(IN := TRUE, PT := T#1s);\nx := x + 1;\n"
                         "IF x < 3 THEN JMP back; END_IF;\nEND_PROGRAM")
-                .substr(0, 79),
-            "2:7: 't' is a standard function block instance: calling one in a statement list");
+                .substr(0, 83),
+            "2:7: 't' is a standard timer instance (TON): calling a timer in a statement list th");
+}
+
+// Edge and counter FBs in real loops: each call is one step of the FB's machine,
+// as the standard's bodies run (timers stay refused: their time is the cycle's).
+TEST(StLoopCalls, edges_and_counters_step_once_per_call_in_a_while_loop_and_a_backward_jump) {
+  const char* src = R"(PROGRAM Main
+VAR
+  n AT %IW0 : INT;
+  bits : ARRAY [0..7] OF BOOL := [TRUE, FALSE, TRUE, TRUE, FALSE, TRUE, FALSE, FALSE];
+  r : R_TRIG;
+  c, g, k : CTU;
+  edges, i, j, counted : INT;
+END_VAR
+  i := 0; edges := 0;
+  WHILE i < n DO
+    r(CLK := bits[i]);
+    IF r.Q THEN edges := edges + 1; END_IF;
+    c(CU := bits[i], R := FALSE, PV := 100);
+    IF bits[i] THEN g(CU := TRUE, PV := 4); ELSE g(CU := FALSE, PV := 4); END_IF;
+    i := i + 1;
+  END_WHILE;
+  j := 0;
+again:
+  k(CU := j MOD 2 = 0, R := FALSE, PV := 100);
+  j := j + 1;
+  IF j < n THEN JMP again; END_IF;
+  counted := k.CV;
+END_PROGRAM
+)";
+  FbdHarness h(src, 0.01, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("calls.st", src);
+  h.set("n", 8);
+  h.step();
+  // T F T T F T F F: rising at 0, 2 and 5 (R_TRIG's memory starts FALSE).
+  EXPECT_EQ(h.value("Main.edges"), 3);
+  EXPECT_EQ(h.value("Main.c.CV"), 3);
+  EXPECT_EQ(h.value("Main.g.CV"), 3);  // the same edges, called from either branch
+  EXPECT_EQ(h.value("Main.counted"), 4);  // CU = T F T F T F T F over the jumps
+  h.step();  // the last bit was FALSE: bit 0 rises again
+  EXPECT_EQ(h.value("Main.edges"), 3);
+  EXPECT_EQ(h.value("Main.c.CV"), 6);
+  EXPECT_EQ(h.value("Main.g.CV"), 4);  // stopped at PV = 4
+  EXPECT_EQ(h.value("Main.counted"), 8);
+  h.set("n", 0);  // the WHILE runs no call; the JMP list runs once (CU TRUE after FALSE)
+  h.step();
+  EXPECT_EQ(h.value("Main.edges"), 0);
+  EXPECT_EQ(h.value("Main.c.CV"), 6);
+  EXPECT_EQ(h.value("Main.counted"), 9);
 }
 
 }  // namespace
