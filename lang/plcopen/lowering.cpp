@@ -974,6 +974,20 @@ Value Lowering::coerce(Var& v, Value value, SourcePos pos) {
     if (t.integer) {
       value.k = int_math::wrap_whole(value.k, int_math::type_modulus(t.bits), int_math::type_half(t.bits, t.is_signed));
     }
+  } else if (v.decl->type.base == BaseType::kTime && !v.digital) {
+    // A TIME lands on the nanosecond grid (int_math::snap_time), so its sums
+    // do not drift: round(x * 1e9) / 1e9.
+    if (value.is_const) {
+      value.k = int_math::snap_time(value.k);
+    } else {
+      const std::string scaled = em_.fresh("time_ns"), whole = em_.fresh("time_ns");
+      em_.emit("scale", scaled, pos, {value.ref}, {1e9, 0.0});
+      em_.emit("round", whole, pos, {scaled});
+      Value t;
+      t.ref = em_.fresh("time");
+      em_.emit("div", t.ref, pos, {whole, em_.ref(constant(1e9, false), pos)});
+      value = t;
+    }
   } else if (v.integer) {
     // IEC integers wrap (an INT counter goes 32767 -> -32768): the value is
     // truncated and wrapped into the variable's range.

@@ -7,6 +7,7 @@
 
 #include <string>
 
+#include "blocks/int_math.h"
 #include "lang/compiler.h"
 #include "tests/support/fbd_harness.h"
 
@@ -100,6 +101,28 @@ TEST(StIntegers, typed_literals_take_a_base) {
   EXPECT_EQ(h.value("Main.w"), 0x877F);  // 16#F0F0 shifted 3 within 16 bits = 16#8780
   EXPECT_EQ(h.value("Main.d"), 7);
   EXPECT_EQ(h.value("Main.b"), 255);
+}
+
+// A TIME variable takes its value on the nanosecond grid: ten sums of T#100ms
+// are T#1s exactly (ten double additions of 0.1 give 0.9999999999999999).
+TEST(StIntegers, time_sums_do_not_drift) {
+  const std::string src =
+      "PROGRAM Main\nVAR\n  t : TIME;\n  hit : BOOL;\n  hits : INT;\n  u : TIME;\nEND_VAR\n"
+      "  t := t + T#100ms;\n  hit := t = T#1s;\n  IF hit THEN hits := hits + 1; END_IF;\n"
+      "  u := T#0.1s + T#0.2s;\nEND_PROGRAM\n";
+  FbdHarness h(src, 0.01, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("t.st", src);
+  h.step(9);
+  EXPECT_EQ(h.value("Main.hit"), 0);
+  h.step();
+  EXPECT_EQ(h.value("Main.t"), 1.0);
+  EXPECT_EQ(h.value("Main.hit"), 1);
+  h.step(90);
+  EXPECT_EQ(h.value("Main.t"), 10.0);
+  EXPECT_EQ(h.value("Main.hits"), 1);
+  EXPECT_EQ(h.value("Main.u"), 0.3);  // folded onto the grid too (0.1 + 0.2 is 0.30000000000000004)
+  EXPECT_EQ(int_math::snap_time(0.1 + 0.2), 0.3);
+  EXPECT_EQ(int_math::snap_time(-1.5e-9), -2e-9);  // the tie goes to the even nanosecond
 }
 
 TEST(StIntegers, a_folded_constant_that_overflows_is_refused_where_it_is_assigned) {
