@@ -299,8 +299,11 @@ std::unique_ptr<Var> Lowering::make_var(const Variable& decl0, const std::string
     }
     if (decl.type.array) make_elements(*v, decl, decl.type.array, decl.initial_xml, depth + 1, in_function);
     else if (user_type->kind == DataType::Kind::kStruct) make_members(*v, decl, *user_type, depth + 1, in_function);
-    else make_elements(*v, decl, user_type->array, decl.initial_xml ? decl.initial_xml : user_type->initial_xml,
-                       depth + 1, in_function);
+    else if (user_type->kind == DataType::Kind::kArray && user_type->array)
+      make_elements(*v, decl, user_type->array, decl.initial_xml ? decl.initial_xml : user_type->initial_xml,
+                    depth + 1, in_function);
+    // Else an alias or enumeration resolved_decl() could not resolve (one
+    // defined through itself): already reported there.
     return v;
   }
   if (decl.type.base == BaseType::kDerived) {

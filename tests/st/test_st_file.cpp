@@ -518,6 +518,9 @@ TEST(StFile, refuses_what_it_cannot_run_at_its_position_naming_it) {
             "2:16: 't1' is a standard timer instance (TON): calling a");
   EXPECT_EQ(first_error("PROGRAM P VAR i : INT; END_VAR\nFOR i := 1 TO 5 BY 0 DO i := i; END_FOR;\nEND_PROGRAM"),
             "2:1: FOR with BY 0 never ends");
+  // A type defined through itself, used with an array's initial value (found by fuzz_st: a crash).
+  EXPECT_EQ(first_error("TYPE pt : pt := [(x := 8)]; END_TYPE\nPROGRAM P\n  VAR p : pt; END_VAR\nEND_PROGRAM\n"),
+            "1:6: data type 'pt' is defined through itself");
   EXPECT_EQ(first_error("PROGRAM P VAR x : INT; END_VAR x := 1; END_PROGRAM\nMETHOD M END_METHOD").substr(0, 15),
             "2:1: 'METHOD' c");
   EXPECT_EQ(first_error("PROGRAM P VAR x : INT; END_VAR x := 1; END_PROGRAM\nCONFIGURATION C\n"
