@@ -21,6 +21,13 @@ io::ChannelDesc channel_desc(const std::string& label, const std::string& key, i
   return d;
 }
 
+io::ChannelDesc channel_desc(const Binding& b, const std::string& label, const std::string& key, io::ChannelDir dir,
+                             uint32_t region, uint32_t index) {
+  io::ChannelDesc d = channel_desc(label, key, dir, static_cast<uint8_t>(b.kind), region, index);
+  d.hmi = (b.flags & kBindingHmi) != 0 ? 1 : 0;
+  return d;
+}
+
 int64_t input_max_age_ns(const config::DriverConfig& dc, const config::ChannelClaim& claim) {
   if (dc.max_age_s) return static_cast<int64_t>(*dc.max_age_s * 1e9);
   if (claim.max_age_ns > 0) return claim.max_age_ns;
@@ -161,14 +168,11 @@ bool plan_image(const config::RuntimeConfig& cfg, const std::string& name,
         }
         out.task_output_keys[t][b.io_index] = key;
         by_key[key] = static_cast<uint32_t>(descs.size());
-        descs.push_back(channel_desc(label, key, io::ChannelDir::kOutput, static_cast<uint8_t>(b.kind),
-                                     static_cast<uint32_t>(t), b.io_index));
+        descs.push_back(channel_desc(b, label, key, io::ChannelDir::kOutput, static_cast<uint32_t>(t), b.io_index));
         descs.back().max_age_ns = output_max_age_ns(img.header().period_ns);
-        descs.back().hmi = (b.flags & kBindingHmi) != 0 ? 1 : 0;
         set_output_policy(cfg.tasks[t], label, descs.back());
       } else if (existing == by_key.end()) {
-        io::ChannelDesc d = channel_desc(label, key, io::ChannelDir::kInput, static_cast<uint8_t>(b.kind), 0, 0);
-        d.hmi = (b.flags & kBindingHmi) != 0 ? 1 : 0;
+        io::ChannelDesc d = channel_desc(b, label, key, io::ChannelDir::kInput, 0, 0);
         if (b.dir == BindingDir::kSetpoint) {
           d.dir = static_cast<uint8_t>(io::ChannelDir::kSetpoint);
           d.region = static_cast<uint16_t>(out.setpoint_region);

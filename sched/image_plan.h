@@ -82,6 +82,9 @@ int64_t output_max_age_ns(int64_t task_period_ns);
 
 io::ChannelDesc channel_desc(const std::string& label, const std::string& key, io::ChannelDir dir,
                              uint8_t kind, uint32_t region, uint32_t index);
+// The same for a task image's binding: its kind, and its HMI mark (kBindingHmi).
+io::ChannelDesc channel_desc(const Binding& b, const std::string& label, const std::string& key, io::ChannelDir dir,
+                             uint32_t region, uint32_t index);
 
 // An output's `on_bad` policy and safe value from its task's config.
 void set_output_policy(const config::TaskConfig& task, const std::string& label, io::ChannelDesc& d);

@@ -515,9 +515,8 @@ Result<std::unique_ptr<LoadedProgram>> Runtime::make_program(uint32_t t, TaskIma
       // A new output (hot swap): a new channel in this task's spare room.
       if (label_taken(label)) return make_error("label \"" + label + "\" already names another channel");
       LoadedProgram::NewChannel n;
-      n.desc = channel_desc(label, key, io::ChannelDir::kOutput, static_cast<uint8_t>(b.kind), t, b.io_index);
+      n.desc = channel_desc(b, label, key, io::ChannelDir::kOutput, t, b.io_index);
       n.desc.max_age_ns = output_max_age_ns(p->image.header().period_ns);
-      n.desc.hmi = (b.flags & kBindingHmi) != 0 ? 1 : 0;
       set_output_policy(config_.tasks[t], label, n.desc);
       n.key = key;
       p->new_channels.push_back(std::move(n));
@@ -526,8 +525,7 @@ Result<std::unique_ptr<LoadedProgram>> Runtime::make_program(uint32_t t, TaskIma
     const io::ChannelDesc* dp = it != channel_by_key_.end() ? &image_.channel(it->second) : planned(key);
     if (dp == nullptr) {
       // A new input or set-point (hot swap).
-      io::ChannelDesc d = channel_desc(label, key, io::ChannelDir::kInput, static_cast<uint8_t>(b.kind), 0, 0);
-      d.hmi = (b.flags & kBindingHmi) != 0 ? 1 : 0;
+      io::ChannelDesc d = channel_desc(b, label, key, io::ChannelDir::kInput, 0, 0);
       if (label_taken(label)) return make_error("label \"" + label + "\" already names another channel");
       const uint32_t region = b.dir == BindingDir::kSetpoint ? setpoint_region_ : unwired_region_;
       uint32_t used = 0;

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <initializer_list>
 #include <unordered_map>
 
 namespace rtplc::lang::iec {
@@ -31,10 +32,11 @@ Result<void> numeric(const IecFunction& f, const IecCall& c) {
 }
 
 // ---- arithmetic ----
-Out chain(const IecFunction& f, Emitter& e, const IecCall& c, const char* prim, bool wrap) {
+Out chain(const IecFunction& f, Emitter& e, const IecCall& c, const char* prim, bool wrap,
+          std::initializer_list<double> params = {}) {
   if (auto r = numeric(f, c); !r) return make_error(r.error());
   uint32_t acc = e.analog_or_zero(arg(c, 0));
-  for (size_t k = 1; k < count(f, c); ++k) acc = e.block(prim, {acc, e.analog_or_zero(arg(c, k))});
+  for (size_t k = 1; k < count(f, c); ++k) acc = e.block(prim, {acc, e.analog_or_zero(arg(c, k))}, params);
   return one(wrap ? e.wrap(acc, c.type) : acc);
 }
 Out lower_add(const IecFunction& f, Emitter& e, const IecCall& c) {
@@ -45,13 +47,8 @@ Out lower_add(const IecFunction& f, Emitter& e, const IecCall& c) {
 Out lower_mul(const IecFunction& f, Emitter& e, const IecCall& c) {
   const IecTypeInfo& t = type_info(c.type);
   if (!t.integer || c.type == IecType::kBool) return chain(f, e, c, "mult", true);
-  if (auto r = numeric(f, c); !r) return make_error(r.error());
-  uint32_t acc = e.analog_or_zero(arg(c, 0));
-  for (size_t k = 1; k < count(f, c); ++k) {
-    acc = e.block("imul", {acc, e.analog_or_zero(arg(c, k))},
-                  {static_cast<double>(t.bits), t.is_signed ? 1.0 : 0.0});
-  }
-  return one(count(f, c) > 1 ? acc : e.wrap(acc, c.type));
+  // imul wraps each product already; a lone operand is wrapped as a product would be.
+  return chain(f, e, c, "imul", count(f, c) <= 1, {static_cast<double>(t.bits), t.is_signed ? 1.0 : 0.0});
 }
 Out lower_sub(const IecFunction& f, Emitter& e, const IecCall& c) {
   return chain(f, e, c, "sub", true);

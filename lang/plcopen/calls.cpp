@@ -21,6 +21,12 @@ bool Lowering::is_function(const std::string& up) const {
 }
 
 namespace {
+// The wider of two integer types, either of which may be unknown (the first on a tie).
+std::optional<iec::IecType> wider(std::optional<iec::IecType> a, std::optional<iec::IecType> b) {
+  if (!a || !b) return a ? a : b;
+  return iec::type_info(*b).bits > iec::type_info(*a).bits ? b : a;
+}
+
 // The operand type of an overloaded standard function, from what the importer
 // knows of its arguments: BOOL, an integer variable's type (the widest when
 // they differ; LINT when only literals say it), else REAL.
@@ -32,9 +38,7 @@ iec::IecType operand_type(const iec::IecFunction& f, const std::vector<std::opti
     any = true;
     all_digital = all_digital && args[k]->digital;
     all_integer = all_integer && !args[k]->digital && args[k]->integer;
-    if (const auto t = args[k]->int_type;
-        t && (!known || iec::type_info(*t).bits > iec::type_info(*known).bits))
-      known = t;
+    known = wider(known, args[k]->int_type);
   }
   if (!any) return iec::IecType::kReal;
   if (all_digital) return iec::IecType::kBool;
@@ -248,8 +252,7 @@ Value Lowering::operate(BinOp op, const Value& a, const Value& b, SourcePos pos)
     Value r = em_.binary(op, a, b, pos);
     // Folded in the operands' integer type as the task would compute it:
     // wrapped (4000000000 * 3 in UDINT is 3410065408), the product exact.
-    std::optional<iec::IecType> t = a.int_type;
-    if (b.int_type && (!t || iec::type_info(*b.int_type).bits > iec::type_info(*t).bits)) t = b.int_type;
+    const std::optional<iec::IecType> t = wider(a.int_type, b.int_type);
     const bool arith = op == BinOp::kAdd || op == BinOp::kSub || op == BinOp::kMul || op == BinOp::kDiv;
     if (r.is_const && r.integer && t && arith && iec::type_info(*t).integer) {
       const iec::IecTypeInfo& ti = iec::type_info(*t);

@@ -107,19 +107,24 @@ Lowering::Lowering(const Project& p, CheckedProgram& out, DiagnosticList& d)
   for (const Pou& pou : proj_.pous) collect_written(pou, written_);
 }
 
+// A channel block's address and label: the variable's location, and its
+// name (an HMI variable's path, and its mark).
+void Lowering::place_channel(FlatBlock& b, const Var& v) {
+  b.p = static_cast<uint16_t>(v.loc->p);
+  b.d = static_cast<uint16_t>(v.loc->d);
+  b.c = v.loc->c;
+  b.label = v.hmi ? v.path : v.decl->name;
+  b.hmi = v.hmi;
+}
+
 void Lowering::emit_channel(Var& v) {
   // Inputs and set-points are read at the start of the cycle: emitted when
   // the scope is made, before any body reads them.
-  const Location& l = *v.loc;
   const SourcePos pos = v.decl->pos;
   const size_t i = v.role == Var::Role::kInput ? em_.emit(v.digital ? "ddi" : "dai", v.path, pos, {})
                                                : em_.emit(v.digital ? "dsp" : "asp", v.path, pos, {});
   FlatBlock& b = em_.block(i);
-  b.p = static_cast<uint16_t>(l.p);
-  b.d = static_cast<uint16_t>(l.d);
-  b.c = l.c;
-  b.label = v.hmi ? v.path : v.decl->name;
-  b.hmi = v.hmi;
+  place_channel(b, v);
   if (v.role == Var::Role::kSetpoint && !v.decl->initial.empty()) {
     if (auto k = parse_literal(v.decl->initial)) b.init = v.digital ? (*k != 0 ? 1.0 : 0.0) : *k;
   }
@@ -1097,13 +1102,7 @@ void Lowering::finalize_var(Var& v) {
     if (v.role == Var::Role::kInput || v.role == Var::Role::kSetpoint) return;
     em_.copy_as(read(v, pos), v.path, pos);
     if (v.loc && v.loc->area == 'Q' && drives_output(v)) {
-      const size_t i = em_.emit(v.digital ? "ddo" : "dao", "", pos, {v.path});
-      FlatBlock& b = em_.block(i);
-      b.p = static_cast<uint16_t>(v.loc->p);
-      b.d = static_cast<uint16_t>(v.loc->d);
-      b.c = v.loc->c;
-      b.label = v.hmi ? v.path : v.decl->name;
-      b.hmi = v.hmi;
+      place_channel(em_.block(em_.emit(v.digital ? "ddo" : "dao", "", pos, {v.path})), v);
     }
   }
 }

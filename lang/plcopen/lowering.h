@@ -229,6 +229,7 @@ class Lowering {
   std::unique_ptr<Scope> make_scope(const Pou& pou, const std::string& path, int depth);
   std::unique_ptr<Var> make_var(const Variable& decl, const std::string& path, int depth, bool in_function);
   std::unique_ptr<Var> hmi_var(std::unique_ptr<Var> v, bool in_function);
+  void place_channel(FlatBlock& b, const Var& v);
   void finalize(Scope& s);
   void finalize_var(Var& v);
   bool written(const Var& v) const;  // some body assigns it
