@@ -62,12 +62,19 @@ inline constexpr double kTwo64 = 18446744073709551616.0;
   return r;
 }
 
+// s on the grid of 1/per seconds: round(s * per) / per, ties to even, as the
+// blocks scale, round and div compute it.
+[[gnu::always_inline]] static inline double snap_to(double s, double per) { return round_half_even(s * per) / per; }
+
 // A TIME (held in seconds) on the nanosecond grid: the double nearest to a
 // whole number of nanoseconds, as round(s * 1e9) / 1e9 computes it with the
 // blocks scale, round and div. A TIME variable takes its value so, so sums of
 // T#100ms reach T#1s exactly instead of drifting (exact below 2^53 ns, about
-// 104 days).
-[[gnu::always_inline]] static inline double snap_time(double s) { return round_half_even(s * 1e9) / 1e9; }
+// 104 days). A DATE or DT (seconds since 1970) lands on the microsecond grid
+// instead (snap_date): whole microseconds stay exact until 2255, nanoseconds
+// since 1970 would not fit a double's 53 bits.
+[[gnu::always_inline]] static inline double snap_date(double s) { return snap_to(s, 1e6); }
+[[gnu::always_inline]] static inline double snap_time(double s) { return snap_to(s, 1e9); }
 
 // m and half for a type of `bits` bits (1..64), as `wrap` prepares them.
 static inline double type_modulus(int bits) { return std::ldexp(1.0, bits); }

@@ -331,6 +331,57 @@ Out lower_ctud(const IecFunction& f, Emitter& e, const IecCall& c) {
 }
 
 // ---- the table ----
+// ---- dates and times of day (docs/st.md, "Dates and times of day") ----
+// DATE and DT are seconds since 1970-01-01, TOD seconds since midnight, TIME
+// seconds. Each result lands on its type's grid as a variable of that type
+// would (microseconds for DATE and DT and what is computed from them,
+// nanoseconds for TOD and TIME from TODs), so a difference of two DTs is
+// exact microseconds, not the doubles' rounding of 1.7e9 s.
+struct DateFunction {
+  const char* name;
+  std::vector<const char*> inputs;
+  const char* prim;  // add, sub; mod for DT_TO_TOD; "date" for DT_TO_DATE
+  double per;        // the result's grid: 1e6 (us) or 1e9 (ns); 0: none needed
+  IecType to;
+  const char* lowers_to;
+};
+const std::vector<DateFunction>& date_functions() {
+  static const std::vector<DateFunction> t = {
+      {"ADD_TOD_TIME", {"IN1", "IN2"}, "add", 1e9, IecType::kTod, "add, on the ns grid"},
+      {"ADD_DT_TIME", {"IN1", "IN2"}, "add", 1e6, IecType::kDt, "add, on the us grid"},
+      {"SUB_DATE_DATE", {"IN1", "IN2"}, "sub", 1e6, IecType::kTime, "sub, on the us grid"},
+      {"SUB_TOD_TIME", {"IN1", "IN2"}, "sub", 1e9, IecType::kTod, "sub, on the ns grid"},
+      {"SUB_TOD_TOD", {"IN1", "IN2"}, "sub", 1e9, IecType::kTime, "sub, on the ns grid"},
+      {"SUB_DT_TIME", {"IN1", "IN2"}, "sub", 1e6, IecType::kDt, "sub, on the us grid"},
+      {"SUB_DT_DT", {"IN1", "IN2"}, "sub", 1e6, IecType::kTime, "sub, on the us grid"},
+      {"CONCAT_DATE_TOD", {"IN1", "IN2"}, "add", 1e6, IecType::kDt, "add, on the us grid"},
+      {"DT_TO_TOD", {"IN"}, "mod", 1e6, IecType::kTod, "mod(IN, 86400), on the us grid"},
+      {"DATE_AND_TIME_TO_TIME_OF_DAY", {"IN"}, "mod", 1e6, IecType::kTod, "mod(IN, 86400), on the us grid"},
+      {"DT_TO_DATE", {"IN"}, "date", 0, IecType::kDate, "sub(IN, mod(IN, 86400))"},
+      {"DATE_AND_TIME_TO_DATE", {"IN"}, "date", 0, IecType::kDate, "sub(IN, mod(IN, 86400))"},
+  };
+  return t;
+}
+Out lower_date(const IecFunction& f, Emitter& e, const IecCall& c) {
+  const auto& all = date_functions();
+  const auto it = std::find_if(all.begin(), all.end(), [&](const DateFunction& d) { return f.name == d.name; });
+  if (it == all.end()) return make_error(f.name + ": not a date function");
+  const uint32_t a = e.analog_or_zero(arg(c, 0));
+  const std::string_view prim = it->prim;
+  uint32_t v = 0;
+  if (prim == "mod" || prim == "date") {
+    // DT counts from 1970, so IN >= 0 and fmod's remainder is the time of day.
+    const uint32_t tod = e.block("mod", {a, e.constant(86400, Kind::kAnalog)});
+    v = prim == "mod" ? tod : e.block("sub", {a, tod});
+  } else {
+    v = e.block(prim, {a, e.analog_or_zero(arg(c, 1))});
+  }
+  if (it->per > 0) {
+    v = e.block("div", {e.block("round", {e.block("scale", {v}, {it->per, 0.0})}), e.constant(it->per, Kind::kAnalog)});
+  }
+  return one(v);
+}
+
 IecFunction fn(const char* name, std::vector<const char*> ins, IecLower lower, const char* to,
                bool extensible = false) {
   IecFunction f;
@@ -425,6 +476,12 @@ std::vector<IecFunction> build_table() {
       }
     }
   }
+  for (const DateFunction& d : date_functions()) {
+    IecFunction v = fn(d.name, d.inputs, lower_date, d.lowers_to);
+    v.typed = true;
+    v.to = d.to;
+    t.push_back(v);
+  }
   // Conversions: every X_TO_Y, and the third edition's TO_Y (from the operand type).
   for (uint8_t a = 0; a <= static_cast<uint8_t>(IecType::kTime); ++a) {
     const auto to = static_cast<IecType>(a);
@@ -509,7 +566,7 @@ bool iec_input_sets_type(const IecFunction& f, size_t k) {
 }
 
 IecType iec_result_type(const IecFunction& f, IecType type) {
-  if (f.lower == lower_convert) return f.to;
+  if (f.lower == lower_convert || f.lower == lower_date) return f.to;
   if (f.lower == lower_trunc && !type_info(type).integer) return IecType::kLint;
   return type;
 }
@@ -541,7 +598,7 @@ std::string iec_functions_markdown() {
       "| IEC name | kind | inputs | outputs | lowers to |\n"
       "|---|---|---|---|---|\n";
   for (const IecFunction& f : table()) {
-    if (f.lower == lower_convert || f.typed) continue;
+    if (f.lower == lower_convert || (f.typed && f.lower != lower_date)) continue;
     std::string ins;
     for (const char* i : f.inputs) ins += (ins.empty() ? "" : ", ") + std::string(i);
     if (f.extensible) ins += ", ...";

@@ -26,6 +26,9 @@ constexpr IecTypeInfo kTypes[] = {
     {"REAL", T::kReal, 32, true, false, false, true},
     {"LREAL", T::kLreal, 64, true, false, false, true},
     {"TIME", T::kTime, 64, true, false, false, false},
+    {"DATE", T::kDate, 64, true, false, false, false},
+    {"TOD", T::kTod, 64, true, false, false, false},
+    {"DT", T::kDt, 64, true, false, false, false},
 };
 
 bool same_ignoring_case(std::string_view a, std::string_view b) {
@@ -58,6 +61,8 @@ const IecTypeInfo& type_info(IecType t) {
 }
 
 const IecTypeInfo* find_iec_type(std::string_view name) {
+  if (same_ignoring_case(name, "TIME_OF_DAY")) return &type_info(T::kTod);
+  if (same_ignoring_case(name, "DATE_AND_TIME")) return &type_info(T::kDt);
   for (const IecTypeInfo& t : kTypes) {
     if (same_ignoring_case(name, t.name)) return &t;
   }

@@ -27,12 +27,19 @@ enum class IecType : uint8_t {
   kReal,
   kLreal,
   kTime,
+  // Points in time, in seconds like TIME (docs/st.md, "Dates and times of
+  // day"): DATE and DT since 1970-01-01 (kept on the microsecond grid), TOD
+  // since midnight. Not in the X_TO_Y table: DT_TO_DATE, DT_TO_TOD and the
+  // date arithmetic functions are their own.
+  kDate,
+  kTod,
+  kDt,
 };
 
 struct IecTypeInfo {
   const char* name;  // "INT"
   IecType type;
-  uint8_t bits;  // 1 for BOOL; 32/64 for REAL/LREAL; 64 for TIME
+  uint8_t bits;  // 1 for BOOL; 32/64 for REAL/LREAL; 64 for TIME and the dates
   bool is_signed;
   bool integer;     // SINT..ULINT and the bit strings BYTE..LWORD
   bool bit_string;  // BYTE..LWORD
@@ -45,11 +52,14 @@ struct IecTypeInfo {
 
 const IecTypeInfo& type_info(IecType t);
 
-// Case-insensitive ("int", "INT"); nullptr if the name is not an elementary type
-// rtplc supports (STRING, DATE and the like).
+// Case-insensitive ("int", "INT"; "TIME_OF_DAY" and "DATE_AND_TIME" are TOD and
+// DT); nullptr if the name is not an elementary type rtplc supports (STRING).
 const IecTypeInfo* find_iec_type(std::string_view name);
 
 // True when every value of `from` is a value of `to` (no wrap needed).
 bool range_contains(const IecTypeInfo& to, const IecTypeInfo& from);
+
+// DATE, TOD or DT.
+inline bool is_date_type(IecType t) { return t == IecType::kDate || t == IecType::kTod || t == IecType::kDt; }
 
 }  // namespace rtplc::lang::iec

@@ -982,18 +982,21 @@ Value Lowering::coerce(Var& v, Value value, SourcePos pos) {
     if (t.integer) {
       value.k = int_math::wrap_whole(value.k, int_math::type_modulus(t.bits), int_math::type_half(t.bits, t.is_signed));
     }
-  } else if (v.decl->type.base == BaseType::kTime && !v.digital) {
-    // A TIME lands on the nanosecond grid (int_math::snap_time), so its sums
-    // do not drift: round(x * 1e9) / 1e9.
+  } else if (const iec::IecType ty = iec_type(v.decl->type.base);
+             (ty == iec::IecType::kTime || iec::is_date_type(ty)) && !v.digital) {
+    // A TIME or TOD lands on the nanosecond grid (int_math::snap_time), so its
+    // sums do not drift: round(x * 1e9) / 1e9. A DATE or DT, seconds since
+    // 1970, on the microsecond grid (int_math::snap_date).
+    const double per = ty == iec::IecType::kDate || ty == iec::IecType::kDt ? 1e6 : 1e9;
     if (value.is_const) {
-      value.k = int_math::snap_time(value.k);
+      value.k = int_math::snap_to(value.k, per);
     } else {
       const std::string scaled = em_.fresh("time_ns"), whole = em_.fresh("time_ns");
-      em_.emit("scale", scaled, pos, {value.ref}, {1e9, 0.0});
+      em_.emit("scale", scaled, pos, {value.ref}, {per, 0.0});
       em_.emit("round", whole, pos, {scaled});
       Value t;
       t.ref = em_.fresh("time");
-      em_.emit("div", t.ref, pos, {whole, em_.ref(constant(1e9, false), pos)});
+      em_.emit("div", t.ref, pos, {whole, em_.ref(constant(per, false), pos)});
       value = t;
     }
   } else if (v.integer) {

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdlib>
 
+#include "blocks/int_math.h"
 #include "lang/iec/iec_functions.h"
 
 namespace rtplc::lang::plcopen {
@@ -550,6 +551,85 @@ bool parse_integer(std::string_view s, int base, double* out) {
   return any;
 }
 
+// Whole digits of s[i..] up to `max` of them, at least one; advances i.
+std::optional<int> digits(std::string_view s, size_t& i, size_t max) {
+  const size_t b = i;
+  int v = 0;
+  while (i < s.size() && i - b < max && s[i] >= '0' && s[i] <= '9') v = v * 10 + (s[i++] - '0');
+  if (i == b) return std::nullopt;
+  return v;
+}
+
+// Days from 1970-01-01 to y-m-d of the proleptic Gregorian calendar (the
+// civil-days formula: years counted from March, so the leap day ends a year).
+int64_t days_since_1970(int y, int m, int d) {
+  y -= m <= 2 ? 1 : 0;
+  const int64_t era = (y >= 0 ? y : y - 399) / 400;
+  const int64_t yoe = y - era * 400;
+  const int64_t doy = (153 * (m + (m > 2 ? -3 : 9)) + 2) / 5 + d - 1;
+  const int64_t doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
+  return era * 146097 + doe - 719468;
+}
+
+// 2024-01-15: seconds since 1970-01-01 at its midnight. Years 1970..2255 (a
+// DT's microseconds stay exact in a double until 2255; DT_TO_TOD counts from
+// 1970).
+std::optional<double> parse_date_part(std::string_view s, size_t& i) {
+  const auto y = digits(s, i, 4);
+  if (!y || i >= s.size() || s[i++] != '-') return std::nullopt;
+  const auto m = digits(s, i, 2);
+  if (!m || i >= s.size() || s[i++] != '-') return std::nullopt;
+  const auto d = digits(s, i, 2);
+  if (!d || *y < 1970 || *y > 2255 || *m < 1 || *m > 12 || *d < 1) return std::nullopt;
+  const bool leap = (*y % 4 == 0 && *y % 100 != 0) || *y % 400 == 0;
+  static constexpr int kDays[] = {31, 28, 31, 30, 31, 30, 31, 31, 30, 31, 30, 31};
+  if (*d > kDays[*m - 1] + (*m == 2 && leap ? 1 : 0)) return std::nullopt;
+  return static_cast<double>(days_since_1970(*y, *m, *d) * 86400);
+}
+
+// 12:30:15.25 (seconds optional, with a fraction): seconds since midnight.
+std::optional<double> parse_tod_part(std::string_view s, size_t& i) {
+  const auto h = digits(s, i, 2);
+  if (!h || i >= s.size() || s[i++] != ':') return std::nullopt;
+  const auto m = digits(s, i, 2);
+  if (!m || *h > 23 || *m > 59) return std::nullopt;
+  double sec = 0;
+  if (i < s.size() && s[i] == ':') {
+    ++i;
+    const size_t b = i;
+    const auto whole = digits(s, i, 2);
+    if (!whole || *whole > 59) return std::nullopt;
+    if (i < s.size() && s[i] == '.') {
+      ++i;
+      if (!digits(s, i, 9)) return std::nullopt;
+    }
+    sec = std::strtod(std::string(s.substr(b, i - b)).c_str(), nullptr);
+  }
+  return *h * 3600.0 + *m * 60.0 + sec;
+}
+
+// The text after D#, TOD# or DT#, whole, else nothing.
+std::optional<double> parse_date_literal(iec::IecType t, std::string_view s) {
+  size_t i = 0;
+  std::optional<double> v;
+  if (t == iec::IecType::kDate) {
+    v = parse_date_part(s, i);
+  } else if (t == iec::IecType::kTod) {
+    v = parse_tod_part(s, i);
+  } else {
+    v = parse_date_part(s, i);
+    if (v && i < s.size() && s[i] == '-') {
+      ++i;
+      const auto tod = parse_tod_part(s, i);
+      v = tod ? std::optional<double>(*v + *tod) : std::nullopt;
+    } else {
+      v = std::nullopt;
+    }
+  }
+  if (!v || i != s.size()) return std::nullopt;
+  return int_math::snap_to(*v, t == iec::IecType::kTod ? 1e9 : 1e6);
+}
+
 std::optional<double> parse_time(std::string_view s) {
   // 1h2m3s4ms, 1.5s, 20ms, with optional underscores; units d h m s ms us ns.
   bool neg = false;
@@ -591,6 +671,14 @@ std::optional<double> parse_time(std::string_view s) {
 
 }  // namespace
 
+std::optional<iec::IecType> date_literal_type(std::string_view prefix) {
+  const std::string p = upper(prefix);
+  if (p == "D" || p == "DATE") return iec::IecType::kDate;
+  if (p == "TOD" || p == "TIME_OF_DAY") return iec::IecType::kTod;
+  if (p == "DT" || p == "DATE_AND_TIME") return iec::IecType::kDt;
+  return std::nullopt;
+}
+
 std::optional<double> parse_literal(std::string_view text, bool* is_bool, bool* is_time) {
   if (is_bool) *is_bool = false;
   if (is_time) *is_time = false;
@@ -605,6 +693,10 @@ std::optional<double> parse_literal(std::string_view text, bool* is_bool, bool* 
     if (prefix == "T" || prefix == "TIME" || prefix == "LTIME" || prefix == "LT") {
       if (is_time) *is_time = true;
       return parse_time(rest);
+    }
+    if (const auto dt = date_literal_type(prefix)) {
+      if (is_time) *is_time = true;
+      return parse_date_literal(*dt, rest);
     }
     if (prefix == "BOOL") {
       if (rest == "1" || iequals(rest, "TRUE")) {

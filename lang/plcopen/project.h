@@ -25,11 +25,12 @@ namespace rtplc::lang::plcopen {
 // The elementary ones are lang/iec's, in its order (iec_type()).
 enum class BaseType : uint8_t {
   kBool, kSint, kInt, kDint, kLint, kUsint, kUint, kUdint, kUlint,
-  kByte, kWord, kDword, kLword, kReal, kLreal, kTime, kDerived
+  kByte, kWord, kDword, kLword, kReal, kLreal, kTime, kDate, kTod, kDt, kDerived
 };
 
 inline iec::IecType iec_type(BaseType b) {
   static_assert(static_cast<int>(BaseType::kTime) == static_cast<int>(iec::IecType::kTime));
+  static_assert(static_cast<int>(BaseType::kDt) == static_cast<int>(iec::IecType::kDt));
   return b == BaseType::kDerived ? iec::IecType::kReal : static_cast<iec::IecType>(b);
 }
 
@@ -187,10 +188,16 @@ struct Project {
 std::optional<Project> read_project(std::string_view text, DiagnosticList& diags);
 
 // IEC literal values: TRUE/FALSE, integers (with 16#, 8#, 2#, underscores and a
-// type prefix INT#), reals, TIME (T#1h2m3s4ms, TIME#..., negative), as a double
-// (TIME in seconds). nullopt when `text` is not a literal.
+// type prefix INT#), reals, TIME (T#1h2m3s4ms, TIME#..., negative), dates and
+// times of day (D#2024-01-15, TOD#12:30:15.5, DT#2024-01-15-12:30:15), as a
+// double (TIME and TOD in seconds, DATE and DT in seconds since 1970-01-01;
+// `is_time` is set for all four). nullopt when `text` is not a literal.
 std::optional<double> parse_literal(std::string_view text, bool* is_bool = nullptr,
                                     bool* is_time = nullptr);
+
+// The date type a literal's prefix names (D, DATE, TOD, TIME_OF_DAY, DT,
+// DATE_AND_TIME; any case), else nothing.
+std::optional<iec::IecType> date_literal_type(std::string_view prefix);
 
 bool iequals(std::string_view a, std::string_view b);
 std::string upper(std::string_view s);

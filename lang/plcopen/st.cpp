@@ -102,9 +102,12 @@ std::vector<Tok> lex(std::string_view s, const XmlElement& origin, DiagnosticLis
     } else if (ident_start(c)) {
       while (i < s.size() && ident_char(s[i])) ++i;
       if (i < s.size() && s[i] == '#') {  // T#1s, INT#5, BOOL#TRUE, WORD#16#F0F0
+        // D#2024-01-15, TOD#12:30:15, DT#2024-01-15-12:30:15: '-' and ':' belong to the literal.
+        const bool date = date_literal_type(s.substr(b, i - b)).has_value();
         ++i;
-        while (i < s.size() && (ident_char(s[i]) || s[i] == '.' || s[i] == '-' || s[i] == '+' || s[i] == '#')) {
-          if ((s[i] == '-' || s[i] == '+') && !(s[i - 1] == 'e' || s[i - 1] == 'E' || s[i - 1] == '#'))
+        while (i < s.size() && (ident_char(s[i]) || s[i] == '.' || s[i] == '-' || s[i] == '+' || s[i] == '#' ||
+                                (date && s[i] == ':'))) {
+          if ((s[i] == '-' || s[i] == '+') && !date && !(s[i - 1] == 'e' || s[i - 1] == 'E' || s[i - 1] == '#'))
             break;
           ++i;
         }
@@ -590,6 +593,7 @@ class Parser {
       const size_t hash = t.text.find('#');
       if (!v && hash != std::string::npos && hash > 0 &&
           std::isalpha(static_cast<unsigned char>(t.text[0])) && !elementary_type(t.text.substr(0, hash)) &&
+          !date_literal_type(t.text.substr(0, hash)) &&
           t.up.compare(0, hash + 1, "T#") != 0 && t.up.compare(0, hash + 1, "TIME#") != 0) {
         // Mode#Run: a typed enumeration value, resolved by the lowering.
         ++i_;
@@ -598,7 +602,7 @@ class Parser {
         return e;
       }
       if (!v) {
-        error(t.pos, "'" + t.text + "' is not a literal rtplc reads (integers, reals, TRUE/FALSE, T#...)");
+        error(t.pos, "'" + t.text + "' is not a literal rtplc reads (integers, reals, TRUE/FALSE, T#..., D#yyyy-mm-dd, TOD#hh:mm:ss, DT#yyyy-mm-dd-hh:mm:ss; dates from 1970 to 2255)");
         return nullptr;
       }
       ++i_;

@@ -363,5 +363,23 @@ TEST(PlcopenTypes, whole_structures_and_arrays_are_copied_member_by_member) {
             std::string::npos);
 }
 
+TEST(PlcopenTypes, dates_and_times_of_day_are_elementary_types) {
+  // <DT/>, <TOD/>, <DATE/> as the editors write them, with literal initial
+  // values; SUB_DT_DT is exact microseconds (docs/st.md, "Dates and times of day").
+  const std::string src = project_with_types(
+      "", st_program("<localVars>" + typed("a", "<DT/>", "<simpleValue value=\"DT#2024-02-29-23:59:59.25\"/>") +
+                         typed("b", "<DATE_AND_TIME/>", "<simpleValue value=\"DT#2024-03-01-00:00:00.000001\"/>") +
+                         typed("t", "<TOD/>", "<simpleValue value=\"TOD#06:00:00\"/>") +
+                         typed("d", "<DATE/>") + var("gap", "TIME") + var("late", "BOOL") + "</localVars>",
+                     "gap := SUB_DT_DT(b, a);\nd := DT_TO_DATE(b);\nlate := DT_TO_TOD(a) > t;"));
+  CompileResult r = compile_source(src);
+  ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
+  Machine m(std::move(*r.image));
+  m.cycles(1);
+  EXPECT_EQ(m.value("main.gap"), 0.750001);
+  EXPECT_EQ(m.value("main.d"), 1709164800 + 86400);  // 2024-03-01: 19783 days after 1970-01-01
+  EXPECT_EQ(m.value("main.late"), 1);
+}
+
 }  // namespace
 }  // namespace rtplc::lang

@@ -11,14 +11,14 @@
 #include "lang/compiler.h"
 #include "lang/front_end.h"
 #include "lang/st/st_file.h"
+#include "tests/st/first_error.h"
 #include "tests/support/fbd_harness.h"
 
 namespace rtplc::lang {
 namespace {
 
 using testing::FbdHarness;
-
-std::string first_error(const std::string& src);  // the first diagnostic as line:col: message
+using testing::first_error;  // the first diagnostic as line:col: message
 
 // The shape OpenPLC Editor writes: TYPE, a function block, a program with
 // located variables, a configuration with one resource and one task.
@@ -496,14 +496,6 @@ TEST(StFile, a_configuration_may_hold_its_task_without_a_resource) {
   EXPECT_DOUBLE_EQ(h.image().period_s(), 0.005);
   h.step();
   EXPECT_DOUBLE_EQ(h.out("y"), 4);
-}
-
-// The first error of `src`: "line:col: message".
-std::string first_error(const std::string& src) {
-  const CompileResult r = compile_source(src);
-  if (r.ok() || r.diags.items().empty()) return "compiled";
-  const Diagnostic& d = r.diags.items()[0];
-  return std::to_string(d.pos.line) + ":" + std::to_string(d.pos.col) + ": " + d.message;
 }
 
 TEST(StFile, refuses_what_it_cannot_run_at_its_position_naming_it) {

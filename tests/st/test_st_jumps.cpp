@@ -8,6 +8,7 @@
 
 #include "lang/compiler.h"
 #include "lang/front_end.h"
+#include "tests/st/first_error.h"
 #include "tests/support/fbd_harness.h"
 
 namespace rtplc::lang {
@@ -15,12 +16,7 @@ namespace {
 
 using testing::FbdHarness;
 
-std::string first_error(const std::string& src) {
-  const CompileResult r = compile_source(src);
-  if (r.ok() || r.diags.items().empty()) return "compiled";
-  const Diagnostic& d = r.diags.items()[0];
-  return std::to_string(d.pos.line) + ":" + std::to_string(d.pos.col) + ": " + d.message;
-}
+using testing::first_error;
 
 TEST(StJumps, a_backward_jump_repeats_and_a_forward_one_skips) {
   const char* src = R"(PROGRAM Main
