@@ -71,9 +71,8 @@ inline constexpr double kTwo64 = 18446744073709551616.0;
 // blocks scale, round and div. A TIME variable takes its value so, so sums of
 // T#100ms reach T#1s exactly instead of drifting (exact below 2^53 ns, about
 // 104 days). A DATE or DT (seconds since 1970) lands on the microsecond grid
-// instead (snap_date): whole microseconds stay exact until 2255, nanoseconds
-// since 1970 would not fit a double's 53 bits.
-[[gnu::always_inline]] static inline double snap_date(double s) { return snap_to(s, 1e6); }
+// instead (lang/iec's time_grid): whole microseconds stay exact until 2255,
+// nanoseconds since 1970 would not fit a double's 53 bits.
 [[gnu::always_inline]] static inline double snap_time(double s) { return snap_to(s, 1e9); }
 
 // m and half for a type of `bits` bits (1..64), as `wrap` prepares them.

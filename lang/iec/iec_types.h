@@ -59,7 +59,13 @@ const IecTypeInfo* find_iec_type(std::string_view name);
 // True when every value of `from` is a value of `to` (no wrap needed).
 bool range_contains(const IecTypeInfo& to, const IecTypeInfo& from);
 
-// DATE, TOD or DT.
-inline bool is_date_type(IecType t) { return t == IecType::kDate || t == IecType::kTod || t == IecType::kDt; }
+// The grid a variable of type `t` takes its value on, in steps per second: 1e9
+// (nanoseconds) for TIME and TOD, 1e6 (microseconds) for DATE and DT, whose
+// seconds since 1970 leave a double no room for nanoseconds; 0 for the others.
+inline double time_grid(IecType t) {
+  if (t == IecType::kTime || t == IecType::kTod) return 1e9;
+  if (t == IecType::kDate || t == IecType::kDt) return 1e6;
+  return 0;
+}
 
 }  // namespace rtplc::lang::iec

@@ -982,12 +982,10 @@ Value Lowering::coerce(Var& v, Value value, SourcePos pos) {
     if (t.integer) {
       value.k = int_math::wrap_whole(value.k, int_math::type_modulus(t.bits), int_math::type_half(t.bits, t.is_signed));
     }
-  } else if (const iec::IecType ty = iec_type(v.decl->type.base);
-             (ty == iec::IecType::kTime || iec::is_date_type(ty)) && !v.digital) {
-    // A TIME or TOD lands on the nanosecond grid (int_math::snap_time), so its
-    // sums do not drift: round(x * 1e9) / 1e9. A DATE or DT, seconds since
-    // 1970, on the microsecond grid (int_math::snap_date).
-    const double per = ty == iec::IecType::kDate || ty == iec::IecType::kDt ? 1e6 : 1e9;
+  } else if (const double per = iec::time_grid(iec_type(v.decl->type.base)); per > 0 && !v.digital) {
+    // A TIME or TOD lands on the nanosecond grid, so its sums do not drift:
+    // round(x * 1e9) / 1e9. A DATE or DT, seconds since 1970, on the
+    // microsecond grid (iec::time_grid).
     if (value.is_const) {
       value.k = int_math::snap_to(value.k, per);
     } else {

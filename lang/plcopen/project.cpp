@@ -627,7 +627,7 @@ std::optional<double> parse_date_literal(iec::IecType t, std::string_view s) {
     }
   }
   if (!v || i != s.size()) return std::nullopt;
-  return int_math::snap_to(*v, t == iec::IecType::kTod ? 1e9 : 1e6);
+  return int_math::snap_to(*v, iec::time_grid(t));
 }
 
 std::optional<double> parse_time(std::string_view s) {
