@@ -304,18 +304,26 @@ void run_trace(const TraceArgs& a) {
         ended_why = sched::not_running_text(a.name, live);
         continue;
       }
-      if (auto k = sched::control_request(socket, "trace-keep " + sel.token, "", 2000); !k) {
+      // api_request fails only when no whole answer came (the socket refuses,
+      // the runtime died before or while answering); a live runtime that
+      // refuses the renewal answers, with ok false.
+      auto k = sched::api_request(socket, {{"op", "trace_keep"}, {"args", {{"token", sel.token}}}}, "", 2000);
+      if (!k) {
         ended_why = "the runtime ended the trace: " + k.error();
-        // A runtime that just died (its socket refuses) is told apart from one
-        // that refused the renewal: its heartbeat goes stale within 3 s.
+        // A runtime that just died is told apart from one that stalled: its
+        // heartbeat goes stale within 3 s.
         for (int i = 0; i < 40; ++i) {
           if (const io::Liveness live = img->liveness(); !live.alive) {
             ended_why = sched::not_running_text(a.name, live);
             break;
           }
-          if (k.error().find("cannot reach") == std::string::npos) break;
           std::this_thread::sleep_for(std::chrono::milliseconds(100));
         }
+        continue;
+      }
+      if (!k->value("ok", false)) {
+        const nlohmann::json e = k->contains("error") && (*k)["error"].is_object() ? (*k)["error"] : nlohmann::json::object();
+        ended_why = "the runtime ended the trace: " + e.value("message", std::string("it refused the renewal"));
         continue;
       }
       if (started && now - fired_wall > duration_ns + duration_ns / 2 + 2000000000) {
