@@ -32,7 +32,7 @@
 namespace rtplc {
 
 inline constexpr char kImageMagic[8] = {'R', 'T', 'P', 'L', 'C', 'I', 'M', 'G'};
-inline constexpr uint32_t kImageVersion = 3;  // 3: body_check (was reserved)
+inline constexpr uint32_t kImageVersion = 4;  // 3: body_check (was reserved); 4: timers keep their last call's cycle
 
 // Instruction flags.
 inline constexpr uint16_t kInstrDelayed0 = 1u << 0;  // input i reads last cycle's value

@@ -47,15 +47,17 @@ uint32_t instr_param_count(Op op, const double* prepared) {
 uint32_t op_state_size(Op op, const double* prepared) {
   switch (op) {
     case Op::Time: case Op::Ldlg: case Op::Pi: case Op::Epi:
-    case Op::Rtrig: case Op::Ftrig: case Op::Ton: case Op::TonEt: case Op::Ctud: case Op::Var:
+    case Op::Rtrig: case Op::Ftrig: case Op::Ctud: case Op::Var:
       return 1;
-    case Op::Cnt: case Op::Derv: case Op::Tof: case Op::TofEt:
+    case Op::Cnt: case Op::Derv:
     case Op::Ctu: case Op::Ctd: case Op::Updn:
       return 2;
-    case Op::Pid: case Op::Epid: case Op::Tp: case Op::TpEt:
+    case Op::Pid: case Op::Epid: case Op::Ton: case Op::TonEt:
       return 3;
-    case Op::Pidc:
+    case Op::Pidc: case Op::Tof: case Op::TofEt:
       return 4;
+    case Op::Tp: case Op::TpEt:
+      return 5;
     case Op::Dely:
       // [0] = next ring index, [1..n] = ring. n was range-checked before prepare.
       return prepared == nullptr ? 1 : 1 + static_cast<uint32_t>(prepared[0]);

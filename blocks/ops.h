@@ -44,7 +44,8 @@
 //  Shl Shr Rol Ror     shift/rotate a by n bits within `bits`                      2^bits bits         -
 //  Rtrig Ftrig         edge of in (IEC R_TRIG / F_TRIG)                            -                   M
 //  Sr Rs     bistables, set / reset dominant                                       -                   (y = own output)
-//  Ton Tof Tp          IEC timers' Q; *Et the same machine's ET (s)                dt                  n [armed] [prev]
+//  Ton Tof Tp          IEC timers' Q; *Et the same machine's ET (s); time is the   dt                  e [armed|running]
+//                      cycle number, so calls in one cycle read one time                           in last [pt]
 //  Ctu Ctd   counter value CV (IEC CTU / CTD)                                      pvmax | pvmin       cv edge
 //  Updn      +1 on a rising cu, -1 on a rising cd, 0 otherwise or both             -                   edges
 //  Ctud      CV of IEC CTUD from updn's step, load, pv                             pvmin pvmax         cv

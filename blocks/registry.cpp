@@ -223,8 +223,11 @@ void add_iec_blocks(std::vector<BlockSpec>& r) {
                       "reset-dominant bistable (IEC RS)",
                       "y = NOT r1 AND (s OR y_prev), starts 0"));
   const char* timing =
-      " Time is n*dt, n the cycles since the starting edge (0 in that cycle); PT is reached when "
-      "n*dt >= PT within 1e-9*dt; PT < 0 acts as 0; PT is read every cycle";
+      " Time is n*dt, n the task's cycles since the starting edge (0 in that cycle); PT is reached when "
+      "n*dt >= PT within 1e-9*dt; PT < 0 acts as 0; PT is read at every call. Time is the cycle "
+      "number, not the number of calls: called twice in one cycle (in a loop) both calls read one "
+      "time; not called for some cycles (a loop that ran no iteration), its time ran on meanwhile "
+      "with the inputs of its last call";
   static const std::string ton_c =
       std::string("on-delay, IEC TON's Q: y = in AND ET >= PT; ET counts while in is true, from 0 "
                   "in the cycle it rose, up to PT; in false resets it.") + timing;
@@ -240,19 +243,19 @@ void add_iec_blocks(std::vector<BlockSpec>& r) {
       "TON: 0 while in is false, min(elapsed, PT) while true; TOF: 0 while in is true, "
       "min(elapsed, PT) after it fell (0 before in was ever true); TP: elapsed during the "
       "pulse, PT after it while in stays true, else 0";
-  r.push_back(compute("ton", G::kIec, D, {{"in", D}, {"pt", A}}, {}, "cycles in has been true",
+  r.push_back(compute("ton", G::kIec, D, {{"in", D}, {"pt", A}}, {}, "cycles in has been true, in, last call's cycle",
                       "on-delay timer Q (IEC TON)", ton_c.c_str()));
-  r.push_back(compute("ton_et", G::kIec, A, {{"in", D}, {"pt", A}}, {}, "cycles in has been true",
+  r.push_back(compute("ton_et", G::kIec, A, {{"in", D}, {"pt", A}}, {}, "cycles in has been true, in, last call's cycle",
                       "on-delay timer ET (IEC TON)", et_c.c_str()));
   r.push_back(compute("tof", G::kIec, D, {{"in", D}, {"pt", A}}, {},
-                      "cycles since in fell, armed", "off-delay timer Q (IEC TOF)", tof_c.c_str()));
+                      "cycles since in fell, armed, in, last call's cycle", "off-delay timer Q (IEC TOF)", tof_c.c_str()));
   r.push_back(compute("tof_et", G::kIec, A, {{"in", D}, {"pt", A}}, {},
-                      "cycles since in fell, armed", "off-delay timer ET (IEC TOF)", et_c.c_str()));
+                      "cycles since in fell, armed, in, last call's cycle", "off-delay timer ET (IEC TOF)", et_c.c_str()));
   r.push_back(compute("tp", G::kIec, D, {{"in", D}, {"pt", A}}, {},
-                      "cycles since the pulse started, running, in last cycle",
+                      "cycles since the pulse started, running, in at the last call, its cycle, its pt",
                       "pulse timer Q (IEC TP)", tp_c.c_str()));
   r.push_back(compute("tp_et", G::kIec, A, {{"in", D}, {"pt", A}}, {},
-                      "cycles since the pulse started, running, in last cycle",
+                      "cycles since the pulse started, running, in at the last call, its cycle, its pt",
                       "pulse timer ET (IEC TP)", et_c.c_str()));
   r.push_back(compute(
       "ctu", G::kIec, A, {{"cu", D}, {"r", D}},

@@ -379,19 +379,6 @@ void Lowering::lower_il(Scope& s, const Body& body) {
         d_.error(pos, "CAL " + call + " without arguments: give them in the call, CAL " + call + "(IN := ...)");
         return;
       }
-      if (!loop_heads.empty()) {
-        std::string name = call.substr(0, call.find('('));
-        while (!name.empty() && std::isspace(static_cast<unsigned char>(name.back()))) name.pop_back();
-        const Var* fb = lookup(s, name, pos, false);
-        if (const Var* std_fb = fb ? standard_fb_in(*fb, true) : nullptr) {
-          d_.error(pos, "'" + name + "' " +
-                            (std_fb == fb ? std::string("is a standard timer instance (") + std_fb->std_fb.type + ")"
-                                          : "holds the standard timer instance '" + std_fb->decl->name + "'") +
-                            ": calling a timer in an IL body with a backward jump is not supported yet (its time "
-                            "would advance at every call)");
-          return;
-        }
-      }
       Block blk = parse_st_range(src, ob, l.end, origin, d_);
       if (d_.has_errors()) return;
       // The call happens where P holds (CALC: and CR, CALCN: and not CR): if-converted

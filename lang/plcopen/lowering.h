@@ -305,11 +305,6 @@ class Lowering {
 // A path as the user wrote it, near enough: "a[#1].x" -> "a[...].x".
 std::string path_text(const std::string& path);
 
-// `v` itself when it is a standard FB instance, else the first one a user FB
-// instance (or an array of them) `v` holds, at any depth; nullptr when none.
-// `timers_only`: only a timer (TON, TOF, TP), the standard FBs that may not be
-// called in a loop (their time is the cycle's: docs/st.md, "Loops").
-const Var* standard_fb_in(const Var& v, bool timers_only = false);
 // The variables a name may denote: a plain variable, or every element or
 // member of the array, structure or FB instance `v` (not a standard FB's).
 void var_leaves(Var& v, std::vector<Var*>& out, std::set<const Var*>& seen);

@@ -23,24 +23,6 @@ namespace {
 constexpr int kMaxUnroll = 1000;
 }
 
-const Var* standard_fb_in(const Var& v, bool timers_only) {
-  if (v.role == Var::Role::kStdFb) {
-    const std::string& t = v.std_fb.type;
-    return !timers_only || t == "TON" || t == "TOF" || t == "TP" ? &v : nullptr;
-  }
-  if (v.role == Var::Role::kArray) {
-    for (const auto& e : v.elems) {
-      if (const Var* f = standard_fb_in(*e, timers_only)) return f;
-    }
-  }
-  if (v.role == Var::Role::kUserFb && v.fb) {
-    for (const auto& [name, m] : v.fb->vars) {
-      if (const Var* f = standard_fb_in(*m, timers_only)) return f;
-    }
-  }
-  return nullptr;
-}
-
 void var_leaves(Var& v, std::vector<Var*>& out, std::set<const Var*>& seen) {
   switch (v.role) {
     case Var::Role::kArray:
@@ -132,14 +114,6 @@ Value Lowering::eval(Scope& s, const Expr& e) {
 }
 
 namespace {
-
-constexpr const char* kInLoop =
-    ": calling a timer inside a WHILE, REPEAT or FOR loop that is not unrolled is not supported yet (its time "
-    "is the cycle's and would advance at every call; a constant FOR of at most 1,000 runs is unrolled and may "
-    "call it)";
-constexpr const char* kInBackwardJump =
-    ": calling a timer in a statement list that a JMP goes back in is not supported yet (its time would "
-    "advance at every call)";
 
 struct StLowerer {
   Lowering& L;
@@ -521,9 +495,8 @@ struct StLowerer {
   // What a loop body writes (`written`) and reads (`read`), as variables,
   // over-approximated: an array or structure named with any index counts
   // whole. False, with the error given, for what a loop cannot hold yet.
-  // `refusal` says why a standard FB may not be called there (nullptr: it may).
   bool scan(const Block& b, std::vector<Var*>& written, std::set<const Var*>& ws, std::vector<Var*>& read,
-            std::set<const Var*>& rs, bool& returns, const char* refusal = kInLoop) {
+            std::set<const Var*>& rs, bool& returns) {
     for (const auto& st : b) {
       for (const auto& ix : st->target_index) {
         if (ix) expr_names(*ix, read, rs);
@@ -543,18 +516,8 @@ struct StLowerer {
           // A user function block runs its body inline: its variables are the
           // loop's like any other. A standard one's blocks keep its state and
           // run at each call, each call one step of its machine (an edge, a
-          // count), as the standard's bodies do. A timer (or a user FB holding
-          // one) is not supported in such a loop yet: its blocks count the
-          // cycles, so its time would advance at every call.
-          const Var* std_fb = fb ? standard_fb_in(*fb, true) : nullptr;
-          if (std_fb != nullptr && refusal != nullptr) {
-            L.diags().error(st->pos, "'" + st->target + "' " +
-                                         (std_fb == fb ? std::string("is a standard timer instance (") + std_fb->std_fb.type + ")"
-                                                       : "holds the standard timer instance '" +
-                                                             std_fb->decl->name + "'") +
-                                         refusal);
-            return false;
-          }
+          // count), as the standard's bodies do; a timer's time is the cycle's
+          // (blocks/executor_body.inc), so calls in one cycle read one time.
           if (fb && (fb->role == Var::Role::kUserFb || fb->role == Var::Role::kArray)) var_leaves(*fb, written, ws);
           for (const CallArg& a : st->call_args) {
             if (a.output) {
@@ -575,17 +538,17 @@ struct StLowerer {
       }
       for (const auto& [c, body] : st->branches) {
         if (c) expr_names(*c, read, rs);
-        if (!scan(body, written, ws, read, rs, returns, refusal)) return false;
+        if (!scan(body, written, ws, read, rs, returns)) return false;
       }
       for (const CaseBranch& cb : st->cases) {
         for (const auto& [lo, hi] : cb.labels) {
           if (lo) expr_names(*lo, read, rs);
           if (hi) expr_names(*hi, read, rs);
         }
-        if (!scan(cb.body, written, ws, read, rs, returns, refusal)) return false;
+        if (!scan(cb.body, written, ws, read, rs, returns)) return false;
       }
-      if (!scan(st->else_body, written, ws, read, rs, returns, refusal)) return false;
-      if (!scan(st->body, written, ws, read, rs, returns, refusal)) return false;
+      if (!scan(st->else_body, written, ws, read, rs, returns)) return false;
+      if (!scan(st->body, written, ws, read, rs, returns)) return false;
     }
     return true;
   }
@@ -767,17 +730,6 @@ struct StLowerer {
   std::vector<Region*> regions_;
   std::map<std::string, SourcePos> labels_seen_;  // every label of the body: each name once
 
-  // The labels the JMPs in `st` (at any depth) go to.
-  static void jumps_in(const Stmt& st, std::vector<std::string>& out) {
-    if (st.kind == Stmt::Kind::kJump) out.push_back(st.target);
-    auto list = [&](const Block& b) {
-      for (const auto& x : b) jumps_in(*x, out);
-    };
-    for (const auto& [c, body] : st.branches) list(body);
-    for (const CaseBranch& cb : st.cases) list(cb.body);
-    list(st.else_body);
-    list(st.body);
-  }
   // Whether `b` may EXIT or CONTINUE a loop around it (not one inside it).
   static void loop_leaves(const Block& b, bool& exit, bool& cont) {
     for (const auto& st : b) {
@@ -807,19 +759,10 @@ struct StLowerer {
       }
       r.labels[b[i]->target] = i;
     }
-    bool backward = false;
-    for (size_t i = 0; i < b.size(); ++i) {
-      std::vector<std::string> js;
-      jumps_in(*b[i], js);
-      for (const std::string& j : js) {
-        auto it = r.labels.find(j);
-        if (it != r.labels.end() && it->second < i) backward = true;
-      }
-    }
     std::vector<Var*> written, read;
     std::set<const Var*> ws, rs;
     bool returns = false, exits = false, conts = false;
-    if (!scan(b, written, ws, read, rs, returns, backward ? kInBackwardJump : nullptr)) return {};
+    if (!scan(b, written, ws, read, rs, returns)) return {};
     loop_leaves(b, exits, conts);
     // The path's condition too is made before any segment a jump may skip.
     read_ahead(read, pos);

@@ -267,16 +267,17 @@ TEST(Plcopen, a_counter_called_in_an_il_loop_counts_each_call) {
   EXPECT_EQ(run.value("main.cv"), 4);
 }
 
-TEST(Plcopen, refuses_a_timer_called_in_an_il_body_with_a_backward_jump) {
-  CompileResult r = compile_source(il_program("<localVars>" + var("x", "INT") + fb("t", "TON") + "</localVars>",
-                                              "top: CAL t(IN := TRUE, PT := T#1s)\n LD x\n ADD 1\n ST x\n LT 3\n"
-                                              " JMPC top\n"));
-  ASSERT_FALSE(r.ok());
-  EXPECT_NE(r.diags.items()[0].message.find("'t' is a standard timer instance (TON): calling a timer in an IL body "
-                                            "with a backward jump"),
-            std::string::npos)
-      << r.diags.items()[0].message;
-  EXPECT_EQ(r.diags.items()[0].pos.line, 5u);  // the CAL, first line of the body
+// A timer CALled in an IL loop reads the cycle's time at every call: three
+// calls per cycle, ET summed, 3 * ET.
+TEST(Plcopen, a_timer_called_in_an_il_loop_reads_one_time_per_cycle) {
+  CompileResult r = compile_source(il_program("<localVars>" + var("x", "INT") + fb("t", "TON") + var("s", "TIME") +
+                                                  "</localVars>",
+                                              "LD 0\n ST x\n LD T#0s\n ST s\ntop: CAL t(IN := TRUE, PT := T#1s)\n"
+                                              " LD s\n ADD t.ET\n ST s\n LD x\n ADD 1\n ST x\n LT 3\n JMPC top\n"));
+  ASSERT_TRUE(r.ok()) << r.diags.render("il.xml", "");
+  Machine run(std::move(*r.image));
+  run.cycles(3);  // the third cycle: ET = 2 dt at each call
+  EXPECT_NEAR(run.value("main.s"), 3 * 2 * run.img.period_s(), 1e-12);
 }
 
 // SFC: steps, inline and named transitions, a simultaneous divergence and

@@ -272,12 +272,6 @@ END_PROGRAM
   h.step();
   EXPECT_EQ(h.value("Main.last"), 13);
   EXPECT_EQ(h.value("Main.acc.calls"), 6);
-  // One holding a timer inside such a loop is refused, named, at the call.
-  EXPECT_EQ(first_error("FUNCTION_BLOCK W VAR t : TON; q : BOOL; END_VAR t(IN := TRUE, PT := T#1s); q := t.Q; "
-                        "END_FUNCTION_BLOCK\nPROGRAM P VAR i, n : INT; w : W; END_VAR\nFOR i := 1 TO n DO w(); "
-                        "END_FOR;\nEND_PROGRAM")
-                .substr(0, 61),
-            "3:20: 'w' holds the standard timer instance 't': calling a ti");
 }
 
 TEST(StFile, an_array_of_function_blocks_calls_the_element_an_index_names_at_run_time) {
@@ -504,10 +498,6 @@ TEST(StFile, refuses_what_it_cannot_run_at_its_position_naming_it) {
   EXPECT_EQ(first_error("PROGRAM P\n  VAR x : INT;\n").substr(0, 35), "2:3: VAR is never closed by END_VAR");
   EXPECT_EQ(first_error("PROGRAM P\n  VAR x : INT; END_VAR\n  x := 1;\n").substr(0, 38),
             "1:1: PROGRAM P is never closed by END_");
-  EXPECT_EQ(first_error("PROGRAM P VAR i : INT; t1 : TON; END_VAR\nWHILE i < 3 DO t1(IN := TRUE); i := i + 1; "
-                        "END_WHILE;\nEND_PROGRAM")
-                .substr(0, 56),
-            "2:16: 't1' is a standard timer instance (TON): calling a");
   EXPECT_EQ(first_error("PROGRAM P VAR i : INT; END_VAR\nFOR i := 1 TO 5 BY 0 DO i := i; END_FOR;\nEND_PROGRAM"),
             "2:1: FOR with BY 0 never ends");
   // A type defined through itself, used with an array's initial value (found by fuzz_st: a crash).
