@@ -93,23 +93,24 @@ uint32_t Emitter::convert(uint32_t p, IecType from, IecType to) {
   const IecTypeInfo& f = type_info(from);
   const IecTypeInfo& t = type_info(to);
   if (to == IecType::kBool) return digital(p);
-  if (from == IecType::kBool) return analog(p);  // 0 or 1 fits every type
   uint32_t v = analog(p);
-  if (matiec_ && (from == IecType::kTime) != (to == IecType::kTime)) {
-    // MatIEC: a number of seconds either way; into an integer type the
-    // fraction is dropped (its __time_to_int returns tv_sec).
-    if (to == IecType::kTime || !t.integer) return v;
-    v = block("trunc", {v});
-    return wrap(v, to);
+  const bool from_time = time_grid(from) != 0, to_time = time_grid(to) != 0;
+  if (from_time && to_time) return v;  // one type: the table has no other pair
+  if (from_time || to_time) {
+    // rtplc keeps every time type in seconds. A time type meets a number in
+    // MatIEC's seconds (its __int_to_time makes seconds, __time_to_int returns
+    // tv_sec: the fraction dropped), or in CODESYS's units: milliseconds for
+    // TIME and TOD, seconds for DATE and DT (docs/st.md, "Dates and times of day").
+    const IecType time_type = from_time ? from : to;
+    const bool ms = !matiec_ && (time_type == IecType::kTime || time_type == IecType::kTod);
+    if (to_time) return ms ? block("scale", {v}, {0.001, 0.0}) : v;
+    if (ms) v = block("scale", {v}, {1000.0, 0.0});
+    if (!t.integer) return v;
+    return wrap(block(matiec_ ? "trunc" : "round", {v}), to);
   }
-  // TIME counts in milliseconds when it meets a number (TIME_TO_DINT(T#1s) = 1000),
-  // as CODESYS does (MatIEC counts whole seconds: docs/language.md); rtplc keeps TIME in seconds.
-  if (from == IecType::kTime && to != IecType::kTime) v = block("scale", {v}, {1000.0, 0.0});
-  if (to == IecType::kTime && from != IecType::kTime) {
-    return block("scale", {v}, {0.001, 0.0});
-  }
+  if (from == IecType::kBool) return v;  // 0 or 1 fits every type
   if (!t.integer) return v;
-  const bool from_real = !f.integer;  // REAL, LREAL, or TIME in ms
+  const bool from_real = !f.integer;  // REAL, LREAL
   // MatIEC's __real_to_uint: a negative value becomes 0, not a wrapped one.
   if (from_real && matiec_ && !t.is_signed) v = block("max", {v, constant(0, Kind::kAnalog)});
   if (from_real) v = block("round", {v});

@@ -222,8 +222,24 @@ Out lower_ror(const IecFunction& f, Emitter& e, const IecCall& c) {
   return shift(f, e, c, "ror");
 }
 
+// TOD_TO_TIME, DATE_TO_DT...: neither the standard nor MatIEC defines them.
+Out lower_time_to_time(const IecFunction& f, Emitter&, const IecCall&) {
+  return make_error(f.name + " is no conversion of the standard (between time types it has DT_TO_DATE and "
+                             "DT_TO_TOD); the date functions give the rest: SUB_TOD_TOD(t, TOD#00:00) is the TIME "
+                             "since midnight, CONCAT_DATE_TOD(d, TOD#00:00) the DT a DATE starts");
+}
+
 Out lower_convert(const IecFunction& f, Emitter& e, const IecCall& c) {
   const IecType from = f.typed ? f.from : c.type;
+  if (!f.typed && time_grid(from) != 0 && time_grid(f.to) != 0 && from != f.to) {
+    // TO_DATE and TO_TOD of a DT are DT_TO_DATE and DT_TO_TOD.
+    if (from == IecType::kDt && (f.to == IecType::kDate || f.to == IecType::kTod)) {
+      const IecFunction* g = find_iec(std::string("DT_TO_") + type_info(f.to).name);
+      if (g != nullptr) return g->lower(*g, e, c);
+    }
+    return make_error(f.name + " of a " + type_info(from).name +
+                      ": no conversion of the standard between these time types (it has DT_TO_DATE and DT_TO_TOD)");
+  }
   const uint32_t v = arg(c, 0);
   const uint32_t x = v == kUnconnected ? e.constant(0, type_info(from).kind()) : v;
   return one(e.convert(x, from, f.to));
@@ -482,20 +498,27 @@ std::vector<IecFunction> build_table() {
     v.to = d.to;
     t.push_back(v);
   }
-  // Conversions: every X_TO_Y, and the third edition's TO_Y (from the operand type).
-  for (uint8_t a = 0; a <= static_cast<uint8_t>(IecType::kTime); ++a) {
+  // Conversions: every X_TO_Y, and the third edition's TO_Y (from the operand
+  // type). Between two time types the standard has only DT_TO_DATE and DT_TO_TOD
+  // (the date table above); the others are refused by name.
+  for (uint8_t a = 0; a <= static_cast<uint8_t>(IecType::kDt); ++a) {
     const auto to = static_cast<IecType>(a);
     IecFunction g = fn("", {"IN"}, lower_convert, "see the conversion rules");
     g.name = std::string("TO_") + type_info(to).name;
     g.to = to;
     t.push_back(g);
-    for (uint8_t b = 0; b <= static_cast<uint8_t>(IecType::kTime); ++b) {
+    for (uint8_t b = 0; b <= static_cast<uint8_t>(IecType::kDt); ++b) {
       if (a == b) continue;
       const auto from = static_cast<IecType>(b);
       IecFunction v = g;
       v.name = std::string(type_info(from).name) + "_TO_" + type_info(to).name;
       v.typed = true;
       v.from = from;
+      if (time_grid(from) != 0 && time_grid(to) != 0) {
+        if (from == IecType::kDt && (to == IecType::kDate || to == IecType::kTod)) continue;
+        v.lower = lower_time_to_time;
+        v.lowers_to = "refused: no such conversion in the standard";
+      }
       t.push_back(v);
     }
   }
@@ -611,7 +634,8 @@ std::string iec_functions_markdown() {
        "with the type's "
        "limits |\n";
   s += "| `X_TO_Y`, `TO_Y` | function | IN | OUT | the conversion rules above (round, wrap, d2a, "
-       "a2d, TIME as the editor counts it) |\n";
+       "a2d, TIME and the dates as the editor counts them: docs/st.md; between time types only DT_TO_DATE, "
+       "DT_TO_TOD) |\n";
   return s;
 }
 

@@ -32,16 +32,20 @@ std::optional<iec::IecType> wider(std::optional<iec::IecType> a, std::optional<i
 // they differ; LINT when only literals say it), else REAL.
 iec::IecType operand_type(const iec::IecFunction& f, const std::vector<std::optional<Value>>& args) {
   bool any = false, all_digital = true, all_integer = true;
-  std::optional<iec::IecType> known;
+  std::optional<iec::IecType> known, time;
+  bool one_time_type = true;
   for (size_t k = 0; k < args.size(); ++k) {
     if (!args[k] || !iec::iec_input_sets_type(f, k)) continue;
-    any = true;
     all_digital = all_digital && args[k]->digital;
     all_integer = all_integer && !args[k]->digital && args[k]->integer;
     known = wider(known, args[k]->int_type);
+    one_time_type = one_time_type && args[k]->time_type && (!any || time == args[k]->time_type);
+    time = args[k]->time_type;
+    any = true;
   }
   if (!any) return iec::IecType::kReal;
   if (all_digital) return iec::IecType::kBool;
+  if (one_time_type) return *time;  // TO_DINT(t): t's TIME, DATE, TOD or DT
   if (!all_integer) return iec::IecType::kReal;
   return known ? *known : iec::IecType::kLint;
 }
@@ -125,6 +129,8 @@ std::vector<Value> Lowering::lower_iec(const iec::IecFunction& f, const std::str
       v.digital = ie.kind_of(o) == Kind::kDigital;
       v.integer = !v.digital && iec::type_info(t).integer;
       if (v.integer) v.int_type = t;
+      // A conversion's or date function's result (typed: its type is its own).
+      if (f.typed && !v.digital && iec::time_grid(t) != 0) v.time_type = t;
       r.push_back(v);
     }
   }

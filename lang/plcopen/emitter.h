@@ -26,6 +26,9 @@ struct Value {
   // has none and takes the other operand's): the operand type of a standard
   // function (lang/iec), so AND on INT works on 16 bits.
   std::optional<iec::IecType> int_type;
+  // A TIME, DATE, TOD or DT value's type when it is known (a variable's, a
+  // function's result): what the third edition's TO_DINT(t) converts from.
+  std::optional<iec::IecType> time_type;
   bool is_const = false;
   double k = 0;
   bool valid() const { return is_const || !ref.empty(); }

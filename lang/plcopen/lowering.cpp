@@ -787,6 +787,7 @@ Value Lowering::load(Scope& s, const std::string& path, const std::vector<std::u
       r.digital = e0.digital;
       r.integer = e0.integer;
       if (e0.integer) r.int_type = iec_type(e0.decl->type.base);
+      if (iec::time_grid(iec_type(e0.decl->type.base)) != 0) r.time_type = iec_type(e0.decl->type.base);
       em_.emit_indexed(e0.digital ? "dpick" : "pick", r.ref, pos, {em_.ref(em_.to_analog(ix, pos), pos)},
                        std::move(table), static_cast<double>(a->array->dims[0].first));
       return r;
@@ -940,6 +941,7 @@ Value Lowering::read(Var& v, SourcePos pos) {
   }
   Value r = v.cur ? *v.cur : start_value(v, pos);
   if (v.integer) r.int_type = iec_type(v.decl->type.base);
+  if (iec::time_grid(iec_type(v.decl->type.base)) != 0) r.time_type = iec_type(v.decl->type.base);
   return r;
 }
 

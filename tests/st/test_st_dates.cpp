@@ -127,5 +127,73 @@ TEST(StDates, a_date_that_does_not_exist_is_refused_at_its_place) {
   EXPECT_NE(first_error(head + "  t := TOD#12:3x;\nEND_PROGRAM\n").find("6:8:"), std::string::npos);
 }
 
+// Dates meeting numbers, as each editor's runtime converts: MatIEC in seconds
+// for every time type (the fraction dropped into an integer: tv_sec), CODESYS
+// in seconds for DATE and DT, milliseconds for TOD (and TIME).
+TEST(StDates, conversions_to_and_from_numbers_follow_the_chosen_editor) {
+  const char* src = R"(PROGRAM Main
+VAR
+  x : DT := DT#2024-01-15-12:00:00.75;
+  d : DATE := D#2024-01-15;
+  t : TOD := TOD#12:30:15.5;
+  xs, ds, ts : UDINT;
+  xr : LREAL;
+  back : DT;
+  tb : TOD;
+  dd : DATE;
+  on : BOOL;
+  g : TOD;
+END_VAR
+  xs := DT_TO_UDINT(x); ds := DATE_TO_UDINT(d); ts := TOD_TO_UDINT(t);
+  xr := DT_TO_LREAL(x);
+  back := UDINT_TO_DT(xs);
+  tb := UDINT_TO_TOD(ts);
+  dd := TO_DATE(x);
+  g := TO_TOD(x);
+  on := DT_TO_BOOL(x);
+END_PROGRAM
+)";
+  struct Want {
+    EditorSemantics sem;
+    double xs, ts, tb;
+  };
+  // DT_TO_UDINT: MatIEC drops the .75 s (tv_sec); CODESYS rounds it, as it rounds a REAL.
+  for (const Want& w : {Want{EditorSemantics::kMatiec, kJan15 + 12 * 3600, 45015, 45015},
+                        Want{EditorSemantics::kCodesys, kJan15 + 12 * 3600 + 1, 45015500, 45015.5}}) {
+    CompileOptions o;
+    o.semantics = w.sem;
+    o.period_override = 0.01;
+    CompileResult r = compile_source(src, o);
+    ASSERT_TRUE(r.ok()) << r.diags.render("d.st", src);
+    TaskArena arena(*r.image);
+    execute_cycle(*r.image, arena);
+    auto value = [&](std::string_view name) {
+      for (size_t i = 0; i < r.image->blocks().size(); ++i) {
+        if (r.image->str(r.image->blocks()[i].name) == name) return arena.values[r.image->code()[i].out];
+      }
+      ADD_FAILURE() << "no block " << name;
+      return -1.0;
+    };
+    const int k = static_cast<int>(w.sem);
+    EXPECT_EQ(value("Main.xs"), w.xs) << k;
+    EXPECT_EQ(value("Main.ds"), kJan15) << k;
+    EXPECT_EQ(value("Main.ts"), w.ts) << k;
+    EXPECT_EQ(value("Main.xr"), kJan15 + 12 * 3600 + 0.75) << k;
+    EXPECT_EQ(value("Main.back"), value("Main.xs")) << k;
+    EXPECT_EQ(value("Main.tb"), w.tb) << k;
+    EXPECT_EQ(value("Main.dd"), kJan15) << k;
+    EXPECT_EQ(value("Main.g"), 12 * 3600 + 0.75) << k;
+    EXPECT_EQ(value("Main.on"), 1) << k;
+  }
+}
+
+TEST(StDates, a_conversion_between_time_types_the_standard_lacks_is_refused_by_name) {
+  const std::string head = "PROGRAM Main\nVAR\n  d : DATE;\n  t : TOD;\n  x : DT;\n  s : TIME;\nEND_VAR\n";
+  EXPECT_NE(first_error(head + "  s := TOD_TO_TIME(t);\nEND_PROGRAM\n").find("8:8: TOD_TO_TIME is no conversion of the standard"),
+            std::string::npos);
+  EXPECT_NE(first_error(head + "  x := DATE_TO_DT(d);\nEND_PROGRAM\n").find("CONCAT_DATE_TOD"), std::string::npos);
+  EXPECT_NE(first_error(head + "  s := TO_TIME(x);\nEND_PROGRAM\n").find("TO_TIME of a DT"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace rtplc::lang
