@@ -143,6 +143,8 @@ VAR
   dd : DATE;
   on : BOOL;
   g : TOD;
+  dur : TIME := T#1.5s;
+  dn : DINT;
 END_VAR
   xs := DT_TO_UDINT(x); ds := DATE_TO_UDINT(d); ts := TOD_TO_UDINT(t);
   xr := DT_TO_LREAL(x);
@@ -151,15 +153,16 @@ END_VAR
   dd := TO_DATE(x);
   g := TO_TOD(x);
   on := DT_TO_BOOL(x);
+  dn := TO_DINT(dur);
 END_PROGRAM
 )";
   struct Want {
     EditorSemantics sem;
-    double xs, ts, tb;
+    double xs, ts, tb, dn;
   };
   // DT_TO_UDINT: MatIEC drops the .75 s (tv_sec); CODESYS rounds it, as it rounds a REAL.
-  for (const Want& w : {Want{EditorSemantics::kMatiec, kJan15 + 12 * 3600, 45015, 45015},
-                        Want{EditorSemantics::kCodesys, kJan15 + 12 * 3600 + 1, 45015500, 45015.5}}) {
+  for (const Want& w : {Want{EditorSemantics::kMatiec, kJan15 + 12 * 3600, 45015, 45015, 1},
+                        Want{EditorSemantics::kCodesys, kJan15 + 12 * 3600 + 1, 45015500, 45015.5, 1500}}) {
     CompileOptions o;
     o.semantics = w.sem;
     o.period_override = 0.01;
@@ -184,6 +187,7 @@ END_PROGRAM
     EXPECT_EQ(value("Main.dd"), kJan15) << k;
     EXPECT_EQ(value("Main.g"), 12 * 3600 + 0.75) << k;
     EXPECT_EQ(value("Main.on"), 1) << k;
+    EXPECT_EQ(value("Main.dn"), w.dn) << k;  // TO_DINT of a TIME variable counts as TIME_TO_DINT does
   }
 }
 
