@@ -362,6 +362,16 @@ void Lowering::call_fb(Var& v, const std::vector<std::pair<std::string, Value>>&
       }
       assign(*target, value, pos);
     }
+    // R_EDGE / F_EDGE inputs: the body reads the edge of what the input holds
+    // now, through the instance's own trigger (make_scope).
+    for (const Variable& d : fb.pou->vars) {
+      if (d.edge == 0) continue;
+      auto in = fb.vars.find(upper(d.name));
+      auto trig = fb.vars.find(upper(d.name + "$edge"));
+      if (in == fb.vars.end() || trig == fb.vars.end()) continue;
+      call_fb(*trig->second, {{"CLK", read(*in->second, pos)}}, pos);
+      assign(*in->second, fb_output(*trig->second, "Q", pos), pos);
+    }
     auto saved = before_read;
     before_read = nullptr;
     lower_body(fb);

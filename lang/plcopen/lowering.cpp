@@ -438,6 +438,23 @@ std::unique_ptr<Scope> Lowering::make_scope(const Pou& pou, const std::string& p
     auto v = make_var(decl, path + "." + decl.name, depth, s->function);
     all_vars_.push_back(v.get());
     s->vars.emplace(upper(decl.name), std::move(v));
+    if (decl.edge != 0) {
+      // An R_EDGE (F_EDGE) input: an R_TRIG (F_TRIG) of the instance's own,
+      // called at each call of the instance (call_fb), as MatIEC makes it.
+      if (pou.type != PouType::kFunctionBlock) {
+        d_.error(decl.pos, "variable '" + decl.name + "': R_EDGE and F_EDGE qualify inputs of a function block only");
+        continue;
+      }
+      auto ed = std::make_unique<Variable>();
+      ed->name = decl.name + "$edge";
+      ed->type.base = BaseType::kDerived;
+      ed->type.derived = decl.edge == 'R' ? "R_TRIG" : "F_TRIG";
+      ed->pos = decl.pos;
+      auto trig = make_var(*ed, path + "." + ed->name, depth, s->function);
+      all_vars_.push_back(trig.get());
+      s->vars.emplace(upper(ed->name), std::move(trig));
+      owned_decls_.push_back(std::move(ed));
+    }
   }
   for (const Variable& decl : pou.vars) {
     if (decl.section != VarSection::kExternal) continue;

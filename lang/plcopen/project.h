@@ -90,6 +90,10 @@ struct Variable {
   // An <arrayValue> or <structValue> initial value (arrays, structures).
   const XmlElement* initial_xml = nullptr;
   bool constant = false;      // CONSTANT section
+  // 'R' or 'F': a BOOL input of a function block declared R_EDGE or F_EDGE,
+  // which the body reads as the rising (falling) edge of what it is given
+  // (docs/st.md, "Edge inputs").
+  char edge = 0;
   SourcePos pos;
 };
 

@@ -560,6 +560,17 @@ class Reader {
     if (!ok_) return;
     const auto type = type_ref(names.front().first.c_str());
     if (!ok_ || !type) return;
+    char edge = 0;
+    skip();
+    if (at_word("R_EDGE") || at_word("F_EDGE")) {
+      const size_t eat = i_;
+      edge = word()[0];
+      if (s != VarSection::kInput || !type->is_bool() || type->array) {
+        fail(eat, std::string(edge == 'R' ? "R_EDGE" : "F_EDGE") +
+                      " qualifies a BOOL input (VAR_INPUT) of a function block only");
+        return;
+      }
+    }
     std::string initial;
     if (accept(":=")) {
       skip();
@@ -576,6 +587,7 @@ class Reader {
       v.address = address;
       v.initial = initial;
       v.constant = constant;
+      v.edge = edge;
       v.pos = pos(at);
       out.push_back(std::move(v));
     }

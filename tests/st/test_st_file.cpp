@@ -274,6 +274,41 @@ END_PROGRAM
   EXPECT_EQ(h.value("Main.acc.calls"), 6);
 }
 
+// R_EDGE and F_EDGE inputs (docs/st.md, "Edge inputs"): the body reads the edge
+// of what the input is given, through a trigger of the instance's own called at
+// each call (F_TRIG's first call with FALSE is a pulse, as the standard's body
+// makes it). The count below is worked by hand from x = 0 1 1 0 0 1.
+TEST(StFile, r_edge_and_f_edge_inputs_read_the_edge_of_their_argument) {
+  const char* src = R"(FUNCTION_BLOCK Edges
+VAR_INPUT c : BOOL R_EDGE; d : BOOL F_EDGE; END_VAR
+VAR_OUTPUT n : INT; m : INT; END_VAR
+  IF c THEN n := n + 1; END_IF;
+  IF d THEN m := m + 1; END_IF;
+END_FUNCTION_BLOCK
+PROGRAM Main
+VAR x AT %IX0.0 : BOOL; f : Edges; n, m : INT; END_VAR
+  f(c := x, d := x);
+  n := f.n; m := f.m;
+END_PROGRAM
+)";
+  FbdHarness h(src, 0.01, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("e.st", src);
+  const int x[] = {0, 1, 1, 0, 0, 1};
+  const int n[] = {0, 1, 1, 1, 1, 2};  // rises at 1 and 5
+  const int m[] = {1, 1, 1, 2, 2, 2};  // the first call with FALSE, and the fall at 3
+  for (int k = 0; k < 6; ++k) {
+    h.set("x", x[k]);
+    h.step();
+    EXPECT_EQ(h.value("Main.n"), n[k]) << "cycle " << k;
+    EXPECT_EQ(h.value("Main.m"), m[k]) << "cycle " << k;
+  }
+  EXPECT_EQ(first_error("PROGRAM P VAR_INPUT c : INT R_EDGE; END_VAR END_PROGRAM").substr(0, 64),
+            "1:29: R_EDGE qualifies a BOOL input (VAR_INPUT) of a function bl");
+  EXPECT_EQ(first_error("PROGRAM P VAR c : BOOL F_EDGE; END_VAR END_PROGRAM").substr(0, 25), "1:24: F_EDGE qualifies a ");
+  EXPECT_EQ(first_error("PROGRAM P VAR_INPUT c : BOOL R_EDGE; END_VAR END_PROGRAM").substr(0, 64),
+            "1:21: variable 'c': R_EDGE and F_EDGE qualify inputs of a functi");
+}
+
 TEST(StFile, an_array_of_function_blocks_calls_the_element_an_index_names_at_run_time) {
   const char* src = R"(FUNCTION_BLOCK Acc
 VAR_INPUT x : INT; END_VAR
