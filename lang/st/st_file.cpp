@@ -52,9 +52,69 @@ size_t skip_blank(std::string_view t, size_t i, const char*& unclosed) {
   return i;
 }
 
+// The text with every closed comment ((* *), //, {pragma}) turned into spaces,
+// newlines kept, so every position is the file's and no reader after this
+// meets a comment: a comment inside an initial value (`k : INT := 5 (* five
+// *);`) or between array items is then what IEC says it is, white space.
+// Strings are kept whole; an unclosed comment is left for skip() to report at
+// its place. A line that starts with `(*DBG:` is OpenPLC's debugger table,
+// which its runtime strips before compiling (its `(void *)` would close the
+// comment early): blanked whole too.
+std::string blank_comments(std::string_view t) {
+  std::string out(t);
+  auto blank = [&](size_t b, size_t e) {
+    for (size_t k = b; k < e; ++k) {
+      if (out[k] != '\n' && out[k] != '\r') out[k] = ' ';
+    }
+  };
+  bool line_start = true;
+  for (size_t i = 0; i < t.size();) {
+    const char c = t[i];
+    if (line_start && t.substr(i, 6) == "(*DBG:") {
+      const size_t e = t.find('\n', i);
+      blank(i, e == std::string_view::npos ? t.size() : e);
+      i = e == std::string_view::npos ? t.size() : e;
+      continue;
+    }
+    if (c == '\n') {
+      line_start = true;
+      ++i;
+      continue;
+    }
+    if (c == ' ' || c == '\t' || c == '\r') {
+      ++i;
+      continue;
+    }
+    line_start = false;
+    size_t e = std::string_view::npos;
+    if (c == '\'' || c == '"') {
+      e = t.find(c, i + 1);
+      i = e == std::string_view::npos ? t.size() : e + 1;
+      continue;
+    }
+    if (t.substr(i, 2) == "(*") {
+      e = t.find("*)", i + 2);
+      if (e != std::string_view::npos) e += 2;
+    } else if (t.substr(i, 2) == "//") {
+      e = t.find('\n', i);
+      if (e == std::string_view::npos) e = t.size();
+    } else if (c == '{') {
+      e = t.find('}', i);
+      if (e != std::string_view::npos) e += 1;
+    } else {
+      ++i;
+      continue;
+    }
+    if (e == std::string_view::npos) return out;  // unclosed: skip() says where
+    blank(i, e);
+    i = e;
+  }
+  return out;
+}
+
 class Reader {
  public:
-  Reader(std::string_view text, DiagnosticList& d) : t_(text), d_(d) {
+  Reader(std::string_view text, DiagnosticList& d) : owned_(blank_comments(text)), t_(owned_), d_(d) {
     line_starts_.push_back(0);
     for (size_t i = 0; i < t_.size(); ++i) {
       if (t_[i] == '\n') line_starts_.push_back(i + 1);
@@ -191,6 +251,10 @@ class Reader {
         if (e == std::string_view::npos) break;
         i_ = e + 1;
         continue;
+      }
+      if (t_.substr(i_, 2) == "(*") {  // closed ones are blanked: this one never ends
+        fail(i_, "comment '(*' is never closed");
+        return {};
       }
       if (c == '(' || c == '[') ++depth;
       if (c == ')' || c == ']') --depth;
@@ -800,6 +864,7 @@ class Reader {
 
   static constexpr char kMarker = '\x01';  // never in a valid initial value's text
   std::vector<std::pair<size_t, size_t>> inits_;
+  std::string owned_;  // the file with its comments blanked (blank_comments)
   std::string_view t_;
   DiagnosticList& d_;
   size_t i_ = 0;

@@ -309,6 +309,36 @@ END_PROGRAM
             "1:21: variable 'c': R_EDGE and F_EDGE qualify inputs of a functi");
 }
 
+// A comment is white space wherever it stands, also inside an initial value
+// (before this, `5 (* five *)` was refused and `3 (* last *)` read as the
+// repeat `3(...)`); OpenPLC's `(*DBG:` debugger lines, whose `(void *)` closes
+// the comment early, are skipped whole, as OpenPLC's runtime strips them.
+TEST(StFile, comments_inside_initial_values_are_white_space) {
+  const char* src = R"(TYPE P : STRUCT x : INT; y : INT; END_STRUCT; END_TYPE
+PROGRAM Main
+  VAR
+    a : ARRAY[0..2] OF INT := [1, 2, 3 (* last *)];
+    b : ARRAY[0..2] OF INT := [1, (* mid; *) 2, 3 // end
+    ];
+    s : P := (x := 1 (* one *), y := 2);
+    k : INT := 5 (* five *);
+    t : TIME := T#1s { pragma };
+    y : INT;
+  END_VAR
+  y := a[2] + b[1] + s.x + k;
+END_PROGRAM
+(*DBG:    return (void *)&((__IEC_SINT_t *) ptr)->value;*)
+)";
+  FbdHarness h(src, 0.01, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("c.st", src);
+  h.step();
+  EXPECT_EQ(h.value("Main.y"), 3 + 2 + 1 + 5);
+  EXPECT_EQ(h.value("Main.t"), 1);
+  // An unclosed comment is still named where it starts.
+  EXPECT_EQ(first_error("PROGRAM P\n  VAR k : INT := 5 (* five; END_VAR\nEND_PROGRAM\n").substr(0, 40),
+            "2:20: comment '(*' is never closed");
+}
+
 TEST(StFile, an_array_of_function_blocks_calls_the_element_an_index_names_at_run_time) {
   const char* src = R"(FUNCTION_BLOCK Acc
 VAR_INPUT x : INT; END_VAR
