@@ -356,13 +356,21 @@ Out lower_ctud(const IecFunction& f, Emitter& e, const IecCall& c) {
 struct DateFunction {
   const char* name;
   std::vector<const char*> inputs;
-  const char* prim;  // add, sub; mod for DT_TO_TOD; "date" for DT_TO_DATE
+  const char* prim;  // add, sub, mult, div; mod for DT_TO_TOD; "date" for DT_TO_DATE
   double per;        // the result's grid: 1e6 (us) or 1e9 (ns); 0: none needed
   IecType to;
   const char* lowers_to;
 };
 const std::vector<DateFunction>& date_functions() {
   static const std::vector<DateFunction> t = {
+      {"ADD_TIME", {"IN1", "IN2"}, "add", 1e9, IecType::kTime, "add, on the ns grid"},
+      {"SUB_TIME", {"IN1", "IN2"}, "sub", 1e9, IecType::kTime, "sub, on the ns grid"},
+      {"MULTIME", {"IN1", "IN2"}, "mult", 1e9, IecType::kTime, "mult (TIME * a number), on the ns grid"},
+      {"MUL_TIME", {"IN1", "IN2"}, "mult", 1e9, IecType::kTime, "mult (TIME * a number), on the ns grid"},
+      {"DIVTIME", {"IN1", "IN2"}, "div", 1e9, IecType::kTime,
+       "div (TIME / a number; by 0 the block holds and counts an error), on the ns grid"},
+      {"DIV_TIME", {"IN1", "IN2"}, "div", 1e9, IecType::kTime,
+       "div (TIME / a number; by 0 the block holds and counts an error), on the ns grid"},
       {"ADD_TOD_TIME", {"IN1", "IN2"}, "add", 1e9, IecType::kTod, "add, on the ns grid"},
       {"ADD_DT_TIME", {"IN1", "IN2"}, "add", 1e6, IecType::kDt, "add, on the us grid"},
       {"SUB_DATE_DATE", {"IN1", "IN2"}, "sub", 1e6, IecType::kTime, "sub, on the us grid"},

@@ -168,9 +168,15 @@ class Parser {
         out.push_back(std::move(l));
         continue;
       }
+      const size_t pending = pending_eno_.size();
       auto s = statement();
       if (failed_) break;
       if (s) out.push_back(std::move(s));
+      // `ENO => ok` of the calls in this statement: ok := EN after it.
+      while (pending_eno_.size() > pending) {
+        out.push_back(std::move(pending_eno_[pending]));
+        pending_eno_.erase(pending_eno_.begin() + static_cast<std::ptrdiff_t>(pending));
+      }
       if (!at_end() && !(peek().t == Tok::T::kOp && peek().text == ";")) {
         bool ender = false;
         for (const char* e : enders) ender = ender || (peek().t == Tok::T::kIdent && peek().up == e);
@@ -305,7 +311,17 @@ class Parser {
       s->kind = Stmt::Kind::kCall;
       ++i_;
       call_arguments(s->call_args);
-      return s;
+      if (failed_) return nullptr;
+      // EN: the call happens only when it holds (IF EN THEN call END_IF).
+      std::unique_ptr<Expr> en = take_en_eno(s->call_args, s->pos);
+      if (failed_ || !en) return s;
+      auto w = std::make_unique<Stmt>();
+      w->kind = Stmt::Kind::kIf;
+      w->pos = s->pos;
+      Block body;
+      body.push_back(std::move(s));
+      w->branches.emplace_back(std::move(en), std::move(body));
+      return w;
     }
     error(peek().pos, "expected ':=' or '(' after '" + s->target + "', found '" + peek().text + "'");
     return nullptr;
@@ -630,6 +646,9 @@ class Parser {
         ++i_;
         std::vector<CallArg> args;
         call_arguments(args);
+        if (failed_) return nullptr;
+        std::unique_ptr<Expr> en = take_en_eno(args, e->pos);
+        if (failed_) return nullptr;
         for (CallArg& a : args) {
           if (a.output) {
             error(a.pos, "output assignments (=>) are not allowed in a function call inside an expression");
@@ -638,7 +657,21 @@ class Parser {
           e->arg_names.push_back(upper(a.formal));
           e->args.push_back(std::move(a.value));
         }
-        return e;
+        if (!en) return e;
+        // EN false: the function does not run and gives its type's initial
+        // value, 0 (MatIEC's TEST_EN): SEL(EN, 0, f(...)).
+        auto sel = std::make_unique<Expr>();
+        sel->kind = Expr::Kind::kCall;
+        sel->pos = e->pos;
+        sel->name = "SEL";
+        auto zero = std::make_unique<Expr>();
+        zero->kind = Expr::Kind::kLiteral;
+        zero->pos = e->pos;
+        sel->args.push_back(std::move(en));
+        sel->args.push_back(std::move(zero));
+        sel->args.push_back(std::move(e));
+        sel->arg_names = {"G", "IN0", "IN1"};
+        return sel;
       }
       e->kind = Expr::Kind::kName;
       e->name = variable_path(e->args);
@@ -648,9 +681,70 @@ class Parser {
     return nullptr;
   }
 
+  static std::unique_ptr<Expr> clone(const Expr& x) {
+    auto c = std::make_unique<Expr>();
+    c->kind = x.kind;
+    c->pos = x.pos;
+    c->k = x.k;
+    c->is_bool = x.is_bool;
+    c->is_time = x.is_time;
+    c->is_real = x.is_real;
+    c->name = x.name;
+    c->op = x.op;
+    c->arg_names = x.arg_names;
+    for (const auto& a : x.args) c->args.push_back(a ? clone(*a) : nullptr);
+    return c;
+  }
+  static bool is_true(const Expr& x) { return x.kind == Expr::Kind::kLiteral && x.is_bool && x.k != 0; }
+
+  // Takes EN (an input) and ENO (an output) out of a call's arguments, as
+  // OpenPLC Editor and Beremiz write them for a block with EN/ENO: returns the
+  // EN expression unless there is none or it is the constant TRUE, and queues
+  // `target := EN` (TRUE without EN) for `ENO => target`, which statements()
+  // puts after the statement holding the call. ENO is EN: rtplc's functions
+  // never stop on an error of their own.
+  std::unique_ptr<Expr> take_en_eno(std::vector<CallArg>& args, SourcePos pos) {
+    std::unique_ptr<Expr> en;
+    std::optional<CallArg> eno;
+    for (size_t k = 0; k < args.size();) {
+      const std::string f = upper(args[k].formal);
+      if (f == "EN" || f == "ENO") {
+        if ((f == "EN") == args[k].output) {
+          error(args[k].pos, f == "EN" ? "EN is an input: EN := condition" : "ENO is an output: ENO => variable");
+          return nullptr;
+        }
+        if (f == "EN") en = std::move(args[k].value);
+        else eno = std::move(args[k]);
+        args.erase(args.begin() + static_cast<std::ptrdiff_t>(k));
+        continue;
+      }
+      ++k;
+    }
+    if (en && is_true(*en)) en.reset();
+    if (eno) {
+      auto st = std::make_unique<Stmt>();
+      st->kind = Stmt::Kind::kAssign;
+      st->pos = eno->pos;
+      st->target = eno->target;
+      st->target_index = std::move(eno->target_index);
+      if (en) {
+        st->value = clone(*en);
+      } else {
+        st->value = std::make_unique<Expr>();
+        st->value->kind = Expr::Kind::kLiteral;
+        st->value->pos = pos;
+        st->value->k = 1;
+        st->value->is_bool = true;
+      }
+      pending_eno_.push_back(std::move(st));
+    }
+    return en;
+  }
+
   std::vector<Tok> t_;
   DiagnosticList& d_;
   size_t i_ = 0;
+  std::vector<std::unique_ptr<Stmt>> pending_eno_;  // `ok := EN` for `ENO => ok` (take_en_eno)
   int depth_ = 0;
   int nesting_ = 0;
   int loops_ = 0;  // FOR loops around the statement being parsed

@@ -199,5 +199,33 @@ TEST(StDates, a_conversion_between_time_types_the_standard_lacks_is_refused_by_n
   EXPECT_NE(first_error(head + "  s := TO_TIME(x);\nEND_PROGRAM\n").find("TO_TIME of a DT"), std::string::npos);
 }
 
+// The standard's TIME functions (IEC 61131-3 ed. 2, table 30) on the
+// nanosecond grid: ADD_TIME, SUB_TIME, MULTIME and DIVTIME (and MUL_TIME,
+// DIV_TIME), as OSCAT and MatIEC programs call them.
+TEST(StDates, add_sub_mul_and_div_of_time_land_on_the_nanosecond_grid) {
+  const char* src = R"(PROGRAM Main
+VAR
+  a, b, m, d, m2, d2 : TIME;
+  n : INT := 3;
+END_VAR
+  a := ADD_TIME(T#1s, T#250ms);
+  b := SUB_TIME(T#1s, T#250ms);
+  m := MULTIME(T#100ms, n);
+  d := DIVTIME(T#1s, n);
+  m2 := MUL_TIME(T#1ms, 1000);
+  d2 := DIV_TIME(T#1s, 8);
+END_PROGRAM
+)";
+  FbdHarness h(src, 0.01, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("t.st", src);
+  h.step();
+  EXPECT_EQ(h.value("Main.a"), 1.25);
+  EXPECT_EQ(h.value("Main.b"), 0.75);
+  EXPECT_EQ(h.value("Main.m"), 0.3);  // 0.1 * 3 is 0.30000000000000004 as a bare double
+  EXPECT_EQ(h.value("Main.d"), 0.333333333);
+  EXPECT_EQ(h.value("Main.m2"), 1);
+  EXPECT_EQ(h.value("Main.d2"), 0.125);
+}
+
 }  // namespace
 }  // namespace rtplc::lang

@@ -339,6 +339,54 @@ END_PROGRAM
             "2:20: comment '(*' is never closed");
 }
 
+// EN and ENO in ST calls, as OpenPLC Editor and Beremiz write them for a block
+// with EN/ENO (docs/st.md, "EN and ENO"): EN false and the call does not happen
+// (a function gives 0, a function block keeps its state), ENO => x sets x to EN.
+TEST(StFile, en_and_eno_in_calls_gate_the_call_and_report_it) {
+  const char* src = R"(FUNCTION F : INT
+VAR_INPUT a : INT; END_VAR
+  F := a + 1;
+END_FUNCTION
+PROGRAM Main
+VAR
+  go AT %IX0.0 : BOOL;
+  y, z, n : INT;
+  ok1, ok2, ok3, big : BOOL;
+  c : CTU;
+END_VAR
+  y := F(EN := go, a := 4, ENO => ok1);
+  z := ADD(EN := TRUE, IN1 := 1, IN2 := 2, ENO => ok2);
+  c(EN := go, CU := TRUE, PV := 10, ENO => ok3);
+  n := c.CV;
+  IF GT(EN := go, IN1 := y, IN2 := 4) THEN big := TRUE; ELSE big := FALSE; END_IF;
+END_PROGRAM
+)";
+  FbdHarness h(src, 0.01, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("en.st", src);
+  h.set("go", 0);
+  h.step();
+  EXPECT_EQ(h.value("Main.y"), 0);  // not run: the type's initial value
+  EXPECT_EQ(h.value("Main.ok1"), 0);
+  EXPECT_EQ(h.value("Main.z"), 3);
+  EXPECT_EQ(h.value("Main.ok2"), 1);
+  EXPECT_EQ(h.value("Main.ok3"), 0);
+  EXPECT_EQ(h.value("Main.n"), 0);
+  EXPECT_EQ(h.value("Main.big"), 0);
+  h.set("go", 1);
+  h.step();  // the counter's first call sees CU rise
+  EXPECT_EQ(h.value("Main.y"), 5);
+  EXPECT_EQ(h.value("Main.ok1"), 1);
+  EXPECT_EQ(h.value("Main.ok3"), 1);
+  EXPECT_EQ(h.value("Main.n"), 1);
+  EXPECT_EQ(h.value("Main.big"), 1);
+  h.step();  // CU stays TRUE: no new edge
+  EXPECT_EQ(h.value("Main.n"), 1);
+  EXPECT_EQ(first_error("PROGRAM P VAR y : INT; END_VAR\ny := ABS(EN => y, IN := 1);\nEND_PROGRAM"),
+            "2:10: EN is an input: EN := condition");
+  EXPECT_EQ(first_error("PROGRAM P VAR y : INT; END_VAR\ny := ABS(ENO := TRUE, IN := 1);\nEND_PROGRAM"),
+            "2:10: ENO is an output: ENO => variable");
+}
+
 TEST(StFile, an_array_of_function_blocks_calls_the_element_an_index_names_at_run_time) {
   const char* src = R"(FUNCTION_BLOCK Acc
 VAR_INPUT x : INT; END_VAR
