@@ -611,6 +611,11 @@ TEST(StFile, refuses_what_it_cannot_run_at_its_position_naming_it) {
   EXPECT_EQ(first_error("PROGRAM P\n  VAR x : INT;\n").substr(0, 35), "2:3: VAR is never closed by END_VAR");
   EXPECT_EQ(first_error("PROGRAM P\n  VAR x : INT; END_VAR\n  x := 1;\n").substr(0, 38),
             "1:1: PROGRAM P is never closed by END_");
+  EXPECT_EQ(first_error("PROGRAM P VAR go : BOOL; END_VAR\n  INITIAL_STEP S1: END_STEP\nEND_PROGRAM").substr(0, 50),
+            "2:3: INITIAL_STEP S1: textual SFC (INITIAL_STEP, S");
+  EXPECT_EQ(first_error("PROGRAM P VAR go : BOOL; END_VAR\n  TRANSITION FROM S1 TO S2 := go; END_TRANSITION\nEND_PROGRAM")
+                .substr(0, 30),
+            "2:3: TRANSITION: textual SFC (");
   EXPECT_EQ(first_error("PROGRAM P VAR i : INT; END_VAR\nFOR i := 1 TO 5 BY 0 DO i := i; END_FOR;\nEND_PROGRAM"),
             "2:1: FOR with BY 0 never ends");
   // A type defined through itself, used with an array's initial value (found by fuzz_st: a crash).
