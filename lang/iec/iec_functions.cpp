@@ -406,6 +406,55 @@ Out lower_date(const IecFunction& f, Emitter& e, const IecCall& c) {
   return one(v);
 }
 
+// ---- BCD (IEC 61131-3 ed. 2 table 22, MatIEC's __bcd_to_uint / __uint_to_bcd) ----
+// The bit string of `bits` bits holding the same digits: BYTE, WORD, DWORD, LWORD.
+IecType bit_string_of(uint8_t bits) {
+  return bits <= 8 ? IecType::kByte : bits <= 16 ? IecType::kWord : bits <= 32 ? IecType::kDword : IecType::kLword;
+}
+
+// BCD_TO_INT(w): each nibble of the bit string is a decimal digit, the lowest
+// the units; a nibble above 9 makes the input no BCD and the result 0, as
+// MatIEC's (its ENO false). The nibbles come from the typed name's bit string,
+// else from the operand's (a literal: 64 bits).
+Out lower_bcd_to(const IecFunction& f, Emitter& e, const IecCall& c) {
+  const IecType from = f.typed ? f.from : c.type;
+  const uint8_t bits = type_info(from).bit_string ? type_info(from).bits : 64;
+  const double w = bits;
+  const uint32_t x = e.block("band", {e.analog_or_zero(arg(c, 0)), e.constant(std::ldexp(1.0, bits) - 1.0, Kind::kAnalog)},
+                             {w});
+  const uint32_t fifteen = e.constant(15, Kind::kAnalog), ten = e.constant(10, Kind::kAnalog);
+  uint32_t sum = kUnconnected, bad = kUnconnected;
+  double scale = 1;
+  for (int k = 0; k < bits / 4; ++k, scale *= 10) {
+    const uint32_t shifted = k == 0 ? x : e.block("shr", {x, e.constant(4.0 * k, Kind::kAnalog)}, {w});
+    const uint32_t nib = e.block("band", {shifted, fifteen}, {w});
+    const uint32_t no_digit = e.block("ge", {nib, ten});
+    bad = bad == kUnconnected ? no_digit : e.block("or", {bad, no_digit});
+    const uint32_t part = k == 0 ? nib : e.block("scale", {nib}, {scale, 0.0});
+    sum = sum == kUnconnected ? part : e.block("add", {sum, part});
+  }
+  return one(e.wrap(e.block("amux", {sum, e.constant(0, Kind::kAnalog), bad}), f.to));
+}
+
+// INT_TO_BCD(n): the decimal digits of n, one per nibble, as many as the bit
+// string holds (the higher ones dropped, as MatIEC's cast drops them); a
+// negative n has no BCD and gives 0.
+Out lower_to_bcd(const IecFunction& f, Emitter& e, const IecCall& c) {
+  const uint8_t bits = type_info(f.to).bits;
+  uint32_t rest = e.block("trunc", {e.analog_or_zero(arg(c, 0))});
+  const uint32_t negative = e.block("lt", {rest, e.constant(0, Kind::kAnalog)});
+  const uint32_t ten = e.constant(10, Kind::kAnalog);
+  uint32_t sum = kUnconnected;
+  double weight = 1;
+  for (int k = 0; k < bits / 4; ++k, weight *= 16) {
+    const uint32_t digit = e.block("mod", {rest, ten});
+    const uint32_t part = k == 0 ? digit : e.block("scale", {digit}, {weight, 0.0});
+    sum = sum == kUnconnected ? part : e.block("add", {sum, part});
+    if (k + 1 < bits / 4) rest = e.block("trunc", {e.block("div", {rest, ten})});
+  }
+  return one(e.block("amux", {sum, e.constant(0, Kind::kAnalog), negative}));
+}
+
 IecFunction fn(const char* name, std::vector<const char*> ins, IecLower lower, const char* to,
                bool extensible = false) {
   IecFunction f;
@@ -506,6 +555,35 @@ std::vector<IecFunction> build_table() {
     v.to = d.to;
     t.push_back(v);
   }
+  // BCD: BCD_TO_INT (from the operand's bit string) and WORD_BCD_TO_INT, INT_TO_BCD
+  // (into the bit string of the integer's width) and INT_TO_BCD_WORD.
+  for (uint8_t a = 0; a <= static_cast<uint8_t>(IecType::kLword); ++a) {
+    const auto n = static_cast<IecType>(a);
+    const IecTypeInfo& ni = type_info(n);
+    if (!ni.integer || ni.bit_string) continue;
+    IecFunction to_int = fn("", {"IN"}, lower_bcd_to, "band, shr, scale, add per nibble; 0 when a nibble is above 9");
+    to_int.name = std::string("BCD_TO_") + ni.name;
+    to_int.to = n;
+    t.push_back(to_int);
+    IecFunction from_int = fn("", {"IN"}, lower_to_bcd, "mod, div, scale, add per digit; 0 when IN < 0");
+    from_int.name = std::string(ni.name) + "_TO_BCD";
+    from_int.to = bit_string_of(ni.bits);
+    from_int.typed = true;
+    from_int.from = n;
+    t.push_back(from_int);
+    for (uint8_t b = static_cast<uint8_t>(IecType::kByte); b <= static_cast<uint8_t>(IecType::kLword); ++b) {
+      const auto bs = static_cast<IecType>(b);
+      IecFunction typed_to = to_int;
+      typed_to.name = std::string(type_info(bs).name) + "_BCD_TO_" + ni.name;
+      typed_to.typed = true;
+      typed_to.from = bs;
+      t.push_back(typed_to);
+      IecFunction typed_from = from_int;
+      typed_from.name = std::string(ni.name) + "_TO_BCD_" + type_info(bs).name;
+      typed_from.to = bs;
+      t.push_back(typed_from);
+    }
+  }
   // Conversions: every X_TO_Y, and the third edition's TO_Y (from the operand
   // type). Between two time types the standard has only DT_TO_DATE and DT_TO_TOD
   // (the date table above); the others are refused by name.
@@ -597,7 +675,7 @@ bool iec_input_sets_type(const IecFunction& f, size_t k) {
 }
 
 IecType iec_result_type(const IecFunction& f, IecType type) {
-  if (f.lower == lower_convert || f.lower == lower_date) return f.to;
+  if (f.lower == lower_convert || f.lower == lower_date || f.lower == lower_bcd_to || f.lower == lower_to_bcd) return f.to;
   if (f.lower == lower_trunc && !type_info(type).integer) return IecType::kLint;
   return type;
 }
@@ -629,7 +707,7 @@ std::string iec_functions_markdown() {
       "| IEC name | kind | inputs | outputs | lowers to |\n"
       "|---|---|---|---|---|\n";
   for (const IecFunction& f : table()) {
-    if (f.lower == lower_convert || (f.typed && f.lower != lower_date)) continue;
+    if (f.lower == lower_convert || f.lower == lower_bcd_to || (f.typed && f.lower != lower_date)) continue;
     std::string ins;
     for (const char* i : f.inputs) ins += (ins.empty() ? "" : ", ") + std::string(i);
     if (f.extensible) ins += ", ...";
@@ -641,6 +719,10 @@ std::string iec_functions_markdown() {
   s += "| `CTU_INT` .. `CTUD_ULINT` | block | as CTU, CTD, CTUD | as CTU, CTD, CTUD | the same, "
        "with the type's "
        "limits |\n";
+  s += "| `BCD_TO_INT` .. `BCD_TO_ULINT`, `WORD_BCD_TO_INT`... | function | IN | OUT | one decimal digit per "
+       "nibble (band, shr, scale, add); 0 when a nibble is above 9 |\n";
+  s += "| `INT_TO_BCD` .. `ULINT_TO_BCD`, `INT_TO_BCD_WORD`... | function | IN | OUT | one decimal digit per "
+       "nibble of the bit string of the integer's width (mod, div, scale, add); 0 when IN < 0 |\n";
   s += "| `X_TO_Y`, `TO_Y` | function | IN | OUT | the conversion rules above (round, wrap, d2a, "
        "a2d, TIME and the dates as the editor counts them: docs/st.md; between time types only DT_TO_DATE, "
        "DT_TO_TOD) |\n";

@@ -137,5 +137,38 @@ TEST(StIntegers, a_folded_constant_that_overflows_is_refused_where_it_is_assigne
   EXPECT_NE(d.message.find("'y' is a constant expression that overflows"), std::string::npos) << d.message;
 }
 
+// BCD conversions (IEC 61131-3 ed. 2 table 22, as MatIEC's library does them):
+// one decimal digit per nibble; a nibble above 9 is no BCD and gives 0, a
+// negative number has no BCD and gives 0. Worked by hand: 16#1234 is 1234.
+TEST(StIntegers, bcd_conversions_read_and_write_one_digit_per_nibble) {
+  const char* src = R"(PROGRAM Main
+VAR
+  w : WORD := 16#1234; bad : WORD := 16#12A4; b : BYTE := 16#99;
+  i, j, k, m : INT; n : INT := 9876; neg : INT := -5;
+  v, z : WORD; u : DWORD; q : BYTE;
+END_VAR
+  i := BCD_TO_INT(w);
+  j := BCD_TO_INT(bad);
+  k := WORD_BCD_TO_INT(16#0042);
+  m := BCD_TO_INT(b);
+  v := INT_TO_BCD(n);
+  z := INT_TO_BCD(neg);
+  u := INT_TO_BCD_DWORD(1234);
+  q := USINT_TO_BCD(USINT#123);
+END_PROGRAM
+)";
+  FbdHarness h(src, 0.01, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("b.st", src);
+  h.step();
+  EXPECT_EQ(h.value("Main.i"), 1234);
+  EXPECT_EQ(h.value("Main.j"), 0);
+  EXPECT_EQ(h.value("Main.k"), 42);
+  EXPECT_EQ(h.value("Main.m"), 99);
+  EXPECT_EQ(h.value("Main.v"), 0x9876);
+  EXPECT_EQ(h.value("Main.z"), 0);
+  EXPECT_EQ(h.value("Main.u"), 0x1234);
+  EXPECT_EQ(h.value("Main.q"), 0x23);  // two nibbles: the hundreds are dropped
+}
+
 }  // namespace
 }  // namespace rtplc::lang
