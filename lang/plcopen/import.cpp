@@ -2,6 +2,8 @@
 // it, run the language-neutral checks.
 #include "lang/plcopen/import.h"
 
+#include <set>
+
 #include "lang/plcopen/lowering.h"
 
 namespace rtplc::lang::plcopen {
@@ -36,6 +38,91 @@ std::string choices(const Project& p) {
     s += "program " + pou.name;
   }
   return s.empty() ? "none: the project has no program" : s;
+}
+
+// A POU the chosen task does not reach is compiled anyway, on its own, so an
+// error in its body is not hidden behind "OK" (a library file, a second
+// program): a program as an instance of its own, a function block as an
+// instance called once, a function called once, each with a variable of the
+// formal's type for every VAR_IN_OUT (and every function input). What it
+// cannot compile is a warning naming the POU (`--werror` makes it fatal): the
+// task does not run it, so it does not stop the task. A POU whose VAR_IN_OUT
+// or function input is a structure, an array or a function block is not
+// checked this way (it cannot be called with a plain variable).
+void check_unreached(const Project& p, std::set<const Pou*> seen, EditorSemantics sem,
+                     const std::vector<const Variable*>& globals, DiagnosticList& diags) {
+  std::set<std::pair<std::pair<uint32_t, uint32_t>, std::string>> said;
+  for (const Pou& pou : p.pous) {
+    if (seen.count(&pou)) continue;
+    Pou wrapper;
+    XmlElement text;
+    const Pou* run = &pou;
+    if (pou.type != PouType::kProgram) {
+      wrapper.name = "$check";
+      wrapper.type = PouType::kProgram;
+      wrapper.pos = pou.pos;
+      std::string args;
+      bool plain = true;
+      for (const Variable& v : pou.vars) {
+        const bool in_out = v.section == VarSection::kInOut;
+        if (!in_out && !(pou.type == PouType::kFunction && v.section == VarSection::kInput)) continue;
+        if (v.type.base == BaseType::kDerived) {
+          const DataType* dt = v.type.array ? nullptr : p.data_type(v.type.derived);
+          if (v.type.array || !dt || dt->kind == DataType::Kind::kStruct || dt->kind == DataType::Kind::kArray) {
+            plain = false;
+            break;
+          }
+        }
+        Variable a = v;
+        a.name = "chk_" + v.name;
+        a.section = VarSection::kLocal;
+        a.address.clear();
+        a.initial.clear();
+        a.initial_xml = nullptr;
+        a.edge = 0;
+        wrapper.vars.push_back(a);
+        args += (args.empty() ? "" : ", ") + v.name + " := chk_" + v.name;
+      }
+      if (!plain) continue;
+      std::string call = pou.name;
+      if (pou.type == PouType::kFunctionBlock) {
+        Variable inst;
+        inst.name = "chk_instance";
+        inst.type.base = BaseType::kDerived;
+        inst.type.derived = pou.name;
+        inst.pos = pou.pos;
+        wrapper.vars.push_back(inst);
+        call = "chk_instance";
+      }
+      text.name = "ST";
+      text.text = call + "(" + args + ");";
+      text.pos = pou.pos;
+      text.text_anchors.push_back({0, pou.pos});
+      wrapper.body.language = BodyLanguage::kSt;
+      wrapper.body.text = &text;
+      wrapper.body.source = text.text;
+      wrapper.body.pos = pou.pos;
+      run = &wrapper;
+    }
+    CheckedProgram scratch;
+    DiagnosticList d;
+    Lowering L(p, scratch, d);
+    L.set_semantics(sem);
+    L.set_globals(globals);
+    L.program_instance(*run, pou.name);
+    if (!d.has_errors()) (void)L.finish();
+    for (const Pou* q : L.lowered_pous()) seen.insert(q);
+    for (const Diagnostic& e : d.items()) {
+      if (e.severity != Severity::kError) continue;
+      if (!said.insert({{e.pos.line, e.pos.col}, e.message}).second) break;
+      diags.warning(e.pos, std::string(pou.type == PouType::kProgram ? "program" : pou.type == PouType::kFunction
+                                                                                      ? "function"
+                                                                                      : "function block") +
+                               " '" + pou.name + "' (not run by this task) does not compile: " +
+                               e.message);
+      break;  // the first error; what follows it may be its consequence
+    }
+  }
 }
 
 }  // namespace
@@ -162,6 +249,7 @@ ImportResult import_project(const Project& p, const ImportOptions& opt, Diagnost
   }
 
   Lowering L(p, res.program, diags);
+  EditorSemantics sem = EditorSemantics::kMatiec;
   {
     // Whose semantics (docs/plcopen.md, "Which editor's semantics").
     const auto contains = [](const std::string& text, const char* what) {
@@ -169,7 +257,7 @@ ImportResult import_project(const Project& p, const ImportOptions& opt, Diagnost
     };
     const bool codesys_header = contains(p.product, "CODESYS") || contains(p.company, "CODESYS") ||
                                 contains(p.company, "3S-SMART");
-    EditorSemantics sem = opt.semantics;
+    sem = opt.semantics;
     std::string why;
     if (sem == EditorSemantics::kFromHeader) {
       sem = codesys_header ? EditorSemantics::kCodesys : EditorSemantics::kMatiec;
@@ -213,7 +301,7 @@ ImportResult import_project(const Project& p, const ImportOptions& opt, Diagnost
     if (diags.has_errors()) return res;
   }
   if (diags.has_errors() || !L.finish()) return res;
-
+  check_unreached(p, L.lowered_pous(), sem, globals, diags);
   return res;
 }
 

@@ -404,6 +404,7 @@ std::unique_ptr<Var> Lowering::hmi_var(std::unique_ptr<Var> v, bool in_function)
 }
 
 std::unique_ptr<Scope> Lowering::make_scope(const Pou& pou, const std::string& path, int depth) {
+  lowered_pous_.insert(&pou);
   auto s = std::make_unique<Scope>();
   s->path = path;
   s->pou = &pou;

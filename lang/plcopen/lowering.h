@@ -219,6 +219,8 @@ class Lowering {
   std::vector<Var*> vars_for_merge() const { return all_vars_; }
 
   Emitter& em() { return em_; }
+  // The POUs whose bodies were lowered (program instances, FB instances, function calls).
+  const std::set<const Pou*>& lowered_pous() const { return lowered_pous_; }
   DiagnosticList& diags() { return d_; }
   const Project& project() const { return proj_; }
   // Set by the graph lowering: before a read of variable X, lower the elements
@@ -300,6 +302,7 @@ class Lowering {
   std::string trigger_;
   SourcePos trigger_pos_;
   EditorSemantics semantics_ = EditorSemantics::kMatiec;
+  std::set<const Pou*> lowered_pous_;
 };
 
 // A path as the user wrote it, near enough: "a[#1].x" -> "a[...].x".

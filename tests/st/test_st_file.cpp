@@ -387,6 +387,52 @@ END_PROGRAM
             "2:10: ENO is an output: ENO => variable");
 }
 
+// A POU the task does not run is compiled all the same, on its own (a library
+// file, a second program), and what does not compile there is a warning that
+// names it at the error's place: "OK" no longer hides an undeclared name in
+// code nothing calls. A VAR_IN_OUT gets a variable of its type for the check.
+TEST(StFile, pous_no_task_runs_are_compiled_and_their_errors_are_warnings) {
+  const char* src = R"(FUNCTION Fbad : INT
+  VAR_INPUT a : INT; END_VAR
+  Fbad := a + nosuch;
+END_FUNCTION
+FUNCTION_BLOCK Acc
+  VAR_IN_OUT total : DINT; END_VAR
+  VAR_INPUT x : DINT; END_VAR
+  total := total + x;
+END_FUNCTION_BLOCK
+FUNCTION_BLOCK Broken
+  VAR_INPUT a : INT; END_VAR
+  b := a;
+END_FUNCTION_BLOCK
+PROGRAM Other
+  VAR y : INT; END_VAR
+  y := undeclared_thing;
+END_PROGRAM
+PROGRAM Main
+  VAR y : INT; END_VAR
+  y := y + 1;
+END_PROGRAM
+CONFIGURATION C
+  RESOURCE R ON PLC
+    TASK t(INTERVAL := T#100ms, PRIORITY := 0);
+    PROGRAM i WITH t : Main;
+  END_RESOURCE
+END_CONFIGURATION
+)";
+  const CompileResult r = compile_source(src);
+  ASSERT_TRUE(r.ok()) << r.diags.render("u.st", src);
+  std::vector<std::string> said;
+  for (const Diagnostic& d : r.diags.items()) {
+    if (d.severity == Severity::kWarning)
+      said.push_back(std::to_string(d.pos.line) + ":" + std::to_string(d.pos.col) + ": " + d.message);
+  }
+  ASSERT_EQ(said.size(), 3u) << r.diags.render("u.st", src);  // Acc compiles: no word about it
+  EXPECT_EQ(said[0], "3:15: function 'Fbad' (not run by this task) does not compile: 'nosuch' is not a variable of POU 'Fbad'");
+  EXPECT_EQ(said[1].substr(0, 57), "12:3: function block 'Broken' (not run by this task) does");
+  EXPECT_EQ(said[2].substr(0, 51), "16:8: program 'Other' (not run by this task) does n");
+}
+
 TEST(StFile, an_array_of_function_blocks_calls_the_element_an_index_names_at_run_time) {
   const char* src = R"(FUNCTION_BLOCK Acc
 VAR_INPUT x : INT; END_VAR
