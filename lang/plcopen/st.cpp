@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <cctype>
+#include <set>
+#include <string>
 
 #include "lang/plcopen/project.h"
 
@@ -92,6 +94,7 @@ std::vector<Tok> lex(std::string_view s, const XmlElement& origin, DiagnosticLis
     t.offset = i;
     t.pos = pm.at(i);
     const size_t b = i;
+    size_t blanks_from = 0, blanks_to = 0;  // blanks inside a duration literal
     if (c == '%' && i + 1 < s.size() && std::isalpha(static_cast<unsigned char>(s[i + 1]))) {
       // A directly represented variable: %IX0.0, %QW3, %MD10.
       ++i;
@@ -104,7 +107,19 @@ std::vector<Tok> lex(std::string_view s, const XmlElement& origin, DiagnosticLis
       if (i < s.size() && s[i] == '#') {  // T#1s, INT#5, BOOL#TRUE, WORD#16#F0F0
         // D#2024-01-15, TOD#12:30:15, DT#2024-01-15-12:30:15: '-' and ':' belong to the literal.
         const bool date = date_literal_type(s.substr(b, i - b)).has_value();
+        const std::string prefix = upper(s.substr(b, i - b));
         ++i;
+        // `T# 30000ms`, as OpenPLC Editor writes some durations: the blanks
+        // after a duration's '#' are no part of it (dropped from the text below).
+        if (prefix == "T" || prefix == "TIME") {
+          size_t k = i;
+          while (k < s.size() && (s[k] == ' ' || s[k] == '\t')) ++k;
+          if (k > i && k < s.size() && (std::isdigit(static_cast<unsigned char>(s[k])) || s[k] == '-')) {
+            blanks_from = i;
+            blanks_to = k;
+            i = k;
+          }
+        }
         while (i < s.size() && (ident_char(s[i]) || s[i] == '.' || s[i] == '-' || s[i] == '+' || s[i] == '#' ||
                                 (date && s[i] == ':'))) {
           if ((s[i] == '-' || s[i] == '+') && !date && !(s[i - 1] == 'e' || s[i - 1] == 'E' || s[i - 1] == '#'))
@@ -136,6 +151,7 @@ std::vector<Tok> lex(std::string_view s, const XmlElement& origin, DiagnosticLis
       }
     }
     t.text.assign(s.substr(b, i - b));
+    if (blanks_to > blanks_from) t.text.erase(blanks_from - b, blanks_to - blanks_from);
     t.up = upper(t.text);
     out.push_back(std::move(t));
   }
@@ -197,6 +213,36 @@ class Parser {
 
   bool at_end() const { return t_[i_].t == Tok::T::kEnd; }
   bool failed() const { return failed_; }
+
+  // `inst.ENO` (OpenPLC Editor: `TOF0(EN := TON0.ENO, ...)`): an instance
+  // whose calls give no EN always runs, so its ENO is TRUE; one called with EN
+  // somewhere is refused there (its ENO would be the last call's EN).
+  void resolve_eno(Block& b) {
+    for (auto& st : b) {
+      for (auto& x : st->target_index) eno_in(x);
+      eno_in(st->value);
+      eno_in(st->from);
+      eno_in(st->to);
+      eno_in(st->by);
+      for (auto& [c, body] : st->branches) {
+        eno_in(c);
+        resolve_eno(body);
+      }
+      for (CaseBranch& cb : st->cases) {
+        for (auto& [lo, hi] : cb.labels) {
+          eno_in(lo);
+          eno_in(hi);
+        }
+        resolve_eno(cb.body);
+      }
+      resolve_eno(st->else_body);
+      resolve_eno(st->body);
+      for (CallArg& a : st->call_args) {
+        eno_in(a.value);
+        for (auto& x : a.target_index) eno_in(x);
+      }
+    }
+  }
 
  private:
   const Tok& peek(size_t k = 0) const { return t_[i_ + k < t_.size() ? i_ + k : t_.size() - 1]; }
@@ -326,6 +372,7 @@ class Parser {
       // EN: the call happens only when it holds (IF EN THEN call END_IF).
       std::unique_ptr<Expr> en = take_en_eno(s->call_args, s->pos);
       if (failed_ || !en) return s;
+      en_called_.insert(upper(s->target));
       auto w = std::make_unique<Stmt>();
       w->kind = Stmt::Kind::kIf;
       w->pos = s->pos;
@@ -708,6 +755,25 @@ class Parser {
   }
   static bool is_true(const Expr& x) { return x.kind == Expr::Kind::kLiteral && x.is_bool && x.k != 0; }
 
+  void eno_in(std::unique_ptr<Expr>& x) {
+    if (!x || failed_) return;
+    for (auto& a : x->args) eno_in(a);
+    if (x->kind != Expr::Kind::kName || x->name.size() < 5) return;
+    const std::string up = upper(x->name);
+    if (up.compare(up.size() - 4, 4, ".ENO") != 0) return;
+    const std::string inst = up.substr(0, up.size() - 4);
+    if (en_called_.count(inst)) {
+      error(x->pos, "'" + x->name + "': the ENO of an instance called with EN is not supported yet; read the EN "
+                    "condition itself");
+      return;
+    }
+    x->kind = Expr::Kind::kLiteral;
+    x->is_bool = true;
+    x->k = 1;
+    x->args.clear();
+    x->name.clear();
+  }
+
   // Takes EN (an input) and ENO (an output) out of a call's arguments, as
   // OpenPLC Editor and Beremiz write them for a block with EN/ENO: returns the
   // EN expression unless there is none or it is the constant TRUE, and queues
@@ -755,6 +821,7 @@ class Parser {
   std::vector<Tok> t_;
   DiagnosticList& d_;
   size_t i_ = 0;
+  std::set<std::string> en_called_;  // instances some call statement gives EN (upper-case)
   std::vector<std::unique_ptr<Stmt>> pending_eno_;  // `ok := EN` for `ENO => ok` (take_en_eno)
   int depth_ = 0;
   int nesting_ = 0;
@@ -771,6 +838,7 @@ Block parse_st(std::string_view text, const XmlElement& origin, DiagnosticList& 
   Parser p(std::move(toks), diags);
   Block b = p.statements({});
   if (!p.failed() && !p.at_end()) diags.error(SourcePos{}, "unexpected text after the statements");
+  if (!p.failed()) p.resolve_eno(b);
   return b;
 }
 

@@ -381,6 +381,28 @@ END_PROGRAM
   EXPECT_EQ(h.value("Main.big"), 1);
   h.step();  // CU stays TRUE: no new edge
   EXPECT_EQ(h.value("Main.n"), 1);
+  // ENO of an instance called without EN is TRUE (OpenPLC Editor chains TOF0(EN := TON0.ENO, ...));
+  // of one called with EN, refused where it is read.
+  {
+    const char* chain = R"(PROGRAM Main
+VAR go AT %IX0.0 : BOOL; a : TON; b : TON; q : BOOL; d : TIME; END_VAR
+  d := T# 20ms;
+  a(IN := go, PT := d);
+  b(EN := a.ENO, IN := a.Q, PT := T#10ms);
+  q := b.Q;
+END_PROGRAM
+)";
+    FbdHarness c(chain, 0.01, true, true);
+    ASSERT_TRUE(c.ok()) << c.result().diags.render("chain.st", chain);
+    c.set("go", 1);
+    c.step(4);  // a.Q from 20 ms (cycle 2), b.Q 10 ms later (cycle 3)
+    EXPECT_EQ(c.value("Main.q"), 1);
+    EXPECT_EQ(c.value("Main.d"), 0.02);  // `T# 20ms`, as OpenPLC Editor writes some durations
+  }
+  EXPECT_EQ(first_error("PROGRAM P VAR a, b : TON; go : BOOL; END_VAR\na(EN := go, IN := TRUE);\nb(EN := a.ENO);\n"
+                        "END_PROGRAM")
+                .substr(0, 60),
+            "3:9: 'a.ENO': the ENO of an instance called with EN is not s");
   EXPECT_EQ(first_error("PROGRAM P VAR y : INT; END_VAR\ny := ABS(EN => y, IN := 1);\nEND_PROGRAM"),
             "2:10: EN is an input: EN := condition");
   EXPECT_EQ(first_error("PROGRAM P VAR y : INT; END_VAR\ny := ABS(ENO := TRUE, IN := 1);\nEND_PROGRAM"),
