@@ -166,6 +166,17 @@ static void bind_in_outs(Scope& scope, const std::string& callee,
     }
     it->second->alias = var;
   }
+  // Every VAR_IN_OUT needs the caller's variable, named at the call (not
+  // later, at its first use inside the callee's body).
+  for (const Variable& decl : scope.pou->vars) {
+    if (decl.section != VarSection::kInOut) continue;
+    const bool given = std::any_of(inouts.begin(), inouts.end(),
+                                   [&](const auto& io) { return upper(io.first) == upper(decl.name); });
+    if (!given) {
+      d.error(pos, callee + " has VAR_IN_OUT '" + decl.name + "', and this call passes no variable for it: pass one (" +
+                       decl.name + " := a_variable)");
+    }
+  }
 }
 
 std::optional<Value> Lowering::call_function(Scope& s, const std::string& name, std::vector<Value> args,

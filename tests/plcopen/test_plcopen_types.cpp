@@ -268,7 +268,9 @@ TEST(PlcopenTypes, var_in_out_passes_the_callers_variable) {
                            var("n", "INT") + "</localVars>";
   EXPECT_NE(first_error(project(kNs201, bump + st_program(vars, "b1(x := n + 1);"))).find("needs a variable, not an expression"),
             std::string::npos);
-  EXPECT_NE(first_error(project(kNs201, bump + st_program(vars, "b1(step := 1);"))).find("'x' is VAR_IN_OUT and this call passes no variable"),
+  // Named at the call, not at the first use inside the block's body.
+  EXPECT_NE(first_error(project(kNs201, bump + st_program(vars, "b1(step := 1);")))
+                .find("function block 'Bump' has VAR_IN_OUT 'x', and this call passes no variable for it"),
             std::string::npos);
   EXPECT_NE(first_error(project(kNs201, bump + st_program(vars, "b1(x := i);"))).find("'i' is an input"),
             std::string::npos);

@@ -679,6 +679,11 @@ TEST(StFile, refuses_what_it_cannot_run_at_its_position_naming_it) {
   EXPECT_EQ(first_error("PROGRAM P\n  VAR x : INT;\n").substr(0, 35), "2:3: VAR is never closed by END_VAR");
   EXPECT_EQ(first_error("PROGRAM P\n  VAR x : INT; END_VAR\n  x := 1;\n").substr(0, 38),
             "1:1: PROGRAM P is never closed by END_");
+  // A VAR_IN_OUT the call does not pass is named at the call.
+  EXPECT_EQ(first_error("FUNCTION_BLOCK F VAR_IN_OUT v : INT; END_VAR v := v + 1; END_FUNCTION_BLOCK\n"
+                        "PROGRAM Main VAR x : F; END_VAR\nx();\nEND_PROGRAM")
+                .substr(0, 61),
+            "3:1: function block 'F' has VAR_IN_OUT 'v', and this call pas");
   EXPECT_EQ(first_error("PROGRAM P VAR go : BOOL; END_VAR\n  INITIAL_STEP S1: END_STEP\nEND_PROGRAM").substr(0, 50),
             "2:3: INITIAL_STEP S1: textual SFC (INITIAL_STEP, S");
   EXPECT_EQ(first_error("PROGRAM P VAR go : BOOL; END_VAR\n  TRANSITION FROM S1 TO S2 := go; END_TRANSITION\nEND_PROGRAM")
