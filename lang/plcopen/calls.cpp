@@ -159,11 +159,6 @@ static void bind_in_outs(Scope& scope, const std::string& callee,
       d.error(pos, callee + " has no VAR_IN_OUT '" + formal + "'");
       continue;
     }
-    if (var->role == Var::Role::kInput) {
-      d.error(pos, "'" + var->decl->name + "' is an input (" + var->decl->address + "): it cannot be passed as VAR_IN_OUT '" +
-                       formal + "', which the callee may write");
-      continue;
-    }
     it->second->alias = var;
   }
   // Every VAR_IN_OUT needs the caller's variable, named at the call (not

@@ -964,9 +964,14 @@ Value Lowering::read(Var& v, SourcePos pos) {
 }
 
 void Lowering::assign(Var& v, Value value, SourcePos pos) {
-  if (v.role == Var::Role::kInput) {
-    d_.error(pos, "'" + v.decl->name + "' is an input (" + v.decl->address + "): the program cannot write it");
-    return;
+  if (v.role == Var::Role::kInput && written_inputs_.insert(&v).second) {
+    // MatIEC's programs write through the pointer into the input image, which
+    // the runtime fills again before the next cycle: what is written lasts for
+    // the rest of this cycle. So here: later reads in the cycle see it, the
+    // next cycle reads the input again (no copy block keeps it).
+    out_.notes.push_back("'" + v.decl->name + "' is an input (" + v.decl->address + ") the program writes (line " +
+                         std::to_string(pos.line) + "): what it writes lasts until the next cycle reads the input "
+                         "again, as in MatIEC (OpenPLC, Beremiz)");
   }
   if (v.role == Var::Role::kUserFb || v.role == Var::Role::kStdFb) {
     d_.error(pos, "'" + v.decl->name + "' is a function block instance and cannot be assigned");

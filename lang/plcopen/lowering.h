@@ -303,6 +303,7 @@ class Lowering {
   SourcePos trigger_pos_;
   EditorSemantics semantics_ = EditorSemantics::kMatiec;
   std::set<const Pou*> lowered_pous_;
+  std::set<const Var*> written_inputs_;  // inputs the program writes (noted once each)
 };
 
 // A path as the user wrote it, near enough: "a[#1].x" -> "a[...].x".

@@ -272,8 +272,9 @@ TEST(PlcopenTypes, var_in_out_passes_the_callers_variable) {
   EXPECT_NE(first_error(project(kNs201, bump + st_program(vars, "b1(step := 1);")))
                 .find("function block 'Bump' has VAR_IN_OUT 'x', and this call passes no variable for it"),
             std::string::npos);
-  EXPECT_NE(first_error(project(kNs201, bump + st_program(vars, "b1(x := i);"))).find("'i' is an input"),
-            std::string::npos);
+  // An input passed as VAR_IN_OUT may be written, as in MatIEC, until the next cycle reads it
+  // again (tests/st/test_st_file.cpp, a_program_may_write_its_input_until_the_next_cycle).
+  EXPECT_TRUE(compile_source(project(kNs201, bump + st_program(vars, "b1(x := i);"))).ok());
 }
 
 // Whole structures and arrays: assigned member by member, and passed to and

@@ -455,6 +455,46 @@ END_CONFIGURATION
   EXPECT_EQ(said[2].substr(0, 51), "16:8: program 'Other' (not run by this task) does n");
 }
 
+// A program may write a located input, as MatIEC's write into the input image
+// (OpenPLC programs do): later reads in the cycle see what it wrote, and the
+// next cycle reads the input again. Noted in --explain.
+TEST(StFile, a_program_may_write_its_input_until_the_next_cycle) {
+  const char* src = R"(FUNCTION_BLOCK Bump
+VAR_IN_OUT v : INT; END_VAR
+  v := v + 100;
+END_FUNCTION_BLOCK
+PROGRAM Main
+VAR
+  x AT %IX0.0 : BOOL;
+  n AT %IW0 : INT;
+  before, after : BOOL;
+  n1, n2 : INT;
+  b : Bump;
+END_VAR
+  before := x;
+  x := TRUE;
+  after := x;
+  n1 := n;
+  b(v := n);
+  n2 := n;
+END_PROGRAM
+)";
+  FbdHarness h(src, 0.01, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("w.st", src);
+  bool noted = false;
+  for (const std::string& note : h.result().program.notes) noted = noted || note.find("'x' is an input (%IX0.0)") == 0;
+  EXPECT_TRUE(noted);
+  h.set("x", 0);
+  h.set("n", 5);
+  for (int k = 0; k < 2; ++k) {
+    h.step();
+    EXPECT_EQ(h.value("Main.before"), 0) << "the input, read again each cycle";
+    EXPECT_EQ(h.value("Main.after"), 1);
+    EXPECT_EQ(h.value("Main.n1"), 5);
+    EXPECT_EQ(h.value("Main.n2"), 105);
+  }
+}
+
 TEST(StFile, an_array_of_function_blocks_calls_the_element_an_index_names_at_run_time) {
   const char* src = R"(FUNCTION_BLOCK Acc
 VAR_INPUT x : INT; END_VAR
