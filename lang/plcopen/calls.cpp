@@ -520,6 +520,7 @@ Value Lowering::active(SourcePos pos) {
 
 bool Lowering::finish() {
   if (globals_) finalize(*globals_);
+  for (auto& [fb, v] : eno_vars_) finalize_var(*v);
   for (const EdgeMemory& m : edge_memories_) em_.copy_as(m.value, m.name, m.pos);
   for (const PendingOutput& po : pending_outputs_) {
     const std::string n = po.fb->path + "." + po.name;

@@ -585,6 +585,10 @@ std::vector<Place> Lowering::places(Scope& s, const std::string& path,
                               "': use the variable passed for it");
             return {};
           }
+          if (it == b->fb->vars.end() && b->role == Var::Role::kUserFb && upper(name) == "ENO") {
+            nx.push_back(Place{p.when, &eno_var(*b), {}, p.in_instance});
+            continue;
+          }
           if (it == b->fb->vars.end()) {
             d_.error(pos, "'" + path + "': " +
                               (b->role == Var::Role::kStruct ? "structure '" + b->decl->name + "' has no member '"
@@ -594,6 +598,8 @@ std::vector<Place> Lowering::places(Scope& s, const std::string& path,
             return {};
           }
           nx.push_back(Place{p.when, it->second.get(), {}, p.in_instance || b->role == Var::Role::kUserFb});
+        } else if (b->role == Var::Role::kStdFb && upper(name) == "ENO") {
+          nx.push_back(Place{p.when, &eno_var(*b), {}, p.in_instance});
         } else if (b->role == Var::Role::kStdFb) {
           nx.push_back(Place{p.when, b, upper(name), p.in_instance});
         } else {
@@ -1173,6 +1179,23 @@ bool Lowering::drives_output(Var& v) {
   }
   outputs_.push_back(&v);
   return true;
+}
+
+Var& Lowering::eno_var(const Var& fb) {
+  auto it = eno_vars_.find(&fb);
+  if (it != eno_vars_.end()) return *it->second;
+  // A function block instance's ENO: TRUE until a call with EN sets it to
+  // that EN (the ST parser writes `inst.ENO := EN` after such a call); kept
+  // across cycles like any variable (finish() finalizes it).
+  auto decl = std::make_unique<Variable>();
+  decl->name = fb.decl->name + ".ENO";
+  decl->type.base = BaseType::kBool;
+  decl->initial = "TRUE";
+  decl->pos = fb.decl->pos;
+  auto v = make_var(*decl, fb.path + ".ENO", 0, false);
+  all_vars_.push_back(v.get());
+  owned_decls_.push_back(std::move(decl));
+  return *eno_vars_.emplace(&fb, std::move(v)).first->second;
 }
 
 void Lowering::program_instance(const Pou& pou, const std::string& path) {

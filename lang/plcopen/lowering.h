@@ -304,6 +304,9 @@ class Lowering {
   EditorSemantics semantics_ = EditorSemantics::kMatiec;
   std::set<const Pou*> lowered_pous_;
   std::set<const Var*> written_inputs_;  // inputs the program writes (noted once each)
+  // inst.ENO of function block instances (eno_var), made when first named.
+  Var& eno_var(const Var& fb);
+  std::map<const Var*, std::unique_ptr<Var>> eno_vars_;
 };
 
 // A path as the user wrote it, near enough: "a[#1].x" -> "a[...].x".

@@ -218,6 +218,24 @@ class Parser {
   // whose calls give no EN always runs, so its ENO is TRUE; one called with EN
   // somewhere is refused there (its ENO would be the last call's EN).
   void resolve_eno(Block& b) {
+    for (size_t k = 0; k < b.size(); ++k) {
+      // A call without EN of an instance some other call gives EN: its ENO is TRUE again.
+      Stmt& c = *b[k];
+      if (c.kind == Stmt::Kind::kCall && !c.en_gated && en_called_.count(upper(c.target))) {
+        auto eno = std::make_unique<Stmt>();
+        eno->kind = Stmt::Kind::kAssign;
+        eno->pos = c.pos;
+        eno->target = c.target + ".ENO";
+        for (const auto& x : c.target_index) eno->target_index.push_back(clone(*x));
+        eno->value = std::make_unique<Expr>();
+        eno->value->kind = Expr::Kind::kLiteral;
+        eno->value->pos = c.pos;
+        eno->value->is_bool = true;
+        eno->value->k = 1;
+        b.insert(b.begin() + static_cast<std::ptrdiff_t>(k) + 1, std::move(eno));
+        ++k;
+      }
+    }
     for (auto& st : b) {
       for (auto& x : st->target_index) eno_in(x);
       eno_in(st->value);
@@ -372,7 +390,17 @@ class Parser {
       // EN: the call happens only when it holds (IF EN THEN call END_IF).
       std::unique_ptr<Expr> en = take_en_eno(s->call_args, s->pos);
       if (failed_ || !en) return s;
+      // inst.ENO is that EN (after the IF; resolve_eno keeps it TRUE after a
+      // call of the same instance without EN).
       en_called_.insert(upper(s->target));
+      s->en_gated = true;
+      auto eno = std::make_unique<Stmt>();
+      eno->kind = Stmt::Kind::kAssign;
+      eno->pos = s->pos;
+      eno->target = s->target + ".ENO";
+      for (const auto& x : s->target_index) eno->target_index.push_back(clone(*x));
+      eno->value = clone(*en);
+      pending_eno_.push_back(std::move(eno));
       auto w = std::make_unique<Stmt>();
       w->kind = Stmt::Kind::kIf;
       w->pos = s->pos;
@@ -762,11 +790,7 @@ class Parser {
     const std::string up = upper(x->name);
     if (up.compare(up.size() - 4, 4, ".ENO") != 0) return;
     const std::string inst = up.substr(0, up.size() - 4);
-    if (en_called_.count(inst)) {
-      error(x->pos, "'" + x->name + "': the ENO of an instance called with EN is not supported yet; read the EN "
-                    "condition itself");
-      return;
-    }
+    if (en_called_.count(inst)) return;  // the EN of its last call (the lowering's inst.ENO)
     x->kind = Expr::Kind::kLiteral;
     x->is_bool = true;
     x->k = 1;

@@ -66,6 +66,7 @@ struct Stmt {
   std::unique_ptr<Expr> from, to, by;  // for
   Block body;                          // for, while, repeat
   std::vector<CallArg> call_args;      // call
+  bool en_gated = false;               // call: its EN made it the body of an IF (`IF en THEN call`)
 };
 
 // Parses an ST statement list. `origin` is the element holding the text (for

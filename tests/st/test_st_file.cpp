@@ -399,10 +399,41 @@ END_PROGRAM
     EXPECT_EQ(c.value("Main.q"), 1);
     EXPECT_EQ(c.value("Main.d"), 0.02);  // `T# 20ms`, as OpenPLC Editor writes some durations
   }
-  EXPECT_EQ(first_error("PROGRAM P VAR a, b : TON; go : BOOL; END_VAR\na(EN := go, IN := TRUE);\nb(EN := a.ENO);\n"
-                        "END_PROGRAM")
-                .substr(0, 60),
-            "3:9: 'a.ENO': the ENO of an instance called with EN is not s");
+  // ENO of an instance called with EN is that call's EN, kept until its next call (a call
+  // without EN sets it TRUE again); before any call, TRUE.
+  {
+    const char* gated = R"(PROGRAM Main
+VAR go AT %IX0.0 : BOOL; mode AT %IX0.1 : BOOL; a : CTU; c : CTU; e0, e1, e3 : BOOL; n : INT; END_VAR
+  e0 := a.ENO;
+  IF mode THEN a(EN := go, CU := TRUE, PV := 5); ELSE a(CU := FALSE, PV := 5); END_IF;
+  e1 := a.ENO;
+  c(EN := a.ENO, CU := TRUE, PV := 5);
+  n := c.CV;
+  e3 := c.ENO;
+END_PROGRAM
+)";
+    FbdHarness g(gated, 0.01, true, true);
+    ASSERT_TRUE(g.ok()) << g.result().diags.render("gated.st", gated);
+    g.set("mode", 1);
+    g.set("go", 0);
+    g.step();
+    EXPECT_EQ(g.value("Main.e0"), 1);  // never called yet: TRUE
+    EXPECT_EQ(g.value("Main.e1"), 0);
+    EXPECT_EQ(g.value("Main.n"), 0);  // c not called
+    EXPECT_EQ(g.value("Main.e3"), 0);
+    g.step();
+    EXPECT_EQ(g.value("Main.e0"), 0);  // kept from the cycle before
+    g.set("mode", 0);
+    g.step();  // the call without EN: ENO TRUE again, so c runs
+    EXPECT_EQ(g.value("Main.e1"), 1);
+    EXPECT_EQ(g.value("Main.n"), 1);
+    EXPECT_EQ(g.value("Main.e3"), 1);
+    g.set("mode", 1);
+    g.set("go", 1);
+    g.step();
+    EXPECT_EQ(g.value("Main.e1"), 1);
+    EXPECT_EQ(g.value("Main.n"), 1);
+  }
   EXPECT_EQ(first_error("PROGRAM P VAR y : INT; END_VAR\ny := ABS(EN => y, IN := 1);\nEND_PROGRAM"),
             "2:10: EN is an input: EN := condition");
   EXPECT_EQ(first_error("PROGRAM P VAR y : INT; END_VAR\ny := ABS(ENO := TRUE, IN := 1);\nEND_PROGRAM"),
