@@ -208,6 +208,11 @@ class Parser {
   std::unique_ptr<Expr> whole_expression() {
     auto e = expression();
     if (!failed_ && !at_end()) error(peek().pos, "unexpected '" + peek().text + "' after the expression");
+    // An expression alone (an FBD variable, an SFC condition) has no statement to
+    // put `ok := EN` after.
+    if (!failed_ && !pending_eno_.empty()) {
+      error(pending_eno_.front()->pos, "ENO => is allowed in a statement's calls only, not in an expression alone");
+    }
     return e;
   }
 
