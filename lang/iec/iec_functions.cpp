@@ -418,10 +418,13 @@ IecType bit_string_of(uint8_t bits) {
 // else from the operand's (a literal: 64 bits).
 Out lower_bcd_to(const IecFunction& f, Emitter& e, const IecCall& c) {
   const IecType from = f.typed ? f.from : c.type;
-  const uint8_t bits = type_info(from).bit_string ? type_info(from).bits : 64;
+  // The operand's width: its bit string's, or its integer type's (an INT read
+  // from %IW0 holds 16 bits); 64 for a literal.
+  const uint8_t bits = type_info(from).integer ? type_info(from).bits : 64;
   const double w = bits;
-  const uint32_t x = e.block("band", {e.analog_or_zero(arg(c, 0)), e.constant(std::ldexp(1.0, bits) - 1.0, Kind::kAnalog)},
-                             {w});
+  // Its bits as an unsigned number of that width (a 64-bit mask is no double:
+  // band reads the operand modulo 2^bits by itself).
+  const uint32_t x = e.block("band", {e.analog_or_zero(arg(c, 0)), e.analog_or_zero(arg(c, 0))}, {w});
   const uint32_t fifteen = e.constant(15, Kind::kAnalog), ten = e.constant(10, Kind::kAnalog);
   uint32_t sum = kUnconnected, bad = kUnconnected;
   double scale = 1;

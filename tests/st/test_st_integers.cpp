@@ -168,6 +168,21 @@ END_PROGRAM
   EXPECT_EQ(h.value("Main.z"), 0);
   EXPECT_EQ(h.value("Main.u"), 0x1234);
   EXPECT_EQ(h.value("Main.q"), 0x23);  // two nibbles: the hundreds are dropped
+  // A literal (64 bits) and an INT (16 bits, its width) as the operand.
+  const char* wide = R"(PROGRAM Main
+VAR raw AT %IW0 : INT; a, b, c : DINT; END_VAR
+  a := BCD_TO_DINT(16#1234);
+  b := BCD_TO_DINT(raw);
+  c := LWORD_BCD_TO_DINT(16#98765432);
+END_PROGRAM
+)";
+  FbdHarness w(wide, 0.01, true, true);
+  ASSERT_TRUE(w.ok()) << w.result().diags.render("w.st", wide);
+  w.set("raw", 0x4321);
+  w.step();
+  EXPECT_EQ(w.value("Main.a"), 1234);
+  EXPECT_EQ(w.value("Main.b"), 4321);
+  EXPECT_EQ(w.value("Main.c"), 98765432);
 }
 
 }  // namespace
