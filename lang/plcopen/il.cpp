@@ -166,7 +166,8 @@ void Lowering::lower_il(Scope& s, const Body& body) {
     }
     if (conditional()) (void)active(body_pos);
     for (Var* v : vs) {
-      if (v->role != Var::Role::kPlain || (v->decl && v->decl->constant)) continue;
+      // A located input the body writes too (MatIEC's: lasts until the next cycle).
+      if ((v->role != Var::Role::kPlain && v->role != Var::Role::kInput) || (v->decl && v->decl->constant)) continue;
       homes.emplace_back(v, make_home(v->path, v->digital, v->integer, body_pos));
     }
   }

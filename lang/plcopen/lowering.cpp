@@ -404,7 +404,6 @@ std::unique_ptr<Var> Lowering::hmi_var(std::unique_ptr<Var> v, bool in_function)
 }
 
 std::unique_ptr<Scope> Lowering::make_scope(const Pou& pou, const std::string& path, int depth) {
-  lowered_pous_.insert(&pou);
   auto s = std::make_unique<Scope>();
   s->path = path;
   s->pou = &pou;
@@ -1072,7 +1071,10 @@ void Lowering::restore(const std::vector<std::optional<Value>>& st) {
 
 // ---- bodies ----
 
-void Lowering::lower_body(Scope& s) { lower_body_of(s, s.pou->body); }
+void Lowering::lower_body(Scope& s) {
+  lowered_pous_.insert(s.pou);  // its body compiled: check_unreached need not
+  lower_body_of(s, s.pou->body);
+}
 
 void Lowering::lower_body_of(Scope& s, const Body& b) {
   switch (b.language) {

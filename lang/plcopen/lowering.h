@@ -219,7 +219,8 @@ class Lowering {
   std::vector<Var*> vars_for_merge() const { return all_vars_; }
 
   Emitter& em() { return em_; }
-  // The POUs whose bodies were lowered (program instances, FB instances, function calls).
+  // The POUs whose bodies were lowered (program instances, FB instances called,
+  // function calls); an FB instance declared and never called is not one.
   const std::set<const Pou*>& lowered_pous() const { return lowered_pous_; }
   DiagnosticList& diags() { return d_; }
   const Project& project() const { return proj_; }

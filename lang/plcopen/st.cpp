@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <optional>
 #include <set>
 #include <string>
 
@@ -187,12 +188,14 @@ class Parser {
       const size_t pending = pending_eno_.size();
       auto s = statement();
       if (failed_) break;
-      if (s) out.push_back(std::move(s));
-      // `ENO => ok` of the calls in this statement: ok := EN after it.
+      // `ENO => ok` of the calls in this statement: ok := EN, put before it, so
+      // EN is read as the call reads it (the statement changes nothing before
+      // its calls run) and the statement's own code already sees ok.
       while (pending_eno_.size() > pending) {
         out.push_back(std::move(pending_eno_[pending]));
         pending_eno_.erase(pending_eno_.begin() + static_cast<std::ptrdiff_t>(pending));
       }
+      if (s) out.push_back(std::move(s));
       if (!at_end() && !(peek().t == Tok::T::kOp && peek().text == ";")) {
         bool ender = false;
         for (const char* e : enders) ender = ender || (peek().t == Tok::T::kIdent && peek().up == e);
@@ -219,9 +222,10 @@ class Parser {
   bool at_end() const { return t_[i_].t == Tok::T::kEnd; }
   bool failed() const { return failed_; }
 
-  // `inst.ENO` (OpenPLC Editor: `TOF0(EN := TON0.ENO, ...)`): an instance
-  // whose calls give no EN always runs, so its ENO is TRUE; one called with EN
-  // somewhere is refused there (its ENO would be the last call's EN).
+  // `inst.ENO` (OpenPLC Editor: `TOF0(EN := TON0.ENO, ...)`) is the lowering's
+  // (Lowering::eno_var: TRUE until a call with EN writes its EN). A call
+  // without EN of an instance that some call in this body gives EN sets it
+  // TRUE again, as MatIEC's does.
   void resolve_eno(Block& b) {
     for (size_t k = 0; k < b.size(); ++k) {
       // A call without EN of an instance some other call gives EN: its ENO is TRUE again.
@@ -231,6 +235,7 @@ class Parser {
         eno->kind = Stmt::Kind::kAssign;
         eno->pos = c.pos;
         eno->target = c.target + ".ENO";
+        eno->eno_of_call = true;
         for (const auto& x : c.target_index) eno->target_index.push_back(clone(*x));
         eno->value = std::make_unique<Expr>();
         eno->value->kind = Expr::Kind::kLiteral;
@@ -242,28 +247,10 @@ class Parser {
       }
     }
     for (auto& st : b) {
-      for (auto& x : st->target_index) eno_in(x);
-      eno_in(st->value);
-      eno_in(st->from);
-      eno_in(st->to);
-      eno_in(st->by);
-      for (auto& [c, body] : st->branches) {
-        eno_in(c);
-        resolve_eno(body);
-      }
-      for (CaseBranch& cb : st->cases) {
-        for (auto& [lo, hi] : cb.labels) {
-          eno_in(lo);
-          eno_in(hi);
-        }
-        resolve_eno(cb.body);
-      }
+      for (auto& [c, body] : st->branches) resolve_eno(body);
+      for (CaseBranch& cb : st->cases) resolve_eno(cb.body);
       resolve_eno(st->else_body);
       resolve_eno(st->body);
-      for (CallArg& a : st->call_args) {
-        eno_in(a.value);
-        for (auto& x : a.target_index) eno_in(x);
-      }
     }
   }
 
@@ -392,24 +379,42 @@ class Parser {
       ++i_;
       call_arguments(s->call_args);
       if (failed_) return nullptr;
-      // EN: the call happens only when it holds (IF EN THEN call END_IF).
-      std::unique_ptr<Expr> en = take_en_eno(s->call_args, s->pos);
+      // EN: the call happens only when it holds, EN read once:
+      //   IF en THEN [ok := TRUE;] inst.ENO := TRUE; call
+      //   ELSE [ok := FALSE;] inst.ENO := FALSE; END_IF
+      // (`ok` for `ENO => ok`; inst.ENO is the lowering's, nothing when the
+      // target is a function; resolve_eno sets it TRUE after a call of the
+      // same instance without EN).
+      std::optional<CallArg> eno;
+      std::unique_ptr<Expr> en = take_en_eno(s->call_args, s->pos, &eno);
       if (failed_ || !en) return s;
-      // inst.ENO is that EN (after the IF; resolve_eno keeps it TRUE after a
-      // call of the same instance without EN).
       en_called_.insert(upper(s->target));
       s->en_gated = true;
-      auto eno = std::make_unique<Stmt>();
-      eno->kind = Stmt::Kind::kAssign;
-      eno->pos = s->pos;
-      eno->target = s->target + ".ENO";
-      for (const auto& x : s->target_index) eno->target_index.push_back(clone(*x));
-      eno->value = clone(*en);
-      pending_eno_.push_back(std::move(eno));
+      auto set = [&](const std::string& target, const std::vector<std::unique_ptr<Expr>>& index, bool value,
+                     bool of_call) {
+        auto st = std::make_unique<Stmt>();
+        st->kind = Stmt::Kind::kAssign;
+        st->pos = s->pos;
+        st->target = target;
+        st->eno_of_call = of_call;
+        for (const auto& x : index) st->target_index.push_back(clone(*x));
+        st->value = std::make_unique<Expr>();
+        st->value->kind = Expr::Kind::kLiteral;
+        st->value->pos = s->pos;
+        st->value->is_bool = true;
+        st->value->k = value ? 1 : 0;
+        return st;
+      };
       auto w = std::make_unique<Stmt>();
       w->kind = Stmt::Kind::kIf;
       w->pos = s->pos;
+      w->has_else = true;
       Block body;
+      for (bool taken : {true, false}) {
+        Block& into = taken ? body : w->else_body;
+        if (eno) into.push_back(set(eno->target, eno->target_index, taken, false));
+        into.push_back(set(s->target + ".ENO", s->target_index, taken, true));
+      }
       body.push_back(std::move(s));
       w->branches.emplace_back(std::move(en), std::move(body));
       return w;
@@ -750,7 +755,10 @@ class Parser {
         }
         if (!en) return e;
         // EN false: the function does not run and gives its type's initial
-        // value, 0 (MatIEC's TEST_EN): SEL(EN, 0, f(...)).
+        // value, 0 (MatIEC's TEST_EN): SEL(EN, 0, f(...)). The lowering refuses
+        // it for a function that writes through VAR_IN_OUT or VAR_EXTERNAL,
+        // which SEL would not keep from writing.
+        e->en_guarded = true;
         auto sel = std::make_unique<Expr>();
         sel->kind = Expr::Kind::kCall;
         sel->pos = e->pos;
@@ -783,25 +791,11 @@ class Parser {
     c->name = x.name;
     c->op = x.op;
     c->arg_names = x.arg_names;
+    c->en_guarded = x.en_guarded;
     for (const auto& a : x.args) c->args.push_back(a ? clone(*a) : nullptr);
     return c;
   }
   static bool is_true(const Expr& x) { return x.kind == Expr::Kind::kLiteral && x.is_bool && x.k != 0; }
-
-  void eno_in(std::unique_ptr<Expr>& x) {
-    if (!x || failed_) return;
-    for (auto& a : x->args) eno_in(a);
-    if (x->kind != Expr::Kind::kName || x->name.size() < 5) return;
-    const std::string up = upper(x->name);
-    if (up.compare(up.size() - 4, 4, ".ENO") != 0) return;
-    const std::string inst = up.substr(0, up.size() - 4);
-    if (en_called_.count(inst)) return;  // the EN of its last call (the lowering's inst.ENO)
-    x->kind = Expr::Kind::kLiteral;
-    x->is_bool = true;
-    x->k = 1;
-    x->args.clear();
-    x->name.clear();
-  }
 
   // Takes EN (an input) and ENO (an output) out of a call's arguments, as
   // OpenPLC Editor and Beremiz write them for a block with EN/ENO: returns the
@@ -809,7 +803,8 @@ class Parser {
   // `target := EN` (TRUE without EN) for `ENO => target`, which statements()
   // puts after the statement holding the call. ENO is EN: rtplc's functions
   // never stop on an error of their own.
-  std::unique_ptr<Expr> take_en_eno(std::vector<CallArg>& args, SourcePos pos) {
+  std::unique_ptr<Expr> take_en_eno(std::vector<CallArg>& args, SourcePos pos,
+                                    std::optional<CallArg>* eno_out = nullptr) {
     std::unique_ptr<Expr> en;
     std::optional<CallArg> eno;
     for (size_t k = 0; k < args.size();) {
@@ -827,6 +822,10 @@ class Parser {
       ++k;
     }
     if (en && is_true(*en)) en.reset();
+    if (eno && en && eno_out) {  // a call statement with EN: the caller writes ENO in its IF
+      *eno_out = std::move(eno);
+      return en;
+    }
     if (eno) {
       auto st = std::make_unique<Stmt>();
       st->kind = Stmt::Kind::kAssign;

@@ -29,6 +29,7 @@ struct Expr {
   BinOp op = BinOp::kAdd;
   std::vector<std::unique_ptr<Expr>> args;
   std::vector<std::string> arg_names;  // formal names ("" when informal), per arg
+  bool en_guarded = false;  // kCall: the function of an `f(EN := c, ...)`, which SEL(c, 0, f) wraps
 };
 
 struct CallArg {
@@ -67,6 +68,9 @@ struct Stmt {
   Block body;                          // for, while, repeat
   std::vector<CallArg> call_args;      // call
   bool en_gated = false;               // call: its EN made it the body of an IF (`IF en THEN call`)
+  // assign: `inst.ENO := EN` the parser wrote for a call with EN (or TRUE after
+  // one without); nothing when `inst` is a function, not an instance.
+  bool eno_of_call = false;
 };
 
 // Parses an ST statement list. `origin` is the element holding the text (for

@@ -78,6 +78,21 @@ Value Lowering::eval(Scope& s, const Expr& e) {
       return operate(e.op, a, b, e.pos);
     }
     case Expr::Kind::kCall: {
+      if (e.en_guarded) {
+        // SEL(EN, 0, f(...)) keeps f's value, not its writes: a function that
+        // writes through VAR_IN_OUT or VAR_EXTERNAL would write with EN false.
+        if (const Pou* f = proj_.pou(upper(e.name)); f && f->type == PouType::kFunction) {
+          for (const Variable& v : f->vars) {
+            if (v.section == VarSection::kInOut || v.section == VarSection::kExternal) {
+              d_.error(e.pos, "EN on a call of function '" + f->name + "', which has " +
+                                  (v.section == VarSection::kInOut ? "VAR_IN_OUT" : "VAR_EXTERNAL") + " '" + v.name +
+                                  "', is not supported yet inside an expression (its writes would happen with EN "
+                                  "false); call it as a statement: " + f->name + "(EN := ...);");
+              return constant(0, false);
+            }
+          }
+        }
+      }
       std::vector<Value> args;
       std::vector<std::string> formals;
       std::vector<std::pair<std::string, Var*>> inouts, wholes;
@@ -268,10 +283,17 @@ struct StLowerer {
     return out;
   }
 
+  // `F.ENO := ...` the parser wrote after a call with EN whose target is a
+  // function, not an instance: a function keeps no ENO.
+  bool eno_of_function(const Stmt& st) {
+    return st.eno_of_call && !L.lookup(s, st.target.substr(0, st.target.find_first_of(".[")), st.pos, false);
+  }
+
   Flow statement(const Stmt& st) {
     Emitter& em = L.em();
     switch (st.kind) {
       case Stmt::Kind::kAssign: {
+        if (eno_of_function(st)) break;
         if (Var* dst = st.target_index.empty() ? L.whole_var(s, st.target) : nullptr) {
           // A whole structure or array: member by member, from one of its type.
           Var* src = st.value->kind == Expr::Kind::kName && st.value->args.empty() ? L.whole_var(s, st.value->name)
@@ -508,6 +530,7 @@ struct StLowerer {
       switch (st->kind) {
         case Stmt::Kind::kAssign:
         case Stmt::Kind::kFor:
+          if (eno_of_function(*st)) break;
           name_leaves(st->target, st->pos, written, ws);
           name_leaves(st->target, st->pos, read, rs);
           break;
@@ -581,7 +604,8 @@ struct StLowerer {
     std::vector<Home> homes;
     std::map<const Var*, Lowering::LoopHome> index;
     for (Var* v : written) {
-      if (v->role != Var::Role::kPlain || (v->decl && v->decl->constant)) continue;
+      // A located input the body writes too (MatIEC's: lasts until the next cycle).
+      if ((v->role != Var::Role::kPlain && v->role != Var::Role::kInput) || (v->decl && v->decl->constant)) continue;
       const Value before = L.read(*v, pos);
       Home h = make_home(v->path, v->digital, v->integer, pos);
       h.var = v;

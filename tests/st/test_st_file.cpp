@@ -434,6 +434,43 @@ END_PROGRAM
     EXPECT_EQ(g.value("Main.e1"), 1);
     EXPECT_EQ(g.value("Main.n"), 1);
   }
+  // EN is read once, before the call: ENO reports that the call ran even when the call
+  // itself makes EN false (here, the counter reaching PV sets Q).
+  {
+    const char* once = R"(FUNCTION Inc : INT
+VAR_INPUT a : INT; END_VAR
+  Inc := a + 1;
+END_FUNCTION
+FUNCTION Bump : INT
+VAR_IN_OUT v : INT; END_VAR
+  v := v + 1; Bump := v;
+END_FUNCTION
+PROGRAM Main
+VAR pulse AT %IX0.0 : BOOL; c : CTU; ran, q : BOOL; k, m : INT; END_VAR
+  c(EN := NOT c.Q, CU := pulse, PV := 2, ENO => ran);
+  q := c.Q;
+  Inc(EN := pulse, a := 1);
+  Bump(EN := pulse, v := m);
+END_PROGRAM
+)";
+    FbdHarness o(once, 0.01, true, true);
+    ASSERT_TRUE(o.ok()) << o.result().diags.render("once.st", once);
+    const int pulses[] = {1, 0, 1, 0};
+    const int ran[] = {1, 1, 1, 0};  // the call at cycle 2 reaches PV and ran; then EN is false
+    for (int k = 0; k < 4; ++k) {
+      o.set("pulse", pulses[k]);
+      o.step();
+      EXPECT_EQ(o.value("Main.ran"), ran[k]) << "cycle " << k;
+      EXPECT_EQ(o.value("Main.q"), k >= 2 ? 1 : 0) << "cycle " << k;
+    }
+    EXPECT_EQ(o.value("Main.m"), 2);  // Bump ran in the two cycles with pulse
+  }
+  // Inside an expression, EN on a function that writes through VAR_IN_OUT is refused:
+  // SEL(EN, 0, f) would keep its value but not its writes.
+  EXPECT_EQ(first_error("FUNCTION Bump : INT VAR_IN_OUT v : INT; END_VAR v := v + 1; Bump := v; END_FUNCTION\n"
+                        "PROGRAM P VAR m, y : INT; go : BOOL; END_VAR\ny := Bump(EN := go, v := m);\nEND_PROGRAM")
+                .substr(0, 60),
+            "3:6: EN on a call of function 'Bump', which has VAR_IN_OUT '");
   EXPECT_EQ(first_error("PROGRAM P VAR y : INT; END_VAR\ny := ABS(EN => y, IN := 1);\nEND_PROGRAM"),
             "2:10: EN is an input: EN := condition");
   EXPECT_EQ(first_error("PROGRAM P VAR y : INT; END_VAR\ny := ABS(ENO := TRUE, IN := 1);\nEND_PROGRAM"),
@@ -499,7 +536,7 @@ VAR
   x AT %IX0.0 : BOOL;
   n AT %IW0 : INT;
   before, after : BOOL;
-  n1, n2 : INT;
+  n1, n2, n3, i : INT;
   b : Bump;
 END_VAR
   before := x;
@@ -508,6 +545,9 @@ END_VAR
   n1 := n;
   b(v := n);
   n2 := n;
+  i := 0;
+  WHILE i < 3 DO n := n + 1; i := i + 1; END_WHILE;
+  n3 := n;
 END_PROGRAM
 )";
   FbdHarness h(src, 0.01, true, true);
@@ -523,6 +563,7 @@ END_PROGRAM
     EXPECT_EQ(h.value("Main.after"), 1);
     EXPECT_EQ(h.value("Main.n1"), 5);
     EXPECT_EQ(h.value("Main.n2"), 105);
+    EXPECT_EQ(h.value("Main.n3"), 108);  // written in a real loop too
   }
 }
 

@@ -87,12 +87,13 @@ TEST(StTimers, a_timer_reset_between_two_calls_of_one_cycle_starts_anew) {
 VAR
   go AT %IX0.0 : BOOL;
   t : TON;
-  mid, last : TIME;
+  first, mid, last : TIME;
   i : INT;
 END_VAR
   i := 0;
   REPEAT
     t(IN := go AND i <> 1, PT := T#1s);
+    IF i = 0 THEN first := t.ET; END_IF;
     IF i = 1 THEN mid := t.ET; END_IF;
     last := t.ET;
     i := i + 1;
@@ -104,6 +105,8 @@ END_PROGRAM
   h.set("go", 1);
   for (int k = 0; k < 4; ++k) {
     h.step();
+    // The first call of a cycle sees the cycle the last one started it in, 10 ms ago.
+    EXPECT_NEAR(h.value("Main.first"), k == 0 ? 0 : 0.01, 1e-12) << "cycle " << k;
     EXPECT_EQ(h.value("Main.mid"), 0) << "cycle " << k;
     EXPECT_EQ(h.value("Main.last"), 0) << "cycle " << k << ": restarted by the call with IN low";
   }
