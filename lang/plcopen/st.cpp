@@ -231,18 +231,8 @@ class Parser {
       // A call without EN of an instance some other call gives EN: its ENO is TRUE again.
       Stmt& c = *b[k];
       if (c.kind == Stmt::Kind::kCall && !c.en_gated && en_called_.count(upper(c.target))) {
-        auto eno = std::make_unique<Stmt>();
-        eno->kind = Stmt::Kind::kAssign;
-        eno->pos = c.pos;
-        eno->target = c.target + ".ENO";
-        eno->eno_of_call = true;
-        for (const auto& x : c.target_index) eno->target_index.push_back(clone(*x));
-        eno->value = std::make_unique<Expr>();
-        eno->value->kind = Expr::Kind::kLiteral;
-        eno->value->pos = c.pos;
-        eno->value->is_bool = true;
-        eno->value->k = 1;
-        b.insert(b.begin() + static_cast<std::ptrdiff_t>(k) + 1, std::move(eno));
+        b.insert(b.begin() + static_cast<std::ptrdiff_t>(k) + 1,
+                 assignment(c.target + ".ENO", c.target_index, literal(1, true, c.pos), c.pos, true));
         ++k;
       }
     }
@@ -390,21 +380,6 @@ class Parser {
       if (failed_ || !en) return s;
       en_called_.insert(upper(s->target));
       s->en_gated = true;
-      auto set = [&](const std::string& target, const std::vector<std::unique_ptr<Expr>>& index, bool value,
-                     bool of_call) {
-        auto st = std::make_unique<Stmt>();
-        st->kind = Stmt::Kind::kAssign;
-        st->pos = s->pos;
-        st->target = target;
-        st->eno_of_call = of_call;
-        for (const auto& x : index) st->target_index.push_back(clone(*x));
-        st->value = std::make_unique<Expr>();
-        st->value->kind = Expr::Kind::kLiteral;
-        st->value->pos = s->pos;
-        st->value->is_bool = true;
-        st->value->k = value ? 1 : 0;
-        return st;
-      };
       auto w = std::make_unique<Stmt>();
       w->kind = Stmt::Kind::kIf;
       w->pos = s->pos;
@@ -412,8 +387,9 @@ class Parser {
       Block body;
       for (bool taken : {true, false}) {
         Block& into = taken ? body : w->else_body;
-        if (eno) into.push_back(set(eno->target, eno->target_index, taken, false));
-        into.push_back(set(s->target + ".ENO", s->target_index, taken, true));
+        const double k = taken ? 1 : 0;
+        if (eno) into.push_back(assignment(eno->target, eno->target_index, literal(k, true, s->pos), s->pos, false));
+        into.push_back(assignment(s->target + ".ENO", s->target_index, literal(k, true, s->pos), s->pos, true));
       }
       body.push_back(std::move(s));
       w->branches.emplace_back(std::move(en), std::move(body));
@@ -763,11 +739,8 @@ class Parser {
         sel->kind = Expr::Kind::kCall;
         sel->pos = e->pos;
         sel->name = "SEL";
-        auto zero = std::make_unique<Expr>();
-        zero->kind = Expr::Kind::kLiteral;
-        zero->pos = e->pos;
         sel->args.push_back(std::move(en));
-        sel->args.push_back(std::move(zero));
+        sel->args.push_back(literal(0, false, e->pos));
         sel->args.push_back(std::move(e));
         sel->arg_names = {"G", "IN0", "IN1"};
         return sel;
@@ -796,6 +769,26 @@ class Parser {
     return c;
   }
   static bool is_true(const Expr& x) { return x.kind == Expr::Kind::kLiteral && x.is_bool && x.k != 0; }
+  static std::unique_ptr<Expr> literal(double k, bool is_bool, SourcePos pos) {
+    auto e = std::make_unique<Expr>();
+    e->kind = Expr::Kind::kLiteral;
+    e->pos = pos;
+    e->k = k;
+    e->is_bool = is_bool;
+    return e;
+  }
+  // `target[index] := value`, the assignments the EN/ENO rewrites add.
+  static std::unique_ptr<Stmt> assignment(const std::string& target, const std::vector<std::unique_ptr<Expr>>& index,
+                                          std::unique_ptr<Expr> value, SourcePos pos, bool eno_of_call) {
+    auto st = std::make_unique<Stmt>();
+    st->kind = Stmt::Kind::kAssign;
+    st->pos = pos;
+    st->target = target;
+    st->eno_of_call = eno_of_call;
+    for (const auto& x : index) st->target_index.push_back(clone(*x));
+    st->value = std::move(value);
+    return st;
+  }
 
   // Takes EN (an input) and ENO (an output) out of a call's arguments, as
   // OpenPLC Editor and Beremiz write them for a block with EN/ENO: returns the
@@ -827,21 +820,8 @@ class Parser {
       return en;
     }
     if (eno) {
-      auto st = std::make_unique<Stmt>();
-      st->kind = Stmt::Kind::kAssign;
-      st->pos = eno->pos;
-      st->target = eno->target;
-      st->target_index = std::move(eno->target_index);
-      if (en) {
-        st->value = clone(*en);
-      } else {
-        st->value = std::make_unique<Expr>();
-        st->value->kind = Expr::Kind::kLiteral;
-        st->value->pos = pos;
-        st->value->k = 1;
-        st->value->is_bool = true;
-      }
-      pending_eno_.push_back(std::move(st));
+      pending_eno_.push_back(
+          assignment(eno->target, eno->target_index, en ? clone(*en) : literal(1, true, pos), eno->pos, false));
     }
     return en;
   }
