@@ -226,7 +226,7 @@ void run_trace(const TraceArgs& a) {
   const std::string socket = sched::control_socket_of(a.name, a.socket);
   auto answer = sched::api_request(socket, {{"op", "trace"}, {"args", {{"labels", labels}}}}, "", 10000);
   if (!answer) fail_trace(answer.error());
-  if (!answer->value("ok", false)) fail_trace((*answer)["error"].value("message", std::string("the runtime refused the trace")));
+  if (!answer->value("ok", false)) fail_trace(sched::refusal_message(*answer, "the runtime refused the trace"));
   const Selection sel = selection_of((*answer)["result"]);
   if (trig) {
     trig->column = static_cast<size_t>(std::find(sel.labels.begin(), sel.labels.end(), trig->label) - sel.labels.begin());
@@ -322,8 +322,7 @@ void run_trace(const TraceArgs& a) {
         continue;
       }
       if (!k->value("ok", false)) {
-        const nlohmann::json e = k->contains("error") && (*k)["error"].is_object() ? (*k)["error"] : nlohmann::json::object();
-        ended_why = "the runtime ended the trace: " + e.value("message", std::string("it refused the renewal"));
+        ended_why = "the runtime ended the trace: " + sched::refusal_message(*k, "it refused the renewal");
         continue;
       }
       if (started && now - fired_wall > duration_ns + duration_ns / 2 + 2000000000) {

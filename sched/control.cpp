@@ -485,6 +485,12 @@ Result<json> request_of_words(const std::string& line) {
   return json{{"op", op}, {"args", args}};
 }
 
+std::string refusal_message(const json& answer, const std::string& fallback) {
+  const json e = answer.contains("error") && answer["error"].is_object() ? answer["error"] : json::object();
+  const std::string m = e.value("message", std::string());
+  return m.empty() ? fallback : m;
+}
+
 Result<std::string> control_request(const std::string& socket_path, const std::string& line,
                                     const std::string& payload, int timeout_ms) {
   auto request = request_of_words(line);
@@ -492,11 +498,7 @@ Result<std::string> control_request(const std::string& socket_path, const std::s
   auto answer = api_request(socket_path, *request, payload, timeout_ms);
   if (!answer) return make_error(answer.error());
   const json& a = *answer;
-  if (!a.value("ok", false)) {
-    const json e = a.contains("error") && a["error"].is_object() ? a["error"] : json::object();
-    const std::string m = e.value("message", std::string());
-    return make_error(m.empty() ? "the runtime refused the request" : m);
-  }
+  if (!a.value("ok", false)) return make_error(refusal_message(a, "the runtime refused the request"));
   const json r = a.contains("result") && a["result"].is_object() ? a["result"] : json::object();
   if (line == "status json" && r.contains("status")) return r["status"].dump(2) + "\n";
   std::string text = r.value("text", std::string());

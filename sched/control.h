@@ -87,6 +87,9 @@ Result<nlohmann::json> api_request(const std::string& socket_path, const nlohman
 // a refusal becomes an error carrying its message.
 Result<std::string> control_request(const std::string& socket_path, const std::string& line,
                                     const std::string& payload = "", int timeout_ms = 30000);
+// The message of a refusal (`{"ok": false, "error": {"message": ...}}`), or
+// `fallback` when the answer carries none.
+std::string refusal_message(const nlohmann::json& answer, const std::string& fallback);
 // The same words as the request object (what control_request sends).
 Result<nlohmann::json> request_of_words(const std::string& line);
 
