@@ -14,6 +14,7 @@
 // per run and added to the task's total once.
 #include "blocks/executor.h"
 #include "blocks/int_math.h"
+#include "blocks/string_ops.h"
 
 #include <algorithm>
 #include <atomic>
@@ -54,6 +55,7 @@ ExecContext make_context(const TaskImage& image, TaskArena& a) {
   c.n_runs = image.header().n_runs;
   c.params = image.params().data();
   c.values = a.values.data();
+  c.n_values = static_cast<uint32_t>(a.values.size());
   c.state = a.state.data();
   c.errors = a.errors.data();
   c.io_in = a.io_in.data();

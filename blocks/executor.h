@@ -47,6 +47,7 @@ struct ExecContext {
   uint32_t n_runs = 0;
   const double* params = nullptr;
   double* values = nullptr;
+  uint32_t n_values = 0;  // strings' lengths are read within it
   double* state = nullptr;
   uint64_t* errors = nullptr;
   const double* io_in = nullptr;

@@ -9,6 +9,7 @@
 
 #include "blocks/executor.h"
 #include "blocks/int_math.h"
+#include "blocks/string_ops.h"
 
 namespace rtplc::exec_avx2 {
 #include "blocks/executor_body.inc"

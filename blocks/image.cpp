@@ -196,7 +196,11 @@ Result<void> verify_image(std::span<const std::byte> bytes) {
       if (static_cast<uint8_t>(in.op) >= kOpCount) break;  // reported below
       stores += op_is_store(in.op);
       loads += op_is_load(in.op);
-      writers += op_writes_value(in.op);
+      if (op_writes_value(in.op)) {
+        // A string result takes 1 + cap slots (its cap checked below).
+        const double cap = op_output_string(in.op) && in.param < h.n_params ? params[in.param] : 0;
+        writers += 1 + (cap >= 0 && cap <= kMaxStringLength ? static_cast<uint64_t>(cap) : 0);
+      }
     }
     // Outputs may leave holes (a hot-swapped program keeps the running layout),
     // bounded by the channel capacity.
@@ -212,6 +216,11 @@ Result<void> verify_image(std::span<const std::byte> bytes) {
   constexpr uint8_t kNoWriter = 0xFF;
   static_assert(kOpCount < kNoWriter);
   std::vector<uint8_t> value_writer(h.n_values, kNoWriter);
+  // The slots after a string's length (its characters) belong to it too; the
+  // heads' caps, so a string input can be checked to read a whole string.
+  constexpr uint8_t kStringBody = 0xFE;
+  static_assert(kOpCount < kStringBody);
+  std::vector<uint32_t> string_cap(h.n_values, 0);
   std::vector<uint8_t> out_written(h.n_io_out, 0);
   for (uint32_t i = 0; i < h.n_instr; ++i) {
     const Instr& in = code[i];
@@ -225,6 +234,34 @@ Result<void> verify_image(std::span<const std::byte> bytes) {
         if (in.in[k] >= h.n_values) return make_error(at_instr(i, "input slot out of range"));
       }
     }
+    uint32_t np = op_param_count(in.op);
+    if (in.param > h.n_params || np > h.n_params - in.param) {
+      return make_error(at_instr(i, "parameters out of range"));
+    }
+    const double* p = np > 0 ? params.data() + in.param : nullptr;
+    uint32_t width = 1;
+    if (op_output_string(in.op) || in.op == Op::SSet) {
+      if (!(p[0] >= 0 && p[0] <= kMaxStringLength && p[0] == std::floor(p[0]))) {
+        return make_error(at_instr(i, "string length out of range"));
+      }
+      if (in.op != Op::SSet) width = op_value_width(in.op, p);
+    }
+    if (in.op == Op::SConst) {
+      np = instr_param_count(in.op, p);
+      if (np > h.n_params - in.param) return make_error(at_instr(i, "string literal out of range"));
+      for (uint32_t k = 1; k < np; ++k) {
+        if (!(p[k] >= 0 && p[k] <= 255 && p[k] == std::floor(p[k]))) {
+          return make_error(at_instr(i, "string literal holds a bad character code"));
+        }
+      }
+    }
+    if ((in.op == Op::SCmp && !(p[0] >= 0 && p[0] <= 5 && p[0] == std::floor(p[0]))) ||
+        (in.op == Op::SFmt && !(p[1] >= 0 && p[1] < kStringFormats && p[1] == std::floor(p[1]) &&
+                                (p[2] == 0 || p[2] == 1))) ||
+        (in.op == Op::SParse && !(p[0] >= 0 && p[0] < kStringFormats && p[0] == std::floor(p[0]) &&
+                                  (p[1] == 0 || p[1] == 1)))) {
+      return make_error(at_instr(i, "string operation code out of range"));
+    }
     if (op_is_store(in.op)) {
       if (in.out >= h.n_io_out) return make_error(at_instr(i, "output-buffer index out of range"));
       if (out_written[in.out]++) return make_error(at_instr(i, "second writer of an output"));
@@ -234,16 +271,18 @@ Result<void> verify_image(std::span<const std::byte> bytes) {
       // It writes through its table, checked with the parameters below.
     } else if (op_is_branch(in.op)) {
       // `out` is a run index, checked with the runs below.
+    } else if (in.op == Op::SSet) {
+      if (in.out >= h.n_values) return make_error(at_instr(i, "variable slot out of range"));
     } else {
-      if (in.out >= h.n_values) return make_error(at_instr(i, "output slot out of range"));
-      if (value_writer[in.out] != kNoWriter) return make_error(at_instr(i, "second writer of a value slot"));
-      value_writer[in.out] = static_cast<uint8_t>(in.op);
+      if (in.out >= h.n_values || width > h.n_values - in.out) {
+        return make_error(at_instr(i, "output slot out of range"));
+      }
+      for (uint32_t w = 0; w < width; ++w) {
+        if (value_writer[in.out + w] != kNoWriter) return make_error(at_instr(i, "second writer of a value slot"));
+        value_writer[in.out + w] = w == 0 ? static_cast<uint8_t>(in.op) : kStringBody;
+      }
+      if (op_output_string(in.op)) string_cap[in.out] = width - 1;
     }
-    uint32_t np = op_param_count(in.op);
-    if (in.param > h.n_params || np > h.n_params - in.param) {
-      return make_error(at_instr(i, "parameters out of range"));
-    }
-    const double* p = np > 0 ? params.data() + in.param : nullptr;
     if (in.op == Op::Pick || in.op == Op::Put) {
       // n, lo, then n value slots: every one a whole number inside the arena.
       if (!(p[0] >= 1 && p[0] <= kMaxPickTable && p[0] == std::floor(p[0])) || p[1] != std::floor(p[1]) ||
@@ -280,6 +319,20 @@ Result<void> verify_image(std::span<const std::byte> bytes) {
   // A Set writes a variable's home and nothing else: never a block's result,
   // which every reader of that block trusts to be what the block computed.
   for (uint32_t i = 0; i < h.n_instr; ++i) {
+    // A string input reads a whole string: the head of a string result (so
+    // its length was written by a string opcode, within that result's slots).
+    const Instr& in = code[i];
+    for (uint32_t k = 0; k < in.n_in && !op_is_load(in.op); ++k) {
+      if (op_input_is_string(in.op, k) != (value_writer[in.in[k]] < kOpCount &&
+                                           op_output_string(static_cast<Op>(value_writer[in.in[k]])))) {
+        return make_error(at_instr(i, op_input_is_string(in.op, k) ? "a string input reads no string"
+                                                                   : "a number input reads a string"));
+      }
+    }
+    if (in.op == Op::SSet && (value_writer[in.out] != static_cast<uint8_t>(Op::SVar) ||
+                              string_cap[in.out] != static_cast<uint32_t>(params[in.param]))) {
+      return make_error(at_instr(i, "an SSet writes a slot that is not a string variable's of its length"));
+    }
     if (code[i].op == Op::Set && value_writer[code[i].out] != static_cast<uint8_t>(Op::Var)) {
       return make_error(at_instr(i, "a Set writes a slot that is not a variable's"));
     }
@@ -314,7 +367,7 @@ Result<void> verify_image(std::span<const std::byte> bytes) {
       if (!ok) return make_error("run " + std::to_string(r) + ": branch target out of range");
     }
     if ((run.flags & kRunAffine) && (op_is_branch(run.op) || run.op == Op::Set || run.op == Op::Var ||
-                                     run.op == Op::Pick || run.op == Op::Put)) {
+                                     run.op == Op::Pick || run.op == Op::Put || op_is_string(run.op))) {
       return make_error("run " + std::to_string(r) + ": this opcode cannot be affine");
     }
     if (run.flags & kRunAffine) {

@@ -22,12 +22,14 @@ uint32_t op_param_count(Op op) {
     case Op::ConstA: case Op::ConstD:
     case Op::Ton: case Op::TonEt: case Op::Tof: case Op::TofEt: case Op::Tp: case Op::TpEt:
     case Op::Ctu: case Op::Ctd: case Op::Var:
+    case Op::SConst: case Op::SCopy: case Op::SSel: case Op::SCat: case Op::SLeft: case Op::SRight:
+    case Op::SMid: case Op::SIns: case Op::SDel: case Op::SCmp: case Op::SVar: case Op::SSet:
       return 1;
     case Op::Scale: case Op::Lim: case Op::Pi: case Op::Epi: case Op::Wrap: case Op::Imul: case Op::Pick: case Op::Put:
     case Op::Band: case Op::Bor: case Op::Bxor: case Op::Bnot:
-    case Op::Shl: case Op::Shr: case Op::Rol: case Op::Ror: case Op::Ctud:
+    case Op::Shl: case Op::Shr: case Op::Rol: case Op::Ror: case Op::Ctud: case Op::SParse:
       return 2;
-    case Op::Ldlg: case Op::Pid: case Op::Epid:
+    case Op::Ldlg: case Op::Pid: case Op::Epid: case Op::SFmt:
       return 3;
     case Op::Pidc:
       return 8;
@@ -41,6 +43,7 @@ uint32_t instr_param_count(Op op, const double* prepared) {
   if ((op == Op::Pick || op == Op::Put) && prepared != nullptr) {
     return fixed + static_cast<uint32_t>(prepared[0]);
   }
+  if (op == Op::SConst && prepared != nullptr) return fixed + static_cast<uint32_t>(prepared[0]);
   return fixed;
 }
 
@@ -69,7 +72,7 @@ uint32_t op_state_size(Op op, const double* prepared) {
 uint32_t op_input_count(Op op) {
   switch (op) {
     case Op::LoadA: case Op::LoadD: case Op::ConstA: case Op::ConstD:
-    case Op::Var: case Op::Jmp: case Op::Loop:
+    case Op::Var: case Op::Jmp: case Op::Loop: case Op::SConst: case Op::SVar:
       return 0;
     case Op::Add: case Op::Sub: case Op::Mult: case Op::Div:
     case Op::Max: case Op::Min: case Op::And2: case Op::Or2: case Op::Exor:
@@ -79,16 +82,19 @@ uint32_t op_input_count(Op op) {
     case Op::Shl: case Op::Shr: case Op::Rol: case Op::Ror: case Op::Sr: case Op::Rs:
     case Op::Ton: case Op::TonEt: case Op::Tof: case Op::TofEt: case Op::Tp: case Op::TpEt:
     case Op::Ctu: case Op::Updn: case Op::Put: case Op::Imul:
+    case Op::SCat: case Op::SLeft: case Op::SRight: case Op::SFind: case Op::SCmp:
       return 2;
     case Op::And3: case Op::Or3: case Op::Amux: case Op::Ctd: case Op::Ctud:
-    case Op::Pidc:
+    case Op::Pidc: case Op::SSel: case Op::SMid: case Op::SIns: case Op::SDel:
       return 3;
     default:
       return 1;
   }
 }
 
-bool op_writes_value(Op op) { return !op_is_store(op) && op != Op::Set && op != Op::Put && !op_is_branch(op); }
+bool op_writes_value(Op op) {
+  return !op_is_store(op) && op != Op::Set && op != Op::Put && op != Op::SSet && !op_is_branch(op);
+}
 bool op_is_branch(Op op) { return op == Op::Jmp || op == Op::Jz || op == Op::Jnz || op == Op::Loop; }
 bool op_output_is_state(Op op) {
   return op == Op::Intg || op == Op::Filt || op == Op::Ramp || op == Op::Ldlg || op == Op::Var;
@@ -103,11 +109,38 @@ bool op_output_digital(Op op) {
     case Op::Not: case Op::Exor: case Op::Time: case Op::Cnt:
     case Op::Gt: case Op::Ge: case Op::Lt: case Op::Le: case Op::Eq: case Op::Ne:
     case Op::ConstD: case Op::A2d: case Op::Rtrig: case Op::Ftrig: case Op::Sr: case Op::Rs:
-    case Op::Ton: case Op::Tof: case Op::Tp:
+    case Op::Ton: case Op::Tof: case Op::Tp: case Op::SCmp:
       return true;
     default:
       return false;
   }
+}
+
+bool op_output_string(Op op) {
+  switch (op) {
+    case Op::SConst: case Op::SCopy: case Op::SSel: case Op::SCat: case Op::SLeft: case Op::SRight:
+    case Op::SMid: case Op::SIns: case Op::SDel: case Op::SFmt: case Op::SVar:
+      return true;
+    default:
+      return false;
+  }
+}
+
+bool op_input_is_string(Op op, uint32_t k) {
+  switch (op) {
+    case Op::SCopy: case Op::SLeft: case Op::SRight: case Op::SMid: case Op::SDel: case Op::SLen:
+    case Op::SParse: case Op::SSet:
+      return k == 0;
+    case Op::SCat: case Op::SIns: case Op::SFind: case Op::SCmp: case Op::SSel:
+      return k <= 1;
+    default:
+      return false;
+  }
+}
+
+uint32_t op_value_width(Op op, const double* prepared) {
+  if (!op_output_string(op) || prepared == nullptr) return 1;
+  return 1 + static_cast<uint32_t>(prepared[0]);
 }
 
 }  // namespace rtplc

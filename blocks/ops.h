@@ -65,6 +65,26 @@
 //  Put       V[table[k]] <- in1, k as Pick; each table slot a Var's; nothing when   n lo table[n]       -
 //            k is outside (an array element written through an index known only
 //            at run time)
+// Strings (docs/st.md, "Strings"). A string value takes 1 + cap value slots from
+// `out` on: V[out] is its length n (0..cap), V[out+1+i] the code (0..255) of
+// character i < n. P[0] is cap (SConst: its length). s1 s2 = string inputs;
+// positions are 1-based, as the standard's; a result longer than cap is cut.
+//  SConst    y = the literal                                                  n codes[n]          -
+//  SCopy     y = s1                                                           cap                 -
+//  SSel      y = in2 ? s2 : s1 (in2 numeric; Amux's layout)                  cap                 -
+//  SCat      y = s1 then s2 (CONCAT)                                          cap                 -
+//  SLeft SRight   y = the first / last in1 characters of s1                   cap                 -
+//  SMid      y = in1 characters of s1 from position in2                       cap                 -
+//  SIns      y = s2 inserted into s1 after position in2                       cap                 -
+//  SDel      y = s1 without in1 characters from position in2                  cap                 -
+//  SLen      y = the length of s1                                             -                   -
+//  SFind     y = the position of s2 in s1, 0 when it is not there             -                   -
+//  SCmp      y = s1 OP s2 byte-wise, OP = P[0]: 0 = 1 <> 2 < 3 <= 4 > 5 >=     op                  -
+//  SFmt      y = the text of number in0 as type P[1], dialect P[2]            cap type dialect    -
+//            (blocks/string_ops.h)
+//  SParse    y = the number text s1 reads as type P[0], dialect P[1]          type dialect        -
+//  SVar      a string variable's home in a loop: holds until an SSet writes   cap                 -
+//  SSet      the SVar at `out` takes s1 (cut to its cap P[0])                 cap                 -
 #pragma once
 
 #include <cstdint>
@@ -84,7 +104,9 @@ namespace rtplc {
   X(Rtrig) X(Ftrig) X(Sr) X(Rs) X(Ton) X(TonEt) X(Tof) X(TofEt) X(Tp) X(TpEt)               \
   X(Ctu) X(Ctd) X(Updn) X(Ctud) X(Pidc)                                                    \
   X(Var) X(Set) X(Jmp) X(Jz) X(Jnz) X(Loop) X(Pick) X(Put)                                 \
-  X(Imul)
+  X(Imul)                                                                                  \
+  X(SConst) X(SCopy) X(SSel) X(SCat) X(SLeft) X(SRight) X(SMid) X(SIns) X(SDel)            \
+  X(SLen) X(SFind) X(SCmp) X(SFmt) X(SParse) X(SVar) X(SSet)
 
 enum class Op : uint8_t {
 #define RTPLC_OP_ENUM(name) name,
@@ -119,6 +141,20 @@ bool op_writes_value(Op op);   // false for the two stores
 bool op_is_load(Op op);
 bool op_is_store(Op op);
 bool op_output_digital(Op op);
+// The opcodes whose result is a string (ops.h, "Strings"): their value takes
+// op_value_width() slots.
+bool op_output_string(Op op);
+// Value slots one instruction's result takes: 1, or 1 + cap for a string
+// (`prepared` its prepared parameters, P[0] = cap).
+uint32_t op_value_width(Op op, const double* prepared);
+// The string opcodes (SConst .. SSet): never in an affine run.
+inline bool op_is_string(Op op) { return op >= Op::SConst && op <= Op::SSet; }
+// Whether input k of `op` reads a string (the head of a string result).
+bool op_input_is_string(Op op, uint32_t k);
+// SFmt's and SParse's formats (blocks/string_ops.h), 0 .. kStringFormats - 1.
+inline constexpr uint32_t kStringFormats = 10;
+// The longest string a value may hold (its cap), in characters.
+inline constexpr uint32_t kMaxStringLength = 1024;
 
 // Jmp, Jz, Jnz, Loop: instructions that choose the next run.
 bool op_is_branch(Op op);

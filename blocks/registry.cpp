@@ -18,6 +18,7 @@ namespace {
 constexpr double kBig = 1e300;  // "any finite value"
 constexpr Kind A = Kind::kAnalog;
 constexpr Kind D = Kind::kDigital;
+constexpr Kind S = Kind::kString;
 
 ParamSpec param(const char* name, const char* meaning, double min = -kBig, double max = kBig,
                 bool min_exclusive = false, bool integer = false) {
@@ -508,6 +509,39 @@ std::vector<BlockSpec> build_flow_registry() {
                                 "execution continues at the target block when cond is 0")));
   r.push_back(no_output(compute("jnz", G::kControl, D, {{"cond", D}}, {}, "", "forward jump if true",
                                 "execution continues at the target block when cond is 1")));
+  // Strings (ops.h, "Strings"): cap is the longest text a result holds.
+  const ParamSpec cap{"cap", "the longest text it holds", 0.0, false, 0, kMaxStringLength, false, true};
+  const ParamSpec type{"type", "the number's type (blocks/string_ops.h)", 0.0, false, 0, kStringFormats - 1, false, true};
+  const ParamSpec dialect{"dialect", "0 MatIEC, 1 CODESYS", 0.0, false, 0, 1, false, true};
+  const ParamSpec cmp{"op", "0 = 1 <> 2 < 3 <= 4 > 5 >=", 0.0, false, 0, 5, false, true};
+  r.push_back(compute("sconst", G::kControl, S, {}, {}, "", "a string literal", "y = the block's label"));
+  r.push_back(compute("scopy", G::kControl, S, {{"s", S}}, {cap}, "", "a string, cut to cap", "y = s"));
+  r.push_back(compute("ssel", G::kControl, S, {{"in0", S}, {"in1", S}, {"g", D}}, {cap}, "", "string select",
+                      "y = g ? in1 : in0"));
+  r.push_back(compute("scat", G::kControl, S, {{"s1", S}, {"s2", S}}, {cap}, "", "CONCAT", "y = s1 then s2"));
+  r.push_back(compute("sleft", G::kControl, S, {{"s", S}, {"l", A}}, {cap}, "", "LEFT",
+                      "y = the first l characters of s"));
+  r.push_back(compute("sright", G::kControl, S, {{"s", S}, {"l", A}}, {cap}, "", "RIGHT",
+                      "y = the last l characters of s"));
+  r.push_back(compute("smid", G::kControl, S, {{"s", S}, {"l", A}, {"p", A}}, {cap}, "", "MID",
+                      "y = l characters of s from position p"));
+  r.push_back(compute("sins", G::kControl, S, {{"s1", S}, {"s2", S}, {"p", A}}, {cap}, "", "INSERT",
+                      "y = s2 inserted into s1 after position p"));
+  r.push_back(compute("sdel", G::kControl, S, {{"s", S}, {"l", A}, {"p", A}}, {cap}, "", "DELETE",
+                      "y = s without l characters from position p"));
+  r.push_back(compute("slen", G::kControl, A, {{"s", S}}, {}, "", "LEN", "y = the length of s"));
+  r.push_back(compute("sfind", G::kControl, A, {{"s1", S}, {"s2", S}}, {}, "", "FIND",
+                      "y = the position of s2 in s1, 0 when absent"));
+  r.push_back(compute("scmp", G::kControl, D, {{"s1", S}, {"s2", S}}, {cmp}, "", "string comparison",
+                      "y = s1 op s2, byte by byte, a prefix before the longer"));
+  r.push_back(compute("sfmt", G::kControl, S, {{"x", A}}, {cap, type, dialect}, "", "a number as text",
+                      "y = the text of x as its type"));
+  r.push_back(compute("sparse", G::kControl, A, {{"s", S}}, {type, dialect}, "", "text as a number",
+                      "y = the number s reads as"));
+  r.push_back(compute("svar", G::kControl, S, {}, {cap}, "its value", "a string variable's home",
+                      "y = '' in the first cycle, then what the last sset wrote"));
+  r.push_back(no_output(compute("sset", G::kControl, S, {{"value", S}}, {cap}, "", "assignment to an svar",
+                                "the svar named by the block's target takes value")));
   r.push_back(no_output(compute("loop", G::kControl, D, {}, {}, "", "backward jump",
                                 "execution continues at the target block, at or before this one; "
                                 "counted against the task's loop budget",
@@ -589,6 +623,10 @@ Op block_op(const BlockSpec& b, uint32_t n_inputs) {
       {"var", Op::Var},   {"dvar", Op::Var},  {"set", Op::Set},   {"dset", Op::Set},
       {"jmp", Op::Jmp},   {"jz", Op::Jz},     {"jnz", Op::Jnz},   {"loop", Op::Loop},
       {"pick", Op::Pick}, {"dpick", Op::Pick}, {"put", Op::Put},  {"dput", Op::Put},
+      {"sconst", Op::SConst}, {"scopy", Op::SCopy}, {"ssel", Op::SSel}, {"scat", Op::SCat},
+      {"sleft", Op::SLeft}, {"sright", Op::SRight}, {"smid", Op::SMid}, {"sins", Op::SIns},
+      {"sdel", Op::SDel}, {"slen", Op::SLen}, {"sfind", Op::SFind}, {"scmp", Op::SCmp},
+      {"sfmt", Op::SFmt}, {"sparse", Op::SParse}, {"svar", Op::SVar}, {"sset", Op::SSet},
   };
   if (n == "and") return n_inputs == 3 ? Op::And3 : Op::And2;
   if (n == "or") return n_inputs == 3 ? Op::Or3 : Op::Or2;
@@ -622,10 +660,17 @@ const char* io_group_name(IoGroup g) {
   return "?";
 }
 
-const char* kind_name(Kind k) { return k == Kind::kAnalog ? "analog" : "digital"; }
+const char* kind_name(Kind k) {
+  return k == Kind::kAnalog ? "analog" : k == Kind::kDigital ? "digital" : "string";
+}
 
 void prepare_params(Op op, std::span<const double> p, double dt, double* out) {
   auto at = [&](size_t i) { return i < p.size() ? p[i] : 0.0; };
+  if (op_is_string(op)) {
+    // As written (SConst's text is laid out by the compiler from its label).
+    for (uint32_t k = 0; k < op_param_count(op) && op != Op::SConst; ++k) out[k] = at(k);
+    return;
+  }
   switch (op) {
     case Op::Add: case Op::Sub: case Op::Mult: case Op::Div:
       out[0] = p.empty() ? 1.0 : p[0];

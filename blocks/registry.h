@@ -14,7 +14,8 @@
 
 namespace rtplc {
 
-enum class Kind : uint8_t { kAnalog, kDigital };
+// kString: a text (ops.h, "Strings"), only in the textual languages' blocks.
+enum class Kind : uint8_t { kAnalog, kDigital, kString };
 
 enum class BlockGroup : uint8_t { kInput, kOutput, kArithmetic, kLogic, kControl, kIec };
 
@@ -73,8 +74,9 @@ std::span<const BlockSpec> all_blocks();
 const BlockSpec* find_block(std::string_view name);
 
 // A control-flow block (var, dvar, set, dset, jmp, jz, jnz, loop, pick, dpick,
-// put, dput) for the
-// textual front ends; nullptr if unknown. Never found by find_block().
+// put, dput) or string block (sconst, scopy, ssel, scat, sleft, sright, smid,
+// sins, sdel, slen, sfind, scmp, sfmt, sparse, svar, sset) for the textual
+// front ends; nullptr if unknown. Never found by find_block().
 const BlockSpec* flow_block(std::string_view name);
 
 // Closest known block name (for "did you mean"), empty if nothing is close.

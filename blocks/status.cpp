@@ -15,8 +15,10 @@ StatusRule op_status_rule(Op op) {
       return StatusRule::kStore;
     case Op::ConstA:
     case Op::ConstD:
+    case Op::SConst:
       return StatusRule::kSource;
     case Op::Amux:
+    case Op::SSel:
       return StatusRule::kSelect;
     case Op::And2:
     case Op::And3:
@@ -25,8 +27,10 @@ StatusRule op_status_rule(Op op) {
     case Op::Or3:
       return StatusRule::kOr;
     case Op::Var:
+    case Op::SVar:
       return StatusRule::kVar;
     case Op::Set:
+    case Op::SSet:
       return StatusRule::kSet;
     case Op::Pick:
       return StatusRule::kPick;

@@ -166,7 +166,7 @@ Schedule schedule(const CheckedProgram& prog, bool batch) {
         if (j < i) edges.emplace_back(j, i);
         else edges.emplace_back(i, j);
       }
-      if (b.op == Op::Set) sets[b.target].push_back(i);
+      if (b.op == Op::Set || b.op == Op::SSet) sets[b.target].push_back(i);
     }
     if (!sets.empty()) {
       for (uint32_t i = first; i < end; ++i) {
@@ -258,7 +258,11 @@ Result<TaskImage> build_image(const CheckedProgram& prog, const CompileOptions& 
   std::vector<uint32_t> slot(n, 0);
   for (uint32_t s = 0; s < n; ++s) {
     const FlatBlock& b = prog.blocks[order[s]];
-    if (op_writes_value(b.op)) slot[order[s]] = ib.n_values++;
+    if (!op_writes_value(b.op)) continue;
+    slot[order[s]] = ib.n_values;
+    // A string takes its length and cap characters (ops.h, "Strings").
+    const double cap = b.op == Op::SConst ? static_cast<double>(b.label.size()) : b.params.empty() ? 0 : b.params[0];
+    ib.n_values += op_value_width(b.op, &cap);
   }
   // I/O buffer indices in schedule order, so a run of loads or stores copies
   // between contiguous ranges. (Bindings, and so CSV columns, stay in textual
@@ -313,12 +317,12 @@ Result<TaskImage> build_image(const CheckedProgram& prog, const CompileOptions& 
     if (op_is_load(b.op)) {
       in.in[0] = io_index[i];
       in.out = slot[i];
-    } else if (b.op == Op::Set || b.op == Op::Put || op_is_branch(b.op)) {
+    } else if (b.op == Op::Set || b.op == Op::SSet || b.op == Op::Put || op_is_branch(b.op)) {
       for (uint32_t k = 0; k < b.n_in; ++k) {
         in.in[k] = slot[b.in[k]];
         if (b.delayed[k]) in.flags = static_cast<uint16_t>(in.flags | (kInstrDelayed0 << k));
       }
-      in.out = b.op == Op::Set ? slot[b.target] : 0;  // a branch's run index: set below
+      in.out = b.op == Op::Set || b.op == Op::SSet ? slot[b.target] : 0;  // a branch's run index: set below
     } else {
       for (uint32_t k = 0; k < b.n_in; ++k) {
         in.in[k] = slot[b.in[k]];
@@ -333,6 +337,10 @@ Result<TaskImage> build_image(const CheckedProgram& prog, const CompileOptions& 
       ib.params.push_back(static_cast<double>(b.table.size()));
       ib.params.push_back(b.params.empty() ? 0.0 : b.params[0]);
       for (uint32_t t : b.table) ib.params.push_back(static_cast<double>(slot[t]));
+    } else if (b.op == Op::SConst) {
+      // Its length, then its character codes.
+      ib.params.push_back(static_cast<double>(b.label.size()));
+      for (char c : b.label) ib.params.push_back(static_cast<double>(static_cast<unsigned char>(c)));
     } else {
       ib.params.resize(ib.params.size() + np);
       prepare_params(b.op, b.params, dt, ib.params.data() + in.param);
@@ -365,7 +373,7 @@ Result<TaskImage> build_image(const CheckedProgram& prog, const CompileOptions& 
     }
   }
   for (Run& run : ib.runs) {
-    if (!op_is_branch(run.op) && run.op != Op::Set && run.op != Op::Var) mark_affine(run, ib);
+    if (!op_is_branch(run.op) && run.op != Op::Set && run.op != Op::Var && !op_is_string(run.op)) mark_affine(run, ib);
   }
   // Branch targets: the run that starts where the target's region starts (a
   // run begins at every region's first position), or the end.

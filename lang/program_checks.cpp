@@ -22,7 +22,7 @@ namespace rtplc::lang {
 namespace {
 
 const char* kind_word(Kind k) {
-  return k == Kind::kAnalog ? "analog" : "digital";
+  return k == Kind::kAnalog ? "analog" : k == Kind::kDigital ? "digital" : "string";
 }
 
 std::string line_note(const FlatBlock& b) {
@@ -113,7 +113,7 @@ class FlatBlockChecks {
       if (sp.reads_quality) continue;  // either kind; check_quality_inputs() checks the rest
       if (src.spec->out_kind != sp.input_kind[k]) {
         diags_.error(at, std::string(kind_word(sp.input_kind[k])) + " " + what + " needs " +
-                             (sp.input_kind[k] == Kind::kAnalog ? "an analog" : "a digital") +
+                             (sp.input_kind[k] == Kind::kAnalog ? "an analog" : sp.input_kind[k] == Kind::kDigital ? "a digital" : "a string") +
                              " value, but " + src.name + " (" + src.written + ") is " +
                              kind_word(src.spec->out_kind));
         ok = false;
@@ -235,6 +235,14 @@ void check_flow(const CheckedProgram& p, DiagnosticList& diags) {
         diags.error(b.pos, std::string(b.spec->name) + " " + b.name + " must write a " +
                                (b.spec->input_kind[0] == Kind::kDigital ? "dvar" : "var") + " block");
       }
+    } else if (op == Op::SSet) {
+      const FlatBlock* v = b.target < n ? &p.blocks[b.target] : nullptr;
+      if (v == nullptr || v->op != Op::SVar || v->params.empty() || b.params.empty() || v->params[0] != b.params[0]) {
+        diags.error(b.pos, "sset " + b.name + " must write an svar block of its length");
+      }
+    } else if (op == Op::SConst && b.label.size() > kMaxStringLength) {
+      diags.error(b.pos, "a string of " + std::to_string(b.label.size()) + " characters: at most " +
+                             std::to_string(kMaxStringLength));
     } else if (op == Op::Pick || op == Op::Put) {
       const bool put = op == Op::Put;
       const Kind kind = put ? b.spec->input_kind[1] : b.spec->out_kind;

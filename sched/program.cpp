@@ -37,6 +37,10 @@ uint32_t state_size(const TaskImage& img, const Instr& in) {
   return op_state_size(in.op, op_param_count(in.op) ? img.params().data() + in.param : nullptr);
 }
 
+uint32_t value_width(const TaskImage& img, const Instr& in) {
+  return op_value_width(in.op, op_param_count(in.op) ? img.params().data() + in.param : nullptr);
+}
+
 }  // namespace
 
 Migration plan_migration(const TaskImage& old_image, const TaskImage& next) {
@@ -66,12 +70,13 @@ Migration plan_migration(const TaskImage& old_image, const TaskImage& next) {
     }
     it->second.used = true;
     const Instr& oi = old_image.code()[it->second.index];
-    const bool same = oi.op == ni.op && state_size(old_image, oi) == n_state;
+    const bool same = oi.op == ni.op && state_size(old_image, oi) == n_state &&
+                      value_width(old_image, oi) == value_width(next, ni);
     if (!same) {
       if (n_state > 0 || op_writes_value(ni.op)) m.reset.emplace_back(name);
       continue;
     }
-    if (op_writes_value(ni.op)) push_copy(m.values, oi.out, ni.out, 1);
+    if (op_writes_value(ni.op)) push_copy(m.values, oi.out, ni.out, value_width(next, ni));
     push_copy(m.state, oi.state, ni.state, n_state);
     if (n_state > 0 || op_writes_value(ni.op)) m.kept.emplace_back(name);
   }

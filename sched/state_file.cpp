@@ -279,7 +279,18 @@ RestoreOutcome restore_task(const SavedTask& saved, const std::vector<RetainedBl
       continue;
     }
     size_t k = 0;
-    if (rb.value != RetainedBlock::kNoValue) arena.values[rb.value] = b.values[k++];
+    if (rb.value != RetainedBlock::kNoValue) {
+      for (uint32_t v = 0; v < rb.n_value; ++v) arena.values[rb.value + v] = b.values[k++];
+      if (rb.n_value > 1) {
+        // A string: a length within its cap and character codes, whatever the file said.
+        double& len = arena.values[rb.value];
+        len = len >= 0 ? std::min(std::floor(len), static_cast<double>(rb.n_value - 1)) : 0;
+        for (uint32_t v = 1; v < rb.n_value; ++v) {
+          double& c = arena.values[rb.value + v];
+          c = c >= 0 && c <= 255 ? std::floor(c) : 0;
+        }
+      }
+    }
     for (uint32_t s = 0; s < rb.n_state; ++s) arena.state[rb.state + s] = b.values[k++];
     o.restored.push_back(rb.name);
   }

@@ -49,7 +49,9 @@ void StateSnapshot::take(const TaskArena& arena, int64_t now_ns) noexcept {
   const uint32_t w = begin_take();
   uint32_t i = 0;
   for (const RetainedBlock& rb : *blocks_) {
-    if (rb.value != RetainedBlock::kNoValue) store(w, i++, arena.values[rb.value]);
+    if (rb.value != RetainedBlock::kNoValue) {
+      for (uint32_t k = 0; k < rb.n_value; ++k) store(w, i++, arena.values[rb.value + k]);
+    }
     for (uint32_t k = 0; k < rb.n_state; ++k) store(w, i++, arena.state[rb.state + k]);
   }
   end_take(w, arena.cycles, now_ns);
@@ -170,8 +172,8 @@ std::vector<RetainedBlock> retained_blocks(const TaskImage& image, bool all,
       }
     }
     if (!wanted) continue;
-    const uint32_t n_state =
-        op_state_size(in.op, op_param_count(in.op) ? image.params().data() + in.param : nullptr);
+    const double* prepared = op_param_count(in.op) ? image.params().data() + in.param : nullptr;
+    const uint32_t n_state = op_state_size(in.op, prepared);
     // Inputs and set-points are not the program's state: their loads read the
     // image again in the first cycle (set-points have their own retain file).
     const bool value = op_writes_value(in.op) && !op_is_load(in.op) && output_is_state(in);
@@ -180,6 +182,7 @@ std::vector<RetainedBlock> retained_blocks(const TaskImage& image, bool all,
     rb.name = std::string(name);
     rb.kind = lower_op_name(in.op);
     rb.value = value ? in.out : RetainedBlock::kNoValue;
+    rb.n_value = op_value_width(in.op, prepared);
     rb.state = in.state;
     rb.n_state = n_state;
     out.push_back(std::move(rb));

@@ -1,0 +1,523 @@
+// The string opcodes (see string_ops.h). Every position and count arrives as a
+// double; out-of-range ones give the results documented in docs/st.md
+// ("Strings"): never a read outside the string, never a result past its cap.
+#include "blocks/string_ops.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cinttypes>
+#include <cmath>
+#include <cstdarg>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <ctime>
+
+namespace rtplc {
+namespace {
+
+constexpr uint32_t kMax = kMaxStringLength;
+
+// A whole count or position: trunc(v), clamped so int64 arithmetic on it is safe.
+int64_t whole(double v) {
+  if (!(v == v)) return 0;
+  return static_cast<int64_t>(std::trunc(std::clamp(v, -1e9, 1e9)));
+}
+
+// Reads the string at V[at] into `buf` (kMax bytes); its length.
+uint32_t read(const double* V, uint32_t n_values, uint32_t at, unsigned char* buf) {
+  if (at >= n_values) return 0;
+  const double len = V[at];
+  const uint32_t room = std::min(n_values - at - 1, kMax);
+  const uint32_t n = len >= 0 ? static_cast<uint32_t>(std::min(std::floor(len), static_cast<double>(room))) : 0;
+  for (uint32_t i = 0; i < n; ++i) {
+    const double c = V[at + 1 + i];
+    buf[i] = c >= 0 && c <= 255 ? static_cast<unsigned char>(c) : static_cast<unsigned char>('?');
+  }
+  return n;
+}
+
+void write(double* V, uint32_t out, uint32_t cap, const unsigned char* s, size_t n) {
+  const size_t len = std::min<size_t>(n, cap);
+  V[out] = static_cast<double>(len);
+  for (size_t i = 0; i < len; ++i) V[out + 1 + i] = s[i];
+}
+
+int compare(const unsigned char* a, uint32_t na, const unsigned char* b, uint32_t nb) {
+  const int c = std::memcmp(a, b, std::min(na, nb));
+  if (c != 0) return c < 0 ? -1 : 1;
+  return na < nb ? -1 : na > nb ? 1 : 0;
+}
+
+// ---- numbers as text --------------------------------------------------------
+
+// A fixed buffer the formats append to: no allocation on the task's path.
+struct Text {
+  char buf[160];
+  size_t n = 0;
+  void add(const char* fmt, ...) __attribute__((format(printf, 2, 3))) {
+    va_list ap;
+    va_start(ap, fmt);
+    const int k = std::vsnprintf(buf + n, sizeof buf - n, fmt, ap);
+    va_end(ap);
+    if (k > 0) n = std::min(sizeof buf - 1, n + static_cast<size_t>(k));
+  }
+};
+
+// A whole number of the value's type, without rounding it twice.
+void integer_text(Text& t, double v, bool is_unsigned) {
+  const double w = std::trunc(v);
+  if (!(std::fabs(w) < 1.8e19)) return t.add("0");
+  if (is_unsigned && w >= 0) return t.add("%" PRIu64, static_cast<uint64_t>(w));
+  t.add("%" PRId64, static_cast<int64_t>(std::clamp(w, -9.2e18, 9.2e18)));
+}
+
+// Seconds and nanoseconds of a time held in seconds on the nanosecond grid.
+void split_ns(double v, int64_t& sec, int64_t& ns) {
+  const double total = std::round(std::clamp(v, -9.2e9, 9.2e9) * 1e9);
+  const auto t = static_cast<int64_t>(total);
+  sec = t / 1000000000;
+  ns = t % 1000000000;
+}
+
+void time_text(Text& t, double v, StringDialect d) {
+  int64_t sec = 0, ns = 0;
+  split_ns(v, sec, ns);
+  const bool neg = sec < 0 || ns < 0;
+  if (neg) {
+    sec = -sec;
+    ns = -ns;
+  }
+  const int64_t days = sec / 86400, h = sec % 86400 / 3600, m = sec % 3600 / 60, s = sec % 60;
+  t.add(neg ? "T#-" : "T#");
+  if (d == StringDialect::kCodesys) {
+    // CODESYS: the units that are not zero, largest first; T#0ms for zero.
+    const int64_t parts[] = {days, h, m, s, ns / 1000000, ns % 1000000 / 1000, ns % 1000};
+    const char* units[] = {"d", "h", "m", "s", "ms", "us", "ns"};
+    bool any = false;
+    for (int k = 0; k < 7; ++k) {
+      if (parts[k] == 0) continue;
+      t.add("%" PRId64 "%s", parts[k], units[k]);
+      any = true;
+    }
+    if (!any) t.add("0ms");
+    return;
+  }
+  // MatIEC: days, hours, minutes and seconds down to the last that is not
+  // zero (all of them when there is a fraction), then the fraction in ms.
+  t.add("%" PRId64 "d", days);
+  if (s == 0 && ns == 0 && m == 0 && h == 0) return;
+  t.add("%" PRId64 "h", h);
+  if (s == 0 && ns == 0 && m == 0) return;
+  t.add("%" PRId64 "m", m);
+  if (s == 0 && ns == 0) return;
+  t.add("%" PRId64 "s", s);
+  if (ns != 0) t.add("%gms", static_cast<double>(ns) / 1e6);
+}
+
+void date_text(Text& t, double v, StringFormat f, StringDialect d) {
+  int64_t sec = 0, ns = 0;
+  split_ns(v, sec, ns);
+  if (ns < 0) {
+    ns += 1000000000;
+    sec -= 1;
+  }
+  const bool codesys = d == StringDialect::kCodesys;
+  // The seconds: whole, or MatIEC's %09.6f / CODESYS's milliseconds.
+  auto seconds = [&](int ss) {
+    if (ns == 0) return t.add("%02d", ss);
+    if (codesys) return t.add("%02d.%03d", ss, static_cast<int>(ns / 1000000));
+    t.add("%09.6f", ss + static_cast<double>(ns) / 1e9);
+  };
+  if (f == StringFormat::kTod) {
+    const int64_t day = ((sec % 86400) + 86400) % 86400;
+    t.add("TOD#%02d:%02d:", static_cast<int>(day / 3600), static_cast<int>(day % 3600 / 60));
+    return seconds(static_cast<int>(day % 60));
+  }
+  const auto tt = static_cast<time_t>(sec);
+  struct tm tm {};
+  gmtime_r(&tt, &tm);
+  if (f == StringFormat::kDate) return t.add("D#%d-%02d-%02d", tm.tm_year + 1900, tm.tm_mon + 1, tm.tm_mday);
+  t.add("DT#%d-%02d-%02d-%02d:%02d:", tm.tm_year + 1900, tm.tm_mon + 1, tm.tm_mday, tm.tm_hour, tm.tm_min);
+  seconds(tm.tm_sec);
+}
+
+void format_into(Text& t, double v, StringFormat f, StringDialect d) {
+  if (!std::isfinite(v)) v = 0;
+  switch (f) {
+    case StringFormat::kSigned:
+      return integer_text(t, v, false);
+    case StringFormat::kUnsigned:
+      return integer_text(t, v, true);
+    case StringFormat::kBits:
+      if (d == StringDialect::kCodesys || !(std::fabs(v) < 1.8e19)) return integer_text(t, v, true);
+      return t.add("16#%" PRIx64, static_cast<uint64_t>(std::trunc(std::fabs(v))));
+    case StringFormat::kReal:
+      return t.add("%.*g", d == StringDialect::kCodesys ? 7 : 10, static_cast<double>(static_cast<float>(v)));
+    case StringFormat::kLreal:
+      return t.add("%.*g", d == StringDialect::kCodesys ? 16 : 10, v);
+    case StringFormat::kBool:
+      return t.add(v != 0 ? "TRUE" : "FALSE");
+    case StringFormat::kTime:
+      return time_text(t, v, d);
+    case StringFormat::kDate:
+    case StringFormat::kTod:
+    case StringFormat::kDt:
+      return date_text(t, v, f, d);
+  }
+}
+
+// ---- text as numbers ----------------------------------------------------------
+
+std::string_view trim(std::string_view s) {
+  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front()))) s.remove_prefix(1);
+  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.remove_suffix(1);
+  return s;
+}
+
+bool iequal(std::string_view a, std::string_view b) {
+  if (a.size() != b.size()) return false;
+  for (size_t i = 0; i < a.size(); ++i) {
+    if (std::toupper(static_cast<unsigned char>(a[i])) != std::toupper(static_cast<unsigned char>(b[i]))) return false;
+  }
+  return true;
+}
+
+// An integer literal's text: sign, `2#` `8#` `16#` bases, `_` between digits;
+// what follows the digits (a fraction, letters) is ignored; no digit gives 0.
+double parse_integer(std::string_view s) {
+  s = trim(s);
+  bool neg = false;
+  if (!s.empty() && (s[0] == '-' || s[0] == '+')) {
+    neg = s[0] == '-';
+    s.remove_prefix(1);
+  }
+  int base = 10;
+  for (const auto& [prefix, b] : {std::pair{"2#", 2}, std::pair{"8#", 8}, std::pair{"16#", 16}}) {
+    if (s.substr(0, std::strlen(prefix)) == prefix) {
+      base = b;
+      s.remove_prefix(std::strlen(prefix));
+      break;
+    }
+  }
+  double v = 0;
+  for (char c : s) {
+    if (c == '_') continue;
+    const int digit = std::isdigit(static_cast<unsigned char>(c)) ? c - '0'
+                      : std::isxdigit(static_cast<unsigned char>(c)) && base == 16
+                          ? std::toupper(static_cast<unsigned char>(c)) - 'A' + 10
+                          : -1;
+    if (digit < 0 || digit >= base) break;
+    v = v * base + digit;
+  }
+  return neg ? -v : v;
+}
+
+double parse_real(std::string_view s) {
+  char buf[kMax + 1];
+  s = trim(s);
+  const size_t n = std::min<size_t>(s.size(), kMax);
+  std::memcpy(buf, s.data(), n);
+  buf[n] = '\0';
+  char* end = nullptr;
+  const double v = std::strtod(buf, &end);
+  return std::isfinite(v) ? v : 0.0;
+}
+
+// `T#1d2h3m4s5ms6us7ns` (also `TIME#`, `t#`, a leading `-`, `_`, fractions on
+// the last unit): seconds; text that is no duration gives 0.
+double parse_time(std::string_view s) {
+  s = trim(s);
+  for (std::string_view p : {"TIME#", "T#"}) {
+    if (s.size() >= p.size() && iequal(s.substr(0, p.size()), p)) {
+      s.remove_prefix(p.size());
+      break;
+    }
+  }
+  bool neg = false;
+  if (!s.empty() && s[0] == '-') {
+    neg = true;
+    s.remove_prefix(1);
+  }
+  double total = 0;
+  bool any = false;
+  while (!s.empty()) {
+    size_t i = 0;
+    while (i < s.size() && (std::isdigit(static_cast<unsigned char>(s[i])) || s[i] == '.' || s[i] == '_')) ++i;
+    if (i == 0) return 0;
+    char digits[64];
+    size_t nd = 0;
+    for (char c : s.substr(0, i)) {
+      if (c != '_' && nd < sizeof digits) digits[nd++] = c;
+    }
+    const double number = parse_real(std::string_view(digits, nd));
+    s.remove_prefix(i);
+    size_t u = 0;
+    while (u < s.size() && std::isalpha(static_cast<unsigned char>(s[u]))) ++u;
+    const std::string_view unit = s.substr(0, u);
+    s.remove_prefix(u);
+    double scale = 0;
+    if (iequal(unit, "d")) scale = 86400;
+    else if (iequal(unit, "h")) scale = 3600;
+    else if (iequal(unit, "m")) scale = 60;
+    else if (iequal(unit, "s")) scale = 1;
+    else if (iequal(unit, "ms")) scale = 1e-3;
+    else if (iequal(unit, "us")) scale = 1e-6;
+    else if (iequal(unit, "ns")) scale = 1e-9;
+    else return 0;
+    total += number * scale;
+    any = true;
+  }
+  if (!any) return 0;
+  return std::round((neg ? -total : total) * 1e9) / 1e9;
+}
+
+// MatIEC's __pstring_to_sint: `2#`, `8#`, `16#` only at the very start (any
+// character not a digit of the base skipped); else decimal read from the
+// right, a character at or above '.' that is no digit restarting the number
+// (so the digits before the leftmost such character count: '12.7' is 12,
+// '1_000' is 1), characters below '.' skipped, negative only when the text
+// starts with '-', at most 20 digits.
+double matiec_integer(std::string_view s) {
+  if (s.empty()) return 0;
+  int base = 0;
+  size_t from = 0;
+  if (s.substr(0, 2) == "2#") base = 2, from = 2;
+  else if (s.substr(0, 2) == "8#") base = 8, from = 2;
+  else if (s.substr(0, 3) == "16#") base = 16, from = 3;
+  if (base != 0) {
+    uint64_t v = 0;
+    unsigned shift = 0;
+    const unsigned step = base == 2 ? 1 : base == 8 ? 3 : 4;
+    for (size_t l = s.size(); l-- > from && shift < 64;) {
+      const char c = s[l];
+      int digit = -1;
+      if (c >= '0' && c <= '9') digit = c - '0';
+      else if (base == 16 && std::isxdigit(static_cast<unsigned char>(c))) digit = std::toupper(c) - 'A' + 10;
+      if (digit < 0 || digit >= base) continue;
+      v |= static_cast<uint64_t>(digit) << shift;
+      shift += step;
+    }
+    return static_cast<double>(static_cast<int64_t>(v));
+  }
+  const double sign = s[0] == '-' ? -1.0 : 1.0;
+  double v = 0, fac = sign;
+  int digits = 0;
+  for (size_t l = s.size(); l-- > 0 && digits < 20;) {
+    const char c = s[l];
+    if (c >= '0' && c <= '9') {
+      v += (c - '0') * fac;
+      fac *= 10;
+      ++digits;
+    } else if (c >= '.') {
+      v = 0;
+      fac = sign;
+      digits = 0;
+    }
+  }
+  return v;
+}
+
+// CODESYS's D#, TOD# and DT# texts (also DATE#, TIME_OF_DAY#,
+// DATE_AND_TIME#): seconds since 1970-01-01 (DATE, DT) or midnight (TOD);
+// 0 for text that is none.
+double parse_date(std::string_view s, StringFormat f) {
+  s = trim(s);
+  const size_t hash = s.find('#');
+  if (hash != std::string_view::npos) s.remove_prefix(hash + 1);
+  char buf[64];
+  const size_t n = std::min(s.size(), sizeof buf - 1);
+  std::memcpy(buf, s.data(), n);
+  buf[n] = '\0';
+  int y = 0, mo = 0, da = 0, h = 0, mi = 0;
+  double sec = 0;
+  auto days_from_civil = [](int64_t yy, unsigned m, unsigned dd) {
+    yy -= m <= 2;
+    const int64_t era = (yy >= 0 ? yy : yy - 399) / 400;
+    const auto yoe = static_cast<unsigned>(yy - era * 400);
+    const unsigned mp = m > 2 ? m - 3 : m + 9;
+    const unsigned doy = (153 * mp + 2) / 5 + dd - 1;
+    const unsigned doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
+    return era * 146097 + static_cast<int64_t>(doe) - 719468;
+  };
+  if (f == StringFormat::kTod) {
+    if (std::sscanf(buf, "%d:%d:%lf", &h, &mi, &sec) < 2) return 0;
+    return h * 3600.0 + mi * 60.0 + sec;
+  }
+  if (f == StringFormat::kDate) {
+    if (std::sscanf(buf, "%d-%d-%d", &y, &mo, &da) != 3 || mo < 1 || mo > 12 || da < 1 || da > 31) return 0;
+    return static_cast<double>(days_from_civil(y, static_cast<unsigned>(mo), static_cast<unsigned>(da))) * 86400.0;
+  }
+  if (std::sscanf(buf, "%d-%d-%d-%d:%d:%lf", &y, &mo, &da, &h, &mi, &sec) < 5 || mo < 1 || mo > 12 || da < 1 ||
+      da > 31) {
+    return 0;
+  }
+  return static_cast<double>(days_from_civil(y, static_cast<unsigned>(mo), static_cast<unsigned>(da))) * 86400.0 +
+         h * 3600.0 + mi * 60.0 + sec;
+}
+
+}  // namespace
+
+std::string format_for_string(double v, StringFormat f, StringDialect d) {
+  Text t;
+  format_into(t, v, f, d);
+  return std::string(t.buf, t.n);
+}
+
+double parse_from_string(std::string_view s, StringFormat f, StringDialect d) {
+  const bool matiec = d == StringDialect::kMatiec;
+  switch (f) {
+    case StringFormat::kSigned:
+    case StringFormat::kUnsigned:
+    case StringFormat::kBits:
+      return matiec ? matiec_integer(s) : parse_integer(s);
+    case StringFormat::kReal:
+    case StringFormat::kLreal:
+      // MatIEC reads a text with a '.' after its first character as a C
+      // double, any other as an integer ('1e3' is 1).
+      if (matiec) return s.find('.', 1) != std::string_view::npos && s.size() > 1 ? parse_real(s) : matiec_integer(s);
+      return parse_real(s);
+    case StringFormat::kBool: {
+      if (matiec) return s.size() == 1 ? (s[0] == '1' ? 1.0 : 0.0) : iequal(s, "TRUE") ? 1.0 : 0.0;
+      const std::string_view t = trim(s);
+      return iequal(t, "TRUE") || t == "1" ? 1.0 : 0.0;
+    }
+    case StringFormat::kTime:
+    case StringFormat::kDate:
+    case StringFormat::kTod:
+    case StringFormat::kDt:
+      // MatIEC reads every time type as a number of whole seconds.
+      if (matiec) return std::trunc(parse_from_string(s, StringFormat::kLreal, d));
+      return f == StringFormat::kTime ? parse_time(s) : parse_date(s, f);
+  }
+  return 0;
+}
+
+std::string string_value(const double* V, uint32_t n_values, uint32_t at) {
+  unsigned char buf[kMax];
+  const uint32_t n = read(V, n_values, at, buf);
+  return std::string(reinterpret_cast<const char*>(buf), n);
+}
+
+void string_op(const Instr& I, double* V, uint32_t n_values, const double* P) noexcept {
+  unsigned char a[kMax], b[kMax], r[2 * kMax];
+  const uint32_t cap = static_cast<uint32_t>(P[0]);
+  switch (I.op) {
+    case Op::SConst: {
+      for (uint32_t i = 0; i < cap; ++i) r[i] = static_cast<unsigned char>(P[1 + i]);
+      write(V, I.out, cap, r, cap);
+      return;
+    }
+    case Op::SCopy:
+    case Op::SSet: {
+      const uint32_t n = read(V, n_values, I.in[0], a);
+      write(V, I.out, cap, a, n);
+      return;
+    }
+    case Op::SSel: {
+      const uint32_t n = read(V, n_values, V[I.in[2]] != 0.0 ? I.in[1] : I.in[0], a);
+      write(V, I.out, cap, a, n);
+      return;
+    }
+    case Op::SCat: {
+      const uint32_t na = read(V, n_values, I.in[0], a), nb = read(V, n_values, I.in[1], b);
+      std::memcpy(r, a, na);
+      std::memcpy(r + na, b, nb);
+      write(V, I.out, cap, r, na + nb);
+      return;
+    }
+    case Op::SLeft:
+    case Op::SRight: {
+      const uint32_t n = read(V, n_values, I.in[0], a);
+      const auto k = static_cast<uint32_t>(std::clamp<int64_t>(whole(V[I.in[1]]), 0, n));
+      write(V, I.out, cap, I.op == Op::SLeft ? a : a + (n - k), k);
+      return;
+    }
+    case Op::SMid: {
+      // L characters from position P: nothing when P is outside 1..n.
+      const uint32_t n = read(V, n_values, I.in[0], a);
+      const int64_t l = whole(V[I.in[1]]), p = whole(V[I.in[2]]);
+      if (p < 1 || p > n || l <= 0) {
+        write(V, I.out, cap, a, 0);
+        return;
+      }
+      write(V, I.out, cap, a + (p - 1), static_cast<size_t>(std::min<int64_t>(l, n - p + 1)));
+      return;
+    }
+    case Op::SIns: {
+      // s2 after the first P characters of s1 (P below 0 as 0, past the end as n).
+      const uint32_t na = read(V, n_values, I.in[0], a), nb = read(V, n_values, I.in[1], b);
+      const auto p = static_cast<uint32_t>(std::clamp<int64_t>(whole(V[I.in[2]]), 0, na));
+      std::memcpy(r, a, p);
+      std::memcpy(r + p, b, nb);
+      std::memcpy(r + p + nb, a + p, na - p);
+      write(V, I.out, cap, r, na + nb);
+      return;
+    }
+    case Op::SDel: {
+      // L characters from position P removed: nothing when P is outside 1..n.
+      const uint32_t n = read(V, n_values, I.in[0], a);
+      const int64_t l = whole(V[I.in[1]]), p = whole(V[I.in[2]]);
+      if (p < 1 || p > n || l <= 0) {
+        write(V, I.out, cap, a, n);
+        return;
+      }
+      const auto keep = static_cast<uint32_t>(p - 1);
+      const auto from = static_cast<uint32_t>(std::min<int64_t>(n, p - 1 + l));
+      std::memcpy(r, a, keep);
+      std::memcpy(r + keep, a + from, n - from);
+      write(V, I.out, cap, r, keep + (n - from));
+      return;
+    }
+    case Op::SLen:
+      V[I.out] = static_cast<double>(read(V, n_values, I.in[0], a));
+      return;
+    case Op::SFind: {
+      const uint32_t na = read(V, n_values, I.in[0], a), nb = read(V, n_values, I.in[1], b);
+      double pos = 0;
+      if (nb > 0 && nb <= na) {
+        for (uint32_t i = 0; i + nb <= na; ++i) {
+          if (std::memcmp(a + i, b, nb) == 0) {
+            pos = i + 1;
+            break;
+          }
+        }
+      }
+      V[I.out] = pos;
+      return;
+    }
+    case Op::SCmp: {
+      const uint32_t na = read(V, n_values, I.in[0], a), nb = read(V, n_values, I.in[1], b);
+      const int c = compare(a, na, b, nb);
+      bool y = false;
+      switch (static_cast<int>(P[0])) {
+        case 0: y = c == 0; break;
+        case 1: y = c != 0; break;
+        case 2: y = c < 0; break;
+        case 3: y = c <= 0; break;
+        case 4: y = c > 0; break;
+        default: y = c >= 0; break;
+      }
+      V[I.out] = y ? 1.0 : 0.0;
+      return;
+    }
+    case Op::SFmt: {
+      Text t;
+      format_into(t, V[I.in[0]], static_cast<StringFormat>(static_cast<int>(P[1])),
+                  static_cast<StringDialect>(static_cast<int>(P[2])));
+      write(V, I.out, cap, reinterpret_cast<const unsigned char*>(t.buf), t.n);
+      return;
+    }
+    case Op::SParse: {
+      const uint32_t n = read(V, n_values, I.in[0], a);
+      V[I.out] = parse_from_string(std::string_view(reinterpret_cast<const char*>(a), n),
+                                   static_cast<StringFormat>(static_cast<int>(P[0])),
+                                   static_cast<StringDialect>(static_cast<int>(P[1])));
+      return;
+    }
+    default:
+      return;
+  }
+}
+
+}  // namespace rtplc

@@ -1,0 +1,48 @@
+// The string opcodes' semantics (ops.h, "Strings"; docs/st.md, "Strings"),
+// written once for both interpreter bodies and for the compilers' constant
+// folding. A string value lives in the value arena: V[at] its length, then one
+// character code per slot. Nothing here allocates: texts pass through
+// fixed buffers of kMaxStringLength bytes on the stack.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+
+#include "blocks/image.h"
+#include "blocks/ops.h"
+
+namespace rtplc {
+
+// SFmt's and SParse's type codes (P[1] of SFmt, P[0] of SParse): what the
+// number is, so its text is the type's (`16#FF` for a BYTE, `T#1s` for a TIME).
+enum class StringFormat : uint8_t {
+  kSigned,    // SINT .. LINT
+  kUnsigned,  // USINT .. ULINT
+  kBits,      // BYTE .. LWORD
+  kReal,      // REAL
+  kLreal,     // LREAL
+  kBool,
+  kTime,      // TIME (the value in seconds)
+  kDate,      // DATE, TOD, DT (seconds since 1970-01-01 / since midnight)
+  kTod,
+  kDt,
+};
+static_assert(static_cast<uint32_t>(StringFormat::kDt) + 1 == kStringFormats);
+
+// The dialect of a conversion's text (SFmt P[2], SParse P[1]): what the
+// project's editor's runtime writes and reads (docs/st.md, "Strings").
+enum class StringDialect : uint8_t { kMatiec, kCodesys };
+
+// Runs one string instruction on the value arena V of n_values slots; P its
+// prepared parameters. Reads a length as at most what the arena holds after it.
+void string_op(const Instr& I, double* V, uint32_t n_values, const double* P) noexcept;
+
+// The texts of SFmt and the numbers of SParse, for folding and tests.
+std::string format_for_string(double v, StringFormat f, StringDialect d);
+double parse_from_string(std::string_view s, StringFormat f, StringDialect d);
+
+// The string value at V[at] as text (monitor, trace, CSV).
+std::string string_value(const double* V, uint32_t n_values, uint32_t at);
+
+}  // namespace rtplc
