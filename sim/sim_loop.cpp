@@ -1,6 +1,8 @@
 // Closed-loop simulation in virtual time (see sim_loop.h).
 #include "sim/sim_loop.h"
 
+#include "blocks/string_ops.h"
+
 #include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
@@ -156,6 +158,8 @@ Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const Sim
     }
   }
   std::vector<uint32_t> probe_slots;
+  std::vector<uint32_t> text_slots;  // STRING probes: read as text each row
+  tr.text_index.assign(tr.columns.size(), -1);
   for (const std::string& name : opt.probes) {
     // A located variable is already traced as its channel, under the same label.
     if (std::find(tr.columns.begin(), tr.columns.end(), name) != tr.columns.end()) continue;
@@ -165,6 +169,8 @@ Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const Sim
       const Op op = image.code()[s].op;
       if (!op_writes_value(op)) break;
       probe_slots.push_back(image.code()[s].out);
+      tr.text_index.push_back(op_output_string(op) ? static_cast<int>(text_slots.size()) : -1);
+      if (op_output_string(op)) text_slots.push_back(image.code()[s].out);
       tr.columns.push_back(name);
       tr.is_output.push_back(false);
       found = true;
@@ -175,6 +181,7 @@ Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const Sim
     if (port_out_b[j]) continue;  // already traced as the program's input
     tr.columns.push_back("plant." + port_out[j]);
     tr.is_output.push_back(false);
+    tr.text_index.push_back(-1);
   }
   std::vector<double> port_values(port_in.size(), 0.0);
 
@@ -255,6 +262,12 @@ Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const Sim
       if (!port_out_b[j]) row.push_back(plant.port_output(j));
     }
     tr.rows.push_back(std::move(row));
+    if (!text_slots.empty()) {
+      std::vector<std::string> texts;
+      texts.reserve(text_slots.size());
+      for (uint32_t slot : text_slots) texts.push_back(string_value(arena.values.data(), static_cast<uint32_t>(arena.values.size()), slot));
+      tr.texts.push_back(std::move(texts));
+    }
     if (ports) {
       for (size_t j = 0; j < port_in_b.size(); ++j)
         port_values[j] = arena.io_out[port_in_b[j]->io_index];
@@ -397,13 +410,36 @@ std::string csv_row_line(const double* row, size_t n) {
   return line + '\n';
 }
 
+// A text as one CSV cell: in quotes, a quote inside doubled (RFC 4180).
+static std::string csv_text_cell(const std::string& s) {
+  std::string cell = "\"";
+  for (char c : s) cell += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return cell + "\"";
+}
+
 Result<void> write_csv(const SimTrace& tr, const std::string& path) {
   // Whole or not at all: a failed write (a folder at PATH, a full disk) leaves
   // neither a half file nor a stray PATH.tmp behind.
+  const bool texts = !tr.texts.empty();
   return write_file_atomically(path, 0644, [&](const FileSink& sink) {
     if (!sink(csv_header_line(tr.columns))) return false;
-    for (const auto& row : tr.rows) {
-      if (!sink(csv_row_line(row.data(), row.size()))) return false;
+    for (size_t r = 0; r < tr.rows.size(); ++r) {
+      const auto& row = tr.rows[r];
+      if (!texts || r >= tr.texts.size()) {
+        if (!sink(csv_row_line(row.data(), row.size()))) return false;
+        continue;
+      }
+      std::string line;
+      for (size_t c = 0; c < row.size(); ++c) {
+        const int t = c < tr.text_index.size() ? tr.text_index[c] : -1;
+        if (t >= 0) line += "," + csv_text_cell(tr.texts[r][static_cast<size_t>(t)]);
+        else {
+          char cell[40];
+          std::snprintf(cell, sizeof cell, c == 0 ? "%.11g" : ",%.10g", row[c]);
+          line += cell;
+        }
+      }
+      if (!sink(line + '\n')) return false;
     }
     return true;
   });
@@ -425,6 +461,7 @@ Result<void> write_plot(const SimTrace& tr, const std::string& csv_path, const s
     std::string ytics;
     int lane = 0;
     for (size_t c = 1; c < tr.columns.size(); ++c) {
+      if (c < tr.text_index.size() && tr.text_index[c] >= 0) continue;  // a STRING: in the CSV only
       bool digital = true;
       for (const auto& row : tr.rows) digital = digital && (row[c] == 0 || row[c] == 1);
       const std::string col = std::to_string(c + 1);
@@ -450,6 +487,7 @@ Result<void> write_plot(const SimTrace& tr, const std::string& csv_path, const s
   }
   // Inputs and set-points above (the measurement in bold), outputs below.
   for (size_t c = 1; c < tr.columns.size() && tr.pv_column >= 0; ++c) {
+    if (c < tr.text_index.size() && tr.text_index[c] >= 0) continue;
     const bool is_out = tr.is_output[c];
     std::string item = gp_quote(csv_path) + " using 1:" + std::to_string(c + 1) +
                        " with lines lw " + (static_cast<int>(c) == tr.pv_column ? "2.5" : "1.5") +

@@ -44,6 +44,10 @@ struct SimTrace {
   std::vector<std::string> columns;  // "t", then one label per input, set-point, output
   std::vector<std::vector<double>> rows;
   std::vector<bool> is_output;       // per column: written by the program
+  // STRING variables (docs/st.md, "Strings"): per column its index in each
+  // row of `texts`, or -1; such a column's number in `rows` is its length.
+  std::vector<int> text_index;
+  std::vector<std::vector<std::string>> texts;
   std::string plant;                 // description
   double dt = 0;
   double plant_step = 0;

@@ -14,6 +14,9 @@ namespace rtplc::lang::plcopen {
 
 bool Lowering::is_function(const std::string& up) const {
   if (const iec::IecFunction* f = iec::find_iec(up)) return !f->function_block;
+  for (const char* f : {"LEN", "LEFT", "RIGHT", "MID", "CONCAT", "INSERT", "DELETE", "REPLACE", "FIND", "TO_STRING"}) {
+    if (up == f) return true;
+  }
   // A conversion lang/iec does not have (STRING_TO_INT): call_function says so.
   if (up.find("_TO_") != std::string::npos) return true;
   const Pou* p = proj_.pou(up);
@@ -90,6 +93,12 @@ std::vector<Value> Lowering::lower_iec(const iec::IecFunction& f, const std::str
   // come from a block made later); lang/iec works by index. Each argument
   // enters as an external operand and the blocks it appended are handed to
   // our emitter by name.
+  for (const auto& a : args) {
+    if (a && a->str) {
+      d_.error(pos, f.name + " does not take a STRING (docs/st.md, \"Strings\", lists what does)");
+      return {};
+    }
+  }
   std::vector<std::string> arg_names;
   for (const auto& a : args) arg_names.push_back(a ? em_.ref(*a, pos) : std::string());
   const size_t first = out_.blocks.size();
@@ -232,6 +241,12 @@ std::optional<Value> Lowering::call_function(Scope& s, const std::string& name, 
     --call_depth_;
     return result;
   }
+  if (auto r = call_string_function(up, args, formals, pos)) {
+    if (!inouts.empty() || !wholes.empty()) {
+      d_.error(pos, name + " takes no variable of its own for '" + (inouts.empty() ? wholes : inouts)[0].first + "'");
+    }
+    return r;
+  }
   const iec::IecFunction* f = iec::find_iec(up);
   if (!f && up.find("_TO_") != std::string::npos) {
     d_.error(pos, "conversion " + name + " names a type rtplc does not have");
@@ -260,6 +275,7 @@ std::optional<Value> Lowering::call_function(Scope& s, const std::string& name, 
 // ---- operators ----
 
 Value Lowering::operate(BinOp op, const Value& a, const Value& b, SourcePos pos) {
+  if (a.str || b.str) return em_.binary(op, a, b, pos);  // compares strings, or says why not
   if (a.is_const && b.is_const) {
     Value r = em_.binary(op, a, b, pos);
     // Folded in the operands' integer type as the task would compute it:

@@ -19,6 +19,15 @@ Value constant(double k, bool digital) {
   return v;
 }
 
+Value string_constant(std::string text) {
+  Value v;
+  v.is_const = true;
+  v.str = true;
+  v.cap = static_cast<uint32_t>(text.size());
+  v.text = std::move(text);
+  return v;
+}
+
 namespace {
 constexpr const char* kFalse = "plcopen.false";
 constexpr const char* kTrue = "plcopen.true";
@@ -106,6 +115,17 @@ void Emitter::missing_block(const char* block, const std::string& what, SourcePo
 
 std::string Emitter::ref(const Value& v, SourcePos pos) {
   if (!v.is_const) return v.ref;
+  if (v.str) {
+    // One sconst block per text; its label holds the text.
+    const std::string key = std::string("\x01s") + v.text;
+    auto it = consts_.find(key);
+    if (it != consts_.end()) return it->second;
+    const std::string name = fresh("plcopen.s");
+    emit_flow("sconst", name, pos, {}, 0);
+    p_.blocks.back().label = v.text;
+    consts_[key] = name;
+    return name;
+  }
   char buf[48];
   if (v.digital) std::snprintf(buf, sizeof buf, "%s", v.k != 0 ? kTrue : kFalse);
   else {
@@ -122,7 +142,27 @@ std::string Emitter::ref(const Value& v, SourcePos pos) {
   return buf;
 }
 
+Value Emitter::string_block(const char* written, const std::string& stem, SourcePos pos,
+                            std::vector<std::string> ins, std::vector<double> params, uint32_t cap) {
+  Value r;
+  r.ref = fresh(stem);
+  const BlockSpec* spec = flow_block(written);
+  emit_flow(written, r.ref, pos, std::move(ins), 0, std::move(params));
+  r.str = spec != nullptr && spec->out_kind == Kind::kString;
+  r.digital = spec != nullptr && spec->out_kind == Kind::kDigital;
+  r.cap = r.str ? cap : 0;
+  return r;
+}
+
+// A STRING where a number is needed: said once here, whatever asked.
+static bool refuse_string(const Value& v, DiagnosticList& d, SourcePos pos) {
+  if (!v.str) return false;
+  d.error(pos, "a STRING where a number is needed: convert it (STRING_TO_INT, STRING_TO_REAL, LEN, ...)");
+  return true;
+}
+
 Value Emitter::to_analog(const Value& v, SourcePos pos) {
+  if (refuse_string(v, d_, pos)) return constant(0, false);
   if (!v.digital) return v;
   if (v.is_const) return constant(v.k, false);
   Value r;
@@ -132,6 +172,7 @@ Value Emitter::to_analog(const Value& v, SourcePos pos) {
 }
 
 Value Emitter::to_digital(const Value& v, SourcePos pos) {
+  if (refuse_string(v, d_, pos)) return constant(0, true);
   if (v.digital) return v;
   if (v.is_const) return constant(v.k != 0 ? 1 : 0, true);
   Value r;
@@ -174,6 +215,16 @@ Value Emitter::negate(const Value& v, SourcePos pos) {
 Value Emitter::binary(BinOp op, const Value& a0, const Value& b0, SourcePos pos) {
   const bool logic = op == BinOp::kAnd || op == BinOp::kOr || op == BinOp::kXor;
   const bool compare = op >= BinOp::kEq;
+  if (a0.str || b0.str) {
+    if (!(a0.str && b0.str) || !compare) {
+      d_.error(pos, a0.str && b0.str ? "this operator does not take STRINGs: join them with CONCAT"
+                                     : "a STRING compared or combined with a number: convert one of them");
+      return constant(0, compare);
+    }
+    static constexpr BinOp kOrder[] = {BinOp::kEq, BinOp::kNe, BinOp::kLt, BinOp::kLe, BinOp::kGt, BinOp::kGe};
+    const double code = static_cast<double>(std::find(std::begin(kOrder), std::end(kOrder), op) - std::begin(kOrder));
+    return string_block("scmp", "scmp", pos, {ref(a0, pos), ref(b0, pos)}, {code}, 0);
+  }
   if (a0.digital && b0.digital && (logic || op == BinOp::kEq || op == BinOp::kNe)) {
     if (a0.is_const && b0.is_const) {
       const bool x = a0.k != 0, y = b0.k != 0;
@@ -272,6 +323,17 @@ Value Emitter::binary(BinOp op, const Value& a0, const Value& b0, SourcePos pos)
 Value Emitter::select(const Value& cond, const Value& a, const Value& b, SourcePos pos) {
   const Value c = to_digital(cond, pos);
   if (c.is_const) return c.k != 0 ? a : b;
+  if (a.str || b.str) {
+    if (!(a.str && b.str)) {
+      d_.error(pos, "a choice between a STRING and a number");
+      return a;
+    }
+    if (a.is_const && b.is_const && a.text == b.text) return a;
+    if (!a.is_const && !b.is_const && a.ref == b.ref) return a;
+    // ssel: in0 when g is 0, in1 when it is 1.
+    return string_block("ssel", "ssel", pos, {ref(b, pos), ref(a, pos), c.ref}, {static_cast<double>(std::max(a.cap, b.cap))},
+                        std::max(a.cap, b.cap));
+  }
   if (a.is_const && b.is_const && a.k == b.k && a.digital == b.digital) return a;
   if (!a.is_const && !b.is_const && a.ref == b.ref) return a;
   if (a.digital && b.digital && (a.is_const || b.is_const)) {
@@ -299,8 +361,12 @@ Value Emitter::select(const Value& cond, const Value& a, const Value& b, SourceP
   return r;
 }
 
-void Emitter::copy_as(const Value& v, const std::string& name, SourcePos pos) {
+void Emitter::copy_as(const Value& v, const std::string& name, SourcePos pos, uint32_t cap) {
   const std::string x = ref(v, pos);
+  if (v.str) {
+    emit_flow("scopy", name, pos, {x}, 0, {static_cast<double>(cap != 0 ? cap : v.cap)});
+    return;
+  }
   if (v.digital) emit("or", name, pos, {x, x});
   else emit("scale", name, pos, {x}, {1.0, 0.0});
 }

@@ -31,10 +31,16 @@ struct Value {
   std::optional<iec::IecType> time_type;
   bool is_const = false;
   double k = 0;
+  // A STRING (docs/st.md, "Strings"): the longest text it may hold, and a
+  // constant's text.
+  bool str = false;
+  uint32_t cap = 0;
+  std::string text;
   bool valid() const { return is_const || !ref.empty(); }
 };
 
 Value constant(double k, bool digital);
+Value string_constant(std::string text);
 
 enum class BinOp : uint8_t {
   kAdd, kSub, kMul, kDiv, kMod, kExpt, kAnd, kOr, kXor, kEq, kNe, kLt, kLe, kGt, kGe
@@ -87,7 +93,11 @@ class Emitter {
   Value select(const Value& cond, const Value& a, const Value& b, SourcePos pos);
   // A copy of `v` in a block named `name` (the variable's value at the end of
   // the cycle; always the same opcode per kind, so hot swap keeps it).
-  void copy_as(const Value& v, const std::string& name, SourcePos pos);
+  // A STRING's copy holds at most `cap` characters (its variable's length).
+  void copy_as(const Value& v, const std::string& name, SourcePos pos, uint32_t cap = 0);
+  // A string block (registry.h flow_block: sconst ... sset) on `ins`; its value.
+  Value string_block(const char* written, const std::string& stem, SourcePos pos, std::vector<std::string> ins,
+                     std::vector<double> params, uint32_t cap);
 
   // 1 in the task's first cycle only (initial values).
   Value first_cycle(SourcePos pos);

@@ -289,6 +289,16 @@ std::unique_ptr<Var> Lowering::make_var(const Variable& decl0, const std::string
   v->path = path;
   v->digital = decl.type.is_bool();
   v->integer = integer_type(decl.type.base);
+  if (decl.type.base == BaseType::kString) {
+    v->str = true;
+    v->cap = decl.type.string_len != 0 ? decl.type.string_len : default_string_length();
+    if (!decl.address.empty() || decl.type.hmi) {
+      d_.error(decl.pos, "variable '" + decl.name + "': a STRING " +
+                             (decl.type.hmi ? std::string("HMI variable") : "at " + decl.address) +
+                             " is not supported yet: strings are the program's own (docs/st.md, \"Strings\")");
+    }
+    return v;
+  }
   const DataType* user_type = decl.type.base == BaseType::kDerived && !decl.type.array
                                   ? proj_.data_type(decl.type.derived)
                                   : nullptr;
@@ -775,9 +785,16 @@ Var* Lowering::indexed_array(Scope& s, const std::string& path, const std::vecto
   return a;
 }
 
-Lowering::LoopHome Lowering::make_home(const std::string& stem, bool digital, bool integer, SourcePos pos) {
+Lowering::LoopHome Lowering::make_home(const std::string& stem, bool digital, bool integer, SourcePos pos,
+                                       std::optional<uint32_t> str_cap) {
   LoopHome h;
   h.value.ref = em_.fresh(stem + "$loop");
+  if (str_cap) {
+    h.block = em_.emit_flow("svar", h.value.ref, pos, {}, 0, {static_cast<double>(*str_cap)});
+    h.value.str = true;
+    h.value.cap = *str_cap;
+    return h;
+  }
   h.block = em_.emit_flow(digital ? "dvar" : "var", h.value.ref, pos, {}, 0, {0.0});
   h.value.digital = digital;
   h.value.integer = integer;
@@ -785,6 +802,11 @@ Lowering::LoopHome Lowering::make_home(const std::string& stem, bool digital, bo
 }
 
 void Lowering::set_home(const LoopHome& h, const Value& v, SourcePos pos) {
+  if (h.value.str) {
+    em_.emit_flow("sset", em_.fresh(h.value.ref + "$set"), pos, {em_.ref(v, pos)}, static_cast<uint32_t>(h.block),
+                  {static_cast<double>(h.value.cap)});
+    return;
+  }
   const Value k = h.value.digital ? em_.to_digital(v, pos) : em_.to_analog(v, pos);
   em_.emit_flow(h.value.digital ? "dset" : "set", em_.fresh(h.value.ref + "$set"), pos, {em_.ref(k, pos)},
                 static_cast<uint32_t>(h.block));
@@ -833,7 +855,8 @@ Value Lowering::load(Scope& s, const std::string& path, const std::vector<std::u
   if (ps.size() == 1 && ps[0].when.is_const && ps[0].when.k != 0) return value_of(ps[0]);
   std::vector<Value> vs;
   for (const Place& p : ps) vs.push_back(value_of(p));
-  Value acc = constant(0, vs[0].digital);  // an index out of range reads 0
+  Value acc = constant(0, vs[0].digital);  // an index out of range reads 0 ('' for strings)
+  if (vs[0].str) acc = string_constant("");
   acc.integer = vs[0].integer;
   for (size_t k = ps.size(); k-- > 0;) acc = em_.select(ps[k].when, vs[k], acc, pos);
   acc.integer = vs[0].integer;
@@ -898,6 +921,29 @@ void Lowering::store(Scope& s, const std::string& path, const std::vector<std::u
 
 Value Lowering::start_value(Var& v, SourcePos pos) {
   if (v.start) return *v.start;
+  if (v.str) {
+    Value init = string_constant("");
+    if (!v.decl->initial.empty()) {
+      std::string error;
+      const auto text = parse_string_literal(v.decl->initial, &error);
+      if (!text) {
+        d_.error(v.decl->pos, "variable '" + v.decl->name + "': initial value " + v.decl->initial + ": " + error);
+      } else {
+        init = string_constant(text->substr(0, v.cap));
+      }
+    }
+    const bool in_function = v.path.find("()") != std::string::npos;
+    if (in_function || v.decl->constant) {
+      v.start = init;
+      return init;
+    }
+    Value prev;
+    prev.ref = v.path;  // the end-of-cycle copy: last cycle's value
+    prev.str = true;
+    prev.cap = v.cap;
+    v.start = init.text.empty() ? prev : em_.select(em_.first_cycle(pos), init, prev, pos);
+    return *v.start;
+  }
   Value init = constant(0, v.digital);
   if (!v.decl->initial.empty()) {
     bool b = false;
@@ -1000,6 +1046,20 @@ void Lowering::assign(Var& v, Value value, SourcePos pos) {
 }
 
 Value Lowering::coerce(Var& v, Value value, SourcePos pos) {
+  if (v.str || value.str) {
+    if (!v.str || !value.str) {
+      d_.error(pos, v.str ? "'" + v.decl->name + "' is a STRING: convert the number (INT_TO_STRING, TO_STRING, ...)"
+                          : "a STRING assigned to '" + v.decl->name + "', which is " + type_name(v.decl->type) +
+                                ": convert it (STRING_TO_INT, ...)");
+      return v.str ? string_constant("") : constant(0, v.digital);
+    }
+    if (value.cap > v.cap) {
+      // Cut to the variable's length (a constant at once).
+      if (value.is_const) return string_constant(value.text.substr(0, v.cap));
+      value = em_.string_block("scopy", "scopy", pos, {value.ref}, {static_cast<double>(v.cap)}, v.cap);
+    }
+    return value;
+  }
   value = v.digital ? em_.to_digital(value, pos) : em_.to_analog(value, pos);
   if (value.is_const && !std::isfinite(value.k)) {
     d_.error(pos, "the value assigned to '" + v.decl->name +
@@ -1134,7 +1194,7 @@ void Lowering::finalize_var(Var& v) {
     const SourcePos pos = v.decl->pos;
     out_.variables.push_back(v.path);
     if (v.role == Var::Role::kInput || v.role == Var::Role::kSetpoint) return;
-    em_.copy_as(read(v, pos), v.path, pos);
+    em_.copy_as(read(v, pos), v.path, pos, v.cap);
     if (v.loc && v.loc->area == 'Q' && drives_output(v)) {
       place_channel(em_.block(em_.emit(v.digital ? "ddo" : "dao", "", pos, {v.path})), v);
     }

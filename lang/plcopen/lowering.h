@@ -50,6 +50,9 @@ struct Var {
   enum class Role : uint8_t { kPlain, kInput, kSetpoint, kUserFb, kStdFb, kStruct, kArray, kInOut } role = Role::kPlain;
   std::optional<Location> loc;
   bool hmi = false;  // an HMI variable: its channel is labelled with its path
+  // A STRING (docs/st.md, "Strings") and the most characters it holds.
+  bool str = false;
+  uint32_t cap = 0;
   std::optional<Value> start;  // the value at the start of the cycle
   std::optional<Value> cur;    // after the last assignment so far
   std::unique_ptr<Scope> fb;   // kUserFb: the instance's own variables; kStruct: its members
@@ -136,6 +139,12 @@ class Lowering {
                                      SourcePos pos, const std::vector<std::pair<std::string, Var*>>& inouts = {},
                                      const std::vector<std::pair<std::string, Var*>>& wholes = {});
   bool is_function(const std::string& upper_name) const;
+  // LEN, LEFT, ..., the *_TO_STRING and STRING_TO_* conversions (strings.cpp):
+  // nullopt when `up` is none of them.
+  std::optional<Value> call_string_function(const std::string& up, const std::vector<Value>& args,
+                                            const std::vector<std::string>& formals, SourcePos pos);
+  // The default length of a STRING: the project's editor's (126 MatIEC, 80 CODESYS).
+  uint32_t default_string_length() const;
   // Lowers standard function or block `f` through lang/iec's table, arguments
   // by formal position (nullopt: unconnected, the IEC default), its blocks named
   // under `prefix`. The value of each formal output; empty after an error.
@@ -204,7 +213,9 @@ class Lowering {
   };
   // A home: a var block (its value read as `value`) that keeps a variable's
   // value across a backward jump, set by set_home (a set block).
-  LoopHome make_home(const std::string& stem, bool digital, bool integer, SourcePos pos);
+  // `str_cap`: a STRING's home (an svar) of that length.
+  LoopHome make_home(const std::string& stem, bool digital, bool integer, SourcePos pos,
+                     std::optional<uint32_t> str_cap = std::nullopt);
   void set_home(const LoopHome& h, const Value& v, SourcePos pos);
   // Sets `v`'s home `h` to `v`'s value now, unless that is the home's own
   // value already; true when it set it.

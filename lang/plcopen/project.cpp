@@ -346,8 +346,22 @@ class Reader {
         // The range is not checked at run time: the base type's wrap applies.
         if (const XmlElement* b = c.child("baseType")) return type_of(*b);
       }
-      if (c.name == "string" || c.name == "wstring") {
-        d_.error(c.pos, "type " + upper(c.name) + " is not supported: rtplc values are numbers");
+      if (c.name == "string") {
+        TypeRef r;
+        r.base = BaseType::kString;
+        const std::string len = attr(c, "length");
+        if (!len.empty()) {
+          const long n = std::strtol(len.c_str(), nullptr, 10);
+          if (n < 1 || n > static_cast<long>(kMaxStringLength)) {
+            d_.error(c.pos, "STRING of length " + len + ": 1 to " + std::to_string(kMaxStringLength));
+            return std::nullopt;
+          }
+          r.string_len = static_cast<uint32_t>(n);
+        }
+        return r;
+      }
+      if (c.name == "wstring") {
+        d_.error(c.pos, "type WSTRING is not supported (docs/st.md, \"Strings\"); use STRING");
         return std::nullopt;
       }
       d_.error(c.pos, "type <" + c.name + "> is not supported here (elementary types, arrays, subranges, "
@@ -744,6 +758,52 @@ std::optional<double> parse_literal(std::string_view text, bool* is_bool, bool* 
   return v;
 }
 
+std::optional<std::string> parse_string_literal(std::string_view t, std::string* error) {
+  auto fail = [&](const std::string& m) -> std::optional<std::string> {
+    if (error != nullptr) *error = m;
+    return std::nullopt;
+  };
+  while (!t.empty() && std::isspace(static_cast<unsigned char>(t.front()))) t.remove_prefix(1);
+  while (!t.empty() && std::isspace(static_cast<unsigned char>(t.back()))) t.remove_suffix(1);
+  if (t.size() > 7 && iequals(t.substr(0, 7), "STRING#")) t.remove_prefix(7);
+  if (!t.empty() && t.front() == '"') return fail("a \"...\" literal is a WSTRING, which rtplc does not have; use '...'");
+  if (t.size() < 2 || t.front() != '\'' || t.back() != '\'') return fail("not a string literal ('...')");
+  t = t.substr(1, t.size() - 2);
+  std::string out;
+  for (size_t i = 0; i < t.size(); ++i) {
+    const char c = t[i];
+    if (c == '\'') return fail("a quote inside a string is written $'");
+    if (c != '$') {
+      out += c;
+      continue;
+    }
+    if (i + 1 >= t.size()) return fail("a string ends in a lone $ (write $$ for a dollar sign)");
+    const char e = static_cast<char>(std::toupper(static_cast<unsigned char>(t[++i])));
+    switch (e) {
+      case '$': out += '$'; break;
+      case '\'': out += '\''; break;
+      case '"': out += '"'; break;
+      case 'L': case 'N': out += '\n'; break;
+      case 'P': out += '\f'; break;
+      case 'R': out += '\r'; break;
+      case 'T': out += '\t'; break;
+      default:
+        if (i + 1 < t.size() && std::isxdigit(static_cast<unsigned char>(t[i])) &&
+            std::isxdigit(static_cast<unsigned char>(t[i + 1]))) {
+          out += static_cast<char>(std::stoi(std::string(t.substr(i, 2)), nullptr, 16));
+          ++i;
+          break;
+        }
+        return fail(std::string("unknown escape $") + t[i] + " in a string ($$ $' $L $N $P $R $T or $ and two hex digits)");
+    }
+  }
+  if (out.size() > kMaxStringLength) {
+    return fail("a string of " + std::to_string(out.size()) + " characters: at most " +
+                std::to_string(kMaxStringLength));
+  }
+  return out;
+}
+
 bool is_hmi_type(std::string_view name) {
   return name.size() > 4 && (name.substr(0, 4) == "HMI_" || name.substr(0, 4) == "hmi_");
 }
@@ -752,6 +812,7 @@ std::optional<BaseType> elementary_type(std::string_view name) {
   // Beremiz SVGHMI's HMI_BOOL, HMI_INT, HMI_REAL...: their elementary type,
   // exposed to an HMI (docs/st.md, "HMI variables").
   if (is_hmi_type(name)) name.remove_prefix(4);
+  if (iequals(name, "STRING")) return BaseType::kString;
   const iec::IecTypeInfo* t = iec::find_iec_type(name);
   if (t == nullptr) return std::nullopt;
   return static_cast<BaseType>(t->type);  // the same order (project.h)
@@ -759,6 +820,7 @@ std::optional<BaseType> elementary_type(std::string_view name) {
 
 std::string type_name(const TypeRef& t) {
   if (t.base == BaseType::kDerived) return t.derived;
+  if (t.base == BaseType::kString) return t.string_len ? "STRING[" + std::to_string(t.string_len) + "]" : "STRING";
   return iec::type_info(iec_type(t.base)).name;
 }
 

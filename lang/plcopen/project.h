@@ -25,13 +25,14 @@ namespace rtplc::lang::plcopen {
 // The elementary ones are lang/iec's, in its order (iec_type()).
 enum class BaseType : uint8_t {
   kBool, kSint, kInt, kDint, kLint, kUsint, kUint, kUdint, kUlint,
-  kByte, kWord, kDword, kLword, kReal, kLreal, kTime, kDate, kTod, kDt, kDerived
+  kByte, kWord, kDword, kLword, kReal, kLreal, kTime, kDate, kTod, kDt, kDerived,
+  kString  // STRING (docs/st.md, "Strings"): no IEC numeric type of lang/iec
 };
 
 inline iec::IecType iec_type(BaseType b) {
   static_assert(static_cast<int>(BaseType::kTime) == static_cast<int>(iec::IecType::kTime));
   static_assert(static_cast<int>(BaseType::kDt) == static_cast<int>(iec::IecType::kDt));
-  return b == BaseType::kDerived ? iec::IecType::kReal : static_cast<iec::IecType>(b);
+  return b == BaseType::kDerived || b == BaseType::kString ? iec::IecType::kReal : static_cast<iec::IecType>(b);
 }
 
 struct ArrayType;
@@ -44,6 +45,8 @@ struct TypeRef {
   // Beremiz SVGHMI's HMI_BOOL, HMI_INT...: the elementary type, exposed to an
   // HMI (a channel the web console shows: docs/st.md, "HMI variables").
   bool hmi = false;
+  // STRING[n] / STRING(n): n; 0 for a STRING of the default length.
+  uint32_t string_len = 0;
   bool is_bool() const { return base == BaseType::kBool; }
 };
 
@@ -196,6 +199,11 @@ std::optional<Project> read_project(std::string_view text, DiagnosticList& diags
 // times of day (D#2024-01-15, TOD#12:30:15.5, DT#2024-01-15-12:30:15), as a
 // double (TIME and TOD in seconds, DATE and DT in seconds since 1970-01-01;
 // `is_time` is set for all four). nullopt when `text` is not a literal.
+// A character string literal `'text'` (also `STRING#'text'`) with its `$`
+// escapes ($$ $' $L $N $P $R $T $hh): its bytes; nullopt with `error` set
+// when it is none (an unknown escape, a missing quote, a `"` WSTRING).
+std::optional<std::string> parse_string_literal(std::string_view text, std::string* error);
+
 std::optional<double> parse_literal(std::string_view text, bool* is_bool = nullptr,
                                     bool* is_time = nullptr);
 

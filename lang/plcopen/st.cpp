@@ -140,8 +140,10 @@ std::vector<Tok> lex(std::string_view s, const XmlElement& origin, DiagnosticLis
       }
       t.t = Tok::T::kNumber;
     } else if (c == '\'' || c == '"') {
-      const size_t e = s.find(c, i + 1);
-      i = e == std::string_view::npos ? s.size() : e + 1;
+      // Up to the closing quote; `$'` (`$"`) and `$$` do not close it.
+      size_t e = i + 1;
+      while (e < s.size() && s[e] != c) e += s[e] == '$' ? 2u : 1u;
+      i = e >= s.size() ? s.size() : e + 1;
       t.t = Tok::T::kString;
     } else {
       static const char* const two[] = {":=", "=>", "<=", ">=", "<>", "**", ".."};
@@ -703,8 +705,17 @@ class Parser {
       return e;
     }
     if (t.t == Tok::T::kString) {
-      error(t.pos, "strings are not supported");
-      return nullptr;
+      std::string why;
+      const auto text = parse_string_literal(t.text, &why);
+      if (!text) {
+        error(t.pos, why);
+        return nullptr;
+      }
+      ++i_;
+      e->kind = Expr::Kind::kLiteral;
+      e->is_string = true;
+      e->text = *text;
+      return e;
     }
     if (accept_op("(")) {
       auto in = expression();

@@ -23,6 +23,8 @@ struct Expr {
   SourcePos pos;
   double k = 0;
   bool is_bool = false, is_time = false, is_real = false;
+  bool is_string = false;  // kLiteral: a STRING, its bytes in `text`
+  std::string text;
   // kName: "a", "fb1.Q", "p.x", or with array indices "a[#1]", "m[#2].x":
   // `[#n]` stands for the next n expressions of `args`, in order.
   std::string name;  // kCall: the function

@@ -61,6 +61,7 @@ Var* Lowering::in_out_argument(Scope& s, const Expr& e, const std::string& forma
 Value Lowering::eval(Scope& s, const Expr& e) {
   switch (e.kind) {
     case Expr::Kind::kLiteral: {
+      if (e.is_string) return string_constant(e.text);
       Value v = constant(e.k, e.is_bool);
       v.integer = !e.is_bool && !e.is_time && !e.is_real && e.k == std::floor(e.k);
       return v;
@@ -580,9 +581,10 @@ struct StLowerer {
   struct Home : Lowering::LoopHome {
     Var* var = nullptr;  // nullptr: a flag (RETURN, EXIT, CONTINUE)
   };
-  Home make_home(const std::string& stem, bool digital, bool integer, SourcePos pos) {
+  Home make_home(const std::string& stem, bool digital, bool integer, SourcePos pos,
+                 std::optional<uint32_t> str_cap = std::nullopt) {
     Home h;
-    static_cast<Lowering::LoopHome&>(h) = L.make_home(stem, digital, integer, pos);
+    static_cast<Lowering::LoopHome&>(h) = L.make_home(stem, digital, integer, pos, str_cap);
     return h;
   }
   void set_home(const Home& h, const Value& v, SourcePos pos) { L.set_home(h, v, pos); }
@@ -607,7 +609,7 @@ struct StLowerer {
       // A located input the body writes too (MatIEC's: lasts until the next cycle).
       if ((v->role != Var::Role::kPlain && v->role != Var::Role::kInput) || (v->decl && v->decl->constant)) continue;
       const Value before = L.read(*v, pos);
-      Home h = make_home(v->path, v->digital, v->integer, pos);
+      Home h = make_home(v->path, v->digital, v->integer, pos, v->str ? std::optional<uint32_t>(v->cap) : std::nullopt);
       h.var = v;
       set_home(h, before, pos);
       v->cur = h.value;

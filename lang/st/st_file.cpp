@@ -15,6 +15,16 @@
 namespace rtplc::lang::st {
 namespace {
 
+// The closing quote of the string literal opening at `open` (`'` or `"`); a
+// `$` escapes the character after it ($' $$). npos when it never closes.
+size_t string_close(std::string_view t, size_t open) {
+  for (size_t k = open + 1; k < t.size(); ++k) {
+    if (t[k] == '$') ++k;
+    else if (t[k] == t[open]) return k;
+  }
+  return std::string_view::npos;
+}
+
 using plcopen::BaseType;
 using plcopen::TypeRef;
 using plcopen::VarSection;
@@ -88,7 +98,7 @@ std::string blank_comments(std::string_view t) {
     line_start = false;
     size_t e = std::string_view::npos;
     if (c == '\'' || c == '"') {
-      e = t.find(c, i + 1);
+      e = string_close(t, i);
       i = e == std::string_view::npos ? t.size() : e + 1;
       continue;
     }
@@ -247,7 +257,7 @@ class Reader {
     while (i_ < t_.size()) {
       const char c = t_[i_];
       if (c == '\'' || c == '"') {
-        const size_t e = t_.find(c, i_ + 1);
+        const size_t e = string_close(t_, i_);
         if (e == std::string_view::npos) break;
         i_ = e + 1;
         continue;
@@ -518,9 +528,33 @@ class Reader {
       r.array = std::move(a);
       return r;
     }
-    if (w == "STRING" || w == "WSTRING" || w == "HMI_STRING" || w == "HMI_WSTRING") {
-      fail(at, "type " + w + " is not supported yet: rtplc values are numbers (docs/st.md)");
+    if (w == "WSTRING" || w == "HMI_WSTRING") {
+      fail(at, "type " + w + " is not supported (docs/st.md, \"Strings\"): use STRING");
       return std::nullopt;
+    }
+    if (w == "STRING" || w == "HMI_STRING") {
+      TypeRef r;
+      r.base = BaseType::kString;
+      r.hmi = w == "HMI_STRING";
+      skip();
+      // STRING[n] (IEC) or STRING(n) (CODESYS): the most characters it holds.
+      const char open = i_ < t_.size() ? t_[i_] : '\0';
+      if (open == '[' || open == '(') {
+        ++i_;
+        skip();
+        const size_t len_at = i_;
+        const auto len = integer();
+        if (!len) return std::nullopt;
+        const long n = static_cast<long>(*len);
+        if (n < 1 || n > static_cast<long>(kMaxStringLength)) {
+          fail(len_at, "a STRING of " + std::to_string(n) + " characters: 1 to " + std::to_string(kMaxStringLength));
+          return std::nullopt;
+        }
+        r.string_len = static_cast<uint32_t>(n);
+        expect(open == '[' ? "]" : ")", "after a STRING's length");
+        if (!ok_) return std::nullopt;
+      }
+      return r;
     }
     if (w == "POINTER" || w == "REF_TO") {
       fail(at, "type " + w + " is not supported (docs/st.md)");
@@ -722,7 +756,7 @@ class Reader {
         const size_t e = t_.find('\n', k);
         k = e == std::string_view::npos ? t_.size() : e;
       } else if (c == '\'' || c == '"') {
-        const size_t e = t_.find(c, k + 1);
+        const size_t e = string_close(t_, k);
         k = e == std::string_view::npos ? t_.size() : e + 1;
       } else if (word_char(c) && (k == 0 || !word_char(t_[k - 1]))) {
         size_t e = k;

@@ -672,8 +672,8 @@ END_PROGRAM
   EXPECT_EQ(h.value("Main.level"), -32768);  // an INT: wraps
   EXPECT_EQ(h.value("Main.on"), 1);
   EXPECT_EQ(h.value("Main.speed"), 3.0);
-  EXPECT_EQ(first_error("PROGRAM P\n  VAR s : HMI_STRING; END_VAR\nEND_PROGRAM\n").substr(0, 42),
-            "2:11: type HMI_STRING is not supported yet");
+  EXPECT_EQ(first_error("PROGRAM P\n  VAR s : HMI_STRING; END_VAR\nEND_PROGRAM\n").substr(0, 48),
+            "2:7: variable 's': a STRING HMI variable is not ");
 }
 
 TEST(StFile, the_median_example_keeps_a_spike_out_of_its_output) {
@@ -786,8 +786,8 @@ TEST(StFile, a_configuration_may_hold_its_task_without_a_resource) {
 }
 
 TEST(StFile, refuses_what_it_cannot_run_at_its_position_naming_it) {
-  EXPECT_EQ(first_error("PROGRAM P\n  VAR s : STRING[10]; END_VAR\nEND_PROGRAM\n").substr(0, 38),
-            "2:11: type STRING is not supported yet");
+  EXPECT_EQ(first_error("PROGRAM P\n  VAR s : WSTRING; END_VAR\nEND_PROGRAM\n").substr(0, 39),
+            "2:11: type WSTRING is not supported (do");
   EXPECT_EQ(first_error("PROGRAM P\n  VAR x : INT;\n").substr(0, 35), "2:3: VAR is never closed by END_VAR");
   EXPECT_EQ(first_error("PROGRAM P\n  VAR x : INT; END_VAR\n  x := 1;\n").substr(0, 38),
             "1:1: PROGRAM P is never closed by END_");

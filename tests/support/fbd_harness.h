@@ -8,6 +8,7 @@
 #include <string_view>
 
 #include "blocks/executor.h"
+#include "blocks/string_ops.h"
 #include "lang/compiler.h"
 
 namespace rtplc::testing {
@@ -60,6 +61,11 @@ class FbdHarness {
   double value(std::string_view name) const {
     uint32_t i = index_of(name);
     return arena_.values[image().code()[i].out];
+  }
+  // The text of the STRING block named `name` (docs/st.md, "Strings").
+  std::string text(std::string_view name) const {
+    uint32_t i = index_of(name);
+    return string_value(arena_.values.data(), static_cast<uint32_t>(arena_.values.size()), image().code()[i].out);
   }
   uint64_t errors(std::string_view name) const { return arena_.errors[index_of(name)]; }
 

@@ -1,0 +1,309 @@
+// STRING (docs/st.md, "Strings"): variables with a declared or default length,
+// literals with their `$` escapes, the standard's string functions, their
+// edge cases, comparisons, conversions in MatIEC's and CODESYS's texts,
+// strings kept across cycles and in real loops, and the verifier's checks.
+// Expected values are worked by hand from the standard, MatIEC's library and
+// CODESYS's documentation.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "blocks/image.h"
+#include "blocks/string_ops.h"
+#include "lang/compiler.h"
+#include "sched/program.h"
+#include "tests/st/first_error.h"
+#include "tests/support/fbd_harness.h"
+
+namespace rtplc::lang {
+namespace {
+
+using testing::FbdHarness;
+
+std::string text_of(const CompileResult& r, const TaskArena& arena, std::string_view name) {
+  for (size_t i = 0; i < r.image->blocks().size(); ++i) {
+    if (r.image->str(r.image->blocks()[i].name) == name) {
+      return string_value(arena.values.data(), static_cast<uint32_t>(arena.values.size()), r.image->code()[i].out);
+    }
+  }
+  ADD_FAILURE() << "no block " << name;
+  return "";
+}
+
+double value_of(const CompileResult& r, const TaskArena& arena, std::string_view name) {
+  for (size_t i = 0; i < r.image->blocks().size(); ++i) {
+    if (r.image->str(r.image->blocks()[i].name) == name) return arena.values[r.image->code()[i].out];
+  }
+  ADD_FAILURE() << "no block " << name;
+  return -1;
+}
+
+TEST(StStrings, the_standard_functions_and_their_edges) {
+  const char* src = R"(PROGRAM Main
+VAR
+  s : STRING := 'ABCDE';
+  n, f1, f2, f3, f4 : INT;
+  l1, l2, r1, m1, m2, m3, m4, c1, i1, i2, i3, d1, d2, d3, d4, p1, p2, p3 : STRING;
+END_VAR
+  n := LEN(s);
+  l1 := LEFT(s, 2);       l2 := LEFT(IN := s, L := 9);
+  r1 := RIGHT(s, 3);
+  m1 := MID(s, 2, 2);     m2 := MID(s, 9, 4);   m3 := MID(s, 2, 6);   m4 := MID(s, 2, 0);
+  c1 := CONCAT('ab', 'cd', 'e');
+  i1 := INSERT('ABC', 'XY', 2);  i2 := INSERT('ABC', 'XY', 0);  i3 := INSERT('ABC', 'XY', 7);
+  d1 := DELETE('ABXYC', 2, 3);   d2 := DELETE('ABC', 1, 7);     d3 := DELETE('ABCDE', 9, 2);
+  d4 := DELETE('ABC', 1, 0);
+  p1 := REPLACE('ABCDE', 'XYZ', 1, 2);  p2 := REPLACE('ABCDE', 'X', 2, 3);  p3 := REPLACE('ABC', 'Z', 1, 9);
+  f1 := FIND('ABCBC', 'BC');  f2 := FIND('AAB', 'AB');  f3 := FIND('ABCDE', 'XY');  f4 := FIND('ABC', '');
+END_PROGRAM
+)";
+  FbdHarness h(src, 0.1, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("s.st", src);
+  h.step();
+  EXPECT_EQ(h.value("Main.n"), 5);
+  EXPECT_EQ(h.text("Main.l1"), "AB");
+  EXPECT_EQ(h.text("Main.l2"), "ABCDE");  // more than there is: all of it
+  EXPECT_EQ(h.text("Main.r1"), "CDE");
+  EXPECT_EQ(h.text("Main.m1"), "BC");
+  EXPECT_EQ(h.text("Main.m2"), "DE");     // 9 from position 4: what is left
+  EXPECT_EQ(h.text("Main.m3"), "");       // position past the end
+  EXPECT_EQ(h.text("Main.m4"), "");       // position 0 (MatIEC reads its length byte there)
+  EXPECT_EQ(h.text("Main.c1"), "abcde");
+  EXPECT_EQ(h.text("Main.i1"), "ABXYC");
+  EXPECT_EQ(h.text("Main.i2"), "XYABC");
+  EXPECT_EQ(h.text("Main.i3"), "ABCXY");
+  EXPECT_EQ(h.text("Main.d1"), "ABC");
+  EXPECT_EQ(h.text("Main.d2"), "ABC");    // position past the end: nothing deleted
+  EXPECT_EQ(h.text("Main.d3"), "A");      // more than is left: to the end
+  EXPECT_EQ(h.text("Main.d4"), "ABC");    // position 0: nothing (MatIEC crashes)
+  EXPECT_EQ(h.text("Main.p1"), "AXYZCDE");  // the standard's (MatIEC gives 'AXCDE')
+  EXPECT_EQ(h.text("Main.p2"), "ABXE");
+  EXPECT_EQ(h.text("Main.p3"), "ABCZ");
+  EXPECT_EQ(h.value("Main.f1"), 2);
+  EXPECT_EQ(h.value("Main.f2"), 2);       // (MatIEC's search misses it and gives 0)
+  EXPECT_EQ(h.value("Main.f3"), 0);
+  EXPECT_EQ(h.value("Main.f4"), 0);
+}
+
+TEST(StStrings, lengths_escapes_and_comparisons) {
+  const char* src = R"(PROGRAM Main
+VAR
+  short : STRING[4] := 'abcdefg';
+  cut : STRING(3);
+  q : STRING := 'it$'s $$5$N$41';
+  lt, gt, eq, ne, le : BOOL;
+  grow : STRING[6];
+END_VAR
+  cut := CONCAT(short, 'xyz');
+  lt := 'AB' < 'ABC';
+  gt := 'b' > 'abc';
+  eq := '' = '';
+  ne := short <> 'abcd';
+  le := cut <= 'abc';
+  grow := CONCAT(grow, 'ab');
+END_PROGRAM
+)";
+  FbdHarness h(src, 0.1, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("s.st", src);
+  h.step();
+  EXPECT_EQ(h.text("Main.short"), "abcd");  // the initial value cut to the declared length
+  EXPECT_EQ(h.text("Main.cut"), "abc");
+  EXPECT_EQ(h.text("Main.q"), "it's $5\nA");
+  EXPECT_EQ(h.value("Main.lt"), 1);
+  EXPECT_EQ(h.value("Main.gt"), 1);
+  EXPECT_EQ(h.value("Main.eq"), 1);
+  EXPECT_EQ(h.value("Main.ne"), 0);
+  EXPECT_EQ(h.value("Main.le"), 1);
+  // Kept across cycles, never past its length.
+  EXPECT_EQ(h.text("Main.grow"), "ab");
+  h.step();
+  EXPECT_EQ(h.text("Main.grow"), "abab");
+  h.step(3);
+  EXPECT_EQ(h.text("Main.grow"), "ababab");
+}
+
+TEST(StStrings, strings_in_real_loops_and_branches) {
+  const char* src = R"(PROGRAM Main
+VAR
+  n AT %IW0 : INT;
+  i : INT;
+  acc, rev, word : STRING;
+END_VAR
+  acc := '';
+  FOR i := 1 TO n DO
+    acc := CONCAT(acc, INT_TO_STRING(i));
+    IF i MOD 2 = 0 THEN acc := CONCAT(acc, '-'); END_IF;
+  END_FOR;
+  word := 'stressed';
+  rev := '';
+  WHILE LEN(word) > 0 DO
+    rev := CONCAT(rev, RIGHT(word, 1));
+    word := LEFT(word, LEN(word) - 1);
+  END_WHILE;
+END_PROGRAM
+)";
+  FbdHarness h(src, 0.1, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("s.st", src);
+  h.set("n", 5);
+  h.step();
+  EXPECT_EQ(h.text("Main.acc"), "12-34-5");
+  EXPECT_EQ(h.text("Main.rev"), "desserts");
+  EXPECT_EQ(h.text("Main.word"), "");
+  h.set("n", 0);
+  h.step();
+  EXPECT_EQ(h.text("Main.acc"), "");
+}
+
+// The conversions' texts and numbers, for both editors' runtimes.
+TEST(StStrings, conversions_as_each_editor_writes_and_reads_them) {
+  const char* src = R"(PROGRAM Main
+VAR
+  r : REAL := 0.1;
+  lr : LREAL := 0.1;
+  t1 : TIME := T#1s500ms;
+  t2 : TIME := T#2d;
+  b : BYTE := 255;
+  sr, slr, st1, st2, sb, sbool, sint, stod, sdt : STRING;
+  i1, i2, i3 : INT;
+  by : BYTE;
+  x1, x2 : REAL;
+  ok : BOOL;
+  tt : TIME;
+END_VAR
+  sr := REAL_TO_STRING(r);
+  slr := LREAL_TO_STRING(lr);
+  st1 := TIME_TO_STRING(t1);
+  st2 := TIME_TO_STRING(t2);
+  sb := BYTE_TO_STRING(b);
+  sbool := BOOL_TO_STRING(TRUE);
+  sint := INT_TO_STRING(-42);
+  stod := TOD_TO_STRING(TOD#12:34:56.5);
+  sdt := DT_TO_STRING(DT#2001-09-09-01:46:40);
+  i1 := STRING_TO_INT('12.7');
+  i2 := STRING_TO_INT('1_000');
+  i3 := STRING_TO_INT('16#ff_ff');
+  by := STRING_TO_BYTE('500');
+  x1 := STRING_TO_REAL('1.5e3');
+  x2 := STRING_TO_REAL('1e3');
+  ok := STRING_TO_BOOL('true');
+  tt := STRING_TO_TIME('T#2s');
+END_PROGRAM
+)";
+  struct Want {
+    EditorSemantics sem;
+    const char *sr, *slr, *st1, *st2, *sb, *stod;
+    double i2, i3, x2, tt;
+  };
+  for (const Want& w : {Want{EditorSemantics::kMatiec, "0.1000000015", "0.1", "T#0d0h0m1s500ms", "T#2d", "16#ff",
+                             "TOD#12:34:56.500000", 1, -1, 1, 0},
+                        Want{EditorSemantics::kCodesys, "0.1", "0.1", "T#1s500ms", "T#2d", "255", "TOD#12:34:56.500",
+                             1000, -1, 1000, 2}}) {
+    CompileOptions o;
+    o.semantics = w.sem;
+    CompileResult r = compile_source(src, o);
+    ASSERT_TRUE(r.ok()) << r.diags.render("c.st", src);
+    TaskArena arena(*r.image);
+    execute_cycle(*r.image, arena);
+    const int k = static_cast<int>(w.sem);
+    EXPECT_EQ(text_of(r, arena, "Main.sr"), w.sr) << k;
+    EXPECT_EQ(text_of(r, arena, "Main.slr"), w.slr) << k;
+    EXPECT_EQ(text_of(r, arena, "Main.st1"), w.st1) << k;
+    EXPECT_EQ(text_of(r, arena, "Main.st2"), w.st2) << k;
+    EXPECT_EQ(text_of(r, arena, "Main.sb"), w.sb) << k;
+    EXPECT_EQ(text_of(r, arena, "Main.sbool"), "TRUE") << k;
+    EXPECT_EQ(text_of(r, arena, "Main.sint"), "-42") << k;
+    EXPECT_EQ(text_of(r, arena, "Main.stod"), w.stod) << k;
+    EXPECT_EQ(text_of(r, arena, "Main.sdt"), "DT#2001-09-09-01:46:40") << k;
+    EXPECT_EQ(value_of(r, arena, "Main.i1"), 12) << k;
+    EXPECT_EQ(value_of(r, arena, "Main.i2"), w.i2) << k;
+    EXPECT_EQ(value_of(r, arena, "Main.i3"), w.i3) << k;
+    EXPECT_EQ(value_of(r, arena, "Main.by"), 244) << k;  // 500 wrapped into a BYTE
+    EXPECT_EQ(value_of(r, arena, "Main.x1"), 1500) << k;
+    EXPECT_EQ(value_of(r, arena, "Main.x2"), w.x2) << k;
+    EXPECT_EQ(value_of(r, arena, "Main.ok"), 1) << k;
+    EXPECT_EQ(value_of(r, arena, "Main.tt"), w.tt) << k;
+  }
+}
+
+TEST(StStrings, what_is_refused_is_named_at_its_place) {
+  auto err = [](const std::string& body, const std::string& decl = "s : STRING; n : INT;") {
+    return testing::first_error("PROGRAM P\nVAR " + decl + " END_VAR\n" + body + "\nEND_PROGRAM\n");
+  };
+  EXPECT_NE(err("s := 5;").find("3:1: 's' is a STRING: convert the number"), std::string::npos) << err("s := 5;");
+  EXPECT_NE(err("n := s;").find("a STRING assigned to 'n'"), std::string::npos) << err("n := s;");
+  EXPECT_NE(err("s := s + 'x';").find("does not take STRINGs: join them with CONCAT"), std::string::npos);
+  EXPECT_NE(err("IF s THEN n := 1; END_IF;").find("a STRING where a number is needed"), std::string::npos);
+  EXPECT_NE(err("s := 'a$qb';").find("3:6: unknown escape $q"), std::string::npos) << err("s := 'a$qb';");
+  EXPECT_NE(err("s := \"wide\";").find("WSTRING"), std::string::npos);
+  EXPECT_NE(err("n := ABS(s);").find("ABS does not take a STRING"), std::string::npos);
+  EXPECT_NE(err("s := LEFT(s);").find("LEFT takes 2 arguments (IN, L)"), std::string::npos) << err("s := LEFT(s);");
+  EXPECT_NE(err("s := MID(s, 'a', 1);").find("MID's L is a number"), std::string::npos);
+  EXPECT_NE(err("", "s : STRING[0];").find("a STRING of 0 characters: 1 to 1024"), std::string::npos);
+  EXPECT_NE(err("", "s AT %MW0 : STRING;").find("a STRING at %MW0 is not supported yet"), std::string::npos);
+}
+
+// The verifier: a string input must read a whole string.
+TEST(StStrings, the_verifier_refuses_a_string_input_that_reads_a_number) {
+  const char* src = "PROGRAM P\nVAR s : STRING := 'ab'; n : INT; k : INT; END_VAR\nn := LEN(s); k := k + 1;\nEND_PROGRAM\n";
+  CompileResult r = compile_source(src, {});
+  ASSERT_TRUE(r.ok()) << r.diags.render("v.st", src);
+  std::vector<std::byte> bytes(r.image->bytes().begin(), r.image->bytes().end());
+  ASSERT_TRUE(verify_image(bytes).ok());
+  const ImageHeader& h = r.image->header();
+  uint32_t number_slot = UINT32_MAX;
+  for (const Instr& in : r.image->code()) {
+    if (op_writes_value(in.op) && !op_output_string(in.op)) number_slot = in.out;
+  }
+  ASSERT_NE(number_slot, UINT32_MAX);
+  bool changed = false;
+  for (uint32_t i = 0; i < h.n_instr; ++i) {
+    auto* in = reinterpret_cast<Instr*>(bytes.data() + h.off_instr) + i;
+    if (in->op != Op::SLen) continue;
+    in->in[0] = number_slot;
+    changed = true;
+  }
+  ASSERT_TRUE(changed);
+  const auto v = verify_image(bytes);
+  ASSERT_FALSE(v.ok());
+  EXPECT_NE(v.error().find("a string input reads no string"), std::string::npos) << v.error();
+}
+
+// Reading a string never goes past the value arena, whatever its length slot holds.
+TEST(StStrings, a_wild_length_reads_within_the_arena) {
+  std::vector<double> v = {1e9, 65, 66, 67};
+  EXPECT_EQ(string_value(v.data(), 4, 0), "ABC");
+  v[0] = -3;
+  EXPECT_EQ(string_value(v.data(), 4, 0), "");
+  v[0] = 2;
+  EXPECT_EQ(string_value(v.data(), 4, 0), "AB");
+  EXPECT_EQ(string_value(v.data(), 4, 7), "");
+}
+
+}  // namespace
+}  // namespace rtplc::lang
+
+namespace rtplc::lang {
+namespace {
+
+// A swap keeps a string variable whose length stays, and starts one whose
+// length changed afresh (sched/program.h, plan_migration).
+TEST(StStrings, a_swap_keeps_a_string_of_the_same_length) {
+  const char* v1 = "PROGRAM P\nVAR s : STRING[8]; t : STRING[4]; END_VAR\ns := CONCAT(s, 'a'); t := CONCAT(t, 'b');\nEND_PROGRAM\n";
+  const char* v2 = "PROGRAM P\nVAR s : STRING[8]; t : STRING[6]; END_VAR\ns := CONCAT(s, 'c'); t := CONCAT(t, 'd');\nEND_PROGRAM\n";
+  CompileResult a = compile_source(v1, {}), b = compile_source(v2, {});
+  ASSERT_TRUE(a.ok() && b.ok());
+  TaskArena old_arena(*a.image);
+  for (int k = 0; k < 3; ++k) execute_cycle(*a.image, old_arena);
+  EXPECT_EQ(text_of(a, old_arena, "P.s"), "aaa");
+  const sched::Migration m = sched::plan_migration(*a.image, *b.image);
+  TaskArena next(*b.image);
+  sched::apply_migration(m, old_arena, next);
+  execute_cycle(*b.image, next);
+  EXPECT_EQ(text_of(b, next, "P.s"), "aaac");
+  EXPECT_EQ(text_of(b, next, "P.t"), "d");  // STRING[4] became STRING[6]: reset
+}
+
+}  // namespace
+}  // namespace rtplc::lang
