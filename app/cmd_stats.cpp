@@ -47,6 +47,7 @@ struct ViewArgs {
   double interval = 1.0;
   std::string filter;
   double watch = 0;
+  std::string variables;  // monitor: also this task's program variables (its watch)
 };
 
 io::ProcessImage attach_or_fail(const std::string& name, const char* cmd) {
@@ -115,6 +116,42 @@ std::string fmt_value(double v, uint8_t kind) {
   if (kind == 1) std::snprintf(b, sizeof b, "%d", v != 0 ? 1 : 0);
   else std::snprintf(b, sizeof b, "%.6g", v);
   return b;
+}
+
+// The program variables of task `a.variables` as the task's watch has them
+// (Runtime::watch): the blocks named as the source names its variables
+// ("Main.level", "Main.fb1.count"), strings as their text. The first request
+// starts the task copying; a short wait for its first copy.
+std::string render_variables(const ViewArgs& a) {
+  nlohmann::json req = {{"op", "watch"}, {"args", {{"task", a.variables}}}};
+  const std::string sock = sched::control_socket_of(a.name, "");
+  for (int tries = 0;; ++tries) {
+    auto answer = sched::api_request(sock, req, "", 5000);
+    if (!answer) return "\n  variables of task " + a.variables + ": " + answer.error() + "\n";
+    if (!answer->value("ok", false)) {
+      return "\n  variables of task " + a.variables + ": " + sched::refusal_message(*answer, "refused") + "\n";
+    }
+    const nlohmann::json& r = (*answer)["result"];
+    if (r.value("pending", true) && tries < 40) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+      continue;
+    }
+    std::string out = fmt::format("\n  variables of task {} (cycle {})\n  {:<32} {:>20}  {}\n", a.variables,
+                                  r.value("cycle", uint64_t{0}), "variable", "value", "quality");
+    for (const auto& b : r["blocks"]) {
+      const std::string name = b.value("name", "");
+      // Temporaries ("Main.$7"), shared constants ("k:1", "plcopen.true") and output
+      // blocks ("dao@...") are the compiler's, not the program's.
+      if (name.find('$') != std::string::npos || name.rfind("plcopen.", 0) == 0 || name.find_first_of("@:") != std::string::npos) {
+        continue;
+      }
+      if (!a.filter.empty() && name.find(a.filter) == std::string::npos) continue;
+      const nlohmann::json& v = b["value"];
+      const std::string value = v.is_string() ? "'" + v.get<std::string>() + "'" : fmt::format("{:.6g}", v.get<double>());
+      out += fmt::format("  {:<32} {:>20}  {}\n", name, value, b.value("quality", ""));
+    }
+    return out;
+  }
 }
 
 void run_monitor(const ViewArgs& a) {
@@ -202,6 +239,7 @@ void run_monitor(const ViewArgs& a) {
                     fmt_value(v.value, d.kind).c_str(), quality, age, writer.c_str());
       out += line;
     }
+    if (!a.variables.empty() && live.alive) out += render_variables(a);
     if (tty) std::fputs("\x1b[H\x1b[2J", stdout);
     std::fputs(out.c_str(), stdout);
     std::fflush(stdout);
@@ -237,13 +275,16 @@ void add_stats_commands(CLI::App& app) {
   CLI::App* mon = app.add_subcommand("monitor", "Live values, quality and age of every channel.");
   mon->footer("Attaches read-only to the running runtime's process image. Each output shows\n"
               "its on_bad policy (what its drivers send while it is not good) beside its writer.\n"
-              "Examples:\n  rtplc monitor\n  rtplc monitor --once --filter SV_\n  rtplc monitor --json | jq '.channels[]'");
+              "--variables TASK adds that task's program variables (ST, PLCopen), strings as text.\n"
+              "Examples:\n  rtplc monitor\n  rtplc monitor --once --filter SV_\n  rtplc monitor --once --variables plant\n  rtplc monitor --json | jq '.channels[]'");
   mon->add_option("--name", a->name, "runtime name (default rtplc)")->check(runtime_name());
   mon->add_flag("--once", a->once, "print once and exit");
   mon->add_option("--interval", a->interval, "refresh period in seconds (default 1, at least 0.05)")
       ->check(seconds_at_least(kMinRefresh_s));
   mon->add_option("--filter", a->filter, "only channels whose label or address contains this");
   mon->add_flag("--json", a->json, "print once, machine-readable (tasks, channels, links, forced)");
+  mon->add_option("--variables", a->variables,
+                  "also the program variables of this task, strings as text (the task's watch; --filter applies)");
   mon->callback([a] { run_monitor(*a); });
 }
 

@@ -1,6 +1,8 @@
 // The operator API (see operator_api.h): authorisation, the ops, the audit.
 #include "sched/operator_api.h"
 
+#include "common/diagnostic.h"
+
 #include <grp.h>
 #include <pwd.h>
 #include <unistd.h>
@@ -418,7 +420,10 @@ ApiAnswer OperatorApi::run(const Caller& caller, const std::string& op, const js
     if (!w) return ApiAnswer::failure("refused", w.error());
     json blocks = json::array();
     for (const auto& b : w->blocks) {
-      blocks.push_back({{"name", b.name}, {"kind", b.kind}, {"value", b.value}, {"quality", quality_name(b.quality)}});
+      // A STRING's value is its text (docs/api.md, "watch"), a byte that is not
+      // UTF-8 written \xNN so the answer stays JSON.
+      json value = b.text ? json(escape_for_terminal(*b.text, true)) : json(b.value);
+      blocks.push_back({{"name", b.name}, {"kind", b.kind}, {"value", value}, {"quality", quality_name(b.quality)}});
     }
     return ApiAnswer::success("task " + *task + ": " + std::to_string(w->blocks.size()) + " block outputs" +
                                   (w->pending ? " (the first watch snapshot is on its way)" : ""),

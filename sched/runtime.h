@@ -155,6 +155,7 @@ class Runtime {
     std::string kind;
     double value = 0;
     Quality quality = Quality::kGood;
+    std::optional<std::string> text;  // a STRING's value (value is then its length)
   };
   struct WatchInfo {
     bool pending = true;

@@ -2,6 +2,8 @@
 // swap and rollback, status and the start-up summary. Control thread only.
 #include "sched/runtime.h"
 
+#include "blocks/string_ops.h"
+
 #include <fmt/format.h>
 #include "sched/image_plan.h"
 
@@ -434,14 +436,19 @@ Result<Runtime::WatchInfo> Runtime::watch(const std::string& task) {
   WatchInfo w;
   w.program = ProgramStore::hash_of(p.source);
   std::vector<double> data;
-  int64_t at = 0;
-  if (!p.watch.read(data, w.cycle, at)) return w;
+  int64_t taken = 0;
+  if (!p.watch.read(data, w.cycle, taken)) return w;
   w.pending = false;
-  w.age_s = static_cast<double>(now - at) * 1e-9;
+  w.age_s = static_cast<double>(now - taken) * 1e-9;
   const auto& blocks = p.watch.blocks();
-  for (size_t i = 0; i < blocks.size() && 2 * i + 1 < data.size(); ++i) {
-    const auto lane = static_cast<uint8_t>(std::clamp(data[2 * i + 1], 0.0, 2.0));
-    w.blocks.push_back({blocks[i].name, std::string(blocks[i].kind), data[2 * i], quality_of(static_cast<Lane>(lane))});
+  size_t at = 0;  // each block's [output (n_value slots), status]
+  for (size_t i = 0; i < blocks.size() && at + blocks[i].n_value < data.size(); ++i) {
+    const uint32_t n = blocks[i].n_value;
+    const auto lane = static_cast<uint8_t>(std::clamp(data[at + n], 0.0, 2.0));
+    WatchedValue v{blocks[i].name, std::string(blocks[i].kind), data[at], quality_of(static_cast<Lane>(lane)), {}};
+    if (n > 1) v.text = string_value(data.data() + at, n, 0);
+    w.blocks.push_back(std::move(v));
+    at += n + 1;
   }
   return w;
 }

@@ -62,7 +62,7 @@ void StateSnapshot::take_watch(const TaskArena& arena, const StatusLane& lane, i
   const uint32_t w = begin_take();
   uint32_t i = 0;
   for (const RetainedBlock& rb : *blocks_) {
-    store(w, i++, arena.values[rb.value]);
+    for (uint32_t k = 0; k < rb.n_value; ++k) store(w, i++, arena.values[rb.value + k]);
     store(w, i++, rb.value < lane.values.size() ? static_cast<double>(lane.values[rb.value]) : 0.0);
   }
   end_take(w, arena.cycles, now_ns);
@@ -129,6 +129,9 @@ std::vector<RetainedBlock> watched_blocks(const TaskImage& image) {
     rb.name = std::string(image.str(blocks[i].name));
     rb.kind = lower_op_name(in.op);
     rb.value = in.out;
+    // A string's whole text (watched_blocks' readers show it as text).
+    rb.n_value = op_value_width(in.op, op_param_count(in.op) ? image.params().data() + in.param : nullptr);
+    if (rb.n_value > image.header().n_values - in.out) continue;
     rb.n_state = 1;  // the status, see take_watch
     out.push_back(std::move(rb));
   }

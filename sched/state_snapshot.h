@@ -121,7 +121,8 @@ class StateSnapshot {
 // in `unknown` when given.
 // The watch's layout (the editor's live wires, Runtime::watch): every block
 // that writes a value, in textual order, with `n_state` = 1 standing for its
-// status (take_watch writes [output, status]). Loads of inputs and set-points
+// status (take_watch writes [output, status]; a string's output is its
+// n_value slots, blocks/ops.h "Strings"). Loads of inputs and set-points
 // are left out: their channels are in the process image already.
 std::vector<RetainedBlock> watched_blocks(const TaskImage& image);
 

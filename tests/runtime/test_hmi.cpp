@@ -6,8 +6,11 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <sys/wait.h>
+
 #include <string>
 
+#include "sched/control.h"
 #include "tests/support/eventually.h"
 #include "tests/support/run_tool.h"
 #include "tests/support/runtime_fixture.h"
@@ -82,6 +85,33 @@ TEST(Hmi, hmi_variables_are_marked_channels_an_operator_sets_and_reads) {
   EXPECT_TRUE(eventually([&] { return read_label(*rt, "Main.shown").value == 20.0; }));
   EXPECT_EQ(std::string(desc(*rt, "Main.shown").key), shown_key);
   rt->stop();
+}
+
+// A running task's program variables, a STRING as its text: `monitor
+// --variables TASK` over the task's watch (docs/st.md, "Strings").
+TEST(Hmi, monitor_shows_a_tasks_variables_and_strings_as_text) {
+  RuntimeFixture fx;
+  fx.write("s.st",
+           "PROGRAM Main\nVAR\n  n : INT;\n  msg : STRING[20];\n  odd : STRING := 'a$FFb';\nEND_VAR\n"
+           "  n := n + 1;\n  msg := CONCAT('cycle ', INT_TO_STRING(n MOD 1000));\nEND_PROGRAM\n");
+  const std::string name = fx.unique_name(), sock = fx.dir() + "/s.sock";
+  const std::string cfg = fx.write("s.yaml", "runtime:\n  name: " + name + "\n  socket: " + sock +
+                                                 "\ntasks:\n  - {name: strs, program: s.st, period: 10ms}\n");
+  const pid_t pid = rtplc::testing::launch_rtplc_run(cfg, sock);
+  test::ToolRun mon;
+  EXPECT_TRUE(eventually([&] {
+    mon = test::run_tool("monitor --once --name " + name + " --variables strs");
+    return mon.out.find("'cycle ") != std::string::npos;
+  })) << mon.out;
+  EXPECT_EQ(mon.status, 0) << mon.out;
+  EXPECT_NE(mon.out.find("variables of task strs"), std::string::npos) << mon.out;
+  EXPECT_NE(mon.out.find("Main.msg"), std::string::npos) << mon.out;
+  EXPECT_NE(mon.out.find("'a\\xffb'"), std::string::npos) << mon.out;  // not UTF-8: escaped, the answer stays JSON
+  EXPECT_EQ(mon.out.find("$"), std::string::npos) << mon.out;           // no temporaries
+  const test::ToolRun bad = test::run_tool("monitor --once --name " + name + " --variables nope");
+  EXPECT_NE(bad.out.find("variables of task nope: "), std::string::npos) << bad.out;
+  (void)control_request(sock, "stop");
+  waitpid(pid, nullptr, 0);
 }
 
 }  // namespace

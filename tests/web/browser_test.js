@@ -134,6 +134,17 @@ async function value(page, label) {
     assert.ok(!(await page.getAttribute('[data-testid="step-S1"]', 'class')).includes('active'));
     await page.screenshot({ path: path.join(shots, 'chart.png'), fullPage: true });
 
+    // The Variables page: the ST panel's variables, a STRING as its text.
+    await page.click('[data-testid="nav-variables"]');
+    await page.selectOption('[data-testid="vars-task"]', 'panel');
+    await page.waitForFunction(() => {
+      const r = document.querySelector('[data-testid="var-Panel.shown"]');
+      // (Panel.speed was set to 4 above: REAL_TO_STRING writes '4')
+      return r && r.children[1].textContent === "'speed 4'" && r.children[2].textContent === 'good';
+    }, null, { timeout: 20000 });
+    assert.ok(!(await page.$('[data-testid="var-Panel.$1"]')));
+    await page.screenshot({ path: path.join(shots, 'variables.png'), fullPage: true });
+
     // The Modbus slave dies: its channel turns bad (or stale), never stays good.
     await page.click('[data-testid="nav-overview"]');
     await page.waitForFunction(() => document.querySelector('[data-testid="quality-FieldLevel"]').textContent === 'good' &&

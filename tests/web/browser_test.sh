@@ -36,8 +36,10 @@ PROGRAM Panel
 VAR
   speed : HMI_REAL := 2.5;
   doubled : HMI_REAL;
+  shown : STRING[24];
 END_VAR
   doubled := speed * 2.0;
+  shown := CONCAT('speed ', REAL_TO_STRING(speed));
 END_PROGRAM
 ST
 port="$(/usr/bin/python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])')"

@@ -110,6 +110,9 @@ async function loadStatus() {
   const charts = $('chart-task');
   const chartChosen = charts.value;
   charts.replaceChildren();
+  const varTasks = $('vars-task');
+  const varsChosen = varTasks.value;
+  varTasks.replaceChildren();
   for (const task of st.tasks || []) {
     const c = el('div', null, 'card');
     c.dataset.testid = 'task-' + task.name;
@@ -127,10 +130,12 @@ async function loadStatus() {
     c.appendChild(facts);
     cards.appendChild(c);
     tasks.appendChild(el('option', task.name));
+    varTasks.appendChild(el('option', task.name));
     if (task.active_steps) charts.appendChild(el('option', task.name));
   }
   if (chosen) tasks.value = chosen;
   if (chartChosen) charts.value = chartChosen;
+  if (varsChosen) varTasks.value = varsChosen;
   const forced = st.forced || [];
   $('forces').hidden = forced.length === 0;
   $('forces').textContent = forced.length + ' FORCED';
@@ -247,10 +252,12 @@ document.addEventListener('DOMContentLoaded', () => {
     if (b.dataset.page === 'jitter') loadJitter();
     if (b.dataset.page === 'trend') fillTrendLabels();
     if (b.dataset.page === 'chart') loadChart();
+    if (b.dataset.page === 'variables') pollVariables();
     if (b.dataset.page === 'operations') loadPrograms();
     if (b.dataset.page === 'editor') editorOpen();
   }));
   $('chart-task').addEventListener('change', loadChart);
+  $('vars-task').addEventListener('change', pollVariables);
   $('swap-task').addEventListener('change', loadPrograms);
   $('search').addEventListener('input', filter);
   $('set-form').addEventListener('submit', async (e) => {
@@ -495,6 +502,43 @@ async function loadPrograms() {
     tr.appendChild(td);
     body.appendChild(tr);
   }
+}
+
+// The Variables page: the chosen task's watch (GET /api/watch) while the page
+// is shown, the program's variables only ("Main.level"; not the compiler's
+// temporaries "Main.$7", constants "k:1", "plcopen.true" or "dao@..."), a
+// STRING's value as its quoted text.
+let varsTimer = null;
+async function pollVariables() {
+  clearTimeout(varsTimer);
+  if (page !== 'variables') return;
+  const task = $('vars-task').value;
+  if (task) {
+    const r = await call('GET', '/api/watch?task=' + encodeURIComponent(task));
+    if (page !== 'variables') return;
+    const body = $('vars').tBodies[0];
+    if (r.status !== 200) {
+      $('vars-info').textContent = (r.data && r.data.error && r.data.error.message) || 'no answer';
+    } else if (r.data.result.pending) {
+      $('vars-info').textContent = 'asking the task for its values';
+    } else {
+      const res = r.data.result, q = $('vars-search').value.toLowerCase();
+      $('vars-info').textContent = 'cycle ' + res.cycle;
+      body.replaceChildren();
+      for (const b of res.blocks) {
+        if (/[$@:]/.test(b.name) || b.name.startsWith('plcopen.')) continue;
+        if (q && !b.name.toLowerCase().includes(q)) continue;
+        const tr = el('tr');
+        tr.dataset.testid = 'var-' + b.name;
+        tr.appendChild(el('td', b.name));
+        const text = typeof b.value === 'string';
+        tr.appendChild(el('td', text ? "'" + b.value + "'" : fmt(b.value), text ? 'str' : 'num'));
+        tr.appendChild(el('td', b.quality, 'q-' + b.quality));
+        body.appendChild(tr);
+      }
+    }
+  }
+  varsTimer = setTimeout(pollVariables, 500);
 }
 
 // An SFC chart drawn as SVG: steps top to bottom in the order written, each
