@@ -777,7 +777,9 @@ Var* Lowering::indexed_array(Scope& s, const std::string& path, const std::vecto
   Var* a = lookup(s, base, pos, false);
   if (!a || a->role != Var::Role::kArray || !a->array || a->array->dims.size() != 1 || a->elems.empty()) return nullptr;
   for (const auto& e : a->elems) {
-    if (e->role != Var::Role::kPlain) return nullptr;
+    // (a STRING element is read and written by a choice among the elements:
+    // pick and put move numbers)
+    if (e->role != Var::Role::kPlain || e->str) return nullptr;
   }
   // Evaluated once here; the caller uses it instead of places() evaluating it.
   index_value = eval(s, *index[0]);

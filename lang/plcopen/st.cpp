@@ -83,7 +83,7 @@ std::vector<Tok> lex(std::string_view s, const XmlElement& origin, DiagnosticLis
     if (c == '{') {
       // A pragma ({attribute 'hide'}, CODESYS; {info ...}): the standard lets
       // an implementation ignore those it does not know, and rtplc knows none.
-      const size_t e = s.find('}', i + 1);
+      const size_t e = pragma_close(s, i);
       if (e == std::string_view::npos) {
         d.error(pm.at(i), "unterminated pragma '{'");
         break;
@@ -849,6 +849,15 @@ class Parser {
 };
 
 }  // namespace
+
+size_t pragma_close(std::string_view text, size_t open) {
+  int depth = 0;
+  for (size_t k = open; k < text.size(); ++k) {
+    if (text[k] == '{') ++depth;
+    else if (text[k] == '}' && --depth == 0) return k;
+  }
+  return std::string_view::npos;
+}
 
 Block parse_st(std::string_view text, const XmlElement& origin, DiagnosticList& diags) {
   const size_t before = diags.error_count();

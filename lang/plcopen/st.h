@@ -89,6 +89,10 @@ std::unique_ptr<Expr> parse_st_expression(std::string_view text, const XmlElemen
 Block parse_st_range(std::string_view text, size_t begin, size_t end, const XmlElement& origin,
                      DiagnosticList& diags);
 
+// The `}` closing the pragma that opens at `open` (a `{`), braces nested inside
+// it counted (Beremiz's `{{ C code }}`); npos when it never closes.
+size_t pragma_close(std::string_view text, size_t open);
+
 // Names an ST text assigns (`x :=`, `=> x`), upper-cased, for the importer's
 // "written anywhere" pre-pass.
 void st_written_names(std::string_view text, std::vector<std::string>& out);

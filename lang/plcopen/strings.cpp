@@ -1,6 +1,7 @@
 // The standard's string functions and conversions (docs/st.md, "Strings"):
-// LEN, LEFT, RIGHT, MID, CONCAT, INSERT, DELETE, REPLACE, FIND, SEL and MOVE
-// on strings, X_TO_STRING, TO_STRING and STRING_TO_X, each lowered to the
+// LEN, LEFT, RIGHT, MID, CONCAT, INSERT, DELETE, REPLACE, FIND, SEL, MOVE and
+// the comparisons EQ .. GE on strings, X_TO_STRING, TO_STRING and STRING_TO_X,
+// each lowered to the
 // string blocks (blocks/string_ops.h).
 #include <algorithm>
 
@@ -133,6 +134,23 @@ std::optional<Value> Lowering::call_string_function(const std::string& up, const
       return string_constant("");
     }
     return sel ? em_.select(args[0], args[2], args[1], pos) : args[0];
+  }
+  // ---- comparisons called as functions: EQ(a, b), GT(a, b, c) = a > b AND b > c ----
+  static const std::pair<const char*, BinOp> kCompare[] = {{"EQ", BinOp::kEq}, {"NE", BinOp::kNe},
+                                                           {"LT", BinOp::kLt}, {"LE", BinOp::kLe},
+                                                           {"GT", BinOp::kGt}, {"GE", BinOp::kGe}};
+  for (const auto& [name, op] : kCompare) {
+    if (!any_string || up != name) continue;
+    const bool ne = op == BinOp::kNe;
+    if (args.size() < 2 || (ne && args.size() != 2)) {
+      d_.error(pos, up + " takes " + (ne ? "2" : "at least 2") + " arguments, found " + std::to_string(args.size()));
+      return constant(0, true);
+    }
+    Value r = em_.binary(op, args[0], args[1], pos);
+    for (size_t k = 2; k < args.size(); ++k) {
+      r = em_.binary(BinOp::kAnd, r, em_.binary(op, args[k - 1], args[k], pos), pos);
+    }
+    return r;
   }
   // ---- the string functions ----
   const StringFunction* f = find_string_function(up);

@@ -2,6 +2,7 @@
 #include "lang/st/st_file.h"
 
 #include "lang/iec/iec_functions.h"
+#include "lang/plcopen/st.h"
 
 #include <algorithm>
 #include <cmath>
@@ -49,7 +50,7 @@ size_t skip_blank(std::string_view t, size_t i, const char*& unclosed) {
       const size_t e = t.find('\n', i);
       i = e == std::string_view::npos ? t.size() : e + 1;
     } else if (t[i] == '{') {
-      const size_t e = t.find('}', i);
+      const size_t e = plcopen::pragma_close(t, i);
       if (e == std::string_view::npos) {
         unclosed = "pragma '{' is never closed";
         return i;
@@ -109,7 +110,7 @@ std::string blank_comments(std::string_view t) {
       e = t.find('\n', i);
       if (e == std::string_view::npos) e = t.size();
     } else if (c == '{') {
-      e = t.find('}', i);
+      e = plcopen::pragma_close(t, i);
       if (e != std::string_view::npos) e += 1;
     } else {
       ++i;

@@ -97,7 +97,7 @@ VAR
   grow : STRING[6];
 END_VAR
   cut := CONCAT(short, 'xyz');
-  lt := 'AB' < 'ABC';
+  lt := 'AB' < 'ABC' AND LT('A', 'AB', 'B') AND NOT GT('b', 'c', 'a') AND EQ(cut, 'abc', cut);
   gt := 'b' > 'abc';
   eq := '' = '';
   ne := short <> 'abcd';
@@ -129,12 +129,18 @@ TEST(StStrings, strings_in_real_loops_and_branches) {
 VAR
   n AT %IW0 : INT;
   i : INT;
-  acc, rev, word : STRING;
+  acc, rev, word, joined : STRING;
+  parts : ARRAY[1..3] OF STRING[4] := ['ab', 'c', 'def'];
 END_VAR
   acc := '';
   FOR i := 1 TO n DO
     acc := CONCAT(acc, INT_TO_STRING(i));
     IF i MOD 2 = 0 THEN acc := CONCAT(acc, '-'); END_IF;
+  END_FOR;
+  joined := '';
+  FOR i := n TO n + 2 DO
+    joined := CONCAT(joined, parts[i MOD 3 + 1], '/');
+    parts[i MOD 3 + 1] := CONCAT(parts[i MOD 3 + 1], 'x');
   END_FOR;
   word := 'stressed';
   rev := '';
@@ -151,9 +157,15 @@ END_PROGRAM
   EXPECT_EQ(h.text("Main.acc"), "12-34-5");
   EXPECT_EQ(h.text("Main.rev"), "desserts");
   EXPECT_EQ(h.text("Main.word"), "");
+  // i = 5, 6, 7 read parts[3], parts[1], parts[2] before each gets its x.
+  EXPECT_EQ(h.text("Main.joined"), "def/ab/c/");
+  EXPECT_EQ(h.text("Main.parts[3]"), "defx");
   h.set("n", 0);
   h.step();
   EXPECT_EQ(h.text("Main.acc"), "");
+  // i = 0, 1, 2: parts[1], [2], [3]; parts[3] stays at its length, 4.
+  EXPECT_EQ(h.text("Main.joined"), "abx/cx/defx/");
+  EXPECT_EQ(h.text("Main.parts[3]"), "defx");
 }
 
 // The conversions' texts and numbers, for both editors' runtimes.
@@ -303,6 +315,53 @@ TEST(StStrings, a_swap_keeps_a_string_of_the_same_length) {
   execute_cycle(*b.image, next);
   EXPECT_EQ(text_of(b, next, "P.s"), "aaac");
   EXPECT_EQ(text_of(b, next, "P.t"), "d");  // STRING[4] became STRING[6]: reset
+}
+
+}  // namespace
+}  // namespace rtplc::lang
+
+namespace rtplc::lang {
+namespace {
+
+// The header every Beremiz build/plc.st starts with: LOGGER takes a STRING and
+// holds C code in a nested pragma `{{ ... }}`, which rtplc skips whole.
+TEST(StStrings, the_beremiz_logger_header_compiles_and_runs) {
+  const char* src = R"(TYPE
+  LOGLEVEL : (CRITICAL, WARNING, INFO, DEBUG) := INFO;
+END_TYPE
+
+FUNCTION_BLOCK LOGGER
+  VAR_INPUT
+    TRIG : BOOL;
+    MSG : STRING;
+    LEVEL : LOGLEVEL := INFO;
+  END_VAR
+  VAR
+    TRIG0 : BOOL;
+  END_VAR
+  IF TRIG AND NOT TRIG0 THEN
+  {{
+   LogMessage(GetFbVar(LEVEL),(char*)GetFbVar(MSG, .body),GetFbVar(MSG, .len));
+  }}
+  END_IF;
+  TRIG0:=TRIG;
+END_FUNCTION_BLOCK
+
+PROGRAM Main
+VAR
+  log : LOGGER;
+  n : INT;
+END_VAR
+  n := n + 1;
+  log(TRIG := n MOD 2 = 0, MSG := CONCAT('n = ', INT_TO_STRING(n)));
+END_PROGRAM
+)";
+  FbdHarness h(src, 0.1, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("plc.st", src);
+  EXPECT_EQ(h.result().diags.warning_count(), 0u) << h.result().diags.render("plc.st", src);
+  h.step(3);
+  EXPECT_EQ(h.text("Main.log.MSG"), "n = 3");
+  EXPECT_EQ(h.value("Main.log.TRIG0"), 0);
 }
 
 }  // namespace
