@@ -138,8 +138,12 @@ std::vector<Value> Lowering::lower_iec(const iec::IecFunction& f, const std::str
       v.digital = ie.kind_of(o) == Kind::kDigital;
       v.integer = !v.digital && iec::type_info(t).integer;
       if (v.integer) v.int_type = t;
-      // A conversion's or date function's result (typed: its type is its own).
-      if (f.typed && !v.digital && iec::time_grid(t) != 0) v.time_type = t;
+      // A conversion's or date function's result (typed: its type is its own);
+      // a sum, choice or bound of one time type keeps it (TO_DINT(t1 + t2)).
+      static const char* const kKeeps[] = {"ADD", "MAX", "MIN", "LIMIT", "SEL", "MUX", "MOVE"};
+      const bool keeps = std::any_of(std::begin(kKeeps), std::end(kKeeps), [&](const char* n) { return f.name == n; }) ||
+                         (f.name == "SUB" && t == iec::IecType::kTime);
+      if ((f.typed || keeps) && !v.digital && iec::time_grid(t) != 0) v.time_type = t;
       r.push_back(v);
     }
   }
@@ -278,6 +282,10 @@ Value Lowering::operate(BinOp op, const Value& a, const Value& b, SourcePos pos)
   if (a.str || b.str) return em_.binary(op, a, b, pos);  // compares strings, or says why not
   if (a.is_const && b.is_const) {
     Value r = em_.binary(op, a, b, pos);
+    if ((op == BinOp::kAdd || op == BinOp::kSub) && a.time_type && a.time_type == b.time_type &&
+        *a.time_type == iec::IecType::kTime) {
+      r.time_type = a.time_type;  // T#1s + T#2s is a TIME
+    }
     // Folded in the operands' integer type as the task would compute it:
     // wrapped (4000000000 * 3 in UDINT is 3410065408), the product exact.
     const std::optional<iec::IecType> t = wider(a.int_type, b.int_type);
@@ -344,6 +352,7 @@ Value Lowering::fb_output(Var& v, const std::string& name, SourcePos pos) {
   r.ref = v.path + "." + up;  // made by the call; read before it: last cycle's
   r.digital = fb_output_digital(v, up);
   r.integer = up == "CV";
+  if (up == "ET" || up == "PT") r.time_type = iec::IecType::kTime;  // a timer's: TO_DINT(t.ET) is TIME_TO_DINT
   if (!v.std_fb.called) pending_outputs_.push_back(PendingOutput{&v, up, pos});
   return r;
 }

@@ -698,6 +698,11 @@ class Parser {
       ++i_;
       e->kind = Expr::Kind::kLiteral;
       e->k = *v;
+      if (tm) {
+        const std::string prefix = hash == std::string::npos ? std::string() : upper(t.text.substr(0, hash));
+        const auto dt = date_literal_type(prefix);
+        e->time_type = dt ? *dt : iec::IecType::kTime;
+      }
       e->is_bool = b;
       e->is_time = tm;
       e->is_real = !b && !tm && t.text.find_first_of(".eE") != std::string::npos &&

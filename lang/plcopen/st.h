@@ -7,6 +7,7 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -24,6 +25,8 @@ struct Expr {
   double k = 0;
   bool is_bool = false, is_time = false, is_real = false;
   bool is_string = false;  // kLiteral: a STRING, its bytes in `text`
+  // kLiteral: T#... is a TIME, D#, TOD#, DT# their types (what TO_DINT converts from).
+  std::optional<iec::IecType> time_type;
   std::string text;
   // kName: "a", "fb1.Q", "p.x", or with array indices "a[#1]", "m[#2].x":
   // `[#n]` stands for the next n expressions of `args`, in order.

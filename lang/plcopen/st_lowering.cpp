@@ -63,6 +63,7 @@ Value Lowering::eval(Scope& s, const Expr& e) {
     case Expr::Kind::kLiteral: {
       if (e.is_string) return string_constant(e.text);
       Value v = constant(e.k, e.is_bool);
+      v.time_type = e.time_type;
       v.integer = !e.is_bool && !e.is_time && !e.is_real && e.k == std::floor(e.k);
       return v;
     }

@@ -6,6 +6,8 @@
 // 2024-02-29 is 19723 + 31 + 28 = 19782 days, 1,709,164,800 s.
 #include <gtest/gtest.h>
 
+#include <tuple>
+
 #include <string>
 
 #include "lang/compiler.h"
@@ -225,6 +227,52 @@ END_PROGRAM
   EXPECT_EQ(h.value("Main.d"), 0.333333333);
   EXPECT_EQ(h.value("Main.m2"), 1);
   EXPECT_EQ(h.value("Main.d2"), 0.125);
+}
+
+}  // namespace
+}  // namespace rtplc::lang
+
+namespace rtplc::lang {
+namespace {
+
+// TO_DINT of a TIME literal, a timer's ET and a sum of TIMEs converts from the
+// TIME, as TIME_TO_DINT does (ms under CODESYS, whole seconds under MatIEC).
+TEST(StDates, to_dint_of_a_time_literal_an_et_and_a_sum_is_time_to_dint) {
+  const char* src = R"(PROGRAM Main
+VAR
+  t : TON;
+  a : TIME := T#1s;
+  lit, et, sum, day : DINT;
+END_VAR
+  t(IN := TRUE, PT := T#10s);
+  lit := TO_DINT(T#1500ms);
+  et := TO_DINT(t.ET);
+  sum := TO_DINT(a + T#2s500ms);
+  day := TO_DINT(D#1970-01-02);
+END_PROGRAM
+)";
+  for (const auto& [sem, lit, et, sum] : {std::tuple{EditorSemantics::kMatiec, 1.0, 2.0, 3.0},
+                                          std::tuple{EditorSemantics::kCodesys, 1500.0, 2500.0, 3500.0}}) {
+    CompileOptions o;
+    o.semantics = sem;
+    o.period_override = 0.5;
+    CompileResult r = compile_source(src, o);
+    ASSERT_TRUE(r.ok()) << r.diags.render("d.st", src);
+    TaskArena arena(*r.image);
+    for (int k = 0; k < 6; ++k) execute_cycle(*r.image, arena);  // ET = 2.5 s after six cycles of 0.5 s
+    auto value = [&](std::string_view name) {
+      for (size_t i = 0; i < r.image->blocks().size(); ++i) {
+        if (r.image->str(r.image->blocks()[i].name) == name) return arena.values[r.image->code()[i].out];
+      }
+      ADD_FAILURE() << "no block " << name;
+      return -1.0;
+    };
+    const int k = static_cast<int>(sem);
+    EXPECT_EQ(value("Main.lit"), lit) << k;
+    EXPECT_EQ(value("Main.et"), et) << k;
+    EXPECT_EQ(value("Main.sum"), sum) << k;
+    EXPECT_EQ(value("Main.day"), 86400) << k;  // a DATE counts seconds for both
+  }
 }
 
 }  // namespace
