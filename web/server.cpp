@@ -753,7 +753,7 @@ void WebConsole::routes() {
             state->next_renew_ns = now + 1'000'000'000;
             auto k = ask(s, "trace_keep", {{"token", t.token}}, "", 2000);
             if (!k || !k->value("ok", false)) {
-              const std::string why = !k ? k.error() : (*k)["error"].value("message", "the runtime ended the trace");
+              const std::string why = !k ? k.error() : sched::refusal_message(*k, "the runtime ended the trace");
               const std::string end = "event: ended\ndata: " + json{{"why", why}}.dump() + "\n\n";
               sink.write(end.data(), end.size());
               return false;
