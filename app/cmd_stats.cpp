@@ -140,7 +140,7 @@ std::string render_variables(const ViewArgs& a) {
                                   r.value("cycle", uint64_t{0}), "variable", "value", "quality");
     for (const auto& b : r["blocks"]) {
       const std::string name = b.value("name", "");
-      // Temporaries ("Main.$7"), shared constants ("k:1", "plcopen.true") and output
+      // Temporaries ("sCONCAT.$4", "Main.$7"), shared constants ("k:1", "plcopen.true") and output
       // blocks ("dao@...") are the compiler's, not the program's.
       if (name.find('$') != std::string::npos || name.rfind("plcopen.", 0) == 0 || name.find_first_of("@:") != std::string::npos) {
         continue;

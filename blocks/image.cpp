@@ -250,12 +250,13 @@ Result<void> verify_image(std::span<const std::byte> bytes) {
       np = instr_param_count(in.op, p);
       if (np > h.n_params - in.param) return make_error(at_instr(i, "string literal out of range"));
       for (uint32_t k = 1; k < np; ++k) {
-        if (!(p[k] >= 0 && p[k] <= 255 && p[k] == std::floor(p[k]))) {
+        if (!(p[k] >= 0 && p[k] <= 65535 && p[k] == std::floor(p[k]))) {
           return make_error(at_instr(i, "string literal holds a bad character code"));
         }
       }
     }
     if ((in.op == Op::SCmp && !(p[0] >= 0 && p[0] <= 5 && p[0] == std::floor(p[0]))) ||
+        (in.op == Op::SCopy && !(p[1] == 0 || p[1] == 1)) ||
         (in.op == Op::SFmt && !(p[1] >= 0 && p[1] < kStringFormats && p[1] == std::floor(p[1]) &&
                                 (p[2] == 0 || p[2] == 1))) ||
         (in.op == Op::SParse && !(p[0] >= 0 && p[0] < kStringFormats && p[0] == std::floor(p[0]) &&

@@ -22,12 +22,12 @@ uint32_t op_param_count(Op op) {
     case Op::ConstA: case Op::ConstD:
     case Op::Ton: case Op::TonEt: case Op::Tof: case Op::TofEt: case Op::Tp: case Op::TpEt:
     case Op::Ctu: case Op::Ctd: case Op::Var:
-    case Op::SConst: case Op::SCopy: case Op::SSel: case Op::SCat: case Op::SLeft: case Op::SRight:
+    case Op::SConst: case Op::SSel: case Op::SCat: case Op::SLeft: case Op::SRight:
     case Op::SMid: case Op::SIns: case Op::SDel: case Op::SCmp: case Op::SVar: case Op::SSet:
       return 1;
     case Op::Scale: case Op::Lim: case Op::Pi: case Op::Epi: case Op::Wrap: case Op::Imul: case Op::Pick: case Op::Put:
     case Op::Band: case Op::Bor: case Op::Bxor: case Op::Bnot:
-    case Op::Shl: case Op::Shr: case Op::Rol: case Op::Ror: case Op::Ctud: case Op::SParse:
+    case Op::Shl: case Op::Shr: case Op::Rol: case Op::Ror: case Op::Ctud: case Op::SParse: case Op::SCopy:
       return 2;
     case Op::Ldlg: case Op::Pid: case Op::Epid: case Op::SFmt:
       return 3;

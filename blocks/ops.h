@@ -66,11 +66,12 @@
 //            k is outside (an array element written through an index known only
 //            at run time)
 // Strings (docs/st.md, "Strings"). A string value takes 1 + cap value slots from
-// `out` on: V[out] is its length n (0..cap), V[out+1+i] the code (0..255) of
-// character i < n. P[0] is cap (SConst: its length). s1 s2 = string inputs;
+// `out` on: V[out] is its length n (0..cap), V[out+1+i] the code of character
+// i < n: a byte (0..255) of a STRING, a UTF-16 code unit (0..65535) of a
+// WSTRING. P[0] is cap (SConst: its length). s1 s2 = string inputs;
 // positions are 1-based, as the standard's; a result longer than cap is cut.
 //  SConst    y = the literal                                                  n codes[n]          -
-//  SCopy     y = s1                                                           cap                 -
+//  SCopy     y = s1; into a STRING (P[1] = 0) a code above 255 is '?'         cap wide            -
 //  SSel      y = in2 ? s2 : s1 (in2 numeric; Amux's layout)                  cap                 -
 //  SCat      y = s1 then s2 (CONCAT)                                          cap                 -
 //  SLeft SRight   y = the first / last in1 characters of s1                   cap                 -

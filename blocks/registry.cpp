@@ -514,8 +514,11 @@ std::vector<BlockSpec> build_flow_registry() {
   const ParamSpec type{"type", "the number's type (blocks/string_ops.h)", 0.0, false, 0, kStringFormats - 1, false, true};
   const ParamSpec dialect{"dialect", "0 MatIEC, 1 CODESYS", 0.0, false, 0, 1, false, true};
   const ParamSpec cmp{"op", "0 = 1 <> 2 < 3 <= 4 > 5 >=", 0.0, false, 0, 5, false, true};
-  r.push_back(compute("sconst", G::kControl, S, {}, {}, "", "a string literal", "y = the block's label"));
-  r.push_back(compute("scopy", G::kControl, S, {{"s", S}}, {cap}, "", "a string, cut to cap", "y = s"));
+  const ParamSpec wide{"wide", "1 for a WSTRING (UTF-16 code units)", 0.0, true, 0, 1, false, true};
+  r.push_back(compute("sconst", G::kControl, S, {}, {wide}, "", "a string literal",
+                      "y = the block's label (a WSTRING's: its UTF-8 as UTF-16 code units)"));
+  r.push_back(compute("scopy", G::kControl, S, {{"s", S}}, {cap, wide}, "", "a string, cut to cap",
+                      "y = s; into a STRING a code above 255 is '?'"));
   r.push_back(compute("ssel", G::kControl, S, {{"in0", S}, {"in1", S}, {"g", D}}, {cap}, "", "string select",
                       "y = g ? in1 : in0"));
   r.push_back(compute("scat", G::kControl, S, {{"s1", S}, {"s2", S}}, {cap}, "", "CONCAT", "y = s1 then s2"));

@@ -11,7 +11,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <ctime>
 
 namespace rtplc {
 namespace {
@@ -24,30 +23,38 @@ int64_t whole(double v) {
   return static_cast<int64_t>(std::trunc(std::clamp(v, -1e9, 1e9)));
 }
 
-// Reads the string at V[at] into `buf` (kMax bytes); its length.
-uint32_t read(const double* V, uint32_t n_values, uint32_t at, unsigned char* buf) {
+// A character code: a byte of a STRING or a UTF-16 code unit of a WSTRING.
+using Unit = uint16_t;
+
+// Reads the string at V[at] into `buf` (kMax units); its length.
+uint32_t read(const double* V, uint32_t n_values, uint32_t at, Unit* buf) {
   if (at >= n_values) return 0;
   const double len = V[at];
   const uint32_t room = std::min(n_values - at - 1, kMax);
   const uint32_t n = len >= 0 ? static_cast<uint32_t>(std::min(std::floor(len), static_cast<double>(room))) : 0;
   for (uint32_t i = 0; i < n; ++i) {
     const double c = V[at + 1 + i];
-    buf[i] = c >= 0 && c <= 255 ? static_cast<unsigned char>(c) : static_cast<unsigned char>('?');
+    buf[i] = c >= 0 && c <= 65535 ? static_cast<Unit>(c) : static_cast<Unit>('?');
   }
   return n;
 }
 
-void write(double* V, uint32_t out, uint32_t cap, const unsigned char* s, size_t n) {
+void write(double* V, uint32_t out, uint32_t cap, const Unit* s, size_t n) {
   const size_t len = std::min<size_t>(n, cap);
   V[out] = static_cast<double>(len);
   for (size_t i = 0; i < len; ++i) V[out + 1 + i] = s[i];
 }
 
-int compare(const unsigned char* a, uint32_t na, const unsigned char* b, uint32_t nb) {
-  const int c = std::memcmp(a, b, std::min(na, nb));
-  if (c != 0) return c < 0 ? -1 : 1;
+int compare(const Unit* a, uint32_t na, const Unit* b, uint32_t nb) {
+  for (uint32_t i = 0; i < na && i < nb; ++i) {
+    if (a[i] != b[i]) return a[i] < b[i] ? -1 : 1;
+  }
   return na < nb ? -1 : na > nb ? 1 : 0;
 }
+
+void copy_units(Unit* to, const Unit* from, size_t n) { std::copy(from, from + n, to); }
+
+bool same_units(const Unit* a, const Unit* b, size_t n) { return std::equal(a, a + n, b); }
 
 // ---- numbers as text --------------------------------------------------------
 
@@ -117,7 +124,15 @@ void time_text(Text& t, double v, StringDialect d) {
 
 void date_text(Text& t, double v, StringFormat f, StringDialect d) {
   int64_t sec = 0, ns = 0;
-  split_ns(v, sec, ns);
+  if (f == StringFormat::kTod) {
+    split_ns(v, sec, ns);
+  } else {
+    // DATE and DT are on the microsecond grid (seconds since 1970 leave a
+    // double no room for nanoseconds in 2255).
+    const auto us = static_cast<int64_t>(std::round(std::clamp(v, -9.2e12, 9.2e12) * 1e6));
+    sec = us / 1000000;
+    ns = us % 1000000 * 1000;
+  }
   if (ns < 0) {
     ns += 1000000000;
     sec -= 1;
@@ -134,12 +149,18 @@ void date_text(Text& t, double v, StringFormat f, StringDialect d) {
     t.add("TOD#%02d:%02d:", static_cast<int>(day / 3600), static_cast<int>(day % 3600 / 60));
     return seconds(static_cast<int>(day % 60));
   }
-  const auto tt = static_cast<time_t>(sec);
-  struct tm tm {};
-  gmtime_r(&tt, &tm);
-  if (f == StringFormat::kDate) return t.add("D#%d-%02d-%02d", tm.tm_year + 1900, tm.tm_mon + 1, tm.tm_mday);
-  t.add("DT#%d-%02d-%02d-%02d:%02d:", tm.tm_year + 1900, tm.tm_mon + 1, tm.tm_mday, tm.tm_hour, tm.tm_min);
-  seconds(tm.tm_sec);
+  // The civil date of day number `days` since 1970-01-01, in integers (no
+  // gmtime_r: it takes glibc's time zone lock and may read /etc/localtime).
+  const int64_t days = (sec >= 0 ? sec : sec - 86399) / 86400, in_day = sec - days * 86400;
+  const int64_t z = days + 719468, era = (z >= 0 ? z : z - 146096) / 146097;
+  const int64_t doe = z - era * 146097, yoe = (doe - doe / 1460 + doe / 36524 - doe / 146096) / 365;
+  const int64_t doy = doe - (365 * yoe + yoe / 4 - yoe / 100), mp = (5 * doy + 2) / 153;
+  const int mday = static_cast<int>(doy - (153 * mp + 2) / 5 + 1), mon = static_cast<int>(mp < 10 ? mp + 3 : mp - 9);
+  const int year = static_cast<int>(yoe + era * 400 + (mon <= 2 ? 1 : 0));
+  if (f == StringFormat::kDate) return t.add("D#%d-%02d-%02d", year, mon, mday);
+  t.add("DT#%d-%02d-%02d-%02d:%02d:", year, mon, mday, static_cast<int>(in_day / 3600),
+        static_cast<int>(in_day % 3600 / 60));
+  seconds(static_cast<int>(in_day % 60));
 }
 
 void format_into(Text& t, double v, StringFormat f, StringDialect d) {
@@ -214,9 +235,11 @@ double parse_integer(std::string_view s) {
 }
 
 double parse_real(std::string_view s) {
-  char buf[kMax + 1];
+  // From its first 64 characters: strtod may allocate for a longer run of
+  // digits, and no number needs more.
+  char buf[65];
   s = trim(s);
-  const size_t n = std::min<size_t>(s.size(), kMax);
+  const size_t n = std::min<size_t>(s.size(), 64);
   std::memcpy(buf, s.data(), n);
   buf[n] = '\0';
   char* end = nullptr;
@@ -393,22 +416,91 @@ double parse_from_string(std::string_view s, StringFormat f, StringDialect d) {
   return 0;
 }
 
-std::string string_value(const double* V, uint32_t n_values, uint32_t at) {
-  unsigned char buf[kMax];
+std::string string_value(const double* V, uint32_t n_values, uint32_t at, bool wide) {
+  Unit buf[kMax];
   const uint32_t n = read(V, n_values, at, buf);
-  return std::string(reinterpret_cast<const char*>(buf), n);
+  std::string out;
+  out.reserve(n);
+  for (uint32_t i = 0; i < n; ++i) {
+    uint32_t c = buf[i];
+    if (!wide) {
+      out += static_cast<char>(c <= 255 ? c : '?');
+      continue;
+    }
+    // UTF-16 to UTF-8: a surrogate pair is one code point; a lone half U+FFFD.
+    if (c >= 0xD800 && c <= 0xDBFF && i + 1 < n && buf[i + 1] >= 0xDC00 && buf[i + 1] <= 0xDFFF) {
+      c = 0x10000 + ((c - 0xD800) << 10) + (buf[++i] - 0xDC00u);
+    } else if (c >= 0xD800 && c <= 0xDFFF) {
+      c = 0xFFFD;
+    }
+    if (c < 0x80) {
+      out += static_cast<char>(c);
+    } else if (c < 0x800) {
+      out += static_cast<char>(0xC0 | (c >> 6));
+      out += static_cast<char>(0x80 | (c & 0x3F));
+    } else if (c < 0x10000) {
+      out += static_cast<char>(0xE0 | (c >> 12));
+      out += static_cast<char>(0x80 | ((c >> 6) & 0x3F));
+      out += static_cast<char>(0x80 | (c & 0x3F));
+    } else {
+      out += static_cast<char>(0xF0 | (c >> 18));
+      out += static_cast<char>(0x80 | ((c >> 12) & 0x3F));
+      out += static_cast<char>(0x80 | ((c >> 6) & 0x3F));
+      out += static_cast<char>(0x80 | (c & 0x3F));
+    }
+  }
+  return out;
+}
+
+std::vector<uint16_t> utf16_units(std::string_view utf8) {
+  std::vector<uint16_t> out;
+  for (size_t i = 0; i < utf8.size();) {
+    const auto b = static_cast<unsigned char>(utf8[i]);
+    uint32_t c = b, more = 0;
+    if (b >= 0xF0 && b < 0xF8) c = b & 0x07u, more = 3;
+    else if (b >= 0xE0) c = b & 0x0Fu, more = 2;
+    else if (b >= 0xC0) c = b & 0x1Fu, more = 1;
+    else if (b >= 0x80) more = 0, c = 0xFFFD;  // a stray continuation byte
+    size_t k = 1;
+    for (; k <= more && i + k < utf8.size() && (static_cast<unsigned char>(utf8[i + k]) & 0xC0) == 0x80; ++k) {
+      c = (c << 6) | (static_cast<unsigned char>(utf8[i + k]) & 0x3Fu);
+    }
+    if (k <= more) c = 0xFFFD;  // cut short
+    i += k;
+    if (c >= 0x10000) {
+      c -= 0x10000;
+      out.push_back(static_cast<uint16_t>(0xD800 + (c >> 10)));
+      out.push_back(static_cast<uint16_t>(0xDC00 + (c & 0x3FF)));
+    } else {
+      out.push_back(static_cast<uint16_t>(c));
+    }
+  }
+  return out;
+}
+
+bool writes_wide_string(const Instr& I, const double* prepared) {
+  return I.op == Op::SCopy && prepared != nullptr && prepared[1] == 1;
 }
 
 void string_op(const Instr& I, double* V, uint32_t n_values, const double* P) noexcept {
-  unsigned char a[kMax], b[kMax], r[2 * kMax];
-  const uint32_t cap = static_cast<uint32_t>(P[0]);
+  Unit a[kMax], b[kMax], r[2 * kMax];
+  // (SLen and SFind have no parameters: P[0] is not theirs to read)
+  const uint32_t cap = op_param_count(I.op) > 0 ? static_cast<uint32_t>(P[0]) : 0;
   switch (I.op) {
     case Op::SConst: {
-      for (uint32_t i = 0; i < cap; ++i) r[i] = static_cast<unsigned char>(P[1 + i]);
+      for (uint32_t i = 0; i < cap; ++i) r[i] = static_cast<Unit>(P[1 + i]);
       write(V, I.out, cap, r, cap);
       return;
     }
-    case Op::SCopy:
+    case Op::SCopy: {
+      // Into a STRING (P[1] = 0) a code above 255 is '?' (WSTRING_TO_STRING).
+      const uint32_t n = read(V, n_values, I.in[0], a);
+      if (P[1] == 0) {
+        for (uint32_t i = 0; i < n; ++i) a[i] = a[i] <= 255 ? a[i] : static_cast<Unit>('?');
+      }
+      write(V, I.out, cap, a, n);
+      return;
+    }
     case Op::SSet: {
       const uint32_t n = read(V, n_values, I.in[0], a);
       write(V, I.out, cap, a, n);
@@ -421,8 +513,8 @@ void string_op(const Instr& I, double* V, uint32_t n_values, const double* P) no
     }
     case Op::SCat: {
       const uint32_t na = read(V, n_values, I.in[0], a), nb = read(V, n_values, I.in[1], b);
-      std::memcpy(r, a, na);
-      std::memcpy(r + na, b, nb);
+      copy_units(r, a, na);
+      copy_units(r + na, b, nb);
       write(V, I.out, cap, r, na + nb);
       return;
     }
@@ -448,9 +540,9 @@ void string_op(const Instr& I, double* V, uint32_t n_values, const double* P) no
       // s2 after the first P characters of s1 (P below 0 as 0, past the end as n).
       const uint32_t na = read(V, n_values, I.in[0], a), nb = read(V, n_values, I.in[1], b);
       const auto p = static_cast<uint32_t>(std::clamp<int64_t>(whole(V[I.in[2]]), 0, na));
-      std::memcpy(r, a, p);
-      std::memcpy(r + p, b, nb);
-      std::memcpy(r + p + nb, a + p, na - p);
+      copy_units(r, a, p);
+      copy_units(r + p, b, nb);
+      copy_units(r + p + nb, a + p, na - p);
       write(V, I.out, cap, r, na + nb);
       return;
     }
@@ -464,8 +556,8 @@ void string_op(const Instr& I, double* V, uint32_t n_values, const double* P) no
       }
       const auto keep = static_cast<uint32_t>(p - 1);
       const auto from = static_cast<uint32_t>(std::min<int64_t>(n, p - 1 + l));
-      std::memcpy(r, a, keep);
-      std::memcpy(r + keep, a + from, n - from);
+      copy_units(r, a, keep);
+      copy_units(r + keep, a + from, n - from);
       write(V, I.out, cap, r, keep + (n - from));
       return;
     }
@@ -477,7 +569,7 @@ void string_op(const Instr& I, double* V, uint32_t n_values, const double* P) no
       double pos = 0;
       if (nb > 0 && nb <= na) {
         for (uint32_t i = 0; i + nb <= na; ++i) {
-          if (std::memcmp(a + i, b, nb) == 0) {
+          if (same_units(a + i, b, nb)) {
             pos = i + 1;
             break;
           }
@@ -505,12 +597,15 @@ void string_op(const Instr& I, double* V, uint32_t n_values, const double* P) no
       Text t;
       format_into(t, V[I.in[0]], static_cast<StringFormat>(static_cast<int>(P[1])),
                   static_cast<StringDialect>(static_cast<int>(P[2])));
-      write(V, I.out, cap, reinterpret_cast<const unsigned char*>(t.buf), t.n);
+      for (size_t i = 0; i < t.n; ++i) r[i] = static_cast<unsigned char>(t.buf[i]);
+      write(V, I.out, cap, r, t.n);
       return;
     }
     case Op::SParse: {
       const uint32_t n = read(V, n_values, I.in[0], a);
-      V[I.out] = parse_from_string(std::string_view(reinterpret_cast<const char*>(a), n),
+      char text[kMax];
+      for (uint32_t i = 0; i < n; ++i) text[i] = static_cast<char>(a[i] <= 255 ? a[i] : '?');
+      V[I.out] = parse_from_string(std::string_view(text, n),
                                    static_cast<StringFormat>(static_cast<int>(P[0])),
                                    static_cast<StringDialect>(static_cast<int>(P[1])));
       return;

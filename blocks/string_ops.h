@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "blocks/image.h"
 #include "blocks/ops.h"
@@ -42,7 +43,13 @@ void string_op(const Instr& I, double* V, uint32_t n_values, const double* P) no
 std::string format_for_string(double v, StringFormat f, StringDialect d);
 double parse_from_string(std::string_view s, StringFormat f, StringDialect d);
 
-// The string value at V[at] as text (monitor, trace, CSV).
-std::string string_value(const double* V, uint32_t n_values, uint32_t at);
+// The string value at V[at] as text (monitor, watch, CSV): a STRING's bytes
+// (a code above 255 as '?'), a WSTRING's code units as UTF-8.
+std::string string_value(const double* V, uint32_t n_values, uint32_t at, bool wide = false);
+// A WSTRING literal's UTF-8 text as UTF-16 code units (a broken sequence U+FFFD).
+std::vector<uint16_t> utf16_units(std::string_view utf8);
+// Whether the string an instruction writes is a WSTRING (an SCopy or an SConst
+// says so in its parameters; blocks/ops.h): how to show it.
+bool writes_wide_string(const Instr& I, const double* prepared);
 
 }  // namespace rtplc

@@ -10,6 +10,8 @@
 // order, so the operands of a run sit next to each other in memory.
 #include "lang/compiler.h"
 
+#include "blocks/string_ops.h"
+
 #include "common/files.h"
 #include "common/text.h"
 
@@ -121,7 +123,9 @@ Schedule schedule(const CheckedProgram& prog, bool batch) {
     if (b.target < n) leader[b.target] = 1;
   }
   auto hoisted = [&](uint32_t i) {
-    return flow && (prog.blocks[i].op == Op::ConstA || prog.blocks[i].op == Op::ConstD);
+    // (constants are shared: the first use may sit in a loop that runs no
+    // iteration, so they run before any branch; a string literal too)
+    return flow && (prog.blocks[i].op == Op::ConstA || prog.blocks[i].op == Op::ConstD || prog.blocks[i].op == Op::SConst);
   };
   if (flow) {
     for (uint32_t i = 0; i < n; ++i) {
@@ -186,6 +190,18 @@ Schedule schedule(const CheckedProgram& prog, bool batch) {
     }
     list_schedule(prog, first, end, edges, out.order);
     first = end;
+  }
+  return out;
+}
+
+// An sconst's character codes: its label's bytes, or for a WSTRING (params
+// {1}) the label's UTF-8 as UTF-16 code units.
+std::vector<double> sconst_units(const FlatBlock& b) {
+  std::vector<double> out;
+  if (!b.params.empty() && b.params[0] == 1) {
+    for (uint16_t u : utf16_units(b.label)) out.push_back(u);
+  } else {
+    for (char c : b.label) out.push_back(static_cast<double>(static_cast<unsigned char>(c)));
   }
   return out;
 }
@@ -261,7 +277,7 @@ Result<TaskImage> build_image(const CheckedProgram& prog, const CompileOptions& 
     if (!op_writes_value(b.op)) continue;
     slot[order[s]] = ib.n_values;
     // A string takes its length and cap characters (ops.h, "Strings").
-    const double cap = b.op == Op::SConst ? static_cast<double>(b.label.size()) : b.params.empty() ? 0 : b.params[0];
+    const double cap = b.op == Op::SConst ? static_cast<double>(sconst_units(b).size()) : b.params.empty() ? 0 : b.params[0];
     ib.n_values += op_value_width(b.op, &cap);
   }
   // I/O buffer indices in schedule order, so a run of loads or stores copies
@@ -339,8 +355,9 @@ Result<TaskImage> build_image(const CheckedProgram& prog, const CompileOptions& 
       for (uint32_t t : b.table) ib.params.push_back(static_cast<double>(slot[t]));
     } else if (b.op == Op::SConst) {
       // Its length, then its character codes.
-      ib.params.push_back(static_cast<double>(b.label.size()));
-      for (char c : b.label) ib.params.push_back(static_cast<double>(static_cast<unsigned char>(c)));
+      const std::vector<double> units = sconst_units(b);
+      ib.params.push_back(static_cast<double>(units.size()));
+      ib.params.insert(ib.params.end(), units.begin(), units.end());
     } else {
       ib.params.resize(ib.params.size() + np);
       prepare_params(b.op, b.params, dt, ib.params.data() + in.param);

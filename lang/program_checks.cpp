@@ -8,6 +8,8 @@
 // written; it shares the block rules below and the whole-program phases.
 #include "lang/program_checks.h"
 
+#include "blocks/string_ops.h"
+
 #include <cctype>
 #include <cmath>
 #include <map>
@@ -240,8 +242,9 @@ void check_flow(const CheckedProgram& p, DiagnosticList& diags) {
       if (v == nullptr || v->op != Op::SVar || v->params.empty() || b.params.empty() || v->params[0] != b.params[0]) {
         diags.error(b.pos, "sset " + b.name + " must write an svar block of its length");
       }
-    } else if (op == Op::SConst && b.label.size() > kMaxStringLength) {
-      diags.error(b.pos, "a string of " + std::to_string(b.label.size()) + " characters: at most " +
+    } else if (const size_t units = b.params.empty() || b.params[0] == 0 ? b.label.size() : utf16_units(b.label).size();
+               op == Op::SConst && units > kMaxStringLength) {
+      diags.error(b.pos, "a string of " + std::to_string(units) + " characters: at most " +
                              std::to_string(kMaxStringLength));
     } else if (op == Op::Pick || op == Op::Put) {
       const bool put = op == Op::Put;

@@ -142,6 +142,7 @@ void Lowering::lower_il(Scope& s, const Body& body) {
   std::vector<std::pair<Var*, LoopHome>> homes;
   struct Head {
     LoopHome cr;                // CR as it falls in or jumps back
+    bool cr_loaded = false;     // the head's first instruction is LD or LDN: CR's value there is never read
     std::optional<LoopHome> p;  // P, when not every path reaches the head
     uint32_t run = 0;           // its first run
   };
@@ -172,10 +173,14 @@ void Lowering::lower_il(Scope& s, const Body& body) {
                                         v->str ? std::optional<uint32_t>(v->cap) : std::nullopt));
     }
   }
-  auto sync_homes = [&](SourcePos pos) {
-    for (auto& [v, h] : homes) sync_home(*v, h, pos);
+  // The variables' homes, and `extra` (the current result's and P's), set at
+  // once (Lowering::set_homes): LD a at a loop's head makes CR a's home.
+  auto sync_homes = [&](SourcePos pos, std::vector<std::pair<const LoopHome*, Value>> extra) {
+    for (auto& [v, h] : homes) extra.emplace_back(&h, read(*v, pos));
+    set_homes(extra, pos);
   };
   Value P = constant(1, true);
+  uint32_t cr_mixed = 0;  // the line of the label since which CR has no one type (a STRING and a number met); 0: none
   PathSet paths;  // which paths P covers
   std::vector<int> parent{0};
   std::vector<std::pair<int, int>> children;
@@ -220,6 +225,13 @@ void Lowering::lower_il(Scope& s, const Body& body) {
       auto it = pending.find(l.label);
       if (it != pending.end()) {
         for (const Arrival& a : it->second) {
+          if (a.cr.str != CR.str) {
+            // A STRING on one way here, a number on another: no value until
+            // the next LD (using it is refused, below).
+            cr_mixed = std::max(l.label_pos.line, 1u);
+            CR = constant(0, false);
+            continue;
+          }
           CR = em.select(a.pred, a.cr, CR, l.label_pos);
           P = em.binary(BinOp::kOr, P, a.pred, l.label_pos);
           paths.join(a.paths, parent);
@@ -230,14 +242,25 @@ void Lowering::lower_il(Scope& s, const Body& body) {
       if (loop_heads.count(l.label) != 0) {
         // A loop's head: what falls in goes to the homes, the jump back sets
         // them too, and from here on everything reads them.
-        sync_homes(l.label_pos);
         Head& hd = heads[l.label];
-        hd.cr = make_home(s.path + ".$cr", CR.digital, CR.integer, l.label_pos);
-        set_home(hd.cr, CR, l.label_pos);
+        // The first instruction from here: when it loads, CR may come back
+        // from the jump as another type (a STRING in, a comparison back).
+        for (size_t k = n; k < lines.size(); ++k) {
+          if (lines[k].begin >= lines[k].end) continue;
+          size_t e = lines[k].begin;
+          while (e < lines[k].end && ident_char(t[e])) ++e;
+          const std::string first = upper(t.substr(lines[k].begin, e - lines[k].begin));
+          hd.cr_loaded = first == "LD" || first == "LDN";
+          break;
+        }
+        hd.cr = make_home(s.path + ".$cr", CR.digital, CR.integer, l.label_pos,
+                          CR.str ? std::optional<uint32_t>(CR.cap) : std::nullopt);
+        std::vector<std::pair<const LoopHome*, Value>> extra{{&hd.cr, CR}};
         if (!(P.is_const && P.k != 0)) {
           hd.p = make_home(s.path + ".$p", true, false, l.label_pos);
-          set_home(*hd.p, P, l.label_pos);
+          extra.emplace_back(&*hd.p, P);
         }
+        sync_homes(l.label_pos, std::move(extra));
         hd.run = static_cast<uint32_t>(em.size());
         for (auto& [v, h] : homes) v->cur = h.value;
         CR = hd.cr.value;
@@ -290,7 +313,13 @@ void Lowering::lower_il(Scope& s, const Body& body) {
     }
     const bool neg = op == "ANDN" || op == "ORN" || op == "XORN";
     const std::string base = neg ? op.substr(0, op.size() - 1) : op;
+    if (cr_mixed != 0 && op != "LD" && op != "LDN" && op != "JMP" && op != "CAL" && op != "RET") {
+      d_.error(pos, op + " uses the current result, which is a STRING on one way to the label at line " +
+                        std::to_string(cr_mixed) + " and a number on another: load it (LD) after the label");
+      break;
+    }
     if (op == "LD" || op == "LDN") {
+      cr_mixed = 0;
       auto v = operand(ob, l.end, pos);
       if (!v) return;
       CR = op == "LDN" ? em.unary_not(em.to_digital(*v, pos), pos) : *v;
@@ -334,9 +363,10 @@ void Lowering::lower_il(Scope& s, const Body& body) {
                                     : em.binary(BinOp::kAnd, P, em.unary_not(c, pos), pos);
         if (conditional()) pred = em.binary(BinOp::kAnd, pred, active(pos), pos);
         const Head& hd = heads.at(target);
-        sync_homes(pos);
-        set_home(hd.cr, CR, pos);
-        if (hd.p) set_home(*hd.p, constant(1, true), pos);
+        std::vector<std::pair<const LoopHome*, Value>> extra;
+        if (!hd.cr_loaded || CR.str == hd.cr.value.str) extra.emplace_back(&hd.cr, CR);
+        if (hd.p) extra.emplace_back(&*hd.p, constant(1, true));
+        sync_homes(pos, std::move(extra));
         std::optional<size_t> skip;
         if (!(pred.is_const && pred.k != 0)) {
           skip = em.emit_flow("jz", em.fresh(s.path + ".$il_back"), pos, {em.ref(em.to_digital(pred, pos), pos)}, 0);

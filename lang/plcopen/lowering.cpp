@@ -804,6 +804,11 @@ Lowering::LoopHome Lowering::make_home(const std::string& stem, bool digital, bo
 }
 
 void Lowering::set_home(const LoopHome& h, const Value& v, SourcePos pos) {
+  if (h.value.str != v.str) {
+    d_.error(pos, "a value that is a STRING on one way here and a number on another (an IL current result "
+                  "at a label or a loop's head): load it again after the label");
+    return;
+  }
   if (h.value.str) {
     em_.emit_flow("sset", em_.fresh(h.value.ref + "$set"), pos, {em_.ref(v, pos)}, static_cast<uint32_t>(h.block),
                   {static_cast<double>(h.value.cap)});
@@ -812,6 +817,29 @@ void Lowering::set_home(const LoopHome& h, const Value& v, SourcePos pos) {
   const Value k = h.value.digital ? em_.to_digital(v, pos) : em_.to_analog(v, pos);
   em_.emit_flow(h.value.digital ? "dset" : "set", em_.fresh(h.value.ref + "$set"), pos, {em_.ref(k, pos)},
                 static_cast<uint32_t>(h.block));
+}
+
+void Lowering::set_homes(const std::vector<std::pair<const LoopHome*, Value>>& sets, SourcePos pos) {
+  std::set<std::string> targets;
+  for (const auto& [h, v] : sets) targets.insert(h->value.ref);
+  std::vector<std::pair<const LoopHome*, Value>> todo;
+  for (const auto& [h, v] : sets) {
+    if (!v.is_const && v.ref == h->value.ref) continue;
+    Value x = v;
+    if (!x.is_const && targets.count(x.ref) != 0) {
+      // Read before any home is written: a copy of its value now.
+      x.ref = em_.fresh(h->value.ref + "$was");
+      em_.copy_as(v, x.ref, pos, v.cap);
+    }
+    todo.emplace_back(h, x);
+  }
+  for (const auto& [h, x] : todo) set_home(*h, x, pos);
+}
+
+void Lowering::sync_homes(const std::vector<std::pair<Var*, const LoopHome*>>& homes, SourcePos pos) {
+  std::vector<std::pair<const LoopHome*, Value>> sets;
+  for (const auto& [v, h] : homes) sets.emplace_back(h, read(*v, pos));
+  set_homes(sets, pos);
 }
 
 bool Lowering::sync_home(Var& v, const LoopHome& h, SourcePos pos) {

@@ -220,6 +220,13 @@ class Lowering {
   // Sets `v`'s home `h` to `v`'s value now, unless that is the home's own
   // value already; true when it set it.
   bool sync_home(Var& v, const LoopHome& h, SourcePos pos);
+  // Sets every home to its value at once, as a parallel assignment: a value
+  // that is the home of another being set here (tmp := a; a := b; b := tmp in
+  // a loop) is copied before any home is set. A value that is its home's own
+  // already is left out.
+  void set_homes(const std::vector<std::pair<const LoopHome*, Value>>& sets, SourcePos pos);
+  // set_homes of each variable's home to the variable's value now.
+  void sync_homes(const std::vector<std::pair<Var*, const LoopHome*>>& homes, SourcePos pos);
   void enter_loop(std::map<const Var*, LoopHome> homes) { loops_.push_back(std::move(homes)); }
   void leave_loop() { loops_.pop_back(); }
 

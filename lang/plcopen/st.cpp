@@ -110,6 +110,17 @@ std::vector<Tok> lex(std::string_view s, const XmlElement& origin, DiagnosticLis
         const bool date = date_literal_type(s.substr(b, i - b)).has_value();
         const std::string prefix = upper(s.substr(b, i - b));
         ++i;
+        if ((prefix == "STRING" || prefix == "WSTRING") && i < s.size() && (s[i] == '\'' || s[i] == '"')) {
+          // STRING#'text': a typed string literal, read as one.
+          size_t e = i + 1;
+          while (e < s.size() && s[e] != s[i]) e += s[e] == '$' ? 2u : 1u;
+          i = e >= s.size() ? s.size() : e + 1;
+          t.t = Tok::T::kString;
+          t.text.assign(s.substr(b, i - b));
+          t.up = upper(t.text);
+          out.push_back(std::move(t));
+          continue;
+        }
         // `T# 30000ms`, as OpenPLC Editor writes some durations: the blanks
         // after a duration's '#' are no part of it (dropped from the text below).
         if (prefix == "T" || prefix == "TIME") {

@@ -622,7 +622,9 @@ struct StLowerer {
   }
   // Each home takes its variable's value now (where it differs).
   void sync_homes(const std::vector<Home>& homes, SourcePos pos) {
-    for (const Home& h : homes) L.sync_home(*h.var, h, pos);
+    std::vector<std::pair<Var*, const Lowering::LoopHome*>> all;
+    for (const Home& h : homes) all.emplace_back(h.var, &h);
+    L.sync_homes(all, pos);
   }
 
   // WHILE, REPEAT, and a FOR that is not unrolled, as a loop of the executor:

@@ -69,6 +69,7 @@ BaseType type_of_value(const Value& v) {
 }
 
 constexpr uint32_t kNumberText = 64;  // the longest text a number converts to, and some
+constexpr unsigned long kMaxConcatInputs = 100;  // CONCAT(IN1 := ..., IN100 := ...)
 
 }  // namespace
 
@@ -85,7 +86,11 @@ std::optional<Value> Lowering::call_string_function(const std::string& up, const
       d_.error(pos, up + " takes 1 argument, found " + std::to_string(args.size()));
       return string_constant("");
     }
-    if (args[0].str) return args[0];  // STRING_TO_STRING
+    if (args[0].str) {
+      if (up == "TO_STRING" || up == "STRING_TO_STRING") return args[0];
+      d_.error(pos, up + " takes a " + up.substr(0, to) + ", not a STRING");
+      return string_constant("");
+    }
     BaseType from = type_of_value(args[0]);
     if (up != "TO_STRING") {
       const auto b = elementary_type(up.substr(0, to));
@@ -167,8 +172,10 @@ std::optional<Value> Lowering::call_string_function(const std::string& up, const
       const auto it = std::find_if(f->formals.begin(), f->formals.end(), [&](const char* n) { return formal == n; });
       if (it != f->formals.end()) {
         k = static_cast<size_t>(it - f->formals.begin());
-      } else if (f->extensible && formal.size() > 2 && formal.compare(0, 2, "IN") == 0 &&
-                 formal.find_first_not_of("0123456789", 2) == std::string::npos) {
+      } else if (f->extensible && formal.size() > 2 && formal.size() <= 5 && formal.compare(0, 2, "IN") == 0 &&
+                 formal.find_first_not_of("0123456789", 2) == std::string::npos &&
+                 std::stoul(formal.substr(2)) >= 1 && std::stoul(formal.substr(2)) <= kMaxConcatInputs) {
+        // IN1 .. IN<kMaxConcatInputs> (at most three digits, so stoul cannot fail)
         k = std::stoul(formal.substr(2)) - 1;
       } else {
         d_.error(pos, up + " has no input '" + formals[i] + "'");
@@ -181,6 +188,11 @@ std::optional<Value> Lowering::call_string_function(const std::string& up, const
       return string_constant("");
     }
     if (placed.size() <= k) placed.resize(k + 1);
+    if (placed[k]) {
+      d_.error(pos, up + "'s " + (k < f->formals.size() ? std::string(f->formals[k]) : "IN" + std::to_string(k + 1)) +
+                        " is given twice");
+      return string_constant("");
+    }
     placed[k] = args[i];
   }
   const size_t need = f->formals.size();

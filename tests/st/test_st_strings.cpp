@@ -366,3 +366,138 @@ END_PROGRAM
 
 }  // namespace
 }  // namespace rtplc::lang
+
+namespace rtplc::lang {
+namespace {
+
+// A shared string literal first used inside a loop that takes no iteration is
+// still written (constants run before any branch).
+TEST(StStrings, a_literal_first_used_in_an_empty_loop_is_still_there) {
+  const char* src = R"(PROGRAM Main
+VAR i, n : INT; s, t : STRING; b : BOOL; END_VAR
+  FOR i := 1 TO n DO
+    s := CONCAT(s, 'abc');
+  END_FOR;
+  t := 'abc';
+  b := t = 'abc';
+END_PROGRAM
+)";
+  FbdHarness h(src, 0.1, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("s.st", src);
+  h.step();
+  EXPECT_EQ(h.text("Main.t"), "abc");
+  EXPECT_EQ(h.text("Main.s"), "");
+}
+
+// Variables exchanged inside a real loop: the loop's homes take their values
+// at once (a parallel assignment), for strings as for numbers and BOOLs.
+TEST(StStrings, values_swapped_inside_a_loop_stay_swapped) {
+  const char* src = R"(PROGRAM Main
+VAR
+  i, n : INT;
+  a : STRING := 'A'; b : STRING := 'B'; tmp : STRING;
+  x : LREAL := 1; y : LREAL := 2; z : LREAL;
+  p : BOOL := TRUE; q : BOOL; r : BOOL;
+END_VAR
+  n := n + 1;
+  i := 0;
+  WHILE i < n DO
+    tmp := a; a := b; b := tmp;
+    z := x; x := y; y := z;
+    r := p; p := q; q := r;
+    i := i + 1;
+  END_WHILE;
+END_PROGRAM
+)";
+  FbdHarness h(src, 0.1, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("s.st", src);
+  h.step();  // one swap
+  EXPECT_EQ(h.text("Main.a"), "B");
+  EXPECT_EQ(h.text("Main.b"), "A");
+  EXPECT_EQ(h.value("Main.x"), 2);
+  EXPECT_EQ(h.value("Main.y"), 1);
+  EXPECT_EQ(h.value("Main.p"), 0);
+  EXPECT_EQ(h.value("Main.q"), 1);
+  h.step();  // two swaps: as it was
+  EXPECT_EQ(h.text("Main.a"), "B");
+  EXPECT_EQ(h.value("Main.x"), 2);
+  EXPECT_EQ(h.value("Main.p"), 0);
+  h.step();  // three: swapped
+  EXPECT_EQ(h.text("Main.a"), "A");
+  EXPECT_EQ(h.text("Main.b"), "B");
+  EXPECT_EQ(h.value("Main.x"), 1);
+  EXPECT_EQ(h.value("Main.p"), 1);
+}
+
+TEST(StStrings, more_refusals_and_typed_literals) {
+  auto err = [](const std::string& body) {
+    return testing::first_error("PROGRAM P\nVAR s : STRING; n : INT; END_VAR\n" + body + "\nEND_PROGRAM\n");
+  };
+  EXPECT_NE(err("s := CONCAT(IN0 := 'a', IN1 := 'b');").find("CONCAT has no input 'IN0'"), std::string::npos);
+  EXPECT_NE(err("s := CONCAT(IN1 := 'a', IN101 := 'b');").find("CONCAT has no input 'IN101'"), std::string::npos);
+  EXPECT_NE(err("s := CONCAT(IN1 := 'a', IN99999999999999999999999 := 'b');").find("has no input"), std::string::npos);
+  EXPECT_NE(err("s := CONCAT(IN1 := 'a', IN1 := 'b');").find("CONCAT's IN1 is given twice"), std::string::npos);
+  EXPECT_NE(err("s := DINT_TO_STRING(s);").find("DINT_TO_STRING takes a DINT, not a STRING"), std::string::npos);
+  const char* src = R"(PROGRAM Main
+VAR s, d, dt : STRING; END_VAR
+  s := CONCAT(STRING#'typed', '!');
+  d := DATE_TO_STRING(D#2024-02-29);
+  dt := DT_TO_STRING(DT#2255-12-31-23:59:59);
+END_PROGRAM
+)";
+  FbdHarness h(src, 0.1, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("s.st", src);
+  h.step();
+  EXPECT_EQ(h.text("Main.s"), "typed!");
+  EXPECT_EQ(h.text("Main.d"), "D#2024-02-29");
+  EXPECT_EQ(h.text("Main.dt"), "DT#2255-12-31-23:59:59");
+}
+
+}  // namespace
+}  // namespace rtplc::lang
+
+namespace rtplc::lang {
+namespace {
+
+std::string il_project(const std::string& vars, const std::string& il) {
+  return R"(<?xml version="1.0"?>
+<project xmlns="http://www.plcopen.org/xml/tc6.xsd" xmlns:xhtml="http://www.w3.org/1999/xhtml">
+<types><dataTypes/><pous>
+<pou name="main" pouType="program"><interface><localVars>)" +
+         vars + R"(</localVars></interface><body><IL><xhtml:p><![CDATA[)" + il +
+         R"(]]></xhtml:p></IL></body></pou></pous></types></project>
+)";
+}
+
+// IL's current result may be a STRING on one way to a label and a number on
+// another: it is refused only when an instruction uses it before loading.
+TEST(StStrings, il_current_result_of_two_types_at_a_label) {
+  const std::string vars = R"(<variable name="t"><type><string/></type></variable>
+<variable name="i"><type><INT/></type></variable><variable name="b"><type><BOOL/></type></variable>)";
+  {
+    const std::string src = il_project(vars, "\n  LD b\n  JMPC skip\n  LD 'abc'\n  ST t\nskip:\n  LD 1\n  ST i\n");
+    FbdHarness h(src, 0.1, true, true);
+    ASSERT_TRUE(h.ok()) << h.result().diags.render("il.xml", src);
+    h.step();
+    EXPECT_EQ(h.text("main.t"), "abc");
+    EXPECT_EQ(h.value("main.i"), 1);
+  }
+  {
+    // A loop whose head falls in with a STRING and jumps back with a BOOL, and loads first.
+    const std::string src = il_project(vars, "\n  LD 0\n  ST i\n  LD ''\n  ST t\nloop:\n  LD t\n  CONCAT 'ab'\n"
+                                             "  ST t\n  LD i\n  ADD 1\n  ST i\n  LT 3\n  JMPC loop\n");
+    FbdHarness h(src, 0.1, true, true);
+    ASSERT_TRUE(h.ok()) << h.result().diags.render("il.xml", src);
+    h.step();
+    EXPECT_EQ(h.text("main.t"), "ababab");
+  }
+  const std::string used = il_project(vars, "\n  LD b\n  JMPC skip\n  LD 'abc'\nskip:\n  ST t\n");
+  const CompileResult r = compile_source(used);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.diags.items()[0].message.find("ST uses the current result, which is a STRING on one way to the label"),
+            std::string::npos)
+      << r.diags.items()[0].message;
+}
+
+}  // namespace
+}  // namespace rtplc::lang

@@ -506,7 +506,7 @@ async function loadPrograms() {
 
 // The Variables page: the chosen task's watch (GET /api/watch) while the page
 // is shown, the program's variables only ("Main.level"; not the compiler's
-// temporaries "Main.$7", constants "k:1", "plcopen.true" or "dao@..."), a
+// temporaries "scopy.$5", constants "k:1", "plcopen.true" or "dao@..."), a
 // STRING's value as its quoted text.
 let varsTimer = null;
 async function pollVariables() {
