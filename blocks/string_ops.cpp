@@ -416,21 +416,13 @@ double parse_from_string(std::string_view s, StringFormat f, StringDialect d) {
   return 0;
 }
 
-std::string string_value(const double* V, uint32_t n_values, uint32_t at, bool wide) {
-  Unit buf[kMax];
-  const uint32_t n = read(V, n_values, at, buf);
-  std::string out;
-  out.reserve(n);
+// Appends units[0..n) to `out` as UTF-8 (see utf8_of_units).
+static void append_utf8_units(std::string& out, const Unit* units, uint32_t n, bool keep_lone) {
   for (uint32_t i = 0; i < n; ++i) {
-    uint32_t c = buf[i];
-    if (!wide) {
-      out += static_cast<char>(c <= 255 ? c : '?');
-      continue;
-    }
-    // UTF-16 to UTF-8: a surrogate pair is one code point; a lone half U+FFFD.
-    if (c >= 0xD800 && c <= 0xDBFF && i + 1 < n && buf[i + 1] >= 0xDC00 && buf[i + 1] <= 0xDFFF) {
-      c = 0x10000 + ((c - 0xD800) << 10) + (buf[++i] - 0xDC00u);
-    } else if (c >= 0xD800 && c <= 0xDFFF) {
+    uint32_t c = units[i];
+    if (c >= 0xD800 && c <= 0xDBFF && i + 1 < n && units[i + 1] >= 0xDC00 && units[i + 1] <= 0xDFFF) {
+      c = 0x10000 + ((c - 0xD800) << 10) + (units[++i] - 0xDC00u);
+    } else if (c >= 0xD800 && c <= 0xDFFF && !keep_lone) {
       c = 0xFFFD;
     }
     if (c < 0x80) {
@@ -449,6 +441,25 @@ std::string string_value(const double* V, uint32_t n_values, uint32_t at, bool w
       out += static_cast<char>(0x80 | (c & 0x3F));
     }
   }
+}
+
+std::string string_value(const double* V, uint32_t n_values, uint32_t at, bool wide) {
+  Unit buf[kMax];
+  const uint32_t n = read(V, n_values, at, buf);
+  std::string out;
+  out.reserve(n);
+  if (wide) {
+    // A lone surrogate half shows as U+FFFD.
+    append_utf8_units(out, buf, n, false);
+    return out;
+  }
+  for (uint32_t i = 0; i < n; ++i) out += static_cast<char>(buf[i] <= 255 ? buf[i] : '?');
+  return out;
+}
+
+std::string utf8_of_units(const std::vector<uint16_t>& units) {
+  std::string out;
+  append_utf8_units(out, units.data(), static_cast<uint32_t>(units.size()), true);
   return out;
 }
 

@@ -48,6 +48,9 @@ double parse_from_string(std::string_view s, StringFormat f, StringDialect d);
 std::string string_value(const double* V, uint32_t n_values, uint32_t at, bool wide = false);
 // A WSTRING literal's UTF-8 text as UTF-16 code units (a broken sequence U+FFFD).
 std::vector<uint16_t> utf16_units(std::string_view utf8);
+// UTF-16 code units as UTF-8 (a pair as one character; a lone half, which a
+// literal's $D800 may write, as its own three bytes so utf16_units gives it back).
+std::string utf8_of_units(const std::vector<uint16_t>& units);
 // Whether the string an instruction writes is a WSTRING (an SCopy or an SConst
 // says so in its parameters; blocks/ops.h): how to show it.
 bool writes_wide_string(const Instr& I, const double* prepared);

@@ -446,7 +446,7 @@ Result<Runtime::WatchInfo> Runtime::watch(const std::string& task) {
     const uint32_t n = blocks[i].n_value;
     const auto lane = static_cast<uint8_t>(std::clamp(data[at + n], 0.0, 2.0));
     WatchedValue v{blocks[i].name, std::string(blocks[i].kind), data[at], quality_of(static_cast<Lane>(lane)), {}};
-    if (n > 1) v.text = string_value(data.data() + at, n, 0);
+    if (n > 1) v.text = string_value(data.data() + at, n, 0, blocks[i].wide);
     w.blocks.push_back(std::move(v));
     at += n + 1;
   }

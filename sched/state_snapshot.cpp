@@ -1,6 +1,8 @@
 // The task -> control thread snapshot of retained block state (see state_snapshot.h).
 #include "sched/state_snapshot.h"
 
+#include "blocks/string_ops.h"
+
 #include <algorithm>
 #include <cctype>
 
@@ -130,8 +132,10 @@ std::vector<RetainedBlock> watched_blocks(const TaskImage& image) {
     rb.kind = lower_op_name(in.op);
     rb.value = in.out;
     // A string's whole text (watched_blocks' readers show it as text).
-    rb.n_value = op_value_width(in.op, op_param_count(in.op) ? image.params().data() + in.param : nullptr);
+    const double* prepared = op_param_count(in.op) ? image.params().data() + in.param : nullptr;
+    rb.n_value = op_value_width(in.op, prepared);
     if (rb.n_value > image.header().n_values - in.out) continue;
+    rb.wide = writes_wide_string(in, prepared);
     rb.n_state = 1;  // the status, see take_watch
     out.push_back(std::move(rb));
   }

@@ -52,6 +52,7 @@ struct RetainedBlock {
   uint32_t state = 0;         // first state double
   uint32_t n_state = 0;
   uint32_t n_value = 1;  // slots of the value: 1 + cap for a string (its length, then its characters)
+  bool wide = false;     // the watch's: a WSTRING (shown as UTF-8)
   // Doubles this block contributes to a snapshot: [value] then its state.
   uint32_t width() const { return (value == kNoValue ? 0u : n_value) + n_state; }
 };

@@ -159,6 +159,7 @@ Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const Sim
   }
   std::vector<uint32_t> probe_slots;
   std::vector<uint32_t> text_slots;  // STRING probes: read as text each row
+  std::vector<bool> text_wide;       // ... a WSTRING's (its UTF-16 as UTF-8)
   tr.text_index.assign(tr.columns.size(), -1);
   for (const std::string& name : opt.probes) {
     // A located variable is already traced as its channel, under the same label.
@@ -170,7 +171,10 @@ Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const Sim
       if (!op_writes_value(op)) break;
       probe_slots.push_back(image.code()[s].out);
       tr.text_index.push_back(op_output_string(op) ? static_cast<int>(text_slots.size()) : -1);
-      if (op_output_string(op)) text_slots.push_back(image.code()[s].out);
+      if (op_output_string(op)) {
+        text_slots.push_back(image.code()[s].out);
+        text_wide.push_back(writes_wide_string(image.code()[s], image.params().data() + image.code()[s].param));
+      }
       tr.columns.push_back(name);
       tr.is_output.push_back(false);
       found = true;
@@ -265,7 +269,10 @@ Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const Sim
     if (!text_slots.empty()) {
       std::vector<std::string> texts;
       texts.reserve(text_slots.size());
-      for (uint32_t slot : text_slots) texts.push_back(string_value(arena.values.data(), static_cast<uint32_t>(arena.values.size()), slot));
+      for (size_t j = 0; j < text_slots.size(); ++j) {
+        texts.push_back(string_value(arena.values.data(), static_cast<uint32_t>(arena.values.size()), text_slots[j],
+                                     text_wide[j]));
+      }
       tr.texts.push_back(std::move(texts));
     }
     if (ports) {

@@ -14,7 +14,7 @@ namespace rtplc::lang::plcopen {
 
 bool Lowering::is_function(const std::string& up) const {
   if (const iec::IecFunction* f = iec::find_iec(up)) return !f->function_block;
-  for (const char* f : {"LEN", "LEFT", "RIGHT", "MID", "CONCAT", "INSERT", "DELETE", "REPLACE", "FIND", "TO_STRING"}) {
+  for (const char* f : {"LEN", "LEFT", "RIGHT", "MID", "CONCAT", "INSERT", "DELETE", "REPLACE", "FIND", "TO_STRING", "TO_WSTRING"}) {
     if (up == f) return true;
   }
   // A conversion lang/iec does not have (STRING_TO_INT): call_function says so.

@@ -8,6 +8,7 @@
 #include <unordered_map>
 
 #include "blocks/registry.h"
+#include "blocks/string_ops.h"
 
 namespace rtplc::lang::plcopen {
 
@@ -19,11 +20,12 @@ Value constant(double k, bool digital) {
   return v;
 }
 
-Value string_constant(std::string text) {
+Value string_constant(std::string text, bool wide) {
   Value v;
   v.is_const = true;
   v.str = true;
-  v.cap = static_cast<uint32_t>(text.size());
+  v.wide = wide;
+  v.cap = static_cast<uint32_t>(wide ? utf16_units(text).size() : text.size());
   v.text = std::move(text);
   return v;
 }
@@ -117,11 +119,11 @@ std::string Emitter::ref(const Value& v, SourcePos pos) {
   if (!v.is_const) return v.ref;
   if (v.str) {
     // One sconst block per text; its label holds the text.
-    const std::string key = std::string("\x01s") + v.text;
+    const std::string key = std::string(v.wide ? "\x01w" : "\x01s") + v.text;
     auto it = consts_.find(key);
     if (it != consts_.end()) return it->second;
     const std::string name = fresh("plcopen.s");
-    emit_flow("sconst", name, pos, {}, 0);
+    emit_flow("sconst", name, pos, {}, 0, {v.wide ? 1.0 : 0.0});
     p_.blocks.back().label = v.text;
     consts_[key] = name;
     return name;
@@ -151,6 +153,24 @@ Value Emitter::string_block(const char* written, const std::string& stem, Source
   r.str = spec != nullptr && spec->out_kind == Kind::kString;
   r.digital = spec != nullptr && spec->out_kind == Kind::kDigital;
   r.cap = r.str ? cap : 0;
+  return r;
+}
+
+Value Emitter::cut_string(const Value& v, uint32_t cap, SourcePos pos) {
+  if (v.cap <= cap) return v;
+  if (v.is_const) {
+    if (!v.wide) return string_constant(v.text.substr(0, cap));
+    std::vector<uint16_t> units = utf16_units(v.text);
+    units.resize(cap);
+    return string_constant(utf8_of_units(units), true);
+  }
+  return wide_string_block("scopy", "scopy", pos, {v.ref}, {static_cast<double>(cap), v.wide ? 1.0 : 0.0}, cap, v.wide);
+}
+
+Value Emitter::wide_string_block(const char* written, const std::string& stem, SourcePos pos,
+                                 std::vector<std::string> ins, std::vector<double> params, uint32_t cap, bool wide) {
+  Value r = string_block(written, stem, pos, std::move(ins), std::move(params), cap);
+  r.wide = r.str && wide;
   return r;
 }
 
@@ -216,6 +236,10 @@ Value Emitter::binary(BinOp op, const Value& a0, const Value& b0, SourcePos pos)
   const bool logic = op == BinOp::kAnd || op == BinOp::kOr || op == BinOp::kXor;
   const bool compare = op >= BinOp::kEq;
   if (a0.str || b0.str) {
+    if (a0.str && b0.str && a0.wide != b0.wide) {
+      d_.error(pos, "a STRING and a WSTRING together: convert one (STRING_TO_WSTRING, WSTRING_TO_STRING)");
+      return constant(0, compare);
+    }
     if (!(a0.str && b0.str) || !compare) {
       d_.error(pos, a0.str && b0.str ? "this operator does not take STRINGs: join them with CONCAT"
                                      : "a STRING compared or combined with a number: convert one of them");
@@ -324,15 +348,15 @@ Value Emitter::select(const Value& cond, const Value& a, const Value& b, SourceP
   const Value c = to_digital(cond, pos);
   if (c.is_const) return c.k != 0 ? a : b;
   if (a.str || b.str) {
-    if (!(a.str && b.str)) {
-      d_.error(pos, "a choice between a STRING and a number");
+    if (!(a.str && b.str) || a.wide != b.wide) {
+      d_.error(pos, a.str && b.str ? "a choice between a STRING and a WSTRING" : "a choice between a STRING and a number");
       return a;
     }
     if (a.is_const && b.is_const && a.text == b.text) return a;
     if (!a.is_const && !b.is_const && a.ref == b.ref) return a;
     // ssel: in0 when g is 0, in1 when it is 1.
-    return string_block("ssel", "ssel", pos, {ref(b, pos), ref(a, pos), c.ref}, {static_cast<double>(std::max(a.cap, b.cap))},
-                        std::max(a.cap, b.cap));
+    return wide_string_block("ssel", "ssel", pos, {ref(b, pos), ref(a, pos), c.ref},
+                             {static_cast<double>(std::max(a.cap, b.cap))}, std::max(a.cap, b.cap), a.wide);
   }
   if (a.is_const && b.is_const && a.k == b.k && a.digital == b.digital) return a;
   if (!a.is_const && !b.is_const && a.ref == b.ref) return a;
@@ -364,7 +388,7 @@ Value Emitter::select(const Value& cond, const Value& a, const Value& b, SourceP
 void Emitter::copy_as(const Value& v, const std::string& name, SourcePos pos, uint32_t cap) {
   const std::string x = ref(v, pos);
   if (v.str) {
-    emit_flow("scopy", name, pos, {x}, 0, {static_cast<double>(cap != 0 ? cap : v.cap)});
+    emit_flow("scopy", name, pos, {x}, 0, {static_cast<double>(cap != 0 ? cap : v.cap), v.wide ? 1.0 : 0.0});
     return;
   }
   if (v.digital) emit("or", name, pos, {x, x});

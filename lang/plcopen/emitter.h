@@ -34,13 +34,14 @@ struct Value {
   // A STRING (docs/st.md, "Strings"): the longest text it may hold, and a
   // constant's text.
   bool str = false;
+  bool wide = false;  // a WSTRING: UTF-16 code units; `text` is their UTF-8
   uint32_t cap = 0;
   std::string text;
   bool valid() const { return is_const || !ref.empty(); }
 };
 
 Value constant(double k, bool digital);
-Value string_constant(std::string text);
+Value string_constant(std::string text, bool wide = false);
 
 enum class BinOp : uint8_t {
   kAdd, kSub, kMul, kDiv, kMod, kExpt, kAnd, kOr, kXor, kEq, kNe, kLt, kLe, kGt, kGe
@@ -98,6 +99,12 @@ class Emitter {
   // A string block (registry.h flow_block: sconst ... sset) on `ins`; its value.
   Value string_block(const char* written, const std::string& stem, SourcePos pos, std::vector<std::string> ins,
                      std::vector<double> params, uint32_t cap);
+  // String `v` holding at most `cap` characters: a constant cut here, any
+  // other value through an scopy.
+  Value cut_string(const Value& v, uint32_t cap, SourcePos pos);
+  // The same, its result a WSTRING when `wide`.
+  Value wide_string_block(const char* written, const std::string& stem, SourcePos pos, std::vector<std::string> ins,
+                          std::vector<double> params, uint32_t cap, bool wide);
 
   // 1 in the task's first cycle only (initial values).
   Value first_cycle(SourcePos pos);

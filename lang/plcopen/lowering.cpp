@@ -289,11 +289,12 @@ std::unique_ptr<Var> Lowering::make_var(const Variable& decl0, const std::string
   v->path = path;
   v->digital = decl.type.is_bool();
   v->integer = integer_type(decl.type.base);
-  if (decl.type.base == BaseType::kString) {
+  if (decl.type.base == BaseType::kString || decl.type.base == BaseType::kWString) {
     v->str = true;
+    v->wide = decl.type.base == BaseType::kWString;
     v->cap = decl.type.string_len != 0 ? decl.type.string_len : default_string_length();
     if (!decl.address.empty() || decl.type.hmi) {
-      d_.error(decl.pos, "variable '" + decl.name + "': a STRING " +
+      d_.error(decl.pos, "variable '" + decl.name + "': a " + (v->wide ? "WSTRING " : "STRING ") +
                              (decl.type.hmi ? std::string("HMI variable") : "at " + decl.address) +
                              " is not supported yet: strings are the program's own (docs/st.md, \"Strings\")");
     }
@@ -952,14 +953,18 @@ void Lowering::store(Scope& s, const std::string& path, const std::vector<std::u
 Value Lowering::start_value(Var& v, SourcePos pos) {
   if (v.start) return *v.start;
   if (v.str) {
-    Value init = string_constant("");
+    Value init = string_constant("", v.wide);
     if (!v.decl->initial.empty()) {
       std::string error;
-      const auto text = parse_string_literal(v.decl->initial, &error);
+      bool wide = false;
+      const auto text = parse_string_literal(v.decl->initial, &error, &wide);
       if (!text) {
         d_.error(v.decl->pos, "variable '" + v.decl->name + "': initial value " + v.decl->initial + ": " + error);
+      } else if (wide != v.wide) {
+        d_.error(v.decl->pos, "variable '" + v.decl->name + "' is a " + (v.wide ? "WSTRING: its initial value is \"...\""
+                                                                                : "STRING: its initial value is '...'"));
       } else {
-        init = string_constant(text->substr(0, v.cap));
+        init = em_.cut_string(string_constant(*text, wide), v.cap, v.decl->pos);
       }
     }
     const bool in_function = v.path.find("()") != std::string::npos;
@@ -970,6 +975,7 @@ Value Lowering::start_value(Var& v, SourcePos pos) {
     Value prev;
     prev.ref = v.path;  // the end-of-cycle copy: last cycle's value
     prev.str = true;
+    prev.wide = v.wide;
     prev.cap = v.cap;
     v.start = init.text.empty() ? prev : em_.select(em_.first_cycle(pos), init, prev, pos);
     return *v.start;
@@ -1077,18 +1083,16 @@ void Lowering::assign(Var& v, Value value, SourcePos pos) {
 
 Value Lowering::coerce(Var& v, Value value, SourcePos pos) {
   if (v.str || value.str) {
-    if (!v.str || !value.str) {
-      d_.error(pos, v.str ? "'" + v.decl->name + "' is a STRING: convert the number (INT_TO_STRING, TO_STRING, ...)"
-                          : "a STRING assigned to '" + v.decl->name + "', which is " + type_name(v.decl->type) +
-                                ": convert it (STRING_TO_INT, ...)");
-      return v.str ? string_constant("") : constant(0, v.digital);
+    if (!v.str || !value.str || v.wide != value.wide) {
+      d_.error(pos, v.str && value.str
+                        ? "'" + v.decl->name + "' is a " + (v.wide ? "WSTRING" : "STRING") + ": convert the " +
+                              (v.wide ? "STRING (STRING_TO_WSTRING)" : "WSTRING (WSTRING_TO_STRING)")
+                    : v.str ? "'" + v.decl->name + "' is a STRING: convert the number (INT_TO_STRING, TO_STRING, ...)"
+                            : "a STRING assigned to '" + v.decl->name + "', which is " + type_name(v.decl->type) +
+                                  ": convert it (STRING_TO_INT, ...)");
+      return v.str ? string_constant("", v.wide) : constant(0, v.digital);
     }
-    if (value.cap > v.cap) {
-      // Cut to the variable's length (a constant at once).
-      if (value.is_const) return string_constant(value.text.substr(0, v.cap));
-      value = em_.string_block("scopy", "scopy", pos, {value.ref}, {static_cast<double>(v.cap)}, v.cap);
-    }
-    return value;
+    return value.cap > v.cap ? em_.cut_string(value, v.cap, pos) : value;
   }
   value = v.digital ? em_.to_digital(value, pos) : em_.to_analog(value, pos);
   if (value.is_const && !std::isfinite(value.k)) {

@@ -52,6 +52,7 @@ struct Var {
   bool hmi = false;  // an HMI variable: its channel is labelled with its path
   // A STRING (docs/st.md, "Strings") and the most characters it holds.
   bool str = false;
+  bool wide = false;  // a WSTRING
   uint32_t cap = 0;
   std::optional<Value> start;  // the value at the start of the cycle
   std::optional<Value> cur;    // after the last assignment so far

@@ -346,9 +346,9 @@ class Reader {
         // The range is not checked at run time: the base type's wrap applies.
         if (const XmlElement* b = c.child("baseType")) return type_of(*b);
       }
-      if (c.name == "string") {
+      if (c.name == "string" || c.name == "wstring") {
         TypeRef r;
-        r.base = BaseType::kString;
+        r.base = c.name == "string" ? BaseType::kString : BaseType::kWString;
         const std::string len = attr(c, "length");
         if (!len.empty()) {
           const long n = std::strtol(len.c_str(), nullptr, 10);
@@ -359,10 +359,6 @@ class Reader {
           r.string_len = static_cast<uint32_t>(n);
         }
         return r;
-      }
-      if (c.name == "wstring") {
-        d_.error(c.pos, "type WSTRING is not supported (docs/st.md, \"Strings\"); use STRING");
-        return std::nullopt;
       }
       d_.error(c.pos, "type <" + c.name + "> is not supported here (elementary types, arrays, subranges, "
                                           "and data types and function blocks by name are)");
@@ -758,7 +754,21 @@ std::optional<double> parse_literal(std::string_view text, bool* is_bool, bool* 
   return v;
 }
 
-std::optional<std::string> parse_string_literal(std::string_view t, std::string* error) {
+// Appends code point (or lone UTF-16 unit) `c` to `out` as UTF-8.
+static void append_utf8(std::string& out, uint32_t c) {
+  if (c < 0x80) {
+    out += static_cast<char>(c);
+  } else if (c < 0x800) {
+    out += static_cast<char>(0xC0 | (c >> 6));
+    out += static_cast<char>(0x80 | (c & 0x3F));
+  } else {
+    out += static_cast<char>(0xE0 | (c >> 12));
+    out += static_cast<char>(0x80 | ((c >> 6) & 0x3F));
+    out += static_cast<char>(0x80 | (c & 0x3F));
+  }
+}
+
+std::optional<std::string> parse_string_literal(std::string_view t, std::string* error, bool* wide_out) {
   auto fail = [&](const std::string& m) -> std::optional<std::string> {
     if (error != nullptr) *error = m;
     return std::nullopt;
@@ -766,19 +776,28 @@ std::optional<std::string> parse_string_literal(std::string_view t, std::string*
   while (!t.empty() && std::isspace(static_cast<unsigned char>(t.front()))) t.remove_prefix(1);
   while (!t.empty() && std::isspace(static_cast<unsigned char>(t.back()))) t.remove_suffix(1);
   if (t.size() > 7 && iequals(t.substr(0, 7), "STRING#")) t.remove_prefix(7);
-  if (!t.empty() && t.front() == '"') return fail("a \"...\" literal is a WSTRING, which rtplc does not have; use '...'");
-  if (t.size() < 2 || t.front() != '\'' || t.back() != '\'') return fail("not a string literal ('...')");
+  else if (t.size() > 8 && iequals(t.substr(0, 8), "WSTRING#")) t.remove_prefix(8);
+  const char q = t.empty() ? '\0' : t.front();
+  const bool wide = q == '"';
+  if (wide_out != nullptr) *wide_out = wide;
+  if (t.size() < 2 || (q != '\'' && q != '"') || t.back() != q) return fail("not a string literal ('...' or \"...\")");
   t = t.substr(1, t.size() - 2);
   std::string out;
+  size_t units = 0;  // characters: bytes of a STRING, UTF-16 code units of a WSTRING
+  const size_t hex = wide ? 4 : 2;
   for (size_t i = 0; i < t.size(); ++i) {
     const char c = t[i];
-    if (c == '\'') return fail("a quote inside a string is written $'");
+    if (c == q) return fail(std::string("a quote inside a string is written $") + q);
     if (c != '$') {
       out += c;
+      // A WSTRING's text is UTF-8: a character of 4 bytes is two code units.
+      const auto b = static_cast<unsigned char>(c);
+      units += !wide || (b & 0xC0) != 0x80 ? (wide && b >= 0xF0 ? 2 : 1) : 0;
       continue;
     }
     if (i + 1 >= t.size()) return fail("a string ends in a lone $ (write $$ for a dollar sign)");
     const char e = static_cast<char>(std::toupper(static_cast<unsigned char>(t[++i])));
+    ++units;
     switch (e) {
       case '$': out += '$'; break;
       case '\'': out += '\''; break;
@@ -787,19 +806,22 @@ std::optional<std::string> parse_string_literal(std::string_view t, std::string*
       case 'P': out += '\f'; break;
       case 'R': out += '\r'; break;
       case 'T': out += '\t'; break;
-      default:
-        if (i + 1 < t.size() && std::isxdigit(static_cast<unsigned char>(t[i])) &&
-            std::isxdigit(static_cast<unsigned char>(t[i + 1]))) {
-          out += static_cast<char>(std::stoi(std::string(t.substr(i, 2)), nullptr, 16));
-          ++i;
-          break;
+      default: {
+        bool ok = i + hex <= t.size();
+        for (size_t k = 0; k < hex && ok; ++k) ok = std::isxdigit(static_cast<unsigned char>(t[i + k])) != 0;
+        if (!ok) {
+          return fail(std::string("unknown escape $") + t[i] + " in a string ($$ $' $\" $L $N $P $R $T or $ and " +
+                      (wide ? "four" : "two") + " hex digits)");
         }
-        return fail(std::string("unknown escape $") + t[i] + " in a string ($$ $' $L $N $P $R $T or $ and two hex digits)");
+        const auto code = static_cast<uint32_t>(std::stoul(std::string(t.substr(i, hex)), nullptr, 16));
+        if (wide) append_utf8(out, code);
+        else out += static_cast<char>(code);
+        i += hex - 1;
+      }
     }
   }
-  if (out.size() > kMaxStringLength) {
-    return fail("a string of " + std::to_string(out.size()) + " characters: at most " +
-                std::to_string(kMaxStringLength));
+  if (units > kMaxStringLength) {
+    return fail("a string of " + std::to_string(units) + " characters: at most " + std::to_string(kMaxStringLength));
   }
   return out;
 }
@@ -813,6 +835,7 @@ std::optional<BaseType> elementary_type(std::string_view name) {
   // exposed to an HMI (docs/st.md, "HMI variables").
   if (is_hmi_type(name)) name.remove_prefix(4);
   if (iequals(name, "STRING")) return BaseType::kString;
+  if (iequals(name, "WSTRING")) return BaseType::kWString;
   const iec::IecTypeInfo* t = iec::find_iec_type(name);
   if (t == nullptr) return std::nullopt;
   return static_cast<BaseType>(t->type);  // the same order (project.h)
@@ -820,7 +843,10 @@ std::optional<BaseType> elementary_type(std::string_view name) {
 
 std::string type_name(const TypeRef& t) {
   if (t.base == BaseType::kDerived) return t.derived;
-  if (t.base == BaseType::kString) return t.string_len ? "STRING[" + std::to_string(t.string_len) + "]" : "STRING";
+  if (t.base == BaseType::kString || t.base == BaseType::kWString) {
+    const std::string w = t.base == BaseType::kString ? "STRING" : "WSTRING";
+    return t.string_len ? w + "[" + std::to_string(t.string_len) + "]" : w;
+  }
   return iec::type_info(iec_type(t.base)).name;
 }
 

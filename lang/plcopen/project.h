@@ -26,13 +26,15 @@ namespace rtplc::lang::plcopen {
 enum class BaseType : uint8_t {
   kBool, kSint, kInt, kDint, kLint, kUsint, kUint, kUdint, kUlint,
   kByte, kWord, kDword, kLword, kReal, kLreal, kTime, kDate, kTod, kDt, kDerived,
-  kString  // STRING (docs/st.md, "Strings"): no IEC numeric type of lang/iec
+  kString,  // STRING (docs/st.md, "Strings"): no IEC numeric type of lang/iec
+  kWString  // WSTRING: UTF-16 code units
 };
 
 inline iec::IecType iec_type(BaseType b) {
   static_assert(static_cast<int>(BaseType::kTime) == static_cast<int>(iec::IecType::kTime));
   static_assert(static_cast<int>(BaseType::kDt) == static_cast<int>(iec::IecType::kDt));
-  return b == BaseType::kDerived || b == BaseType::kString ? iec::IecType::kReal : static_cast<iec::IecType>(b);
+  return b == BaseType::kDerived || b == BaseType::kString || b == BaseType::kWString ? iec::IecType::kReal
+                                                                                     : static_cast<iec::IecType>(b);
 }
 
 struct ArrayType;
@@ -200,9 +202,11 @@ std::optional<Project> read_project(std::string_view text, DiagnosticList& diags
 // double (TIME and TOD in seconds, DATE and DT in seconds since 1970-01-01;
 // `is_time` is set for all four). nullopt when `text` is not a literal.
 // A character string literal `'text'` (also `STRING#'text'`) with its `$`
-// escapes ($$ $' $L $N $P $R $T $hh): its bytes; nullopt with `error` set
-// when it is none (an unknown escape, a missing quote, a `"` WSTRING).
-std::optional<std::string> parse_string_literal(std::string_view text, std::string* error);
+// escapes ($$ $' $L $N $P $R $T $hh): its bytes; a double-byte one `"text"`
+// (`WSTRING#"text"`, escapes $" and $hhhh; `wide` set): its UTF-16 code
+// units written as UTF-8 (blocks/string_ops.h utf16_units reads them back).
+// nullopt with `error` set when it is none (an unknown escape, a missing quote).
+std::optional<std::string> parse_string_literal(std::string_view text, std::string* error, bool* wide = nullptr);
 
 std::optional<double> parse_literal(std::string_view text, bool* is_bool = nullptr,
                                     bool* is_time = nullptr);

@@ -722,7 +722,8 @@ class Parser {
     }
     if (t.t == Tok::T::kString) {
       std::string why;
-      const auto text = parse_string_literal(t.text, &why);
+      bool wide = false;
+      const auto text = parse_string_literal(t.text, &why, &wide);
       if (!text) {
         error(t.pos, why);
         return nullptr;
@@ -730,6 +731,7 @@ class Parser {
       ++i_;
       e->kind = Expr::Kind::kLiteral;
       e->is_string = true;
+      e->wide = wide;
       e->text = *text;
       return e;
     }

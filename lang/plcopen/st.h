@@ -25,6 +25,7 @@ struct Expr {
   double k = 0;
   bool is_bool = false, is_time = false, is_real = false;
   bool is_string = false;  // kLiteral: a STRING, its bytes in `text`
+  bool wide = false;       // ... a WSTRING, its UTF-16 code units as UTF-8 in `text`
   // kLiteral: T#... is a TIME, D#, TOD#, DT# their types (what TO_DINT converts from).
   std::optional<iec::IecType> time_type;
   std::string text;

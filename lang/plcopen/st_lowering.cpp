@@ -61,7 +61,7 @@ Var* Lowering::in_out_argument(Scope& s, const Expr& e, const std::string& forma
 Value Lowering::eval(Scope& s, const Expr& e) {
   switch (e.kind) {
     case Expr::Kind::kLiteral: {
-      if (e.is_string) return string_constant(e.text);
+      if (e.is_string) return string_constant(e.text, e.wide);
       Value v = constant(e.k, e.is_bool);
       v.time_type = e.time_type;
       v.integer = !e.is_bool && !e.is_time && !e.is_real && e.k == std::floor(e.k);

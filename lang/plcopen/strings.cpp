@@ -81,38 +81,51 @@ std::optional<Value> Lowering::call_string_function(const std::string& up, const
   const size_t to = up.find("_TO_");
   const bool any_string = std::any_of(args.begin(), args.end(), [](const Value& v) { return v.str; });
   // ---- conversions ----
-  if (up == "TO_STRING" || (to != std::string::npos && up.compare(to + 4, std::string::npos, "STRING") == 0)) {
+  // X_TO_STRING, TO_STRING, X_TO_WSTRING, TO_WSTRING (X a number, or the
+  // other string type).
+  const bool to_wide = up == "TO_WSTRING" || (to != std::string::npos && up.compare(to + 4, std::string::npos, "WSTRING") == 0);
+  if (to_wide || up == "TO_STRING" || (to != std::string::npos && up.compare(to + 4, std::string::npos, "STRING") == 0)) {
     if (args.size() != 1) {
       d_.error(pos, up + " takes 1 argument, found " + std::to_string(args.size()));
-      return string_constant("");
+      return string_constant("", to_wide);
     }
+    const std::string from_name = to == std::string::npos ? "" : up.substr(0, to);  // "" for TO_...
     if (args[0].str) {
-      if (up == "TO_STRING" || up == "STRING_TO_STRING") return args[0];
-      d_.error(pos, up + " takes a " + up.substr(0, to) + ", not a STRING");
-      return string_constant("");
+      const bool from_wide = args[0].wide;
+      if (!from_name.empty() && from_name != (from_wide ? "WSTRING" : "STRING")) {
+        d_.error(pos, up + " takes a " + from_name + ", not a " + (from_wide ? "WSTRING" : "STRING"));
+        return string_constant("", to_wide);
+      }
+      if (from_wide == to_wide) return args[0];
+      // Between STRING and WSTRING: a byte is the code unit of the same number;
+      // a code unit above 255 is '?' in a STRING.
+      return em_.wide_string_block("scopy", "scopy", pos, {em_.ref(args[0], pos)},
+                                   {static_cast<double>(args[0].cap), to_wide ? 1.0 : 0.0}, args[0].cap, to_wide);
     }
     BaseType from = type_of_value(args[0]);
-    if (up != "TO_STRING") {
-      const auto b = elementary_type(up.substr(0, to));
+    if (!from_name.empty()) {
+      const auto b = elementary_type(from_name);
       if (!b || !format_of(*b)) {
         d_.error(pos, "conversion " + up + " names a type rtplc does not have");
-        return string_constant("");
+        return string_constant("", to_wide);
       }
       from = *b;
     }
     const Value x = em_.to_analog(args[0], pos);
-    return em_.string_block("sfmt", "sfmt", pos, {em_.ref(x, pos)},
-                            {static_cast<double>(kNumberText), static_cast<double>(*format_of(from)), dialect},
-                            kNumberText);
+    return em_.wide_string_block("sfmt", "sfmt", pos, {em_.ref(x, pos)},
+                                 {static_cast<double>(kNumberText), static_cast<double>(*format_of(from)), dialect},
+                                 kNumberText, to_wide);
   }
-  if (up.rfind("STRING_TO_", 0) == 0) {
-    const auto b = elementary_type(up.substr(10));
+  const bool from_wide = up.rfind("WSTRING_TO_", 0) == 0;
+  if (from_wide || up.rfind("STRING_TO_", 0) == 0) {
+    const std::string into = up.substr(from_wide ? 11 : 10);
+    const auto b = elementary_type(into);
     if (!b || !format_of(*b)) {
       d_.error(pos, "conversion " + up + " names a type rtplc does not have");
       return constant(0, false);
     }
-    if (args.size() != 1 || !args[0].str) {
-      d_.error(pos, up + " takes 1 STRING");
+    if (args.size() != 1 || !args[0].str || args[0].wide != from_wide) {
+      d_.error(pos, up + " takes 1 " + (from_wide ? "WSTRING" : "STRING"));
       return constant(0, *b == BaseType::kBool);
     }
     Value r = em_.string_block("sparse", "sparse", pos, {em_.ref(args[0], pos)},
@@ -205,13 +218,18 @@ std::optional<Value> Lowering::call_string_function(const std::string& up, const
                       }() + (f->extensible ? ", ..." : "") + ")");
     return string_constant("");
   }
-  // IN, IN1, IN2 (and CONCAT's every input) are STRINGs; L and P numbers.
+  // IN, IN1, IN2 (and CONCAT's every input) are STRINGs, or all WSTRINGs; L and P numbers.
+  const bool wide = placed[0]->wide;
   for (size_t k = 0; k < placed.size(); ++k) {
     const bool wants_string = k >= f->formals.size() || f->formals[k][0] == 'I';
+    const std::string formal = k < f->formals.size() ? f->formals[k] : "IN" + std::to_string(k + 1);
     if (placed[k]->str != wants_string) {
-      const std::string formal = k < f->formals.size() ? f->formals[k] : "IN" + std::to_string(k + 1);
       d_.error(pos, up + "'s " + formal + (wants_string ? " is a STRING" : " is a number (a count or a position)"));
-      return string_constant("");
+      return string_constant("", wide);
+    }
+    if (wants_string && placed[k]->wide != wide) {
+      d_.error(pos, up + " mixes a STRING and a WSTRING (" + formal + "): convert one (STRING_TO_WSTRING, WSTRING_TO_STRING)");
+      return string_constant("", wide);
     }
   }
   auto s = [&](size_t k) { return em_.ref(*placed[k], pos); };
@@ -224,32 +242,25 @@ std::optional<Value> Lowering::call_string_function(const std::string& up, const
   if (up == "LEN") return em_.string_block("slen", stem, pos, {s(0)}, {}, 0);
   if (up == "FIND") return em_.string_block("sfind", stem, pos, {s(0), s(1)}, {}, 0);
   const uint32_t cap0 = placed[0]->cap;
-  if (up == "LEFT" || up == "RIGHT") {
-    return em_.string_block(up == "LEFT" ? "sleft" : "sright", stem, pos, {s(0), n(1)}, {static_cast<double>(cap0)},
-                            cap0);
-  }
-  if (up == "MID") return em_.string_block("smid", stem, pos, {s(0), n(1), n(2)}, {static_cast<double>(cap0)}, cap0);
-  if (up == "DELETE") {
-    return em_.string_block("sdel", stem, pos, {s(0), n(1), n(2)}, {static_cast<double>(cap0)}, cap0);
-  }
-  if (up == "INSERT") {
-    const uint32_t cap = joined(cap0, placed[1]->cap);
-    return em_.string_block("sins", stem, pos, {s(0), s(1), n(2)}, {static_cast<double>(cap)}, cap);
-  }
+  auto block = [&](const char* written, std::vector<std::string> ins, uint32_t cap) {
+    return em_.wide_string_block(written, stem, pos, std::move(ins), {static_cast<double>(cap)}, cap, wide);
+  };
+  if (up == "LEFT" || up == "RIGHT") return block(up == "LEFT" ? "sleft" : "sright", {s(0), n(1)}, cap0);
+  if (up == "MID") return block("smid", {s(0), n(1), n(2)}, cap0);
+  if (up == "DELETE") return block("sdel", {s(0), n(1), n(2)}, cap0);
+  if (up == "INSERT") return block("sins", {s(0), s(1), n(2)}, joined(cap0, placed[1]->cap));
   if (up == "REPLACE") {
     // The standard's: IN2 in place of L characters from position P, as
     // DELETE then INSERT after position P - 1. (MatIEC inserts only the first
     // L characters of IN2; docs/st.md says why rtplc does not.)
-    const Value del = em_.string_block("sdel", stem, pos, {s(0), n(2), n(3)}, {static_cast<double>(cap0)}, cap0);
+    const Value del = block("sdel", {s(0), n(2), n(3)}, cap0);
     const Value at = em_.binary(BinOp::kSub, em_.to_analog(*placed[3], pos), constant(1, false), pos);
-    const uint32_t cap = joined(cap0, placed[1]->cap);
-    return em_.string_block("sins", stem, pos, {del.ref, s(1), em_.ref(at, pos)}, {static_cast<double>(cap)}, cap);
+    return block("sins", {del.ref, s(1), em_.ref(at, pos)}, joined(cap0, placed[1]->cap));
   }
   // CONCAT: left to right.
   Value acc = *placed[0];
   for (size_t k = 1; k < placed.size(); ++k) {
-    const uint32_t cap = joined(acc.cap, placed[k]->cap);
-    acc = em_.string_block("scat", stem, pos, {em_.ref(acc, pos), s(k)}, {static_cast<double>(cap)}, cap);
+    acc = block("scat", {em_.ref(acc, pos), s(k)}, joined(acc.cap, placed[k]->cap));
   }
   return acc;
 }

@@ -529,14 +529,10 @@ class Reader {
       r.array = std::move(a);
       return r;
     }
-    if (w == "WSTRING" || w == "HMI_WSTRING") {
-      fail(at, "type " + w + " is not supported (docs/st.md, \"Strings\"): use STRING");
-      return std::nullopt;
-    }
-    if (w == "STRING" || w == "HMI_STRING") {
+    if (w == "STRING" || w == "HMI_STRING" || w == "WSTRING" || w == "HMI_WSTRING") {
       TypeRef r;
-      r.base = BaseType::kString;
-      r.hmi = w == "HMI_STRING";
+      r.base = w == "STRING" || w == "HMI_STRING" ? BaseType::kString : BaseType::kWString;
+      r.hmi = w.rfind("HMI_", 0) == 0;
       skip();
       // STRING[n] (IEC) or STRING(n) (CODESYS): the most characters it holds.
       const char open = i_ < t_.size() ? t_[i_] : '\0';

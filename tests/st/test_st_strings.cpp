@@ -501,3 +501,58 @@ TEST(StStrings, il_current_result_of_two_types_at_a_label) {
 
 }  // namespace
 }  // namespace rtplc::lang
+
+namespace rtplc::lang {
+namespace {
+
+// WSTRING: UTF-16 code units, "..." literals with $hhhh, the same functions,
+// conversions to and from STRING and numbers, shown as UTF-8.
+TEST(StStrings, wstrings_hold_utf16_and_convert_to_and_from_strings) {
+  const char* src = R"(PROGRAM Main
+VAR
+  w : WSTRING := "Grüße $20AC";
+  w2 : WSTRING[4];
+  clef : WSTRING := "$D834$DD1E!";
+  s : STRING;
+  back : WSTRING;
+  n, nc, k, p : INT;
+  eq : BOOL;
+  num : WSTRING;
+END_VAR
+  w2 := CONCAT(w, "!");
+  s := WSTRING_TO_STRING(w);
+  back := STRING_TO_WSTRING('abc');
+  n := LEN(w);
+  nc := LEN(clef);
+  eq := w2 = "Grüß";
+  num := INT_TO_WSTRING(42);
+  k := WSTRING_TO_INT("17");
+  p := FIND(w, "$20AC");
+END_PROGRAM
+)";
+  FbdHarness h(src, 0.1, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("w.st", src);
+  h.step();
+  EXPECT_EQ(h.text("Main.w"), "Grüße €");
+  EXPECT_EQ(h.value("Main.n"), 7);        // code units: G r ü ß e, a blank, the euro sign
+  EXPECT_EQ(h.value("Main.nc"), 3);       // U+1D11E is two code units, then '!'
+  EXPECT_EQ(h.text("Main.clef"), "\xF0\x9D\x84\x9E!");
+  EXPECT_EQ(h.text("Main.w2"), "Grüß");   // cut to 4 code units
+  EXPECT_EQ(h.value("Main.eq"), 1);
+  EXPECT_EQ(h.text("Main.s"), "Gr\xFC\xDF" "e ?");  // a unit up to 255 is that byte; the euro sign '?'
+  EXPECT_EQ(h.text("Main.back"), "abc");
+  EXPECT_EQ(h.text("Main.num"), "42");
+  EXPECT_EQ(h.value("Main.k"), 17);
+  EXPECT_EQ(h.value("Main.p"), 7);
+  auto err = [](const std::string& body) {
+    return testing::first_error("PROGRAM P\nVAR s : STRING; w : WSTRING; END_VAR\n" + body + "\nEND_PROGRAM\n");
+  };
+  EXPECT_NE(err("w := s;").find("'w' is a WSTRING: convert the STRING (STRING_TO_WSTRING)"), std::string::npos)
+      << err("w := s;");
+  EXPECT_NE(err("w := CONCAT(w, 'x');").find("CONCAT mixes a STRING and a WSTRING"), std::string::npos);
+  EXPECT_NE(err("IF s = w THEN s := ''; END_IF;").find("a STRING and a WSTRING together"), std::string::npos);
+  EXPECT_NE(err("w := \"$12\";").find("unknown escape $1"), std::string::npos) << err("w := \"$12\";");
+}
+
+}  // namespace
+}  // namespace rtplc::lang

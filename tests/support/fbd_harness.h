@@ -65,7 +65,9 @@ class FbdHarness {
   // The text of the STRING block named `name` (docs/st.md, "Strings").
   std::string text(std::string_view name) const {
     uint32_t i = index_of(name);
-    return string_value(arena_.values.data(), static_cast<uint32_t>(arena_.values.size()), image().code()[i].out);
+    const Instr& in = image().code()[i];
+    return string_value(arena_.values.data(), static_cast<uint32_t>(arena_.values.size()), in.out,
+                        writes_wide_string(in, image().params().data() + in.param));
   }
   uint64_t errors(std::string_view name) const { return arena_.errors[index_of(name)]; }
 
