@@ -133,7 +133,10 @@ std::vector<RetainedBlock> watched_blocks(const TaskImage& image) {
     rb.value = in.out;
     // A string's whole text (watched_blocks' readers show it as text).
     const double* prepared = op_param_count(in.op) ? image.params().data() + in.param : nullptr;
-    rb.n_value = op_value_width(in.op, prepared);
+    // A variable's string (its end-of-cycle copy, an scopy) whole; a string
+    // temporary only its length: nobody reads its text, and the task copies
+    // less.
+    rb.n_value = in.op == Op::SCopy ? op_value_width(in.op, prepared) : 1;
     if (rb.n_value > image.header().n_values - in.out) continue;
     rb.wide = writes_wide_string(in, prepared);
     rb.n_state = 1;  // the status, see take_watch
