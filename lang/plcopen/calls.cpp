@@ -357,6 +357,24 @@ Value Lowering::fb_output(Var& v, const std::string& name, SourcePos pos) {
   return r;
 }
 
+// The path of a standard function block instance `s` holds (in a member, an
+// element or an instance inside it), or "" when it holds none.
+static std::string standard_fb_inside(const Scope& s);
+static std::string standard_fb_inside(const Var& v) {
+  if (v.role == Var::Role::kStdFb) return v.path;
+  if ((v.role == Var::Role::kUserFb || v.role == Var::Role::kStruct) && v.fb) return standard_fb_inside(*v.fb);
+  for (const auto& e : v.elems) {
+    if (std::string p = standard_fb_inside(*e); !p.empty()) return p;
+  }
+  return "";
+}
+static std::string standard_fb_inside(const Scope& s) {
+  for (const auto& [name, v] : s.vars) {
+    if (std::string p = standard_fb_inside(*v); !p.empty()) return p;
+  }
+  return "";
+}
+
 void Lowering::call_fb(Var& v, const std::vector<std::pair<std::string, Value>>& inputs, SourcePos pos,
                        const std::vector<std::pair<std::string, Var*>>& inouts) {
   if (v.role == Var::Role::kStdFb && !inouts.empty()) {
@@ -365,9 +383,16 @@ void Lowering::call_fb(Var& v, const std::vector<std::pair<std::string, Value>>&
   }
   if (v.role == Var::Role::kUserFb) {
     Scope& fb = *v.fb;
+    // A second call in the cycle goes on from the first's values (the body is
+    // lowered again on the instance's variables as they are now), unless the
+    // instance holds a standard function block, whose blocks run once per
+    // textual call.
     if (fb.called) {
-      d_.error(pos, "'" + v.decl->name + "' is called twice in one cycle; rtplc gives each call its own state, so call an instance once");
-      return;
+      if (const std::string inner = standard_fb_inside(fb); !inner.empty()) {
+        d_.error(pos, "'" + v.decl->name + "' is called twice in one cycle, and it holds the standard function block "
+                          "'" + inner + "', which runs once per call site: call the instance once");
+        return;
+      }
     }
     fb.called = true;
     bind_in_outs(fb, "function block '" + fb.pou->name + "'", inouts, d_, pos);

@@ -890,5 +890,46 @@ TEST(StFile, damaged_files_are_refused_with_an_error_and_never_crash) {
   }
 }
 
+// A function block instance called twice in one cycle: the second call goes
+// on from the first's values, as in MatIEC and CODESYS (also in two branches
+// of an IF); one that holds a standard function block is refused at the call.
+TEST(StFile, a_function_block_called_twice_goes_on_from_its_first_call) {
+  const char* src = R"(FUNCTION_BLOCK Acc
+VAR_INPUT x : INT; END_VAR
+VAR_OUTPUT total : INT; calls : INT; END_VAR
+  total := total + x;
+  calls := calls + 1;
+END_FUNCTION_BLOCK
+
+PROGRAM Main
+VAR a : Acc; c : BOOL; t1, t2, k : INT; END_VAR
+  c := NOT c;
+  a(x := 1);
+  t1 := a.total;
+  a(x := 10);
+  t2 := a.total;
+  IF c THEN a(x := 100); ELSE a(x := 1000); END_IF;
+  k := a.calls;
+END_PROGRAM
+)";
+  testing::FbdHarness h(src, 0.1, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("twice.st", src);
+  h.step();
+  EXPECT_EQ(h.value("Main.t1"), 1);
+  EXPECT_EQ(h.value("Main.t2"), 11);
+  EXPECT_EQ(h.value("Main.a.total"), 111);
+  EXPECT_EQ(h.value("Main.k"), 3);
+  h.step();
+  EXPECT_EQ(h.value("Main.t1"), 112);
+  EXPECT_EQ(h.value("Main.a.total"), 1122);
+  EXPECT_EQ(h.value("Main.k"), 6);
+  const std::string timed =
+      "FUNCTION_BLOCK T\nVAR t : TON; END_VAR\nt(IN := TRUE, PT := T#1s);\nEND_FUNCTION_BLOCK\n"
+      "PROGRAM P\nVAR a : T; END_VAR\na();\na();\nEND_PROGRAM\n";
+  EXPECT_EQ(testing::first_error(timed),
+            "8:1: 'a' is called twice in one cycle, and it holds the standard function block 'P.a.t', which runs "
+            "once per call site: call the instance once");
+}
+
 }  // namespace
 }  // namespace rtplc::lang
