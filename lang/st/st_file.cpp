@@ -837,7 +837,9 @@ class Reader {
           t.interval = *s;
         } else if (key == "PRIORITY") {
           const auto pr = plcopen::parse_literal(v);
-          if (!pr) return fail(pat, "PRIORITY := " + v + ": expected a whole number");
+          if (!pr || !(*pr >= 0 && *pr <= 1000000) || *pr != std::floor(*pr)) {
+            return fail(pat, "PRIORITY := " + v + ": expected a whole number from 0 to 1000000");
+          }
           t.priority = static_cast<int>(*pr);
         } else if (key == "SINGLE") {
           t.single = v;

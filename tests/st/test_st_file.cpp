@@ -786,6 +786,11 @@ TEST(StFile, a_configuration_may_hold_its_task_without_a_resource) {
 }
 
 TEST(StFile, refuses_what_it_cannot_run_at_its_position_naming_it) {
+  EXPECT_EQ(first_error("PROGRAM P VAR x : INT; END_VAR x := 1; END_PROGRAM\n"
+                        "CONFIGURATION C TASK t (INTERVAL := T#5ms, PRIORITY := 1e200); PROGRAM p WITH t : P; "
+                        "END_CONFIGURATION\n")
+                .substr(0, 60),
+            "2:44: PRIORITY := 1e200: expected a whole number from 0 to 1");
   EXPECT_EQ(first_error("PROGRAM P\n  VAR s : POINTER TO INT; END_VAR\nEND_PROGRAM\n").substr(0, 39),
             "2:11: type POINTER is not supported (do");
   EXPECT_EQ(first_error("PROGRAM P\n  VAR x : INT;\n").substr(0, 35), "2:3: VAR is never closed by END_VAR");
