@@ -68,8 +68,13 @@ std::string explain(const CompileResult& r) {
         prm += std::string(b.spec->params[k].name) + "=" + format_number(b.params[k]);
       }
       // Control flow (docs/st.md, "Loops"): where it goes, what it writes.
-      if (b.op == Op::Set) {
+      if (b.op == Op::Set || b.op == Op::SSet) {
         prm = "-> " + (b.target < p.blocks.size() ? p.blocks[b.target].name : std::string("?"));
+      } else if (b.op == Op::SConst) {
+        // Its text, as a literal (a WSTRING's in double quotes), bytes that
+        // cannot show escaped.
+        const bool wide = !b.params.empty() && b.params[0] == 1;
+        prm = (wide ? "\"" : "'") + escape_for_terminal(b.label) + (wide ? "\"" : "'");
       } else if (op_is_branch(b.op)) {
         prm = "-> #" + std::to_string(b.target) + (b.target >= p.blocks.size() ? " (end)" : "");
       } else if (b.op == Op::Pick || b.op == Op::Put) {
