@@ -3,6 +3,8 @@
 // ("Strings"): never a read outside the string, never a result past its cap.
 #include "blocks/string_ops.h"
 
+#include "common/text.h"
+
 #include <algorithm>
 #include <cctype>
 #include <cinttypes>
@@ -425,21 +427,7 @@ static void append_utf8_units(std::string& out, const Unit* units, uint32_t n, b
     } else if (c >= 0xD800 && c <= 0xDFFF && !keep_lone) {
       c = 0xFFFD;
     }
-    if (c < 0x80) {
-      out += static_cast<char>(c);
-    } else if (c < 0x800) {
-      out += static_cast<char>(0xC0 | (c >> 6));
-      out += static_cast<char>(0x80 | (c & 0x3F));
-    } else if (c < 0x10000) {
-      out += static_cast<char>(0xE0 | (c >> 12));
-      out += static_cast<char>(0x80 | ((c >> 6) & 0x3F));
-      out += static_cast<char>(0x80 | (c & 0x3F));
-    } else {
-      out += static_cast<char>(0xF0 | (c >> 18));
-      out += static_cast<char>(0x80 | ((c >> 12) & 0x3F));
-      out += static_cast<char>(0x80 | ((c >> 6) & 0x3F));
-      out += static_cast<char>(0x80 | (c & 0x3F));
-    }
+    append_utf8(out, c);
   }
 }
 

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <string>
 #include <string_view>
 
@@ -17,5 +18,9 @@ std::string pad_right(std::string s, size_t width);
 // Copies `s` into a fixed, NUL-terminated field of `cap` bytes (truncating),
 // zero-filling the rest so no stale bytes reach shared memory.
 void copy_text(char* dst, size_t cap, std::string_view s);
+
+// Appends code point `cp` (at most U+10FFFF) to `out` in UTF-8; a lone UTF-16
+// surrogate half (U+D800..U+DFFF) as its own three bytes.
+void append_utf8(std::string& out, uint32_t cp);
 
 }  // namespace rtplc

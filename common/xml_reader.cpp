@@ -1,6 +1,8 @@
 // The XML reader behind the PNML and PLCopen importers (see xml_reader.h).
 #include "common/xml_reader.h"
 
+#include "common/text.h"
+
 #include <cstdint>
 
 namespace rtplc {
@@ -161,22 +163,7 @@ class XmlParser {
       failed_ = true;
       return false;
     }
-    // UTF-8 encode.
-    if (cp < 0x80) {
-      out += static_cast<char>(cp);
-    } else if (cp < 0x800) {
-      out += static_cast<char>(0xC0 | (cp >> 6));
-      out += static_cast<char>(0x80 | (cp & 0x3F));
-    } else if (cp < 0x10000) {
-      out += static_cast<char>(0xE0 | (cp >> 12));
-      out += static_cast<char>(0x80 | ((cp >> 6) & 0x3F));
-      out += static_cast<char>(0x80 | (cp & 0x3F));
-    } else {
-      out += static_cast<char>(0xF0 | (cp >> 18));
-      out += static_cast<char>(0x80 | ((cp >> 12) & 0x3F));
-      out += static_cast<char>(0x80 | ((cp >> 6) & 0x3F));
-      out += static_cast<char>(0x80 | (cp & 0x3F));
-    }
+    append_utf8(out, static_cast<uint32_t>(cp));
     advance(semi + 1 - i_);
     return true;
   }

@@ -6,6 +6,7 @@
 #include <cstdlib>
 
 #include "blocks/int_math.h"
+#include "common/text.h"
 #include "lang/iec/iec_functions.h"
 
 namespace rtplc::lang::plcopen {
@@ -752,20 +753,6 @@ std::optional<double> parse_literal(std::string_view text, bool* is_bool, bool* 
     if (c == 'x' || c == 'X' || c == 'n' || c == 'N' || c == 'i' || c == 'I') return std::nullopt;
   }
   return v;
-}
-
-// Appends code point (or lone UTF-16 unit) `c` to `out` as UTF-8.
-static void append_utf8(std::string& out, uint32_t c) {
-  if (c < 0x80) {
-    out += static_cast<char>(c);
-  } else if (c < 0x800) {
-    out += static_cast<char>(0xC0 | (c >> 6));
-    out += static_cast<char>(0x80 | (c & 0x3F));
-  } else {
-    out += static_cast<char>(0xE0 | (c >> 12));
-    out += static_cast<char>(0x80 | ((c >> 6) & 0x3F));
-    out += static_cast<char>(0x80 | (c & 0x3F));
-  }
 }
 
 std::optional<std::string> parse_string_literal(std::string_view t, std::string* error, bool* wide_out) {

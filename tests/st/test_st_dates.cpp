@@ -11,6 +11,7 @@
 #include <string>
 
 #include "lang/compiler.h"
+#include "tests/support/block_value.h"
 #include "lang/front_end.h"
 #include "tests/st/first_error.h"
 #include "tests/support/fbd_harness.h"
@@ -172,13 +173,7 @@ END_PROGRAM
     ASSERT_TRUE(r.ok()) << r.diags.render("d.st", src);
     TaskArena arena(*r.image);
     execute_cycle(*r.image, arena);
-    auto value = [&](std::string_view name) {
-      for (size_t i = 0; i < r.image->blocks().size(); ++i) {
-        if (r.image->str(r.image->blocks()[i].name) == name) return arena.values[r.image->code()[i].out];
-      }
-      ADD_FAILURE() << "no block " << name;
-      return -1.0;
-    };
+    auto value = [&](std::string_view name) { return testing::block_value(r, arena, name); };
     const int k = static_cast<int>(w.sem);
     EXPECT_EQ(value("Main.xs"), w.xs) << k;
     EXPECT_EQ(value("Main.ds"), kJan15) << k;
@@ -260,13 +255,7 @@ END_PROGRAM
     ASSERT_TRUE(r.ok()) << r.diags.render("d.st", src);
     TaskArena arena(*r.image);
     for (int k = 0; k < 6; ++k) execute_cycle(*r.image, arena);  // ET = 2.5 s after six cycles of 0.5 s
-    auto value = [&](std::string_view name) {
-      for (size_t i = 0; i < r.image->blocks().size(); ++i) {
-        if (r.image->str(r.image->blocks()[i].name) == name) return arena.values[r.image->code()[i].out];
-      }
-      ADD_FAILURE() << "no block " << name;
-      return -1.0;
-    };
+    auto value = [&](std::string_view name) { return testing::block_value(r, arena, name); };
     const int k = static_cast<int>(sem);
     EXPECT_EQ(value("Main.lit"), lit) << k;
     EXPECT_EQ(value("Main.et"), et) << k;

@@ -15,6 +15,7 @@
 #include "lang/compiler.h"
 #include "sched/program.h"
 #include "tests/st/first_error.h"
+#include "tests/support/block_value.h"
 #include "tests/support/fbd_harness.h"
 
 namespace rtplc::lang {
@@ -23,21 +24,11 @@ namespace {
 using testing::FbdHarness;
 
 std::string text_of(const CompileResult& r, const TaskArena& arena, std::string_view name) {
-  for (size_t i = 0; i < r.image->blocks().size(); ++i) {
-    if (r.image->str(r.image->blocks()[i].name) == name) {
-      return string_value(arena.values.data(), static_cast<uint32_t>(arena.values.size()), r.image->code()[i].out);
-    }
-  }
-  ADD_FAILURE() << "no block " << name;
-  return "";
+  return testing::block_text(r, arena, name);
 }
 
 double value_of(const CompileResult& r, const TaskArena& arena, std::string_view name) {
-  for (size_t i = 0; i < r.image->blocks().size(); ++i) {
-    if (r.image->str(r.image->blocks()[i].name) == name) return arena.values[r.image->code()[i].out];
-  }
-  ADD_FAILURE() << "no block " << name;
-  return -1;
+  return testing::block_value(r, arena, name);
 }
 
 TEST(StStrings, the_standard_functions_and_their_edges) {
