@@ -456,7 +456,8 @@ std::vector<uint16_t> utf16_units(std::string_view utf8) {
   for (size_t i = 0; i < utf8.size();) {
     const auto b = static_cast<unsigned char>(utf8[i]);
     uint32_t c = b, more = 0;
-    if (b >= 0xF0 && b < 0xF8) c = b & 0x07u, more = 3;
+    if (b >= 0xF8) c = 0xFFFD, more = 0;  // no UTF-8 lead byte
+    else if (b >= 0xF0) c = b & 0x07u, more = 3;
     else if (b >= 0xE0) c = b & 0x0Fu, more = 2;
     else if (b >= 0xC0) c = b & 0x1Fu, more = 1;
     else if (b >= 0x80) more = 0, c = 0xFFFD;  // a stray continuation byte

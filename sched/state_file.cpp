@@ -287,7 +287,7 @@ RestoreOutcome restore_task(const SavedTask& saved, const std::vector<RetainedBl
         len = len >= 0 ? std::min(std::floor(len), static_cast<double>(rb.n_value - 1)) : 0;
         for (uint32_t v = 1; v < rb.n_value; ++v) {
           double& c = arena.values[rb.value + v];
-          c = c >= 0 && c <= 255 ? std::floor(c) : 0;
+          c = c >= 0 && c <= 65535 ? std::floor(c) : 0;  // a byte, or a WSTRING's UTF-16 unit
         }
       }
     }

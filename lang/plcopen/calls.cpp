@@ -172,6 +172,15 @@ static void bind_in_outs(Scope& scope, const std::string& callee,
       d.error(pos, callee + " has no VAR_IN_OUT '" + formal + "'");
       continue;
     }
+    // (a VAR_IN_OUT has no storage: its declaration says what it takes)
+    const BaseType want = it->second->decl->type.base;
+    const bool p_str = want == BaseType::kString || want == BaseType::kWString, p_wide = want == BaseType::kWString;
+    if (var != nullptr && (p_str || var->str) && (p_str != var->str || p_wide != var->wide)) {
+      auto kind = [](bool str, bool wide) { return std::string(!str ? "a number" : wide ? "a WSTRING" : "a STRING"); };
+      d.error(pos, callee + "'s VAR_IN_OUT '" + formal + "' is " + kind(p_str, p_wide) + ", and this call passes " +
+                       kind(var->str, var->wide) + " ('" + var->decl->name + "')");
+      continue;
+    }
     it->second->alias = var;
   }
   // Every VAR_IN_OUT needs the caller's variable, named at the call (not
@@ -395,6 +404,10 @@ void Lowering::call_fb(Var& v, const std::vector<std::pair<std::string, Value>>&
       }
     }
     fb.called = true;
+    // VAR_TEMP starts afresh at every call (start_value: its initial value).
+    for (auto& [name, var] : fb.vars) {
+      if (var->decl != nullptr && var->decl->section == VarSection::kTemp) var->cur.reset();
+    }
     bind_in_outs(fb, "function block '" + fb.pou->name + "'", inouts, d_, pos);
     std::vector<Var*> in_order;
     for (const Variable& d : fb.pou->vars) {

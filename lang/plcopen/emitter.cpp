@@ -346,12 +346,12 @@ Value Emitter::binary(BinOp op, const Value& a0, const Value& b0, SourcePos pos)
 
 Value Emitter::select(const Value& cond, const Value& a, const Value& b, SourcePos pos) {
   const Value c = to_digital(cond, pos);
+  if ((a.str || b.str) && (!(a.str && b.str) || a.wide != b.wide)) {
+    d_.error(pos, a.str && b.str ? "a choice between a STRING and a WSTRING" : "a choice between a STRING and a number");
+    return a;
+  }
   if (c.is_const) return c.k != 0 ? a : b;
   if (a.str || b.str) {
-    if (!(a.str && b.str) || a.wide != b.wide) {
-      d_.error(pos, a.str && b.str ? "a choice between a STRING and a WSTRING" : "a choice between a STRING and a number");
-      return a;
-    }
     if (a.is_const && b.is_const && a.text == b.text) return a;
     if (!a.is_const && !b.is_const && a.ref == b.ref) return a;
     // ssel: in0 when g is 0, in1 when it is 1.

@@ -170,7 +170,7 @@ void Lowering::lower_il(Scope& s, const Body& body) {
       // A located input the body writes too (MatIEC's: lasts until the next cycle).
       if ((v->role != Var::Role::kPlain && v->role != Var::Role::kInput) || (v->decl && v->decl->constant)) continue;
       homes.emplace_back(v, make_home(v->path, v->digital, v->integer, body_pos,
-                                        v->str ? std::optional<uint32_t>(v->cap) : std::nullopt));
+                                        v->str ? std::optional<uint32_t>(v->cap) : std::nullopt, v->wide));
     }
   }
   // The variables' homes, and `extra` (the current result's and P's), set at
@@ -225,14 +225,14 @@ void Lowering::lower_il(Scope& s, const Body& body) {
       auto it = pending.find(l.label);
       if (it != pending.end()) {
         for (const Arrival& a : it->second) {
-          if (a.cr.str != CR.str) {
+          if (a.cr.str != CR.str || a.cr.wide != CR.wide) {
             // A STRING on one way here, a number on another: no value until
             // the next LD (using it is refused, below).
             cr_mixed = std::max(l.label_pos.line, 1u);
             CR = constant(0, false);
-            continue;
+          } else {
+            CR = em.select(a.pred, a.cr, CR, l.label_pos);
           }
-          CR = em.select(a.pred, a.cr, CR, l.label_pos);
           P = em.binary(BinOp::kOr, P, a.pred, l.label_pos);
           paths.join(a.paths, parent);
         }
@@ -253,8 +253,7 @@ void Lowering::lower_il(Scope& s, const Body& body) {
           hd.cr_loaded = first == "LD" || first == "LDN";
           break;
         }
-        hd.cr = make_home(s.path + ".$cr", CR.digital, CR.integer, l.label_pos,
-                          CR.str ? std::optional<uint32_t>(CR.cap) : std::nullopt);
+        hd.cr = make_home_for(CR, s.path + ".$cr", l.label_pos);
         std::vector<std::pair<const LoopHome*, Value>> extra{{&hd.cr, CR}};
         if (!(P.is_const && P.k != 0)) {
           hd.p = make_home(s.path + ".$p", true, false, l.label_pos);
@@ -364,7 +363,7 @@ void Lowering::lower_il(Scope& s, const Body& body) {
         if (conditional()) pred = em.binary(BinOp::kAnd, pred, active(pos), pos);
         const Head& hd = heads.at(target);
         std::vector<std::pair<const LoopHome*, Value>> extra;
-        if (!hd.cr_loaded || CR.str == hd.cr.value.str) extra.emplace_back(&hd.cr, CR);
+        if (!hd.cr_loaded || (CR.str == hd.cr.value.str && CR.wide == hd.cr.value.wide)) extra.emplace_back(&hd.cr, CR);
         if (hd.p) extra.emplace_back(&*hd.p, constant(1, true));
         sync_homes(pos, std::move(extra));
         std::optional<size_t> skip;

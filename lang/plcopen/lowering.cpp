@@ -788,13 +788,18 @@ Var* Lowering::indexed_array(Scope& s, const std::string& path, const std::vecto
   return a;
 }
 
+Lowering::LoopHome Lowering::make_home_for(const Value& v, const std::string& stem, SourcePos pos) {
+  return make_home(stem, v.digital, v.integer, pos, v.str ? std::optional<uint32_t>(v.cap) : std::nullopt, v.wide);
+}
+
 Lowering::LoopHome Lowering::make_home(const std::string& stem, bool digital, bool integer, SourcePos pos,
-                                       std::optional<uint32_t> str_cap) {
+                                       std::optional<uint32_t> str_cap, bool wide) {
   LoopHome h;
   h.value.ref = em_.fresh(stem + "$loop");
   if (str_cap) {
     h.block = em_.emit_flow("svar", h.value.ref, pos, {}, 0, {static_cast<double>(*str_cap)});
     h.value.str = true;
+    h.value.wide = wide;
     h.value.cap = *str_cap;
     return h;
   }
@@ -805,7 +810,7 @@ Lowering::LoopHome Lowering::make_home(const std::string& stem, bool digital, bo
 }
 
 void Lowering::set_home(const LoopHome& h, const Value& v, SourcePos pos) {
-  if (h.value.str != v.str) {
+  if (h.value.str != v.str || h.value.wide != v.wide) {
     d_.error(pos, "a value that is a STRING on one way here and a number on another (an IL current result "
                   "at a label or a loop's head): load it again after the label");
     return;
@@ -887,7 +892,7 @@ Value Lowering::load(Scope& s, const std::string& path, const std::vector<std::u
   std::vector<Value> vs;
   for (const Place& p : ps) vs.push_back(value_of(p));
   Value acc = constant(0, vs[0].digital);  // an index out of range reads 0 ('' for strings)
-  if (vs[0].str) acc = string_constant("");
+  if (vs[0].str) acc = string_constant("", vs[0].wide);
   acc.integer = vs[0].integer;
   for (size_t k = ps.size(); k-- > 0;) acc = em_.select(ps[k].when, vs[k], acc, pos);
   acc.integer = vs[0].integer;
@@ -968,7 +973,7 @@ Value Lowering::start_value(Var& v, SourcePos pos) {
       }
     }
     const bool in_function = v.path.find("()") != std::string::npos;
-    if (in_function || v.decl->constant) {
+    if (in_function || v.decl->constant || v.decl->section == VarSection::kTemp) {
       v.start = init;
       return init;
     }
@@ -1000,9 +1005,10 @@ Value Lowering::start_value(Var& v, SourcePos pos) {
     v.start = r;
     return r;
   }
-  // In a function nothing is remembered: each call starts from the initial value.
+  // In a function nothing is remembered: each call starts from the initial
+  // value; so does a VAR_TEMP at each cycle (and each call: call_fb).
   const bool in_function = v.path.find("()") != std::string::npos;
-  if (in_function || (v.decl->constant)) {
+  if (in_function || v.decl->constant || v.decl->section == VarSection::kTemp) {
     v.start = init;
     return init;
   }

@@ -216,7 +216,9 @@ class Lowering {
   // value across a backward jump, set by set_home (a set block).
   // `str_cap`: a STRING's home (an svar) of that length.
   LoopHome make_home(const std::string& stem, bool digital, bool integer, SourcePos pos,
-                     std::optional<uint32_t> str_cap = std::nullopt);
+                     std::optional<uint32_t> str_cap = std::nullopt, bool wide = false);
+  // A home shaped as `v` holds it (a number, a BOOL, a STRING or WSTRING of its length).
+  LoopHome make_home_for(const Value& v, const std::string& stem, SourcePos pos);
   void set_home(const LoopHome& h, const Value& v, SourcePos pos);
   // Sets `v`'s home `h` to `v`'s value now, unless that is the home's own
   // value already; true when it set it.

@@ -6,6 +6,7 @@
 #include <cstdlib>
 
 #include "blocks/int_math.h"
+#include "blocks/string_ops.h"
 #include "common/text.h"
 #include "lang/iec/iec_functions.h"
 
@@ -762,10 +763,14 @@ std::optional<std::string> parse_string_literal(std::string_view t, std::string*
   };
   while (!t.empty() && std::isspace(static_cast<unsigned char>(t.front()))) t.remove_prefix(1);
   while (!t.empty() && std::isspace(static_cast<unsigned char>(t.back()))) t.remove_suffix(1);
-  if (t.size() > 7 && iequals(t.substr(0, 7), "STRING#")) t.remove_prefix(7);
-  else if (t.size() > 8 && iequals(t.substr(0, 8), "WSTRING#")) t.remove_prefix(8);
+  int typed = 0;  // 1 STRING#, 2 WSTRING#
+  if (t.size() > 7 && iequals(t.substr(0, 7), "STRING#")) t.remove_prefix(7), typed = 1;
+  else if (t.size() > 8 && iequals(t.substr(0, 8), "WSTRING#")) t.remove_prefix(8), typed = 2;
   const char q = t.empty() ? '\0' : t.front();
   const bool wide = q == '"';
+  if ((typed == 1 && wide) || (typed == 2 && q == '\'')) {
+    return fail(typed == 1 ? "STRING# takes '...' (\"...\" is a WSTRING)" : "WSTRING# takes \"...\" ('...' is a STRING)");
+  }
   if (wide_out != nullptr) *wide_out = wide;
   if (t.size() < 2 || (q != '\'' && q != '"') || t.back() != q) return fail("not a string literal ('...' or \"...\")");
   t = t.substr(1, t.size() - 2);
@@ -777,14 +782,12 @@ std::optional<std::string> parse_string_literal(std::string_view t, std::string*
     if (c == q) return fail(std::string("a quote inside a string is written $") + q);
     if (c != '$') {
       out += c;
-      // A WSTRING's text is UTF-8: a character of 4 bytes is two code units.
-      const auto b = static_cast<unsigned char>(c);
-      units += !wide || (b & 0xC0) != 0x80 ? (wide && b >= 0xF0 ? 2 : 1) : 0;
+      units += wide ? 0 : 1;  // (a WSTRING's are counted from its UTF-8 below)
       continue;
     }
     if (i + 1 >= t.size()) return fail("a string ends in a lone $ (write $$ for a dollar sign)");
     const char e = static_cast<char>(std::toupper(static_cast<unsigned char>(t[++i])));
-    ++units;
+    units += wide ? 0 : 1;
     switch (e) {
       case '$': out += '$'; break;
       case '\'': out += '\''; break;
@@ -807,6 +810,7 @@ std::optional<std::string> parse_string_literal(std::string_view t, std::string*
       }
     }
   }
+  if (wide) units = utf16_units(out).size();
   if (units > kMaxStringLength) {
     return fail("a string of " + std::to_string(units) + " characters: at most " + std::to_string(kMaxStringLength));
   }

@@ -583,9 +583,9 @@ struct StLowerer {
     Var* var = nullptr;  // nullptr: a flag (RETURN, EXIT, CONTINUE)
   };
   Home make_home(const std::string& stem, bool digital, bool integer, SourcePos pos,
-                 std::optional<uint32_t> str_cap = std::nullopt) {
+                 std::optional<uint32_t> str_cap = std::nullopt, bool wide = false) {
     Home h;
-    static_cast<Lowering::LoopHome&>(h) = L.make_home(stem, digital, integer, pos, str_cap);
+    static_cast<Lowering::LoopHome&>(h) = L.make_home(stem, digital, integer, pos, str_cap, wide);
     return h;
   }
   void set_home(const Home& h, const Value& v, SourcePos pos) { L.set_home(h, v, pos); }
@@ -610,7 +610,8 @@ struct StLowerer {
       // A located input the body writes too (MatIEC's: lasts until the next cycle).
       if ((v->role != Var::Role::kPlain && v->role != Var::Role::kInput) || (v->decl && v->decl->constant)) continue;
       const Value before = L.read(*v, pos);
-      Home h = make_home(v->path, v->digital, v->integer, pos, v->str ? std::optional<uint32_t>(v->cap) : std::nullopt);
+      Home h = make_home(v->path, v->digital, v->integer, pos, v->str ? std::optional<uint32_t>(v->cap) : std::nullopt,
+                         v->wide);
       h.var = v;
       set_home(h, before, pos);
       v->cur = h.value;

@@ -318,6 +318,12 @@ class Reader {
     size_t start = b;
     for (size_t k = b; k < e; ++k) {
       const char c = t_[k];
+      if (c == '\'' || c == '"') {
+        // A comma inside a string literal is the literal's.
+        const size_t close = string_close(t_, k);
+        k = close == std::string_view::npos || close >= e ? e - 1 : close;
+        continue;
+      }
       if (c == '(' || c == '[') ++depth;
       else if (c == ')' || c == ']') --depth;
       else if (c == ',' && depth == 0) {

@@ -547,3 +547,83 @@ END_PROGRAM
 
 }  // namespace
 }  // namespace rtplc::lang
+
+namespace rtplc::lang {
+namespace {
+
+// WSTRINGs in real loops keep their type (the loop's home is a WSTRING's),
+// an array of them reads by a run-time index, and a comma inside a literal
+// of an array's initial value belongs to the literal.
+TEST(StStrings, wstrings_in_loops_and_arrays) {
+  const char* src = R"(PROGRAM Main
+VAR
+  w : WSTRING;
+  i, k : INT;
+  wa : ARRAY[1..3] OF WSTRING[10] := ["p,q", "é", "€"];
+  sa : ARRAY[1..2] OF STRING := ['a,b', 'c'];
+  pick : WSTRING[10];
+END_VAR
+  w := "";
+  i := 0;
+  WHILE i < 2 DO
+    w := CONCAT(w, "é€");
+    i := i + 1;
+  END_WHILE;
+  k := k MOD 3 + 1;
+  pick := wa[k];
+END_PROGRAM
+)";
+  FbdHarness h(src, 0.1, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("w.st", src);
+  h.step();
+  EXPECT_EQ(h.text("Main.w"), "é€é€");
+  EXPECT_EQ(h.text("Main.pick"), "p,q");
+  EXPECT_EQ(h.text("Main.sa[1]"), "a,b");
+  h.step(2);
+  EXPECT_EQ(h.text("Main.pick"), "€");
+}
+
+TEST(StStrings, string_kinds_meet_only_converted_at_calls_and_choices) {
+  auto err = [](const std::string& src) { return testing::first_error(src); };
+  const std::string fb =
+      "FUNCTION_BLOCK F\nVAR_IN_OUT io : STRING; END_VAR\nio := RIGHT(io, 1);\nEND_FUNCTION_BLOCK\n";
+  EXPECT_NE(err(fb + "PROGRAM P\nVAR f : F; w : WSTRING; END_VAR\nf(io := w);\nEND_PROGRAM\n")
+                .find("function block 'F''s VAR_IN_OUT 'io' is a STRING, and this call passes a WSTRING ('w')"),
+            std::string::npos)
+      << err(fb + "PROGRAM P\nVAR f : F; w : WSTRING; END_VAR\nf(io := w);\nEND_PROGRAM\n");
+  const std::string decl = "PROGRAM P\nVAR s : STRING; w : WSTRING; END_VAR\n";
+  EXPECT_NE(err(decl + "w := SEL(FALSE, w, s);\nEND_PROGRAM\n").find("a choice between a STRING and a WSTRING"),
+            std::string::npos);
+  EXPECT_NE(err(decl + "s := STRING#\"x\";\nEND_PROGRAM\n").find("STRING# takes '...'"), std::string::npos);
+  EXPECT_NE(err(decl + "w := WSTRING#'x';\nEND_PROGRAM\n").find("WSTRING# takes \"...\""), std::string::npos);
+}
+
+// A VAR_TEMP starts from its initial value at every call and every cycle.
+TEST(StStrings, var_temp_starts_afresh_at_every_call) {
+  const char* src = R"(FUNCTION_BLOCK F
+VAR_INPUT x : INT; END_VAR
+VAR_OUTPUT last : INT; END_VAR
+VAR_TEMP t : INT; note : STRING := 'n'; END_VAR
+  t := t + x;
+  note := CONCAT(note, 'x');
+  last := t * 10 + LEN(note);
+END_FUNCTION_BLOCK
+PROGRAM Main
+VAR f : F; a, b : INT; END_VAR
+  f(x := 1);
+  a := f.last;
+  f(x := 2);
+  b := f.last;
+END_PROGRAM
+)";
+  FbdHarness h(src, 0.1, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("t.st", src);
+  for (int cycle = 0; cycle < 3; ++cycle) {
+    h.step();
+    EXPECT_EQ(h.value("Main.a"), 12) << cycle;
+    EXPECT_EQ(h.value("Main.b"), 22) << cycle;
+  }
+}
+
+}  // namespace
+}  // namespace rtplc::lang
