@@ -224,11 +224,6 @@ END_PROGRAM
   EXPECT_EQ(h.value("Main.d2"), 0.125);
 }
 
-}  // namespace
-}  // namespace rtplc::lang
-
-namespace rtplc::lang {
-namespace {
 
 // TO_DINT of a TIME literal, a timer's ET and a sum of TIMEs converts from the
 // TIME, as TIME_TO_DINT does (ms under CODESYS, whole seconds under MatIEC).

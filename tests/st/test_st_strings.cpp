@@ -23,14 +23,6 @@ namespace {
 
 using testing::FbdHarness;
 
-std::string text_of(const CompileResult& r, const TaskArena& arena, std::string_view name) {
-  return testing::block_text(r, arena, name);
-}
-
-double value_of(const CompileResult& r, const TaskArena& arena, std::string_view name) {
-  return testing::block_value(r, arena, name);
-}
-
 TEST(StStrings, the_standard_functions_and_their_edges) {
   const char* src = R"(PROGRAM Main
 VAR
@@ -210,23 +202,23 @@ END_PROGRAM
     TaskArena arena(*r.image);
     execute_cycle(*r.image, arena);
     const int k = static_cast<int>(w.sem);
-    EXPECT_EQ(text_of(r, arena, "Main.sr"), w.sr) << k;
-    EXPECT_EQ(text_of(r, arena, "Main.slr"), w.slr) << k;
-    EXPECT_EQ(text_of(r, arena, "Main.st1"), w.st1) << k;
-    EXPECT_EQ(text_of(r, arena, "Main.st2"), w.st2) << k;
-    EXPECT_EQ(text_of(r, arena, "Main.sb"), w.sb) << k;
-    EXPECT_EQ(text_of(r, arena, "Main.sbool"), "TRUE") << k;
-    EXPECT_EQ(text_of(r, arena, "Main.sint"), "-42") << k;
-    EXPECT_EQ(text_of(r, arena, "Main.stod"), w.stod) << k;
-    EXPECT_EQ(text_of(r, arena, "Main.sdt"), "DT#2001-09-09-01:46:40") << k;
-    EXPECT_EQ(value_of(r, arena, "Main.i1"), 12) << k;
-    EXPECT_EQ(value_of(r, arena, "Main.i2"), w.i2) << k;
-    EXPECT_EQ(value_of(r, arena, "Main.i3"), w.i3) << k;
-    EXPECT_EQ(value_of(r, arena, "Main.by"), 244) << k;  // 500 wrapped into a BYTE
-    EXPECT_EQ(value_of(r, arena, "Main.x1"), 1500) << k;
-    EXPECT_EQ(value_of(r, arena, "Main.x2"), w.x2) << k;
-    EXPECT_EQ(value_of(r, arena, "Main.ok"), 1) << k;
-    EXPECT_EQ(value_of(r, arena, "Main.tt"), w.tt) << k;
+    EXPECT_EQ(testing::block_text(r, arena, "Main.sr"), w.sr) << k;
+    EXPECT_EQ(testing::block_text(r, arena, "Main.slr"), w.slr) << k;
+    EXPECT_EQ(testing::block_text(r, arena, "Main.st1"), w.st1) << k;
+    EXPECT_EQ(testing::block_text(r, arena, "Main.st2"), w.st2) << k;
+    EXPECT_EQ(testing::block_text(r, arena, "Main.sb"), w.sb) << k;
+    EXPECT_EQ(testing::block_text(r, arena, "Main.sbool"), "TRUE") << k;
+    EXPECT_EQ(testing::block_text(r, arena, "Main.sint"), "-42") << k;
+    EXPECT_EQ(testing::block_text(r, arena, "Main.stod"), w.stod) << k;
+    EXPECT_EQ(testing::block_text(r, arena, "Main.sdt"), "DT#2001-09-09-01:46:40") << k;
+    EXPECT_EQ(testing::block_value(r, arena, "Main.i1"), 12) << k;
+    EXPECT_EQ(testing::block_value(r, arena, "Main.i2"), w.i2) << k;
+    EXPECT_EQ(testing::block_value(r, arena, "Main.i3"), w.i3) << k;
+    EXPECT_EQ(testing::block_value(r, arena, "Main.by"), 244) << k;  // 500 wrapped into a BYTE
+    EXPECT_EQ(testing::block_value(r, arena, "Main.x1"), 1500) << k;
+    EXPECT_EQ(testing::block_value(r, arena, "Main.x2"), w.x2) << k;
+    EXPECT_EQ(testing::block_value(r, arena, "Main.ok"), 1) << k;
+    EXPECT_EQ(testing::block_value(r, arena, "Main.tt"), w.tt) << k;
   }
 }
 
@@ -284,11 +276,6 @@ TEST(StStrings, a_wild_length_reads_within_the_arena) {
   EXPECT_EQ(string_value(v.data(), 4, 7), "");
 }
 
-}  // namespace
-}  // namespace rtplc::lang
-
-namespace rtplc::lang {
-namespace {
 
 // A swap keeps a string variable whose length stays, and starts one whose
 // length changed afresh (sched/program.h, plan_migration).
@@ -299,20 +286,15 @@ TEST(StStrings, a_swap_keeps_a_string_of_the_same_length) {
   ASSERT_TRUE(a.ok() && b.ok());
   TaskArena old_arena(*a.image);
   for (int k = 0; k < 3; ++k) execute_cycle(*a.image, old_arena);
-  EXPECT_EQ(text_of(a, old_arena, "P.s"), "aaa");
+  EXPECT_EQ(testing::block_text(a, old_arena, "P.s"), "aaa");
   const sched::Migration m = sched::plan_migration(*a.image, *b.image);
   TaskArena next(*b.image);
   sched::apply_migration(m, old_arena, next);
   execute_cycle(*b.image, next);
-  EXPECT_EQ(text_of(b, next, "P.s"), "aaac");
-  EXPECT_EQ(text_of(b, next, "P.t"), "d");  // STRING[4] became STRING[6]: reset
+  EXPECT_EQ(testing::block_text(b, next, "P.s"), "aaac");
+  EXPECT_EQ(testing::block_text(b, next, "P.t"), "d");  // STRING[4] became STRING[6]: reset
 }
 
-}  // namespace
-}  // namespace rtplc::lang
-
-namespace rtplc::lang {
-namespace {
 
 // The header every Beremiz build/plc.st starts with: LOGGER takes a STRING and
 // holds C code in a nested pragma `{{ ... }}`, which rtplc skips whole.
@@ -355,11 +337,6 @@ END_PROGRAM
   EXPECT_EQ(h.value("Main.log.TRIG0"), 0);
 }
 
-}  // namespace
-}  // namespace rtplc::lang
-
-namespace rtplc::lang {
-namespace {
 
 // A shared string literal first used inside a loop that takes no iteration is
 // still written (constants run before any branch).
@@ -444,11 +421,6 @@ END_PROGRAM
   EXPECT_EQ(h.text("Main.dt"), "DT#2255-12-31-23:59:59");
 }
 
-}  // namespace
-}  // namespace rtplc::lang
-
-namespace rtplc::lang {
-namespace {
 
 std::string il_project(const std::string& vars, const std::string& il) {
   return R"(<?xml version="1.0"?>
@@ -490,11 +462,6 @@ TEST(StStrings, il_current_result_of_two_types_at_a_label) {
       << r.diags.items()[0].message;
 }
 
-}  // namespace
-}  // namespace rtplc::lang
-
-namespace rtplc::lang {
-namespace {
 
 // WSTRING: UTF-16 code units, "..." literals with $hhhh, the same functions,
 // conversions to and from STRING and numbers, shown as UTF-8.
@@ -545,11 +512,6 @@ END_PROGRAM
   EXPECT_NE(err("w := \"$12\";").find("unknown escape $1"), std::string::npos) << err("w := \"$12\";");
 }
 
-}  // namespace
-}  // namespace rtplc::lang
-
-namespace rtplc::lang {
-namespace {
 
 // WSTRINGs in real loops keep their type (the loop's home is a WSTRING's),
 // an array of them reads by a run-time index, and a comma inside a literal
