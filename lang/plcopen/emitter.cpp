@@ -145,7 +145,7 @@ std::string Emitter::ref(const Value& v, SourcePos pos) {
 }
 
 Value Emitter::string_block(const char* written, const std::string& stem, SourcePos pos,
-                            std::vector<std::string> ins, std::vector<double> params, uint32_t cap) {
+                            std::vector<std::string> ins, std::vector<double> params, uint32_t cap, bool wide) {
   Value r;
   r.ref = fresh(stem);
   const BlockSpec* spec = flow_block(written);
@@ -153,6 +153,7 @@ Value Emitter::string_block(const char* written, const std::string& stem, Source
   r.str = spec != nullptr && spec->out_kind == Kind::kString;
   r.digital = spec != nullptr && spec->out_kind == Kind::kDigital;
   r.cap = r.str ? cap : 0;
+  r.wide = r.str && wide;
   return r;
 }
 
@@ -164,14 +165,7 @@ Value Emitter::cut_string(const Value& v, uint32_t cap, SourcePos pos) {
     units.resize(cap);
     return string_constant(utf8_of_units(units), true);
   }
-  return wide_string_block("scopy", "scopy", pos, {v.ref}, {static_cast<double>(cap), v.wide ? 1.0 : 0.0}, cap, v.wide);
-}
-
-Value Emitter::wide_string_block(const char* written, const std::string& stem, SourcePos pos,
-                                 std::vector<std::string> ins, std::vector<double> params, uint32_t cap, bool wide) {
-  Value r = string_block(written, stem, pos, std::move(ins), std::move(params), cap);
-  r.wide = r.str && wide;
-  return r;
+  return string_block("scopy", "scopy", pos, {v.ref}, {static_cast<double>(cap), v.wide ? 1.0 : 0.0}, cap, v.wide);
 }
 
 // A STRING where a number is needed: said once here, whatever asked.
@@ -355,7 +349,7 @@ Value Emitter::select(const Value& cond, const Value& a, const Value& b, SourceP
     if (a.is_const && b.is_const && a.text == b.text) return a;
     if (!a.is_const && !b.is_const && a.ref == b.ref) return a;
     // ssel: in0 when g is 0, in1 when it is 1.
-    return wide_string_block("ssel", "ssel", pos, {ref(b, pos), ref(a, pos), c.ref},
+    return string_block("ssel", "ssel", pos, {ref(b, pos), ref(a, pos), c.ref},
                              {static_cast<double>(std::max(a.cap, b.cap))}, std::max(a.cap, b.cap), a.wide);
   }
   if (a.is_const && b.is_const && a.k == b.k && a.digital == b.digital) return a;

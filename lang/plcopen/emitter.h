@@ -96,15 +96,13 @@ class Emitter {
   // the cycle; always the same opcode per kind, so hot swap keeps it).
   // A STRING's copy holds at most `cap` characters (its variable's length).
   void copy_as(const Value& v, const std::string& name, SourcePos pos, uint32_t cap = 0);
-  // A string block (registry.h flow_block: sconst ... sset) on `ins`; its value.
+  // A string block (registry.h flow_block: sconst ... sset) on `ins`; its
+  // value, a WSTRING when `wide`.
   Value string_block(const char* written, const std::string& stem, SourcePos pos, std::vector<std::string> ins,
-                     std::vector<double> params, uint32_t cap);
+                     std::vector<double> params, uint32_t cap, bool wide = false);
   // String `v` holding at most `cap` characters: a constant cut here, any
   // other value through an scopy.
   Value cut_string(const Value& v, uint32_t cap, SourcePos pos);
-  // The same, its result a WSTRING when `wide`.
-  Value wide_string_block(const char* written, const std::string& stem, SourcePos pos, std::vector<std::string> ins,
-                          std::vector<double> params, uint32_t cap, bool wide);
 
   // 1 in the task's first cycle only (initial values).
   Value first_cycle(SourcePos pos);

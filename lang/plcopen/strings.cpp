@@ -99,7 +99,7 @@ std::optional<Value> Lowering::call_string_function(const std::string& up, const
       if (from_wide == to_wide) return args[0];
       // Between STRING and WSTRING: a byte is the code unit of the same number;
       // a code unit above 255 is '?' in a STRING.
-      return em_.wide_string_block("scopy", "scopy", pos, {em_.ref(args[0], pos)},
+      return em_.string_block("scopy", "scopy", pos, {em_.ref(args[0], pos)},
                                    {static_cast<double>(args[0].cap), to_wide ? 1.0 : 0.0}, args[0].cap, to_wide);
     }
     BaseType from = type_of_value(args[0]);
@@ -112,7 +112,7 @@ std::optional<Value> Lowering::call_string_function(const std::string& up, const
       from = *b;
     }
     const Value x = em_.to_analog(args[0], pos);
-    return em_.wide_string_block("sfmt", "sfmt", pos, {em_.ref(x, pos)},
+    return em_.string_block("sfmt", "sfmt", pos, {em_.ref(x, pos)},
                                  {static_cast<double>(kNumberText), static_cast<double>(*format_of(from)), dialect},
                                  kNumberText, to_wide);
   }
@@ -243,7 +243,7 @@ std::optional<Value> Lowering::call_string_function(const std::string& up, const
   if (up == "FIND") return em_.string_block("sfind", stem, pos, {s(0), s(1)}, {}, 0);
   const uint32_t cap0 = placed[0]->cap;
   auto block = [&](const char* written, std::vector<std::string> ins, uint32_t cap) {
-    return em_.wide_string_block(written, stem, pos, std::move(ins), {static_cast<double>(cap)}, cap, wide);
+    return em_.string_block(written, stem, pos, std::move(ins), {static_cast<double>(cap)}, cap, wide);
   };
   if (up == "LEFT" || up == "RIGHT") return block(up == "LEFT" ? "sleft" : "sright", {s(0), n(1)}, cap0);
   if (up == "MID") return block("smid", {s(0), n(1), n(2)}, cap0);
