@@ -22,6 +22,7 @@
 #include "lang/petri/report.h"
 #include "lang/plcopen/import.h"
 #include "lang/plcopen/sfc_chart.h"
+#include "lang/st/st_file.h"
 #include "lang/sfc/lexer.h"
 #include "lang/sfc/net_builder.h"
 
@@ -78,20 +79,29 @@ petri::Net load_net(AnalyzeArgs& a) {
   std::string text = std::move(read).value();
   const size_t first = text.find_first_not_of(" \t\r\n\xEF\xBB\xBF");
   const bool color = isatty(STDERR_FILENO) != 0;
-  if (!a.pou.empty() && !lang::plcopen::is_plcopen_source(text)) {
-    std::fprintf(stderr, "rtplc analyze: --pou is for a PLCopen project; %s is none\n",
+  const bool st_file = lang::st::is_st_source(text);
+  if (!a.pou.empty() && !lang::plcopen::is_plcopen_source(text) && !st_file) {
+    std::fprintf(stderr, "rtplc analyze: --pou is for a PLCopen project or a .st file; %s is neither\n",
                  a.file.c_str());
     throw CLI::RuntimeError(kExitUsage);
   }
   const bool sfc_file = a.file.ends_with(".sfc") || lang::sfc::starts_with_sfc_keyword(text);
-  if (sfc_file || lang::plcopen::is_plcopen_source(text)) {
+  if (sfc_file || st_file || lang::plcopen::is_plcopen_source(text)) {
     DiagnosticList diags;
     std::optional<lang::sfc::SfcNet> sfc;
+    std::optional<lang::plcopen::Project> st_project;
+    if (st_file) st_project = lang::st::read_st_file(text, diags);
+    std::optional<lang::sfc::Chart> chart;
+    if (st_file && st_project) {
+      chart = lang::plcopen::read_sfc_pou(*st_project, a.pou, diags);
+    } else if (!st_file && !sfc_file) {
+      chart = lang::plcopen::read_sfc_pou(text, a.pou, diags);
+    }
     if (sfc_file) {
       sfc = lang::sfc::sfc_source_to_net(text, diags);
-    } else if (std::optional<lang::sfc::Chart> chart =
-                   lang::plcopen::read_sfc_pou(text, a.pou, diags)) {
-      // The chart the PLCopen importer compiles, through the same net builder.
+    } else if (chart) {
+      // The chart the PLCopen importer compiles (a .st file's textual SFC
+      // is read into the same), through the same net builder.
       const lang::sfc::ChartIndex index = lang::sfc::check_chart(*chart, diags);
       if (!diags.has_errors()) sfc = lang::sfc::build_net(*chart, index, diags);
     }

@@ -882,6 +882,9 @@ Value Lowering::load(Scope& s, const std::string& path, const std::vector<std::u
       return v;
     }
   }
+  if (index.empty()) {
+    if (std::optional<Value> v = step_member(s, path, pos)) return *v;
+  }
   std::vector<Place> ps = places(s, path, index, pos);
   if (ps.empty()) return constant(0, false);
   auto value_of = [&](const Place& p) {

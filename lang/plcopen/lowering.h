@@ -309,6 +309,12 @@ class Lowering {
     SourcePos pos;
   };
   std::vector<PendingOutput> pending_outputs_;  // FB outputs read by name
+  // The steps of the chart a scope's SFC body holds: upper-case name -> the
+  // block of its flag (`S.X` reads it; sfc.cpp).
+  std::map<const Scope*, std::map<std::string, std::string>> chart_steps_;
+  // `S.X` or `S.T` of a step of `s`'s chart: its value; nullopt when `path`
+  // names no step.
+  std::optional<Value> step_member(Scope& s, const std::string& path, SourcePos pos);
   std::vector<std::string> produced_;           // FB output blocks made
   struct PathCond {
     Value cond;

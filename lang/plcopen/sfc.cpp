@@ -309,15 +309,19 @@ std::optional<sfc::Chart> read_sfc_pou(std::string_view xml, const std::string& 
                                        DiagnosticList& diags) {
   std::optional<Project> project = read_project(xml, diags);
   if (!project || diags.has_errors()) return std::nullopt;
+  return read_sfc_pou(*project, pou, diags);
+}
+
+std::optional<sfc::Chart> read_sfc_pou(const Project& project, const std::string& pou, DiagnosticList& diags) {
   std::vector<const Pou*> charts;
   std::string names;
-  for (const Pou& p : project->pous) {
+  for (const Pou& p : project.pous) {
     if (p.body.language != BodyLanguage::kSfc || p.body.graph == nullptr) continue;
     if (pou.empty() || iequals(p.name, pou)) charts.push_back(&p);
     names += (names.empty() ? "" : ", ") + p.name;
   }
   if (charts.size() != 1) {
-    diags.error(project->root.pos,
+    diags.error(project.root.pos,
                 names.empty() ? std::string("the project has no POU with an SFC body")
                 : charts.empty() ? "no POU '" + pou + "' with an SFC body; the project has " + names
                                  : "the project has several POUs with an SFC body (" + names +
@@ -327,6 +331,29 @@ std::optional<sfc::Chart> read_sfc_pou(std::string_view xml, const std::string& 
   SfcGraph g;
   if (!read_sfc_graph(*charts[0]->body.graph, charts[0]->name, diags, &g)) return std::nullopt;
   return std::move(g.chart);
+}
+
+std::optional<Value> Lowering::step_member(Scope& s, const std::string& path, SourcePos pos) {
+  const size_t dot = path.find('.');
+  if (dot == std::string::npos || path.find('.', dot + 1) != std::string::npos) return std::nullopt;
+  auto chart = chart_steps_.find(&s);
+  if (chart == chart_steps_.end()) return std::nullopt;
+  const std::string step = upper(path.substr(0, dot)), member = upper(path.substr(dot + 1));
+  auto it = chart->second.find(step);
+  if (it == chart->second.end() || lookup(s, path.substr(0, dot), pos, false)) return std::nullopt;
+  if (member == "X") {
+    // The flag block comes after the conditions under MatIEC's order, so a
+    // condition reads the flag the cycle started with; an action, the new one.
+    Value x;
+    x.ref = it->second;
+    x.digital = true;
+    return x;
+  }
+  d_.error(pos, member == "T" ? "'" + path + "': a step's elapsed time (.T) is not supported yet; time the step with "
+                                  "a TON on its flag (t(IN := " + path.substr(0, dot) + ".X, PT := ...))"
+                              : "'" + path + "': a step has .X (active) and .T (elapsed time), no ." +
+                                    path.substr(dot + 1));
+  return constant(0, false);
 }
 
 void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
@@ -340,6 +367,7 @@ void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
   sfc::HostLink host;
   host.prefix = s.path + ".$sfc.";
   host.actions_first = actions_first;
+  for (const sfc::Step& st : chart.steps) chart_steps_[&s][upper(st.name)] = sfc::step_flag_block(host, st.name);
   // The transitions' conditions, each lowered in the importer's blocks and
   // held in a block (named .$sfc.cond.<localId>) the chart reads as a host
   // signal.

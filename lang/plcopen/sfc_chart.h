@@ -46,6 +46,9 @@ bool read_sfc_graph(const XmlElement& body, const std::string& name, DiagnosticL
 // free. nullopt, with the reasons in `diags`, when there is no such chart.
 std::optional<sfc::Chart> read_sfc_pou(std::string_view xml, const std::string& pou,
                                        DiagnosticList& diags);
+// The same for a project already read (a .st file's textual SFC, lang/st).
+struct Project;
+std::optional<sfc::Chart> read_sfc_pou(const Project& project, const std::string& pou, DiagnosticList& diags);
 
 // The chart OUTPUT an action target becomes ("$" + upper-case name).
 std::string sfc_output_name(std::string target);

@@ -331,13 +331,13 @@ class Parser {
     }
     if ((t.up == "INITIAL_STEP" || t.up == "STEP" || t.up == "ACTION") && peek(1).t == Tok::T::kIdent &&
         peek(2).t == Tok::T::kOp && peek(2).text == ":") {
-      error(t.pos, t.up + " " + peek(1).text + ": textual SFC (INITIAL_STEP, STEP, TRANSITION, ACTION) is not "
-                   "supported in ST yet; the same chart drawn as an SFC body in PLCopen XML runs (docs/plcopen.md)");
+      error(t.pos, t.up + " " + peek(1).text + ": a textual SFC (INITIAL_STEP, STEP, TRANSITION, ACTION) is a "
+                   "POU's whole body, with no statements before it (docs/st.md, \"Textual SFC\")");
       return nullptr;
     }
     if (t.up == "TRANSITION" && peek(1).t == Tok::T::kIdent && (peek(1).up == "FROM" || peek(2).up == "FROM")) {
-      error(t.pos, "TRANSITION: textual SFC (INITIAL_STEP, STEP, TRANSITION, ACTION) is not supported in ST yet; "
-                   "the same chart drawn as an SFC body in PLCopen XML runs (docs/plcopen.md)");
+      error(t.pos, "TRANSITION: a textual SFC (INITIAL_STEP, STEP, TRANSITION, ACTION) is a POU's whole body, "
+                   "with no statements before it (docs/st.md, \"Textual SFC\")");
       return nullptr;
     }
     if (t.up == "GOTO") {

@@ -9,6 +9,7 @@
 #include <cctype>
 #include <charconv>
 #include <cstdint>
+#include <map>
 #include <string>
 #include <utility>
 #include <vector>
@@ -158,7 +159,9 @@ class Reader {
     // one anchor at its first character, so the ST parser's positions are the
     // file's (XmlElement::text_position).
     p.root.name = "st-file";
-    p.root.children.reserve(bodies.size() + inits_.size());
+    size_t chart_elements = 0;
+    for (const ChartText& c : charts_) chart_elements += 1 + c.actions.size();
+    p.root.children.reserve(bodies.size() + inits_.size() + chart_elements);
     for (const auto& [b, e] : bodies) {
       XmlElement el;
       el.name = "ST";
@@ -173,6 +176,27 @@ class Reader {
       body.text = &p.root.children[k];
       body.source = p.root.children[k].text;
       body.pos = p.root.children[k].pos;
+    }
+    // A textual SFC body: its chart as PLCopen's <SFC> element, its actions
+    // as the POU's named ST bodies (what a PLCopen project holds for them).
+    for (ChartText& c : charts_) {
+      plcopen::Pou& u = p.pous[c.pou];
+      p.root.children.push_back(std::move(c.sfc));
+      u.body.language = plcopen::BodyLanguage::kSfc;
+      u.body.graph = &p.root.children.back();
+      u.body.text = nullptr;
+      u.body.source.clear();
+      for (ChartText::Action& a : c.actions) {
+        p.root.children.push_back(std::move(a.holder));
+        plcopen::NamedBody nb;
+        nb.name = a.name;
+        nb.pos = a.pos;
+        nb.body.language = plcopen::BodyLanguage::kSt;
+        nb.body.text = &p.root.children.back();
+        nb.body.source = p.root.children.back().text;
+        nb.body.pos = p.root.children.back().pos;
+        u.actions.push_back(std::move(nb));
+      }
     }
     resolve_initials(p);
     if (ok_) duplicates(p);
@@ -772,9 +796,321 @@ class Reader {
     }
     if (k >= t_.size()) return fail(at, kind + " " + u.name + " is never closed by " + end);
     bodies.emplace_back(b, k);
+    if (starts_chart(b, k)) {
+      i_ = b;
+      chart(p.pous.size(), k);
+      if (!ok_) return;
+    }
     i_ = k + end.size();
     accept(";");
     p.pous.push_back(std::move(u));
+  }
+
+  // ---- textual SFC (docs/st.md, "Textual SFC") ----
+  // A POU body that starts with INITIAL_STEP, STEP, TRANSITION or ACTION is a
+  // chart (IEC 61131-3's sequential_function_chart, as Beremiz writes an SFC
+  // POU into the .st file it gives MatIEC). It is read into the element a
+  // PLCopen project holds for a drawn chart, so one SFC lowering (and one set
+  // of rules, lang/sfc) runs both:
+  //   <step name initialStep> with a <connectionPointIn> per transition into it
+  //   <transition> connected to the steps it leaves, its condition inline ST
+  //     (`:= expression;`) or IL (`: instructions`), in priority order, then
+  //     file order (the order that decides a selection)
+  //   <actionBlock> per step, an <action qualifier duration><reference> per
+  //     association
+  // and each ACTION ... END_ACTION is a named ST body of the POU.
+  struct ChartText {
+    size_t pou = 0;
+    XmlElement sfc;
+    struct Action {
+      std::string name;
+      SourcePos pos;
+      XmlElement holder;
+    };
+    std::vector<Action> actions;
+  };
+
+  static bool chart_word(const std::string& w) {
+    return w == "INITIAL_STEP" || w == "STEP" || w == "TRANSITION" || w == "ACTION";
+  }
+  bool starts_chart(size_t b, size_t e) {
+    const size_t save = i_;
+    i_ = b;
+    const std::string w = word();
+    const bool chart = i_ <= e && chart_word(w);
+    i_ = save;
+    return chart;
+  }
+
+  static XmlElement element(std::string name, SourcePos pos, std::vector<XmlAttribute> attrs = {}) {
+    XmlElement x;
+    x.name = std::move(name);
+    x.pos = pos;
+    x.attributes = std::move(attrs);
+    return x;
+  }
+  // A text holder whose positions are the file's: [b, e) of the file.
+  XmlElement text_holder(const char* name, size_t b, size_t e) const {
+    XmlElement x = element(name, pos(b));
+    x.text = std::string(t_.substr(b, e - b));
+    x.text_anchors.push_back({0, pos(b)});
+    return x;
+  }
+  static XmlElement connected(const std::vector<std::string>& ids, SourcePos pos) {
+    XmlElement in = element("connectionPointIn", pos);
+    for (const std::string& id : ids) in.children.push_back(element("connection", pos, {{"refLocalId", id, pos}}));
+    return in;
+  }
+
+  // The end of the body text [i_, e) that runs to keyword `end` (outside
+  // strings; comments are blanked already); e when it never comes.
+  size_t keyword_at(const std::string& end, size_t e) const {
+    size_t k = i_;
+    while (k < e) {
+      const char c = t_[k];
+      if (c == '\'' || c == '"') {
+        const size_t q = string_close(t_, k);
+        k = q == std::string_view::npos || q >= e ? e : q + 1;
+      } else if (word_char(c) && (k == 0 || !word_char(t_[k - 1]))) {
+        size_t w = k;
+        while (w < e && word_char(t_[w])) ++w;
+        if (plcopen::upper(t_.substr(k, w - k)) == end) return k;
+        k = w;
+      } else {
+        ++k;
+      }
+    }
+    return e;
+  }
+
+  // One step, transition or action after another up to `e` (the END_PROGRAM
+  // or END_FUNCTION_BLOCK); the POU is p.pous[pou] once read.
+  void chart(size_t pou, size_t e) {
+    struct StepText {
+      std::string name;
+      size_t at = 0;
+      bool initial = false;
+      std::vector<XmlElement> actions;  // <action> elements
+    };
+    struct TransitionText {
+      size_t at = 0;
+      long priority = 0;
+      std::vector<std::pair<std::string, size_t>> from, to;  // step name, where
+      XmlElement condition;
+    };
+    std::vector<StepText> steps;
+    std::vector<TransitionText> transitions;
+    ChartText c;
+    c.pou = pou;
+    auto steps_list = [&](std::vector<std::pair<std::string, size_t>>& out, const char* what) {
+      const bool several = accept("(");
+      do {
+        skip();
+        const size_t at = i_;
+        const std::string n = name(what);
+        if (!ok_) return;
+        out.emplace_back(n, at);
+      } while (several && accept(","));
+      if (several) expect(")", "after the steps of a transition");
+    };
+    while (ok_) {
+      skip();
+      if (i_ >= e) break;
+      const size_t at = i_;
+      const std::string w = word();
+      if (w == "INITIAL_STEP" || w == "STEP") {
+        StepText st;
+        st.at = at;
+        st.initial = w == "INITIAL_STEP";
+        st.name = name("the step's name");
+        expect(":", "after the step's name");
+        while (ok_ && !at_word("END_STEP")) {
+          skip();
+          if (i_ >= e) return fail(at, w + " " + st.name + " is never closed by END_STEP");
+          st.actions.push_back(association());
+          expect(";", "after an action association");
+        }
+        if (!ok_) return;
+        word();  // END_STEP
+        accept(";");
+        steps.push_back(std::move(st));
+      } else if (w == "TRANSITION") {
+        TransitionText tr;
+        tr.at = at;
+        skip();
+        if (!at_word("FROM") && !(i_ < e && t_[i_] == '(')) name("the transition's name");
+        if (accept("(")) {
+          skip();
+          const size_t p_at = i_;
+          if (word() != "PRIORITY") return fail(p_at, "expected PRIORITY := n in a transition's parentheses");
+          expect(":=", "after PRIORITY");
+          skip();
+          const size_t n_at = i_;
+          long n = 0;
+          while (i_ < e && std::isdigit(static_cast<unsigned char>(t_[i_])) && n < 1'000'000) n = n * 10 + (t_[i_++] - '0');
+          if (i_ == n_at || n >= 1'000'000) return fail(n_at, "a transition's PRIORITY is a whole number from 0 to 999999");
+          tr.priority = n;
+          expect(")", "after the transition's priority");
+        }
+        skip();
+        const size_t from_at = i_;
+        if (word() != "FROM") return fail(from_at, "expected FROM and the steps the transition leaves");
+        steps_list(tr.from, "a step the transition leaves");
+        skip();
+        const size_t to_at = i_;
+        if (ok_ && word() != "TO") return fail(to_at, "expected TO and the steps the transition enters");
+        steps_list(tr.to, "a step the transition enters");
+        if (!ok_) return;
+        XmlElement inl = element("inline", pos(i_), {{"name", "", pos(i_)}});
+        if (accept(":=")) {
+          skip();
+          const size_t b = i_;
+          until_semicolon("the transition's condition");
+          if (!ok_) return;
+          size_t ce = i_ - 1;  // the ';'
+          XmlElement st = element("ST", pos(b));
+          st.children.push_back(text_holder("xhtml", b, ce));
+          inl.children.push_back(std::move(st));
+        } else if (accept(":")) {
+          // IL: the current result at the end of the instructions.
+          skip();
+          const size_t b = i_;
+          const size_t ce = keyword_at("END_TRANSITION", e);
+          XmlElement il = element("IL", pos(b));
+          il.children.push_back(text_holder("xhtml", b, ce));
+          inl.children.push_back(std::move(il));
+          i_ = ce;
+        } else {
+          return fail(i_, "expected ':=' and the transition's condition");
+        }
+        skip();
+        const size_t end_at = i_;
+        if (word() != "END_TRANSITION") return fail(end_at, "expected END_TRANSITION");
+        accept(";");
+        tr.condition = element("condition", pos(at));
+        tr.condition.children.push_back(std::move(inl));
+        transitions.push_back(std::move(tr));
+      } else if (w == "ACTION") {
+        ChartText::Action a;
+        a.pos = pos(at);
+        a.name = name("the action's name");
+        expect(":", "after the action's name");
+        if (!ok_) return;
+        for (const ChartText::Action& other : c.actions) {
+          if (plcopen::iequals(other.name, a.name)) return fail(at, "ACTION " + a.name + " is declared twice");
+        }
+        const size_t b = i_;
+        const size_t ae = keyword_at("END_ACTION", e);
+        if (ae >= e) return fail(at, "ACTION " + a.name + " is never closed by END_ACTION");
+        a.holder = text_holder("ST", b, ae);
+        i_ = ae + std::string_view("END_ACTION").size();
+        accept(";");
+        c.actions.push_back(std::move(a));
+      } else {
+        return fail(at, (w.empty() ? "'" + std::string(1, t_[at]) + "'" : "'" + original(at) + "'") +
+                            " cannot stand in a textual SFC: a body that starts with a step is a chart of "
+                            "INITIAL_STEP, STEP, TRANSITION and ACTION, no statements between them");
+      }
+    }
+    if (!ok_) return;
+    // The elements, with localIds: steps 1..n, transitions after them.
+    std::map<std::string, size_t> step_index;
+    for (size_t k = 0; k < steps.size(); ++k) {
+      if (!step_index.emplace(plcopen::upper(steps[k].name), k).second) {
+        return fail(steps[k].at, "step " + steps[k].name + " is declared twice");
+      }
+    }
+    std::vector<size_t> order(transitions.size());
+    for (size_t k = 0; k < order.size(); ++k) order[k] = k;
+    std::stable_sort(order.begin(), order.end(),
+                     [&](size_t a, size_t b) { return transitions[a].priority < transitions[b].priority; });
+    std::vector<std::vector<std::string>> into(steps.size());
+    std::vector<XmlElement> transition_elements;
+    for (size_t n = 0; n < order.size(); ++n) {
+      TransitionText& tr = transitions[order[n]];
+      const std::string id = std::to_string(steps.size() + 1 + n);
+      std::vector<std::string> from;
+      for (const auto& [sn, sat] : tr.from) {
+        auto it = step_index.find(plcopen::upper(sn));
+        if (it == step_index.end()) return fail(sat, "step " + sn + " is not declared in this chart");
+        from.push_back(std::to_string(it->second + 1));
+      }
+      for (const auto& [sn, sat] : tr.to) {
+        auto it = step_index.find(plcopen::upper(sn));
+        if (it == step_index.end()) return fail(sat, "step " + sn + " is not declared in this chart");
+        into[it->second].push_back(id);
+      }
+      XmlElement t = element("transition", pos(tr.at), {{"localId", id, pos(tr.at)}});
+      t.children.push_back(connected(from, pos(tr.at)));
+      t.children.push_back(std::move(tr.condition));
+      transition_elements.push_back(std::move(t));
+    }
+    c.sfc = element("SFC", pos(steps.empty() ? i_ : steps.front().at));
+    size_t block_id = steps.size() + transitions.size();
+    std::vector<XmlElement> blocks;
+    for (size_t k = 0; k < steps.size(); ++k) {
+      StepText& st = steps[k];
+      const SourcePos sp = pos(st.at);
+      XmlElement x = element("step", sp,
+                             {{"localId", std::to_string(k + 1), sp},
+                              {"name", st.name, sp},
+                              {"initialStep", st.initial ? "true" : "false", sp}});
+      if (!into[k].empty()) x.children.push_back(connected(into[k], sp));
+      c.sfc.children.push_back(std::move(x));
+      if (st.actions.empty()) continue;
+      XmlElement ab = element("actionBlock", sp, {{"localId", std::to_string(++block_id), sp}});
+      ab.children.push_back(connected({std::to_string(k + 1)}, sp));
+      for (XmlElement& a : st.actions) ab.children.push_back(std::move(a));
+      blocks.push_back(std::move(ab));
+    }
+    for (XmlElement& t : transition_elements) c.sfc.children.push_back(std::move(t));
+    for (XmlElement& b : blocks) c.sfc.children.push_back(std::move(b));
+    charts_.push_back(std::move(c));
+  }
+
+  // `name(qualifier[, duration])` in a step: an <action> element.
+  XmlElement association() {
+    skip();
+    const size_t at = i_;
+    const SourcePos p = pos(at);
+    const std::string target = name("an action or BOOL variable");
+    XmlElement a = element("action", p);
+    if (!ok_) return a;
+    expect("(", "after the action's name (its qualifier: N, S, R, P, P0, P1, L, D, SD, DS, SL)");
+    std::string qualifier = "N";
+    if (!accept(")")) {
+      skip();
+      const size_t q_at = i_;
+      qualifier = word();
+      if (qualifier.empty()) {
+        fail(q_at, "expected the action's qualifier (N, S, R, P, P0, P1, L, D, SD, DS, SL)");
+        return a;
+      }
+      if (accept(",")) {
+        skip();
+        const size_t d_at = i_;
+        size_t d = i_;
+        while (d < t_.size() && t_[d] != ',' && t_[d] != ')') ++d;
+        std::string duration(t_.substr(i_, d - i_));
+        while (!duration.empty() && std::isspace(static_cast<unsigned char>(duration.back()))) duration.pop_back();
+        if (!plcopen::parse_literal(duration)) {
+          fail(d_at, "'" + duration + "': an action's duration here is a TIME literal (T#2s); a variable is not "
+                     "supported");
+          return a;
+        }
+        a.attributes.push_back({"duration", duration, pos(d_at)});
+        i_ = d;
+      }
+      skip();
+      if (i_ < t_.size() && t_[i_] == ',') {
+        fail(i_, "indicator variables of an action association are not supported");
+        return a;
+      }
+      expect(")", "after the action's qualifier");
+    }
+    a.attributes.push_back({"qualifier", qualifier, p});
+    a.children.push_back(element("reference", p, {{"name", target, p}}));
+    return a;
   }
 
   // ---- configurations ----
@@ -901,6 +1237,7 @@ class Reader {
     return v;
   }
 
+  std::vector<ChartText> charts_;
   static constexpr char kMarker = '\x01';  // never in a valid initial value's text
   std::vector<std::pair<size_t, size_t>> inits_;
   std::string owned_;  // the file with its comments blanked (blank_comments)

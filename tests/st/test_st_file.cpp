@@ -801,11 +801,14 @@ TEST(StFile, refuses_what_it_cannot_run_at_its_position_naming_it) {
                         "PROGRAM Main VAR x : F; END_VAR\nx();\nEND_PROGRAM")
                 .substr(0, 61),
             "3:1: function block 'F' has VAR_IN_OUT 'v', and this call pas");
-  EXPECT_EQ(first_error("PROGRAM P VAR go : BOOL; END_VAR\n  INITIAL_STEP S1: END_STEP\nEND_PROGRAM").substr(0, 50),
-            "2:3: INITIAL_STEP S1: textual SFC (INITIAL_STEP, S");
-  EXPECT_EQ(first_error("PROGRAM P VAR go : BOOL; END_VAR\n  TRANSITION FROM S1 TO S2 := go; END_TRANSITION\nEND_PROGRAM")
-                .substr(0, 30),
-            "2:3: TRANSITION: textual SFC (");
+  // A textual SFC is a POU's whole body (tests/st/test_st_sfc.cpp): not after statements.
+  EXPECT_EQ(first_error("PROGRAM P VAR go : BOOL; END_VAR\n  go := TRUE;\n  INITIAL_STEP S1: END_STEP\nEND_PROGRAM")
+                .substr(0, 52),
+            "3:3: INITIAL_STEP S1: a textual SFC (INITIAL_STEP, S");
+  EXPECT_EQ(first_error("PROGRAM P VAR go : BOOL; END_VAR\n  go := TRUE;\n  TRANSITION FROM S1 TO S2 := go; "
+                        "END_TRANSITION\nEND_PROGRAM")
+                .substr(0, 32),
+            "3:3: TRANSITION: a textual SFC (");
   EXPECT_EQ(first_error("PROGRAM P VAR i : INT; END_VAR\nFOR i := 1 TO 5 BY 0 DO i := i; END_FOR;\nEND_PROGRAM"),
             "2:1: FOR with BY 0 never ends");
   // A type defined through itself, used with an array's initial value (found by fuzz_st: a crash).

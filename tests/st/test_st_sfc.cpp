@@ -1,0 +1,219 @@
+// Textual SFC in a .st file (docs/st.md, "Textual SFC"): INITIAL_STEP, STEP,
+// TRANSITION and ACTION as IEC 61131-3 writes them (and Beremiz writes an SFC
+// POU into the file it gives MatIEC), run by the one SFC lowering PLCopen's
+// drawn charts use. Expected values are worked by hand, scan by scan, from
+// MatIEC's order (conditions, then steps, then the actions of the steps active
+// now) and CODESYS's (actions of the steps active at the start, then the
+// conditions for the next scan).
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+#include "blocks/image.h"
+#include "lang/compiler.h"
+#include "tests/st/first_error.h"
+#include "tests/support/block_value.h"
+
+namespace rtplc::lang {
+namespace {
+
+using testing::first_error;
+
+// Runs `src` for `scans` cycles and gives the values of `names` after each.
+std::vector<std::vector<double>> run(const std::string& src, const std::vector<std::string>& names, int scans,
+                                     EditorSemantics sem = EditorSemantics::kMatiec) {
+  CompileOptions o;
+  o.semantics = sem;
+  o.period_override = 0.1;
+  CompileResult r = compile_source(src, o);
+  EXPECT_TRUE(r.ok()) << r.diags.render("sfc.st", src);
+  std::vector<std::vector<double>> out;
+  if (!r.ok()) return out;
+  TaskArena arena(*r.image);
+  for (int k = 0; k < scans; ++k) {
+    execute_cycle(*r.image, arena);
+    std::vector<double> row;
+    for (const std::string& n : names) row.push_back(testing::block_value(r, arena, n));
+    out.push_back(row);
+  }
+  return out;
+}
+
+const char* const kFill = R"(PROGRAM P
+VAR
+  go : BOOL := TRUE;
+  n, back : INT;
+  red, green : BOOL;
+END_VAR
+  INITIAL_STEP Idle:
+    red(N);
+  END_STEP
+
+  STEP Fill:
+    green(N);
+    Count(N);
+  END_STEP
+
+  STEP Drain:
+    Back_Once(P);
+  END_STEP
+
+  ACTION Count:
+    n := n + 1;
+  END_ACTION
+
+  ACTION Back_Once:
+    back := back + 1;
+  END_ACTION
+
+  TRANSITION FROM Idle TO Fill
+    := go;
+  END_TRANSITION
+
+  TRANSITION Full FROM Fill TO Drain := n >= 3;
+  END_TRANSITION
+
+  TRANSITION FROM Drain TO Idle := Drain.X; END_TRANSITION
+END_PROGRAM
+)";
+
+TEST(StSfc, a_chart_runs_scan_by_scan_as_matiec_runs_it) {
+  // MatIEC: scan 0 fires Idle -> Fill (go) and runs Fill's actions at once
+  // (n = 1); n counts while Fill is active; at n >= 3 Drain is entered, its
+  // P action runs once; Drain.X read by a condition is the flag the scan
+  // started with, so Drain is left one scan later.
+  const auto v = run(kFill, {"P.n", "P.back", "P.step.Idle.X", "P.step.Fill.X", "P.step.Drain.X", "P.red", "P.green"}, 7);
+  ASSERT_EQ(v.size(), 7u);
+  const std::vector<std::vector<double>> want = {
+      {1, 0, 0, 1, 0, 0, 1},  // 0: Idle -> Fill, Count
+      {2, 0, 0, 1, 0, 0, 1},  // 1
+      {3, 0, 0, 1, 0, 0, 1},  // 2: n reaches 3 after the conditions
+      {3, 1, 0, 0, 1, 0, 0},  // 3: Fill -> Drain, Back_Once
+      {3, 1, 1, 0, 0, 1, 0},  // 4: Drain.X was TRUE: Drain -> Idle, red
+      {4, 1, 0, 1, 0, 0, 1},  // 5: go: Idle -> Fill, Count again
+      {4, 2, 0, 0, 1, 0, 0},  // 6: n >= 3 still holds: Fill -> Drain at once
+  };
+  for (size_t k = 0; k < want.size(); ++k) EXPECT_EQ(v[k], want[k]) << "scan " << k;
+}
+
+TEST(StSfc, codesys_runs_the_actions_of_the_steps_active_at_the_start) {
+  // CODESYS: scan 0 runs Idle's action and switches to Fill for scan 1; an
+  // action runs once more in the scan after its step is left (scan 4: Count
+  // makes n 4 after Fill was left at the end of scan 3).
+  const auto v = run(kFill, {"P.n", "P.back", "P.step.Fill.X", "P.step.Drain.X"}, 6, EditorSemantics::kCodesys);
+  ASSERT_EQ(v.size(), 6u);
+  EXPECT_EQ(v[0][0], 0);  // Idle's scan
+  EXPECT_EQ(v[1][0], 1);
+  EXPECT_EQ(v[2][0], 2);
+  EXPECT_EQ(v[3][0], 3);  // n >= 3 seen after Count: Drain next
+  EXPECT_EQ(v[3][3], 1);
+  EXPECT_EQ(v[4][0], 4);  // Count's last call
+  EXPECT_EQ(v[4][1], 1);  // Back_Once in Drain's first scan
+}
+
+TEST(StSfc, simultaneous_branches_priorities_timed_actions_and_an_il_condition) {
+  const char* src = R"(PROGRAM P
+VAR
+  a, b, c : INT;
+  lamp : BOOL;
+  pick : INT := 1;
+END_VAR
+  INITIAL_STEP Start:
+  END_STEP
+  STEP A: Inc_A(N); END_STEP
+  STEP B: Inc_B(N); lamp(L, T#200ms); END_STEP
+  STEP Join: Inc_C(N); END_STEP
+  ACTION Inc_A: a := a + 1; END_ACTION
+  ACTION Inc_B: b := b + 1; END_ACTION
+  ACTION Inc_C: c := c + 1; END_ACTION
+  TRANSITION FROM Start TO (A, B) := TRUE; END_TRANSITION
+  TRANSITION FROM (A, B) TO Join
+  :
+    LD a
+    GE 4
+  END_TRANSITION
+  (* both true from Join: the lower PRIORITY number is taken, as MatIEC orders them *)
+  TRANSITION (PRIORITY := 2) FROM Join TO A := TRUE; END_TRANSITION
+  TRANSITION (PRIORITY := 1) FROM Join TO Start := pick = 1; END_TRANSITION
+END_PROGRAM
+)";
+  const auto v = run(src, {"P.a", "P.b", "P.c", "P.lamp", "P.step.Start.X", "P.step.Join.X"}, 7);
+  ASSERT_EQ(v.size(), 7u);
+  // Scans 0-3: A and B both active; a and b count 1..4; lamp (L, 200 ms at
+  // 100 ms a scan) is on for the first two scans of B.
+  for (size_t k = 0; k < 4; ++k) {
+    EXPECT_EQ(v[k][0], static_cast<double>(k + 1)) << k;
+    EXPECT_EQ(v[k][1], static_cast<double>(k + 1)) << k;
+    EXPECT_EQ(v[k][3], k < 2 ? 1 : 0) << k;
+  }
+  // Scan 4: a >= 4 (the IL condition's current result): both leave, Join runs.
+  EXPECT_EQ(v[4][0], 4);
+  EXPECT_EQ(v[4][2], 1);
+  EXPECT_EQ(v[4][5], 1);
+  // Scan 5: from Join, PRIORITY 1 (to Start) wins over PRIORITY 2 (to A).
+  EXPECT_EQ(v[5][4], 1);
+  EXPECT_EQ(v[5][0], 4);
+  // Scan 6: Start -> A and B again.
+  EXPECT_EQ(v[6][0], 5);
+}
+
+TEST(StSfc, a_chart_in_a_function_block_runs_per_instance) {
+  const char* src = R"(FUNCTION_BLOCK Blinker
+VAR_INPUT go : BOOL; END_VAR
+VAR_OUTPUT q : BOOL; END_VAR
+  INITIAL_STEP Off: END_STEP
+  STEP On: q(N); END_STEP
+  TRANSITION FROM Off TO On := go; END_TRANSITION
+  TRANSITION FROM On TO Off := TRUE; END_TRANSITION
+END_FUNCTION_BLOCK
+PROGRAM P
+VAR b1, b2 : Blinker; q1, q2 : BOOL; started : BOOL; END_VAR
+  b1(go := TRUE);
+  b2(go := started);
+  started := TRUE;
+  q1 := b1.q;
+  q2 := b2.q;
+END_PROGRAM
+)";
+  const auto v = run(src, {"P.q1", "P.q2"}, 4);
+  ASSERT_EQ(v.size(), 4u);
+  // b1 alternates from scan 0; b2 is first let go in scan 1, so it is one behind.
+  EXPECT_EQ(v[0], (std::vector<double>{1, 0}));
+  EXPECT_EQ(v[1], (std::vector<double>{0, 1}));
+  EXPECT_EQ(v[2], (std::vector<double>{1, 0}));
+  EXPECT_EQ(v[3], (std::vector<double>{0, 1}));
+}
+
+TEST(StSfc, mistakes_are_refused_at_their_place) {
+  auto chart = [](const std::string& body) {
+    return "PROGRAM P\nVAR go : BOOL; n : INT; END_VAR\n" + body + "END_PROGRAM\n";
+  };
+  EXPECT_EQ(first_error(chart("INITIAL_STEP S1: END_STEP\nTRANSITION FROM S1 TO S9 := go; END_TRANSITION\n")),
+            "4:23: step S9 is not declared in this chart");
+  EXPECT_EQ(first_error(chart("INITIAL_STEP S1: go(X); END_STEP\nSTEP S2: END_STEP\n"
+                              "TRANSITION FROM S1 TO S2 := go; END_TRANSITION\n"))
+                .substr(0, 40),
+            "3:18: action qualifier X is not supporte");
+  EXPECT_EQ(first_error(chart("INITIAL_STEP S1: END_STEP\nn := 1;\n")).substr(0, 36),
+            "4:1: 'n' cannot stand in a textual S");
+  EXPECT_EQ(first_error(chart("INITIAL_STEP S1: go(N);\n")), "3:1: INITIAL_STEP S1 is never closed by END_STEP");
+  EXPECT_EQ(first_error(chart("INITIAL_STEP S1: go(L, t1); END_STEP\n")).substr(0, 30),
+            "3:24: 't1': an action's durati");
+  EXPECT_EQ(first_error(chart("INITIAL_STEP S1: END_STEP\nSTEP S1: END_STEP\n")), "4:1: step S1 is declared twice");
+  EXPECT_EQ(first_error(chart("INITIAL_STEP S1: END_STEP\nSTEP S2: END_STEP\n"
+                              "TRANSITION FROM S1 TO S2 := S2.T > T#1s; END_TRANSITION\n"))
+                .substr(0, 60),
+            "5:29: 'S2.T': a step's elapsed time (.T) is not supported ye");
+  // An error inside an action's body is at its place in the file.
+  EXPECT_EQ(first_error(chart("INITIAL_STEP S1: Act(N); END_STEP\nACTION Act:\n  n := n +;\nEND_ACTION\n"
+                              "TRANSITION FROM S1 TO S1 := go; END_TRANSITION\n"))
+,
+            "5:11: expected an expression, found ';'");
+  EXPECT_EQ(first_error(chart("STEP S1: END_STEP\n")).substr(0, 40), "3:1: this SFC has no initial step (initi");
+  EXPECT_EQ(first_error(chart("INITIAL_STEP S1: END_STEP\nTRANSITION FROM S1 TO S1 go; END_TRANSITION\n")),
+            "4:26: expected ':=' and the transition's condition");
+}
+
+}  // namespace
+}  // namespace rtplc::lang
