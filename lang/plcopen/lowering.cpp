@@ -1119,17 +1119,7 @@ Value Lowering::coerce(Var& v, Value value, SourcePos pos) {
     // A TIME or TOD lands on the nanosecond grid, so its sums do not drift:
     // round(x * 1e9) / 1e9. A DATE or DT, seconds since 1970, on the
     // microsecond grid (iec::time_grid).
-    if (value.is_const) {
-      value.k = int_math::snap_to(value.k, per);
-    } else {
-      const std::string scaled = em_.fresh("time_ns"), whole = em_.fresh("time_ns");
-      em_.emit("scale", scaled, pos, {value.ref}, {per, 0.0});
-      em_.emit("round", whole, pos, {scaled});
-      Value t;
-      t.ref = em_.fresh("time");
-      em_.emit("div", t.ref, pos, {whole, em_.ref(constant(per, false), pos)});
-      value = t;
-    }
+    value = on_time_grid(value, per, pos);
   } else if (v.integer) {
     // IEC integers wrap (an INT counter goes 32767 -> -32768): the value is
     // truncated and wrapped into the variable's range.
@@ -1145,6 +1135,21 @@ Value Lowering::coerce(Var& v, Value value, SourcePos pos) {
   }
   value.integer = v.integer;
   return value;
+}
+
+Value Lowering::on_time_grid(const Value& value, double per, SourcePos pos) {
+  if (value.is_const) {
+    Value c = value;
+    c.k = int_math::snap_to(value.k, per);
+    return c;
+  }
+  const std::string scaled = em_.fresh("time_ns"), whole = em_.fresh("time_ns");
+  em_.emit("scale", scaled, pos, {value.ref}, {per, 0.0});
+  em_.emit("round", whole, pos, {scaled});
+  Value t;
+  t.ref = em_.fresh("time");
+  em_.emit("div", t.ref, pos, {whole, em_.ref(constant(per, false), pos)});
+  return t;
 }
 
 Value Lowering::rising(const Value& v, const std::string& mem, SourcePos pos) {

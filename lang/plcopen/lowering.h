@@ -25,6 +25,11 @@
 #include "lang/plcopen/project.h"
 #include "lang/plcopen/st.h"
 
+namespace rtplc::lang::sfc {
+struct Chart;
+struct HostLink;
+}  // namespace rtplc::lang::sfc
+
 namespace rtplc::lang::plcopen {
 
 struct Scope;
@@ -127,6 +132,9 @@ class Lowering {
   // one the reading body writes, so the body's data-flow order is not asked.
   Value read_from_outside(Var& v, SourcePos pos);
   void assign(Var& v, Value value, SourcePos pos);
+  // `value` rounded to the grid of `per` steps a second (a TIME's 1e9:
+  // round(x * per) / per), so sums of times do not drift.
+  Value on_time_grid(const Value& value, double per, SourcePos pos);
   // Rising edge of `v`, remembered in a block named `mem` (last cycle's `v`).
   Value rising(const Value& v, const std::string& mem, SourcePos pos);
   Value falling(const Value& v, const std::string& mem, SourcePos pos);
@@ -312,9 +320,19 @@ class Lowering {
   // The steps of the chart a scope's SFC body holds: upper-case name -> the
   // block of its flag (`S.X` reads it; sfc.cpp).
   std::map<const Scope*, std::map<std::string, std::string>> chart_steps_;
+  // The elapsed time `S.T` reads of the steps whose `.T` the POU mentions:
+  // upper-case name -> its value where it is read (sfc.cpp, step_times).
+  struct StepTime {
+    std::string step;  // as the chart spells it
+    Value now;         // what `S.T` reads here
+  };
+  std::map<const Scope*, std::map<std::string, StepTime>> step_times_;
   // `S.X` or `S.T` of a step of `s`'s chart: its value; nullopt when `path`
   // names no step.
   std::optional<Value> step_member(Scope& s, const std::string& path, SourcePos pos);
+  void step_times(Scope& s, const XmlElement& body, const sfc::Chart& chart, const sfc::HostLink& host);
+  void stamp_step_times(Scope& s, const sfc::HostLink& host, bool entered_reads_zero);
+  std::map<const Scope*, Value> step_clock_;  // the chart's always-running timer's ET
   std::vector<std::string> produced_;           // FB output blocks made
   struct PathCond {
     Value cond;

@@ -349,11 +349,114 @@ std::optional<Value> Lowering::step_member(Scope& s, const std::string& path, So
     x.digital = true;
     return x;
   }
-  d_.error(pos, member == "T" ? "'" + path + "': a step's elapsed time (.T) is not supported yet; time the step with "
-                                  "a TON on its flag (t(IN := " + path.substr(0, dot) + ".X, PT := ...))"
-                              : "'" + path + "': a step has .X (active) and .T (elapsed time), no ." +
-                                    path.substr(dot + 1));
+  if (member == "T") {
+    if (auto t = step_times_.find(&s); t != step_times_.end()) {
+      if (auto v = t->second.find(step); v != t->second.end()) return v->second.now;
+    }
+  }
+  d_.error(pos, "'" + path + "': a step has .X (active) and .T (elapsed time), no ." + path.substr(dot + 1));
   return constant(0, false);
+}
+
+namespace {
+
+// Whether `text` names `S.T` for step `step` (upper-case), as a word.
+bool mentions_step_time(std::string_view text, const std::string& step) {
+  const std::string up = upper(std::string(text));
+  auto word = [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; };
+  for (size_t k = up.find(step); k != std::string::npos; k = up.find(step, k + 1)) {
+    if (k > 0 && (word(up[k - 1]) || up[k - 1] == '.')) continue;
+    size_t e = k + step.size();
+    while (e < up.size() && std::isspace(static_cast<unsigned char>(up[e]))) ++e;
+    if (e >= up.size() || up[e] != '.') continue;
+    ++e;
+    while (e < up.size() && std::isspace(static_cast<unsigned char>(up[e]))) ++e;
+    if (e < up.size() && up[e] == 'T' && (e + 1 >= up.size() || !word(up[e + 1]))) return true;
+  }
+  return false;
+}
+bool mentions_step_time(const XmlElement& e, const std::string& step) {
+  if (mentions_step_time(e.text, step)) return true;
+  for (const XmlAttribute& a : e.attributes) {
+    if (mentions_step_time(a.value, step)) return true;
+  }
+  for (const XmlElement& c : e.children) {
+    if (mentions_step_time(c, step)) return true;
+  }
+  return false;
+}
+bool mentions_step_time(const Pou& pou, const XmlElement& chart, const std::string& step) {
+  if (mentions_step_time(chart, step)) return true;
+  for (const std::vector<NamedBody>* bodies : {&pou.actions, &pou.transitions}) {
+    for (const NamedBody& b : *bodies) {
+      if (mentions_step_time(b.body.source, step) || (b.body.graph && mentions_step_time(*b.body.graph, step))) {
+        return true;
+      }
+    }
+  }
+  return false;
+}
+
+}  // namespace
+
+// A step's elapsed time, as MatIEC keeps it: at the start of each scan an
+// active step's T grows by the scan's time, a step entered in the scan starts
+// at 0, a step left keeps its last T. Built for the steps whose `.T` the POU
+// mentions, before the conditions (which read T as the scan started), from
+// one always-running timer's ET `clock` (cycles times the period, exact on
+// the nanosecond grid): T = X ? clock - clock at entry : T at the end of the
+// last scan. After the chart (stamp_step_times) each step's entry is stamped
+// and T at the end of the scan, `<path>.step.<S>.T`, is 0 for a step entered
+// in it (MatIEC's order; its actions read that); under CODESYS's order, whose
+// actions and conditions run before the chart, T stays as the scan started.
+void Lowering::step_times(Scope& s, const XmlElement& body, const sfc::Chart& chart, const sfc::HostLink& host) {
+  std::map<std::string, StepTime>& times = step_times_[&s];
+  Value clock;
+  for (const sfc::Step& st : chart.steps) {
+    const std::string up = upper(st.name);
+    if (!mentions_step_time(*s.pou, body, up)) continue;
+    if (!clock.valid()) {
+      // 1e9 s (31 years) is never reached: ET counts on.
+      const std::vector<Value> outs = lower_iec(*iec::find_iec("TON"), s.path + ".$sfc.clock",
+                                                {constant(1, true), constant(1e9, false)}, chart.pos);
+      if (outs.size() < 2) return;
+      clock = outs[1];
+      step_clock_[&s] = clock;
+    }
+    const std::string base = s.path + ".step." + st.name;
+    Value flag;
+    flag.ref = sfc::step_flag_block(host, st.name);  // a later block: the flag the scan started with
+    flag.digital = true;
+    Value entered, last;
+    entered.ref = base + ".$entered";  // both made by stamp_step_times
+    last.ref = base + ".T";
+    const Value since = on_time_grid(em_.binary(BinOp::kSub, clock, entered, st.pos), 1e9, st.pos);
+    Value t = em_.select(flag, since, last, st.pos);
+    t.time_type = iec::IecType::kTime;
+    times[up] = StepTime{st.name, t};
+    out_.variables.push_back(last.ref);
+  }
+}
+
+void Lowering::stamp_step_times(Scope& s, const sfc::HostLink& host, bool entered_reads_zero) {
+  auto it = step_times_.find(&s);
+  if (it == step_times_.end()) return;
+  const Value clock = step_clock_[&s];
+  for (auto& [up, t] : it->second) {
+    const std::string base = s.path + ".step." + t.step;
+    Value flag;
+    flag.ref = sfc::step_flag_block(host, t.step);
+    flag.digital = true;
+    const Value entering = rising(flag, base + ".$rise", SourcePos{});
+    Value stamp;
+    stamp.ref = base + ".$entered";
+    em_.copy_as(em_.select(entering, clock, stamp, SourcePos{}), stamp.ref, SourcePos{});
+    if (entered_reads_zero) {
+      t.now = em_.select(entering, constant(0, false), t.now, SourcePos{});
+      t.now.time_type = iec::IecType::kTime;
+    }
+    em_.copy_as(t.now, base + ".T", SourcePos{});
+  }
 }
 
 void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
@@ -585,6 +688,7 @@ void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
   if (!actions_first) {
     // MatIEC's order: conditions, the chart (transitions, steps, the actions'
     // flags), the action bodies.
+    step_times(s, body, chart, host);
     if (!conditions()) return;
     const sfc::ChartIndex index = sfc::check_chart(chart, d_);
     if (d_.has_errors()) return;
@@ -597,6 +701,7 @@ void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
     CheckedProgram built = sfc::build_flat_program(chart, index, d_, &host);
     if (d_.has_errors()) return;
     for (FlatBlock& b : built.blocks) em.append_resolved(std::move(b));
+    stamp_step_times(s, host, true);
     step_flags();
     actions();
     return;
@@ -637,10 +742,12 @@ void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
       em.append_named(std::move(b), std::move(ins));
     }
   };
+  step_times(s, body, chart, host);
   append(0, split);
   if (!actions()) return;
   if (!conditions()) return;
   append(split, built.blocks.size());
+  stamp_step_times(s, host, false);
   step_flags();
 }
 
