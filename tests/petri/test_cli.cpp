@@ -118,6 +118,17 @@ TEST(AnalyzeCli, a_plcopen_sfc_pou_is_analysed_as_the_importer_reads_it) {
   EXPECT_EQ(not_plcopen.code, 2) << not_plcopen.out;
 }
 
+TEST(AnalyzeCli, a_textual_sfc_in_a_st_file_is_the_same_chart) {
+  const CliRun r = run(std::string(RTPLC_SOURCE_DIR) + "/examples/filler_sfc.st");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("SFC Filler as a hierarchical Petri net"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("places: Idle(1) Fill Drain\n"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("dead markings (deadlocks): 0\n"), std::string::npos) << r.out;
+  const CliRun no_pou = run(std::string(RTPLC_SOURCE_DIR) + "/examples/filler_sfc.st --pou nope");
+  EXPECT_EQ(no_pou.code, 1) << no_pou.out;
+  EXPECT_NE(no_pou.out.find("no POU 'nope' with an SFC body; the project has Filler"), std::string::npos) << no_pou.out;
+}
+
 TEST(AnalyzeCli, bad_pnml_shows_file_line_col) {
   const std::string f = std::string(RTPLC_BINARY_DIR) + "/broken.pnml";
   std::ofstream(f) << "<pnml>\n<net id=\"n\" "

@@ -7,6 +7,8 @@
 // conditions for the next scan).
 #include <gtest/gtest.h>
 
+#include <fstream>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -214,6 +216,28 @@ END_PROGRAM
   EXPECT_EQ(v[1], (std::vector<double>{0, 1}));
   EXPECT_EQ(v[2], (std::vector<double>{1, 0}));
   EXPECT_EQ(v[3], (std::vector<double>{0, 1}));
+}
+
+TEST(StSfc, the_example_fills_and_drains_on_its_step_times) {
+  std::ifstream f(std::string(RTPLC_SOURCE_DIR) + "/examples/filler_sfc.st");
+  std::stringstream ss;
+  ss << f.rdbuf();
+  ASSERT_FALSE(ss.str().empty());
+  // 100 ms scans. Fill is entered in scan 0 (go), so Fill.T reaches 3 s in
+  // scan 30: Drain, batches 1; the pump (L 1.5 s) runs in scans 30..44;
+  // Drain.T reaches 2 s in scan 50: Idle; scan 51: Fill again, T from 0.
+  const auto v = run(ss.str(), {"Filler0.step.Fill.X", "Filler0.step.Drain.X", "Filler0.step.Idle.X", "Filler0.batches",
+                                "Filler0.pump", "Filler0.valve", "Filler0.step.Fill.T"},
+                     56);
+  ASSERT_EQ(v.size(), 56u);
+  EXPECT_EQ(v[29], (std::vector<double>{1, 0, 0, 0, 0, 1, 2.9}));
+  EXPECT_EQ(v[30], (std::vector<double>{0, 1, 0, 1, 1, 0, 3}));
+  EXPECT_EQ(v[44][4], 1);
+  EXPECT_EQ(v[45][4], 0);
+  EXPECT_EQ(v[49][1], 1);
+  EXPECT_EQ(v[50], (std::vector<double>{0, 0, 1, 1, 0, 0, 3}));
+  EXPECT_EQ(v[51], (std::vector<double>{1, 0, 0, 1, 0, 1, 0}));
+  EXPECT_EQ(v[55][6], 0.4);
 }
 
 TEST(StSfc, mistakes_are_refused_at_their_place) {
