@@ -337,6 +337,9 @@ struct StLowerer {
         return {};
       case Stmt::Kind::kIf: {
         const std::vector<Var*> g = gather(st);
+        if (!g.empty()) {
+          if (auto cuts = split_points(st, g)) return split_chain(st, std::move(*cuts), g, nullptr);
+        }
         const Flow f = if_chain(st, 0);
         for (Var* v : g) L.end_gathered(*v, st.pos);
         return f;
@@ -344,6 +347,9 @@ struct StLowerer {
       case Stmt::Kind::kCase: {
         const std::vector<Var*> g = gather(st);
         const Value sel = L.eval(s, *st.value);
+        if (!g.empty()) {
+          if (auto cuts = split_points(st, g)) return split_chain(st, std::move(*cuts), g, &sel);
+        }
         const Flow f = case_chain(st, sel, 0);
         for (Var* v : g) L.end_gathered(*v, st.pos);
         return f;
@@ -760,6 +766,185 @@ struct StLowerer {
   std::vector<Region*> regions_;
   std::map<std::string, SourcePos> labels_seen_;  // every label of the body: each name once
 
+  // ---- an IF or CASE lowered in two passes around its gathered calls ----
+  // The state-machine idiom calls one standard FB in several branches and
+  // reads its outputs in the same branch (`1: t(IN := TRUE, PT := T#2s); IF
+  // t.Q THEN state := 2; END_IF;`). Its one call (end_gathered) needs every
+  // branch's inputs, and a branch's reads after its call need that call's
+  // outputs. The branches are exclusive and if-converted, so no branch sees
+  // another's statements: the first pass lowers each branch up to its last
+  // call of a gathered FB (its prefix, from the state before the IF), keeping
+  // the variables' state at that point; the FB runs once on the gathered
+  // inputs; the second pass lowers each branch's rest from its kept state,
+  // and merges the branches as one IF. A branch's prefix holds only
+  // assignments, calls, IF and CASE (no loop, jump, label, RETURN, EXIT or
+  // CONTINUE), and it calls the gathered FBs only as its own statements.
+  struct Split {
+    const Stmt* stmt = nullptr;
+    std::vector<size_t> cut;                                // per branch (the ELSE last): statements in its prefix
+    std::vector<std::vector<std::optional<Value>>> state;  // per branch: the variables after its prefix
+    std::vector<Value> conds;                               // per branch but the ELSE: its condition
+  };
+  Split* split_ = nullptr;
+
+  static bool flow_free(const Block& b) {
+    for (const auto& st : b) {
+      switch (st->kind) {
+        case Stmt::Kind::kAssign:
+        case Stmt::Kind::kCall:
+          break;
+        case Stmt::Kind::kIf:
+          for (const auto& [c, body] : st->branches) {
+            if (!flow_free(body)) return false;
+          }
+          if (!flow_free(st->else_body)) return false;
+          break;
+        case Stmt::Kind::kCase:
+          for (const CaseBranch& cb : st->cases) {
+            if (!flow_free(cb.body)) return false;
+          }
+          if (!flow_free(st->else_body)) return false;
+          break;
+        default:
+          return false;
+      }
+    }
+    return true;
+  }
+
+  // The branch bodies of an IF or CASE, the ELSE last.
+  static std::vector<const Block*> bodies(const Stmt& st) {
+    std::vector<const Block*> out;
+    for (const auto& [c, body] : st.branches) out.push_back(&body);
+    for (const CaseBranch& cb : st.cases) out.push_back(&cb.body);
+    out.push_back(&st.else_body);
+    return out;
+  }
+
+  // Each branch's prefix length, or nullopt when the two passes cannot be used.
+  std::optional<std::vector<size_t>> split_points(const Stmt& st, const std::vector<Var*>& gathered) {
+    std::set<std::string> names;
+    for (const Var* v : gathered) names.insert(upper(v->decl->name));
+    std::vector<size_t> cuts;
+    for (const Block* b : bodies(st)) {
+      size_t cut = 0;
+      std::map<std::string, int> top;
+      if (has_jumps(*b)) return std::nullopt;  // a jump keeps the one call at the END_IF (region())
+      for (size_t j = 0; j < b->size(); ++j) {
+        const Stmt& x = *(*b)[j];
+        if (x.kind == Stmt::Kind::kCall && x.target_index.empty() && names.count(upper(x.target))) {
+          cut = j + 1;
+          ++top[upper(x.target)];
+        }
+      }
+      std::map<std::string, int> all;
+      count_calls(*b, all);
+      for (const std::string& n : names) {
+        if (all[n] != top[n]) return std::nullopt;  // called inside a nested statement too
+      }
+      for (size_t j = 0; j < cut; ++j) {
+        const Stmt& x = *(*b)[j];
+        if (x.kind != Stmt::Kind::kAssign && x.kind != Stmt::Kind::kCall && x.kind != Stmt::Kind::kIf &&
+            x.kind != Stmt::Kind::kCase) {
+          return std::nullopt;
+        }
+        if ((x.kind == Stmt::Kind::kIf || x.kind == Stmt::Kind::kCase) && !flow_free_stmt(x)) return std::nullopt;
+      }
+      cuts.push_back(cut);
+    }
+    return cuts;
+  }
+  static bool has_jumps(const Block& b) {
+    for (const auto& st : b) {
+      if (st->kind == Stmt::Kind::kLabel || st->kind == Stmt::Kind::kJump) return true;
+      for (const auto& [c, body] : st->branches) {
+        if (has_jumps(body)) return true;
+      }
+      for (const CaseBranch& cb : st->cases) {
+        if (has_jumps(cb.body)) return true;
+      }
+      if (has_jumps(st->else_body) || has_jumps(st->body)) return true;
+    }
+    return false;
+  }
+  static bool flow_free_stmt(const Stmt& x) {
+    for (const auto& [c, body] : x.branches) {
+      if (!flow_free(body)) return false;
+    }
+    for (const CaseBranch& cb : x.cases) {
+      if (!flow_free(cb.body)) return false;
+    }
+    return flow_free(x.else_body);
+  }
+
+  // CASE branch i's condition: the selector matches one of its labels.
+  Value case_cond(const Stmt& st, const Value& sel, size_t i) {
+    Emitter& em = L.em();
+    Value cond = constant(0, true);
+    for (const auto& [lo, hi] : st.cases[i].labels) {
+      const Value a = L.eval(s, *lo);
+      Value m = hi ? em.binary(BinOp::kAnd, em.binary(BinOp::kGe, sel, a, lo->pos),
+                               em.binary(BinOp::kLe, sel, L.eval(s, *hi), hi->pos), lo->pos)
+                   : em.binary(BinOp::kEq, sel, a, lo->pos);
+      cond = em.binary(BinOp::kOr, cond, m, lo->pos);
+    }
+    return cond;
+  }
+
+  // The IF (sel null) or CASE `st` in two passes (Split above); ends the
+  // gathering of `gathered`.
+  Flow split_chain(const Stmt& st, std::vector<size_t> cuts, const std::vector<Var*>& gathered, const Value* sel) {
+    Emitter& em = L.em();
+    Split sp;
+    sp.stmt = &st;
+    sp.cut = std::move(cuts);
+    const std::vector<const Block*> bs = bodies(st);
+    sp.state.resize(bs.size());
+    const auto pre = L.save();
+    // Pass 1: each live branch's prefix under the path branch() would give it.
+    size_t pushed = 0;
+    bool dead = false;
+    for (size_t i = 0; i + 1 < bs.size(); ++i) {
+      Value c = sel ? case_cond(st, *sel, i) : L.eval(s, *st.branches[i].first);
+      c = em.to_digital(c, sel ? st.pos : st.branches[i].first->pos);
+      sp.conds.push_back(c);
+      if (dead || (c.is_const && c.k == 0)) continue;
+      if (!c.is_const) L.push_path(c, false);
+      block(*bs[i], 0, sp.cut[i]);
+      sp.state[i] = L.save();
+      if (!c.is_const) {
+        L.pop_path();
+        L.push_path(c, true);  // the branches after it: NOT c
+        ++pushed;
+      } else {
+        dead = true;  // a constant TRUE: nothing after it runs
+      }
+      L.restore(pre);
+    }
+    if (!dead) {
+      block(*bs.back(), 0, sp.cut.back());
+      sp.state.back() = L.save();
+    }
+    for (; pushed > 0; --pushed) L.pop_path();
+    L.restore(pre);
+    if (L.diags().has_errors()) return {};
+    for (Var* v : gathered) L.end_gathered(*v, st.pos);
+    // Pass 2: the rests, merged as one IF.
+    Split* outer = split_;
+    split_ = &sp;
+    const Flow f = sel ? case_chain(st, *sel, 0) : if_chain(st, 0);
+    split_ = outer;
+    return f;
+  }
+
+  // Branch k's statements: all of them, or (in a split's second pass) the
+  // rest after its prefix, from the state its prefix left.
+  Flow branch_body(const Stmt& st, const Block& b, size_t k) {
+    if (!split_ || split_->stmt != &st) return block(b);
+    L.restore(split_->state[k]);
+    return block(b, split_->cut[k]);
+  }
+
   // Whether `b` may EXIT or CONTINUE a loop around it (not one inside it).
   static void loop_leaves(const Block& b, bool& exit, bool& cont) {
     for (const auto& st : b) {
@@ -913,27 +1098,21 @@ struct StLowerer {
   }
 
   Flow if_chain(const Stmt& st, size_t i) {
-    if (i >= st.branches.size()) return block(st.else_body);
-    const Value c = L.eval(s, *st.branches[i].first);
+    if (i >= st.branches.size()) return branch_body(st, st.else_body, i);
+    const bool split = split_ && split_->stmt == &st;
+    const Value c = split ? split_->conds[i] : L.eval(s, *st.branches[i].first);
     const SourcePos pos = st.branches[i].first->pos;
     Flow t, e;
-    branch(c, pos, [&] { t = block(st.branches[i].second); }, [&] { e = if_chain(st, i + 1); });
+    branch(c, pos, [&] { t = branch_body(st, st.branches[i].second, i); }, [&] { e = if_chain(st, i + 1); });
     return pick(c, t, e, pos);
   }
 
   Flow case_chain(const Stmt& st, const Value& sel, size_t i) {
-    Emitter& em = L.em();
-    if (i >= st.cases.size()) return block(st.else_body);
-    Value cond = constant(0, true);
-    for (const auto& [lo, hi] : st.cases[i].labels) {
-      const Value a = L.eval(s, *lo);
-      Value m = hi ? em.binary(BinOp::kAnd, em.binary(BinOp::kGe, sel, a, lo->pos),
-                               em.binary(BinOp::kLe, sel, L.eval(s, *hi), hi->pos), lo->pos)
-                   : em.binary(BinOp::kEq, sel, a, lo->pos);
-      cond = em.binary(BinOp::kOr, cond, m, lo->pos);
-    }
+    if (i >= st.cases.size()) return branch_body(st, st.else_body, i);
+    const bool split = split_ && split_->stmt == &st;
+    const Value cond = split ? split_->conds[i] : case_cond(st, sel, i);
     Flow t, e;
-    branch(cond, st.pos, [&] { t = block(st.cases[i].body); }, [&] { e = case_chain(st, sel, i + 1); });
+    branch(cond, st.pos, [&] { t = branch_body(st, st.cases[i].body, i); }, [&] { e = case_chain(st, sel, i + 1); });
     return pick(cond, t, e, st.pos);
   }
 };

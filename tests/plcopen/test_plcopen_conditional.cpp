@@ -420,11 +420,17 @@ TEST(PlcopenConditional, an_instance_called_in_both_branches_runs_on_the_branch_
   EXPECT_EQ(m.value("main.cv"), 0);
 }
 
-TEST(PlcopenConditional, refuses_reading_a_gathered_instance_inside_its_if_and_two_calls_in_a_row) {
-  const std::string vars = "<inputVars>" + var("c", "BOOL", "%IX0.0") + "</inputVars><localVars>" + fb("t", "TON") +
-                           var("q", "BOOL") + "</localVars>";
-  CompileResult inside = compile_source(project(
+TEST(PlcopenConditional, refuses_reading_a_gathered_instance_after_a_nested_call_and_two_calls_in_a_row) {
+  const std::string vars = "<inputVars>" + var("c", "BOOL", "%IX0.0") + var("d", "BOOL", "%IX0.1") +
+                           "</inputVars><localVars>" + fb("t", "TON") + var("q", "BOOL") + "</localVars>";
+  // Read after its own call in the branch: the IF is lowered in two passes
+  // (tests/st/test_st_timers.cpp, the state machine). Called inside a nested IF, it cannot be.
+  CompileResult read_after = compile_source(project(
       kNs201, st_program(vars, "IF c THEN t(IN := TRUE, PT := T#1s); q := t.Q; ELSE t(IN := FALSE); END_IF;")));
+  EXPECT_TRUE(read_after.ok()) << read_after.diags.render("p.xml", "");
+  CompileResult inside = compile_source(project(
+      kNs201, st_program(vars, "IF c THEN IF d THEN t(IN := TRUE, PT := T#1s); END_IF; q := t.Q; "
+                               "ELSE t(IN := FALSE); END_IF;")));
   ASSERT_FALSE(inside.ok());
   EXPECT_NE(inside.diags.items()[0].message.find("read it after the END_IF"), std::string::npos)
       << inside.diags.items()[0].message;

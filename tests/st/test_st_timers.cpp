@@ -238,5 +238,98 @@ END_PROGRAM
   EXPECT_NEAR(h.value("Main.s2"), 0.08, 1e-12);
 }
 
+// The state-machine idiom: one timer called in several CASE branches and read
+// in the branch that called it (docs/st.md, "Calls in several branches"). The
+// CASE is lowered in two passes, so `t.Q` after `t(...)` in branch 1 is this
+// cycle's call's Q, as MatIEC runs it. Worked by hand at 100 ms a cycle.
+TEST(StTimers, a_timer_called_in_several_case_branches_is_read_in_each) {
+  const char* src = R"(PROGRAM P
+VAR
+  state : INT;
+  t : TON;
+  start : BOOL := TRUE;
+  n, m : INT;
+  et : TIME;
+END_VAR
+CASE state OF
+  0:
+    t(IN := FALSE);
+    IF start THEN state := 1; END_IF;
+  1:
+    t(IN := TRUE, PT := T#300ms);
+    et := t.ET;
+    IF t.Q THEN state := 2; n := n + 1; END_IF;
+  2:
+    t(IN := FALSE);
+    m := m + 1;
+    IF NOT t.Q THEN state := 0; END_IF;
+END_CASE;
+END_PROGRAM
+)";
+  FbdHarness h(src, 0.1, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("sm.st", src);
+  // Cycle 0: state 0 -> 1. Cycles 1-4: IN rose in cycle 1, ET 0, 0.1, 0.2,
+  // 0.3 s: Q in cycle 4, read at once: state 2, n 1. Cycle 5: IN falls, Q
+  // falls: state 0, m 1. Cycle 6: state 1 again; cycle 7 IN rises anew.
+  const double state[] = {1, 1, 1, 1, 2, 0, 1, 1, 1, 1, 2};
+  const double et[] = {0, 0, 0.1, 0.2, 0.3, 0.3, 0.3, 0, 0.1, 0.2, 0.3};
+  const double n[] = {0, 0, 0, 0, 1, 1, 1, 1, 1, 1, 2};
+  const double m[] = {0, 0, 0, 0, 0, 1, 1, 1, 1, 1, 1};
+  for (size_t k = 0; k < 11; ++k) {
+    h.step();
+    EXPECT_EQ(h.value("P.state"), state[k]) << "cycle " << k;
+    EXPECT_NEAR(h.value("P.et"), et[k], 1e-9) << "cycle " << k;
+    EXPECT_EQ(h.value("P.n"), n[k]) << "cycle " << k;
+    EXPECT_EQ(h.value("P.m"), m[k]) << "cycle " << k;
+  }
+}
+
+// Each branch's statements before its call feed that call's inputs, and the
+// variables they assign are merged with the rest of the branch as one IF.
+TEST(StTimers, statements_before_the_call_in_each_branch_feed_its_inputs) {
+  const char* src = R"(PROGRAM P
+VAR
+  mode AT %IW0 : INT;
+  c : CTU;
+  x, seen, after : INT;
+END_VAR
+IF mode = 1 THEN
+  x := 5;
+  c(CU := TRUE, PV := x, R := FALSE);
+  seen := c.CV;
+ELSIF mode = 2 THEN
+  x := 7;
+  c(CU := FALSE, PV := x, R := TRUE);
+  seen := c.CV + 100;
+ELSE
+  x := 0;
+END_IF;
+after := c.CV;
+END_PROGRAM
+)";
+  FbdHarness h(src, 0.1, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("c.st", src);
+  h.set("mode", 1);
+  h.step();  // CU rises: CV 1, seen at once
+  EXPECT_EQ(h.value("P.seen"), 1);
+  EXPECT_EQ(h.value("P.x"), 5);
+  h.set("mode", 3);
+  h.step();  // not called: CV kept, CU held TRUE (no edge)
+  EXPECT_EQ(h.value("P.after"), 1);
+  EXPECT_EQ(h.value("P.x"), 0);
+  EXPECT_EQ(h.value("P.seen"), 1);
+  h.set("mode", 1);
+  h.step();  // CU was held TRUE: no new edge
+  EXPECT_EQ(h.value("P.seen"), 1);
+  h.set("mode", 2);
+  h.step();  // RESET: CV 0, read in the branch
+  EXPECT_EQ(h.value("P.seen"), 100);
+  EXPECT_EQ(h.value("P.x"), 7);
+  h.set("mode", 1);
+  h.step();  // CU rises again
+  EXPECT_EQ(h.value("P.seen"), 1);
+  EXPECT_EQ(h.value("P.after"), 1);
+}
+
 }  // namespace
 }  // namespace rtplc::lang
