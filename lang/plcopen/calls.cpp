@@ -274,6 +274,13 @@ std::optional<Value> Lowering::call_function(Scope& s, const std::string& name, 
   if (!place_args(*f, args, formals, placed, name, d_, pos)) return constant(0, false);
   size_t given = 0;
   for (const auto& a : placed) given += a ? 1u : 0u;
+  // An extensible function called with one argument (Beremiz writes
+  // `OR(x)` for a block left with one input) is that argument, as MatIEC
+  // compiles it: its C function folds the inputs it is given, one here.
+  if (f->extensible && given == 1 && placed.size() == 1 && placed[0] &&
+      (up == "AND" || up == "OR" || up == "XOR" || up == "ADD" || up == "MUL" || up == "MAX" || up == "MIN")) {
+    return *placed[0];
+  }
   if (given < f->min_inputs || given != placed.size()) {
     d_.error(pos, name + " takes " + (f->extensible ? "at least " : "") +
                       std::to_string(f->min_inputs) + " argument" +
@@ -397,6 +404,11 @@ void Lowering::call_fb(Var& v, const std::vector<std::pair<std::string, Value>>&
     // instance holds a standard function block, whose blocks run once per
     // textual call.
     if (fb.called) {
+      if (fb.pou->body.language == BodyLanguage::kSfc) {
+        d_.error(pos, "'" + v.decl->name + "' is called twice in one cycle, and its body is an SFC, which "
+                          "evolves once per cycle: call the instance once");
+        return;
+      }
       if (const std::string inner = standard_fb_inside(fb); !inner.empty()) {
         d_.error(pos, "'" + v.decl->name + "' is called twice in one cycle, and it holds the standard function block "
                           "'" + inner + "', which runs once per call site: call the instance once");

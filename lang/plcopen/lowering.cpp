@@ -48,6 +48,24 @@ std::optional<Location> parse_location(const std::string& a, std::string* error)
     if (v > 65535) return bad("has a number above 65535");
     any = true;
   }
+  if (parts.size() >= (l.size == 'X' ? 3u : 2u)) {
+    // Beremiz's hierarchical addresses (%IX0.1.0.0, %IW0.0.2.0: an
+    // extension's location, then the item in it): a channel of processor
+    // 100 + first level (X), 125 + (W), 150 + (D), 175 + (L), device the
+    // second level, channel third * 256 + fourth (docs/plcopen.md,
+    // "Located variables"); a driver binds it by that address.
+    if (l.area == 'M') return bad("has several levels; a memory address has one (%MW2) or byte.bit (%MX0.3)");
+    if (parts.size() > 4) return bad("has more than four levels (rtplc maps up to four: %IX0.1.2.3)");
+    if (parts[0] > 24) return bad("has a first level above 24 (rtplc maps 0 to 24)");
+    for (size_t k = 1; k < parts.size(); ++k) {
+      if (parts[k] > 255) return bad("has a level above 255 after the first (rtplc maps 0 to 255)");
+    }
+    const uint32_t base = l.size == 'X' ? 100 : l.size == 'W' ? 125 : l.size == 'D' ? 150 : 175;
+    l.p = base + parts[0];
+    l.d = parts[1];
+    l.c = (parts.size() > 2 ? parts[2] : 0) * 256 + (parts.size() > 3 ? parts[3] : 0);
+    return l;
+  }
   if (l.size == 'X') {
     if (parts.size() == 1) {
       // A single-level bit address (%IX12, MatIEC's tests): bit 12 counted
@@ -1201,12 +1219,6 @@ void Lowering::lower_body_of(Scope& s, const Body& b) {
       lower_il(s, b);
       break;
     case BodyLanguage::kSfc:
-      if (conditional()) {
-        // The chart's steps and timers move every cycle; they cannot be held.
-        d_.error(b.pos, "an SFC body (" + s.pou->name + ") cannot run only some cycles: it is called under "
-                        "IF, CASE, EN, a conditional IL path or by an event task; call it every cycle");
-        break;
-      }
       if (&b != &s.pou->body) {
         d_.error(b.pos, "an SFC inside an SFC action is not supported");
         break;

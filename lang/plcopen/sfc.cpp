@@ -601,6 +601,11 @@ void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
         return false;
       }
       if (attr(*c, "negated") == "true") cond = em.unary_not(cond, t.pos);
+      // A chart called only in some cycles (under IF, CASE, EN, in an SFC
+      // action or an event task) evolves only in those: no transition fires
+      // in a cycle it is not called, so its steps hold, as MatIEC's chart
+      // does between calls of its FB.
+      if (conditional()) cond = em.binary(BinOp::kAnd, cond, active(t.pos), t.pos);
       const std::string x = em.ref(cond, t.pos);
       host_blocks[chart.transitions[i].condition.name] =
           static_cast<uint32_t>(em.emit("or", s.path + ".$sfc.cond." + id, t.pos, {x, x}));

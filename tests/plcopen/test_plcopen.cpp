@@ -810,6 +810,43 @@ TEST(Plcopen, maps_located_variables_to_channels) {
   EXPECT_EQ(cr.value("main.mem"), 1500);  // CODESYS's: milliseconds
 }
 
+// Beremiz's hierarchical addresses (an extension's location, then the item):
+// processor 100 / 125 / 150 / 175 + the first level for X / W / D / L, device
+// the second, channel third * 256 + fourth (docs/plcopen.md, "Located variables").
+TEST(Plcopen, maps_hierarchical_addresses_to_their_own_processors) {
+  const std::string src = project(
+      kNs201, st_program("<inputVars>" + var("pm", "INT", "%IW0.1.1.2") + var("s1", "BOOL", "%IX2.0.3.4") +
+                             var("w2", "INT", "%IW0.0") + var("big", "DINT", "%ID1.2.3") + "</inputVars><outputVars>" +
+                             var("busy", "BOOL", "%QX0.1.0.0") + var("q", "LREAL", "%QL3.4.255.255") +
+                             "</outputVars>",
+                         "busy := s1; q := INT_TO_LREAL(pm + w2) + DINT_TO_LREAL(big);"));
+  CompileResult r = compile_source(src);
+  ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
+  auto at = [&](const char* label) -> std::string {
+    for (const Binding& b : r.image->bindings()) {
+      if (std::string_view(r.image->str(b.label)) == label) {
+        return "p" + std::to_string(b.p) + ".d" + std::to_string(b.d) + ".c" + std::to_string(b.c);
+      }
+    }
+    return "none";
+  };
+  EXPECT_EQ(at("pm"), "p125.d1.c258");
+  EXPECT_EQ(at("s1"), "p102.d0.c772");
+  EXPECT_EQ(at("w2"), "p125.d0.c0");
+  EXPECT_EQ(at("big"), "p151.d2.c768");
+  EXPECT_EQ(at("busy"), "p100.d1.c0");
+  EXPECT_EQ(at("q"), "p178.d4.c65535");
+  auto refused = [&](const char* address, const char* type) {
+    const std::string bad = project(kNs201, st_program("<localVars>" + var("v", type, address) + "</localVars>", "v := v;"));
+    CompileResult b = compile_source(bad);
+    return b.ok() ? std::string("compiled") : b.diags.items()[0].message;
+  };
+  EXPECT_NE(refused("%MW0.1.2", "INT").find("a memory address has one"), std::string::npos);
+  EXPECT_NE(refused("%IX0.1.2.3.4", "BOOL").find("more than four levels"), std::string::npos);
+  EXPECT_NE(refused("%IW25.0.0", "INT").find("first level above 24"), std::string::npos);
+  EXPECT_NE(refused("%IW0.256.0", "INT").find("a level above 255"), std::string::npos);
+}
+
 // TIME meeting numbers, as each editor's runtime converts (docs/plcopen.md,
 // "Which editor's semantics"): MatIEC in whole seconds (its __time_to_int is
 // tv_sec, __int_to_time makes seconds), CODESYS in milliseconds.

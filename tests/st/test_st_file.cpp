@@ -901,6 +901,30 @@ TEST(StFile, damaged_files_are_refused_with_an_error_and_never_crash) {
 // A function block instance called twice in one cycle: the second call goes
 // on from the first's values, as in MatIEC and CODESYS (also in two branches
 // of an IF); one that holds a standard function block is refused at the call.
+// Beremiz writes `OR(x)` for a block left with one input; MatIEC compiles an
+// extensible function given one argument as that argument.
+TEST(StFile, an_extensible_function_of_one_argument_is_that_argument) {
+  const char* src = R"(PROGRAM P
+VAR a : BOOL := TRUE; o, x : BOOL; s, m, n, lo, hi : INT; END_VAR
+  o := OR(a); x := AND(NOT a); s := ADD(5); m := MUL(7); lo := MIN(-3); hi := MAX(9);
+  n := ADD(s);
+END_PROGRAM
+)";
+  FbdHarness h(src, 0.1, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("one.st", src);
+  h.step();
+  EXPECT_EQ(h.value("P.o"), 1);
+  EXPECT_EQ(h.value("P.x"), 0);
+  EXPECT_EQ(h.value("P.s"), 5);
+  EXPECT_EQ(h.value("P.m"), 7);
+  EXPECT_EQ(h.value("P.lo"), -3);
+  EXPECT_EQ(h.value("P.hi"), 9);
+  EXPECT_EQ(h.value("P.n"), 5);
+  // Other functions still count their arguments.
+  EXPECT_EQ(first_error("PROGRAM P VAR b : BOOL; END_VAR\nb := GT(1);\nEND_PROGRAM\n").substr(0, 30),
+            "2:6: GT takes at least 2 argum");
+}
+
 TEST(StFile, a_function_block_called_twice_goes_on_from_its_first_call) {
   const char* src = R"(FUNCTION_BLOCK Acc
 VAR_INPUT x : INT; END_VAR

@@ -240,6 +240,40 @@ TEST(StSfc, the_example_fills_and_drains_on_its_step_times) {
   EXPECT_EQ(v[55][6], 0.4);
 }
 
+TEST(StSfc, a_chart_called_under_if_holds_its_steps_between_calls) {
+  // As MatIEC's chart between calls of its FB: no transition fires in a cycle
+  // the FB is not called, its steps and BOOL action variables hold; a step's
+  // T ran on meanwhile (MatIEC adds the time since the last call).
+  const char* src = R"(FUNCTION_BLOCK Blinker
+VAR_OUTPUT q : BOOL; n : INT; END_VAR
+  INITIAL_STEP Off: END_STEP
+  STEP On: q(N); Count(P); END_STEP
+  ACTION Count: n := n + 1; END_ACTION
+  TRANSITION FROM Off TO On := TRUE; END_TRANSITION
+  TRANSITION FROM On TO Off := On.T >= T#200ms; END_TRANSITION
+END_FUNCTION_BLOCK
+PROGRAM P
+VAR b : Blinker; k : INT; q : BOOL; n : INT; END_VAR
+  k := k + 1;
+  IF k < 3 OR k > 6 THEN b(); END_IF;
+  q := b.q;
+  n := b.n;
+END_PROGRAM
+)";
+  const auto v = run(src, {"P.q", "P.n", "P.b.step.On.X"}, 10);
+  ASSERT_EQ(v.size(), 10u);
+  const std::vector<std::vector<double>> want = {
+      {1, 1, 1},  // 0: called: Off -> On, Count
+      {1, 1, 1},  // 1: called, On.T 100 ms
+      {1, 1, 1}, {1, 1, 1}, {1, 1, 1}, {1, 1, 1},  // 2-5: not called: On held, q held
+      {0, 1, 0},      // 6: called, On.T 600 ms: On -> Off
+      {1, 2, 1},      // 7: Off -> On, Count again
+      {1, 2, 1},      // 8
+      {0, 2, 0},      // 9: On.T 200 ms
+  };
+  for (size_t k = 0; k < want.size(); ++k) EXPECT_EQ(v[k], want[k]) << "scan " << k;
+}
+
 TEST(StSfc, mistakes_are_refused_at_their_place) {
   auto chart = [](const std::string& body) {
     return "PROGRAM P\nVAR go : BOOL; n : INT; END_VAR\n" + body + "END_PROGRAM\n";
@@ -265,6 +299,10 @@ TEST(StSfc, mistakes_are_refused_at_their_place) {
 ,
             "5:11: expected an expression, found ';'");
   EXPECT_EQ(first_error(chart("STEP S1: END_STEP\n")).substr(0, 40), "3:1: this SFC has no initial step (initi");
+  EXPECT_EQ(first_error("FUNCTION_BLOCK F\nINITIAL_STEP S: END_STEP\nTRANSITION FROM S TO S := TRUE; END_TRANSITION\n"
+                        "END_FUNCTION_BLOCK\nPROGRAM P VAR f : F; END_VAR\nf(); f();\nEND_PROGRAM\n")
+                .substr(0, 61),
+            "6:6: 'f' is called twice in one cycle, and its body is an SFC");
   EXPECT_EQ(first_error(chart("INITIAL_STEP S1: END_STEP\nTRANSITION FROM S1 TO S1 go; END_TRANSITION\n")),
             "4:26: expected ':=' and the transition's condition");
 }
