@@ -180,7 +180,7 @@ ImportResult import_project(const Project& p, const ImportOptions& opt, Diagnost
     }
     if (!found) {
       if (const Pou* pou = p.pou(opt.entry); pou && pou->type == PouType::kProgram) {
-        chosen = Entry{pou->name, {PouInstance{pou->name, pou->name, pou->pos}}, nullptr};
+        chosen = Entry{pou->name, {PouInstance{pou->name, pou->name, pou->pos, {}}}, nullptr};
         found = true;
       }
     }
@@ -211,7 +211,7 @@ ImportResult import_project(const Project& p, const ImportOptions& opt, Diagnost
                                                  "(" + choices(p) + ")");
         return res;
       }
-      chosen = Entry{only->name, {PouInstance{only->name, only->name, only->pos}}, nullptr};
+      chosen = Entry{only->name, {PouInstance{only->name, only->name, only->pos, {}}}, nullptr};
     } else {
       diags.error(SourcePos{}, "the project has several tasks; choose one (" + choices(p) +
                                    "): `program_instance:` in the runtime config, --entry on the command line");
@@ -297,7 +297,7 @@ ImportResult import_project(const Project& p, const ImportOptions& opt, Diagnost
       continue;
     }
     res.instances.push_back(pi.name);
-    L.program_instance(*pou, pi.name);
+    L.program_instance(*pou, pi.name, pi.connections);
     if (diags.has_errors()) return res;
   }
   if (diags.has_errors() || !L.finish()) return res;

@@ -30,8 +30,8 @@ std::optional<Location> parse_location(const std::string& a, std::string* error)
     l.size = static_cast<char>(std::toupper(static_cast<unsigned char>(a[i])));
     ++i;
   }
-  if (l.size != 'X' && l.size != 'W' && l.size != 'D' && l.size != 'L')
-    return bad("has size '" + std::string(1, l.size) + "' (rtplc maps X, W, D and L)");
+  if (l.size != 'X' && l.size != 'B' && l.size != 'W' && l.size != 'D' && l.size != 'L')
+    return bad("has size '" + std::string(1, l.size) + "' (rtplc maps X, B, W, D and L)");
   std::vector<uint32_t> parts;
   uint64_t v = 0;
   bool any = false;
@@ -51,7 +51,7 @@ std::optional<Location> parse_location(const std::string& a, std::string* error)
   if (parts.size() >= (l.size == 'X' ? 3u : 2u)) {
     // Beremiz's hierarchical addresses (%IX0.1.0.0, %IW0.0.2.0: an
     // extension's location, then the item in it): a channel of processor
-    // 100 + first level (X), 125 + (W), 150 + (D), 175 + (L), device the
+    // 100 + first level (X), 125 + (W), 150 + (D), 175 + (L), 200 + (B), device the
     // second level, channel third * 256 + fourth (docs/plcopen.md,
     // "Located variables"); a driver binds it by that address.
     if (l.area == 'M') return bad("has several levels; a memory address has one (%MW2) or byte.bit (%MX0.3)");
@@ -60,7 +60,8 @@ std::optional<Location> parse_location(const std::string& a, std::string* error)
     for (size_t k = 1; k < parts.size(); ++k) {
       if (parts[k] > 255) return bad("has a level above 255 after the first (rtplc maps 0 to 255)");
     }
-    const uint32_t base = l.size == 'X' ? 100 : l.size == 'W' ? 125 : l.size == 'D' ? 150 : 175;
+    const uint32_t base =
+        l.size == 'X' ? 100 : l.size == 'W' ? 125 : l.size == 'D' ? 150 : l.size == 'L' ? 175 : 200;
     l.p = base + parts[0];
     l.d = parts[1];
     l.c = (parts.size() > 2 ? parts[2] : 0) * 256 + (parts.size() > 3 ? parts[3] : 0);
@@ -84,12 +85,12 @@ std::optional<Location> parse_location(const std::string& a, std::string* error)
     }
   } else {
     if (parts.size() != 1) return bad("needs one number, e.g. %IW2");
-    const uint32_t group = l.size == 'W' ? 0 : l.size == 'D' ? 2 : 3;
+    const uint32_t group = l.size == 'W' ? 0 : l.size == 'D' ? 2 : l.size == 'L' ? 3 : 4;
     l.p = group;
     l.d = 0;
     l.c = parts[0];
     if (l.area == 'M') {
-      l.d = l.size == 'W' ? 1 : l.size == 'D' ? 2 : 3;
+      l.d = l.size == 'W' ? 1 : l.size == 'D' ? 2 : l.size == 'L' ? 3 : 4;
       l.c = parts[0];
     }
   }
@@ -523,8 +524,11 @@ Var* Lowering::lookup(Scope& s, const std::string& name, SourcePos pos, bool rep
     auto decl = std::make_unique<Variable>();
     decl->name = up.substr(1);
     decl->address = up;
-    decl->type.base = loc->size == 'X' ? BaseType::kBool : loc->size == 'W' ? BaseType::kInt
-                      : loc->size == 'D' ? BaseType::kDint : BaseType::kLint;
+    decl->type.base = loc->size == 'X'   ? BaseType::kBool
+                      : loc->size == 'B' ? BaseType::kByte
+                      : loc->size == 'W' ? BaseType::kInt
+                      : loc->size == 'D' ? BaseType::kDint
+                                         : BaseType::kLint;
     decl->section = VarSection::kGlobal;
     decl->pos = pos;
     const Variable& d = *decl;
@@ -1320,10 +1324,36 @@ Var& Lowering::eno_var(const Var& fb) {
   return *eno_vars_.emplace(&fb, std::move(v)).first->second;
 }
 
-void Lowering::program_instance(const Pou& pou, const std::string& path) {
+void Lowering::program_instance(const Pou& pou, const std::string& path,
+                                const std::vector<PouInstance::Connection>& connections) {
   programs_.push_back(make_scope(pou, path, 0));
   Scope& s = *programs_.back();
   s.called = true;
+  // The instance's connections (PouInstance::Connection): each names an input
+  // or output of the program; its source or sink is read in the
+  // configuration's scope (the globals and direct variables).
+  if (!globals_) globals_ = std::make_unique<Scope>();
+  std::vector<std::pair<Var*, const PouInstance::Connection*>> outputs;
+  for (const PouInstance::Connection& c : connections) {
+    auto it = s.vars.find(upper(c.formal));
+    const VarSection want = c.output ? VarSection::kOutput : VarSection::kInput;
+    if (it == s.vars.end() || !it->second->decl || it->second->decl->section != want) {
+      d_.error(c.pos, "program " + pou.name + " has no " + (c.output ? "VAR_OUTPUT '" : "VAR_INPUT '") + c.formal +
+                          "' to connect" + (c.output ? " with =>" : " with :="));
+      continue;
+    }
+    auto e = parse_st_expression(c.text->text, *c.text, d_);
+    if (!e) continue;
+    if (c.output) {
+      if (e->kind != Expr::Kind::kName || e->name.find('[') != std::string::npos) {
+        d_.error(c.pos, "'" + c.formal + " =>' connects to a global variable or a direct variable (%QX0.0)");
+        continue;
+      }
+      outputs.emplace_back(it->second.get(), &c);
+    } else {
+      assign(*it->second, eval(*globals_, *e), c.pos);
+    }
+  }
   if (trigger_.empty()) {
     lower_body(s);
   } else {
@@ -1337,6 +1367,10 @@ void Lowering::program_instance(const Pou& pou, const std::string& path) {
     }
     const Value fire = rising(read(*t, trigger_pos_), s.path + ".$single", trigger_pos_);
     guarded(fire, trigger_pos_, [&] { lower_body(s); });
+  }
+  for (const auto& [v, c] : outputs) {
+    auto e = parse_st_expression(c->text->text, *c->text, d_);
+    if (e) store(*globals_, e->name, e->args, read(*v, c->pos), c->pos);
   }
   finalize(s);
 }

@@ -95,7 +95,8 @@ class Lowering {
   Lowering(const Project& p, CheckedProgram& out, DiagnosticList& d);
 
   // Lowers program instance `path` of `pou`, then (after all) finish().
-  void program_instance(const Pou& pou, const std::string& path);
+  void program_instance(const Pou& pou, const std::string& path,
+                        const std::vector<PouInstance::Connection>& connections = {});
   void set_globals(const std::vector<const Variable*>& globals);
   bool finish();
 

@@ -152,6 +152,17 @@ struct PouInstance {
   std::string name;
   std::string type_name;
   SourcePos pos;
+  // A .st file's `PROGRAM p WITH t : Main (level := %IW0, alarm => %QX0.0);`:
+  // an input set from a constant, a global or a direct variable before each
+  // run, an output copied to a global or a direct variable after it. `text`
+  // holds the source or sink, its positions the file's.
+  struct Connection {
+    std::string formal;
+    bool output = false;
+    const XmlElement* text = nullptr;
+    SourcePos pos;
+  };
+  std::vector<Connection> connections;
 };
 
 struct Task {

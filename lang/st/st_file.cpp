@@ -161,7 +161,7 @@ class Reader {
     p.root.name = "st-file";
     size_t chart_elements = 0;
     for (const ChartText& c : charts_) chart_elements += 1 + c.actions.size();
-    p.root.children.reserve(bodies.size() + inits_.size() + chart_elements);
+    p.root.children.reserve(bodies.size() + inits_.size() + chart_elements + connections_.size());
     for (const auto& [b, e] : bodies) {
       XmlElement el;
       el.name = "ST";
@@ -196,6 +196,23 @@ class Reader {
         nb.body.source = p.root.children.back().text;
         nb.body.pos = p.root.children.back().pos;
         u.actions.push_back(std::move(nb));
+      }
+    }
+    // Program instances' connections: each its text's element.
+    for (plcopen::Configuration& c : p.configurations) {
+      for (plcopen::Resource& r : c.resources) {
+        auto place = [&](std::vector<plcopen::PouInstance>& instances) {
+          for (plcopen::PouInstance& pi : instances) {
+            for (plcopen::PouInstance::Connection& k : pi.connections) {
+              auto it = connections_.find({k.pos.line, k.pos.col});
+              if (it == connections_.end()) continue;
+              p.root.children.push_back(std::move(it->second));
+              k.text = &p.root.children.back();
+            }
+          }
+        };
+        for (plcopen::Task& t : r.tasks) place(t.instances);
+        place(r.unassigned);
       }
     }
     resolve_initials(p);
@@ -1206,8 +1223,46 @@ class Reader {
       expect(":", "before the program's type");
       pi.type_name = name("the program's type");
       skip();
-      if (t_.substr(i_, 1) == "(")
-        return fail(i_, "connections of a program instance's variables are not supported yet (docs/st.md)");
+      if (accept("(")) {
+        // (input := constant | global | %I..., output => global | %Q..., ...)
+        while (ok_ && !accept(")")) {
+          skip();
+          const size_t c_at = i_;
+          plcopen::PouInstance::Connection c;
+          c.formal = name("a variable of the program to connect");
+          c.pos = pos(c_at);
+          if (accept(":=")) {
+            c.output = false;
+          } else if (accept("=>")) {
+            c.output = true;
+          } else {
+            return fail(i_, "expected ':=' (an input's source) or '=>' (an output's sink) after '" + c.formal + "'");
+          }
+          skip();
+          const size_t b = i_;
+          size_t e = i_;
+          int depth = 0;
+          while (e < t_.size() && !(depth == 0 && (t_[e] == ',' || t_[e] == ')'))) {
+            if (t_[e] == '(' || t_[e] == '[') ++depth;
+            if (t_[e] == ')' || t_[e] == ']') --depth;
+            if (t_[e] == '\'' || t_[e] == '"') {
+              const size_t close = string_close(t_, e);
+              if (close == std::string_view::npos) break;
+              e = close;
+            }
+            ++e;
+          }
+          size_t te = e;
+          while (te > b && std::isspace(static_cast<unsigned char>(t_[te - 1]))) --te;
+          if (te == b) return fail(b, "expected the connection's " + std::string(c.output ? "sink" : "source"));
+          // Its text's element, found by the connection's place once read()
+          // has put the holders where they stay.
+          connections_.emplace(std::pair{c.pos.line, c.pos.col}, text_holder("ST", b, te));
+          pi.connections.push_back(std::move(c));
+          i_ = e;
+          accept(",");
+        }
+      }
       accept(";");
       if (!ok_) return;
       if (task.empty()) {
@@ -1238,6 +1293,7 @@ class Reader {
   }
 
   std::vector<ChartText> charts_;
+  std::map<std::pair<uint32_t, uint32_t>, XmlElement> connections_;  // line:col -> source or sink text
   static constexpr char kMarker = '\x01';  // never in a valid initial value's text
   std::vector<std::pair<size_t, size_t>> inits_;
   std::string owned_;  // the file with its comments blanked (blank_comments)

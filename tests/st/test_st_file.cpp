@@ -774,6 +774,47 @@ TEST(StFile, an_entry_chooses_a_task_instance_or_program) {
   EXPECT_NE(r.diags.items().at(0).message.find("task task0"), std::string::npos);
 }
 
+// `PROGRAM p WITH t : Main (in := source, out => sink)`: an input set before
+// each run from a constant, a global or a direct variable, an output copied
+// after it to a global or a direct variable (IEC 61131-3's prog_cnxn).
+TEST(StFile, a_program_instance_connects_its_inputs_and_outputs) {
+  const std::string src = R"(PROGRAM Main
+VAR_INPUT level : INT; limit : INT; END_VAR
+VAR_OUTPUT alarm : BOOL; twice : INT; END_VAR
+  alarm := level > limit;
+  twice := level * 2;
+END_PROGRAM
+CONFIGURATION C
+  VAR_GLOBAL g : INT := 7; copy : INT; END_VAR
+  RESOURCE R ON PLC
+    TASK t (INTERVAL := T#10ms);
+    PROGRAM p WITH t : Main (level := g, limit := 5,
+                             alarm => %QX0.3, twice => copy);
+  END_RESOURCE
+END_CONFIGURATION
+)";
+  FbdHarness h(src, 0.01, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("c.st", src);
+  const Binding* out = nullptr;
+  for (const Binding& b : h.image().bindings()) {
+    if (b.dir == BindingDir::kOutput && b.p == 1 && b.d == 0 && b.c == 3) out = &b;
+  }
+  ASSERT_NE(out, nullptr);  // %QX0.3 is the output p1.d0.c3
+  h.step();
+  EXPECT_EQ(h.value("p.alarm"), 1);   // 7 > 5
+  EXPECT_EQ(h.value("copy"), 14);     // twice => copy, a global
+  EXPECT_EQ(h.value("QX0.3"), 1);     // the direct variable the output drives
+  auto err = [&](const std::string& connection) {
+    std::string bad = src;
+    bad.replace(bad.find("level := g"), 10, connection);
+    return first_error(bad);
+  };
+  EXPECT_EQ(err("alarm := g"), "11:30: program Main has no VAR_INPUT 'alarm' to connect with :=");
+  EXPECT_EQ(err("level => g"), "11:30: program Main has no VAR_OUTPUT 'level' to connect with =>");
+  EXPECT_EQ(err("level  g  "), "11:37: expected ':=' (an input's source) or '=>' (an output's sink) after 'level'");
+  EXPECT_EQ(err("twice => g + 1"), "11:30: 'twice =>' connects to a global variable or a direct variable (%QX0.0)");
+}
+
 TEST(StFile, a_configuration_may_hold_its_task_without_a_resource) {
   const char* src =
       "PROGRAM P VAR y AT %QW0 : INT; END_VAR y := 4; END_PROGRAM\n"
