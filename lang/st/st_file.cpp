@@ -172,7 +172,7 @@ class Reader {
     }
     for (size_t k = 0; k < p.pous.size(); ++k) {
       plcopen::Body& body = p.pous[k].body;
-      body.language = plcopen::BodyLanguage::kSt;
+      body.language = is_il(bodies[k].first, bodies[k].second) ? plcopen::BodyLanguage::kIl : plcopen::BodyLanguage::kSt;
       body.text = &p.root.children[k];
       body.source = p.root.children[k].text;
       body.pos = p.root.children[k].pos;
@@ -821,6 +821,36 @@ class Reader {
     i_ = k + end.size();
     accept(";");
     p.pous.push_back(std::move(u));
+  }
+
+  // ---- IL bodies ----
+  // A POU body in IL (MatIEC reads both languages in one file): its first
+  // word is an IL operator followed by an operand on the same line, or a
+  // label `name:` before one; `LD := 1;` (a variable named LD) stays ST.
+  bool is_il(size_t b, size_t e) {
+    static const char* const kOps[] = {"LD",   "LDN",  "ST",   "STN",  "S",    "R",    "AND",  "ANDN",  "OR",
+                                       "ORN",  "XOR",  "XORN", "NOT",  "ADD",  "SUB",  "MUL",  "DIV",   "MOD",
+                                       "GT",   "GE",   "EQ",   "NE",   "LE",   "LT",   "JMP",  "JMPC",  "JMPCN",
+                                       "CAL",  "CALC", "CALCN", "RET", "RETC", "RETCN"};
+    const size_t save = i_;
+    i_ = b;
+    std::string w = word();
+    if (i_ < e && t_[i_] == ':' && (i_ + 1 >= t_.size() || t_[i_ + 1] != '=')) {  // a label
+      ++i_;
+      w = word();
+    }
+    bool op_word = false;
+    for (const char* op : kOps) op_word = op_word || w == op;
+    bool il = i_ <= e && op_word;
+    if (il) {
+      // The operand follows on the same line (or nothing: RET, NOT); not `:=`, `(` of a call or `;`.
+      size_t k = i_;
+      while (k < e && (t_[k] == ' ' || t_[k] == '\t')) ++k;
+      il = k >= e || t_[k] == '\n' || t_[k] == '\r' || (t_[k] != ':' && t_[k] != ';' && t_[k] != '(' && t_[k] != '[' &&
+                                                         t_[k] != '.' && t_[k] != '=');
+    }
+    i_ = save;
+    return il;
   }
 
   // ---- textual SFC (docs/st.md, "Textual SFC") ----

@@ -815,6 +815,31 @@ END_CONFIGURATION
   EXPECT_EQ(err("twice => g + 1"), "11:30: 'twice =>' connects to a global variable or a direct variable (%QX0.0)");
 }
 
+// MatIEC reads POU bodies in IL and ST from one file: a body whose first word
+// is an IL operator with its operand is IL (docs/st.md, "How it is read").
+TEST(StFile, a_body_in_il_is_read_as_il) {
+  const char* src = R"(FUNCTION_BLOCK Acc
+VAR_INPUT x : INT; END_VAR
+VAR_OUTPUT sum : INT; END_VAR
+  LD sum
+  ADD x
+  ST sum
+END_FUNCTION_BLOCK
+PROGRAM P
+VAR a : Acc; ld : INT; big : BOOL; END_VAR
+  ld := 5;
+  a(x := ld);
+  big := a.sum > 12;
+END_PROGRAM
+)";
+  FbdHarness h(src, 0.1, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("il.st", src);
+  h.step(3);
+  EXPECT_EQ(h.value("P.a.sum"), 15);  // 5 a cycle, in IL
+  EXPECT_EQ(h.value("P.big"), 1);     // `ld := 5;` stayed ST: a variable named LD
+  EXPECT_EQ(first_error("PROGRAM P VAR a : INT; END_VAR\n  LD a\n  ADD\nEND_PROGRAM\n").substr(0, 4), "3:3:");
+}
+
 TEST(StFile, a_configuration_may_hold_its_task_without_a_resource) {
   const char* src =
       "PROGRAM P VAR y AT %QW0 : INT; END_VAR y := 4; END_PROGRAM\n"
