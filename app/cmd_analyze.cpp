@@ -90,9 +90,9 @@ petri::Net load_net(AnalyzeArgs& a) {
     DiagnosticList diags;
     std::optional<lang::sfc::SfcNet> sfc;
     std::optional<lang::plcopen::Project> st_project;
-    if (st_file) st_project = lang::st::read_st_file(text, diags);
+    if (st_file && !sfc_file) st_project = lang::st::read_st_file(text, diags);
     std::optional<lang::sfc::Chart> chart;
-    if (st_file && st_project) {
+    if (st_project) {
       chart = lang::plcopen::read_sfc_pou(*st_project, a.pou, diags);
     } else if (!st_file && !sfc_file) {
       chart = lang::plcopen::read_sfc_pou(text, a.pou, diags);

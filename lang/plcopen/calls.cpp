@@ -277,8 +277,11 @@ std::optional<Value> Lowering::call_function(Scope& s, const std::string& name, 
   // An extensible function called with one argument (Beremiz writes
   // `OR(x)` for a block left with one input) is that argument, as MatIEC
   // compiles it: its C function folds the inputs it is given, one here.
-  if (f->extensible && given == 1 && placed.size() == 1 && placed[0] &&
-      (up == "AND" || up == "OR" || up == "XOR" || up == "ADD" || up == "MUL" || up == "MAX" || up == "MIN")) {
+  // (ADD, MUL, MAX and MIN of a BOOL are type errors there, as with two.)
+  const bool logic = up == "AND" || up == "OR" || up == "XOR";
+  const bool arith = up == "ADD" || up == "MUL" || up == "MAX" || up == "MIN";
+  if (f->extensible && given == 1 && placed.size() == 1 && placed[0] && !placed[0]->str &&
+      (logic || (arith && !placed[0]->digital))) {
     return *placed[0];
   }
   if (given < f->min_inputs || given != placed.size()) {
@@ -359,7 +362,7 @@ Value Lowering::fb_output(Var& v, const std::string& name, SourcePos pos) {
     d_.error(pos, v.std_fb.type + " has no output '" + name + "' (it has " + outs + ")");
     return constant(0, false);
   }
-  if (auto g = gathered_.find(&v); g != gathered_.end() && !g->second.empty()) {
+  if (auto g = gathered_.find(&v); g != gathered_.end() && g->second.size() > gathered_floor_[&v]) {
     d_.error(pos, "'" + v.decl->name + "." + up + "' is read after a call of '" + v.decl->name +
                       "' inside the IF or CASE that calls it in several branches; read it after the END_IF or END_CASE");
     return constant(0, false);
@@ -405,8 +408,8 @@ void Lowering::call_fb(Var& v, const std::vector<std::pair<std::string, Value>>&
     // textual call.
     if (fb.called) {
       if (fb.pou->body.language == BodyLanguage::kSfc) {
-        d_.error(pos, "'" + v.decl->name + "' is called twice in one cycle, and its body is an SFC, which "
-                          "evolves once per cycle: call the instance once");
+        d_.error(pos, "'" + v.decl->name + "' is called a second time here (in this cycle or another branch), and "
+                          "its body is an SFC, which evolves once per cycle: call the instance in one place");
         return;
       }
       if (const std::string inner = standard_fb_inside(fb); !inner.empty()) {
@@ -484,6 +487,7 @@ void Lowering::call_fb(Var& v, const std::vector<std::pair<std::string, Value>>&
 void Lowering::begin_gathered(Var& v) { gathered_[&v]; }
 
 void Lowering::end_gathered(Var& v, SourcePos pos) {
+  gathered_floor_.erase(&v);
   auto g = gathered_.find(&v);
   if (g == gathered_.end()) return;
   std::vector<GatheredCall> calls = std::move(g->second);

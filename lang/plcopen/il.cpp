@@ -169,8 +169,7 @@ void Lowering::lower_il(Scope& s, const Body& body) {
     for (Var* v : vs) {
       // A located input the body writes too (MatIEC's: lasts until the next cycle).
       if ((v->role != Var::Role::kPlain && v->role != Var::Role::kInput) || (v->decl && v->decl->constant)) continue;
-      homes.emplace_back(v, make_home(v->path, v->digital, v->integer, body_pos,
-                                        v->str ? std::optional<uint32_t>(v->cap) : std::nullopt, v->wide));
+      homes.emplace_back(v, make_home_for(*v, body_pos));
     }
   }
   // The variables' homes, and `extra` (the current result's and P's), set at

@@ -51,20 +51,25 @@ std::optional<Location> parse_location(const std::string& a, std::string* error)
   if (parts.size() >= (l.size == 'X' ? 3u : 2u)) {
     // Beremiz's hierarchical addresses (%IX0.1.0.0, %IW0.0.2.0: an
     // extension's location, then the item in it): a channel of processor
-    // 100 + first level (X), 125 + (W), 150 + (D), 175 + (L), 200 + (B), device the
-    // second level, channel third * 256 + fourth (docs/plcopen.md,
-    // "Located variables"); a driver binds it by that address.
+    // 100 + first level (X), 125 + (W), 150 + (D), 175 + (L), 200 + (B),
+    // one address per form, however many levels (docs/plcopen.md, "Located
+    // variables"):   a.b       -> d255, c b
+    //                a.b.c     -> d b, c c          (b <= 254, c <= 255)
+    //                a.b.c.d   -> d b, c 256 + 256c + d   (c <= 254)
+    // A driver binds it by that address.
     if (l.area == 'M') return bad("has several levels; a memory address has one (%MW2) or byte.bit (%MX0.3)");
     if (parts.size() > 4) return bad("has more than four levels (rtplc maps up to four: %IX0.1.2.3)");
     if (parts[0] > 24) return bad("has a first level above 24 (rtplc maps 0 to 24)");
-    for (size_t k = 1; k < parts.size(); ++k) {
-      if (parts[k] > 255) return bad("has a level above 255 after the first (rtplc maps 0 to 255)");
+    if (parts.size() > 2 && parts[1] > 254) return bad("has a second level above 254 (rtplc maps 0 to 254 here)");
+    if (parts.size() == 3 && parts[2] > 255) return bad("has a third level above 255 (rtplc maps 0 to 255)");
+    if (parts.size() == 4 && (parts[2] > 254 || parts[3] > 255)) {
+      return bad("has a third level above 254 or a fourth above 255 (rtplc maps those)");
     }
     const uint32_t base =
         l.size == 'X' ? 100 : l.size == 'W' ? 125 : l.size == 'D' ? 150 : l.size == 'L' ? 175 : 200;
     l.p = base + parts[0];
-    l.d = parts[1];
-    l.c = (parts.size() > 2 ? parts[2] : 0) * 256 + (parts.size() > 3 ? parts[3] : 0);
+    l.d = parts.size() == 2 ? 255 : parts[1];
+    l.c = parts.size() == 2 ? parts[1] : parts.size() == 3 ? parts[2] : 256 + 256 * parts[2] + parts[3];
     return l;
   }
   if (l.size == 'X') {
@@ -814,6 +819,10 @@ Lowering::LoopHome Lowering::make_home_for(const Value& v, const std::string& st
   return make_home(stem, v.digital, v.integer, pos, v.str ? std::optional<uint32_t>(v.cap) : std::nullopt, v.wide);
 }
 
+Lowering::LoopHome Lowering::make_home_for(const Var& v, SourcePos pos) {
+  return make_home(v.path, v.digital, v.integer, pos, v.str ? std::optional<uint32_t>(v.cap) : std::nullopt, v.wide);
+}
+
 Lowering::LoopHome Lowering::make_home(const std::string& stem, bool digital, bool integer, SourcePos pos,
                                        std::optional<uint32_t> str_cap, bool wide) {
   LoopHome h;
@@ -982,36 +991,20 @@ void Lowering::store(Scope& s, const std::string& path, const std::vector<std::u
 
 Value Lowering::start_value(Var& v, SourcePos pos) {
   if (v.start) return *v.start;
-  if (v.str) {
-    Value init = string_constant("", v.wide);
-    if (!v.decl->initial.empty()) {
-      std::string error;
-      bool wide = false;
-      const auto text = parse_string_literal(v.decl->initial, &error, &wide);
-      if (!text) {
-        d_.error(v.decl->pos, "variable '" + v.decl->name + "': initial value " + v.decl->initial + ": " + error);
-      } else if (wide != v.wide) {
-        d_.error(v.decl->pos, "variable '" + v.decl->name + "' is a " + (v.wide ? "WSTRING: its initial value is \"...\""
-                                                                                : "STRING: its initial value is '...'"));
-      } else {
-        init = em_.cut_string(string_constant(*text, wide), v.cap, v.decl->pos);
-      }
+  Value init = v.str ? string_constant("", v.wide) : constant(0, v.digital);
+  if (!v.decl->initial.empty() && v.str) {
+    std::string error;
+    bool wide = false;
+    const auto text = parse_string_literal(v.decl->initial, &error, &wide);
+    if (!text) {
+      d_.error(v.decl->pos, "variable '" + v.decl->name + "': initial value " + v.decl->initial + ": " + error);
+    } else if (wide != v.wide) {
+      d_.error(v.decl->pos, "variable '" + v.decl->name + "' is a " + (v.wide ? "WSTRING: its initial value is \"...\""
+                                                                              : "STRING: its initial value is '...'"));
+    } else {
+      init = em_.cut_string(string_constant(*text, wide), v.cap, v.decl->pos);
     }
-    const bool in_function = v.path.find("()") != std::string::npos;
-    if (in_function || v.decl->constant || v.decl->section == VarSection::kTemp) {
-      v.start = init;
-      return init;
-    }
-    Value prev;
-    prev.ref = v.path;  // the end-of-cycle copy: last cycle's value
-    prev.str = true;
-    prev.wide = v.wide;
-    prev.cap = v.cap;
-    v.start = init.text.empty() ? prev : em_.select(em_.first_cycle(pos), init, prev, pos);
-    return *v.start;
-  }
-  Value init = constant(0, v.digital);
-  if (!v.decl->initial.empty()) {
+  } else if (!v.decl->initial.empty()) {
     bool b = false;
     auto k = parse_literal(v.decl->initial, &b);
     if (!k) {
@@ -1041,7 +1034,10 @@ Value Lowering::start_value(Var& v, SourcePos pos) {
   prev.ref = v.path;  // the end-of-cycle copy, which runs later: last cycle's value
   prev.digital = v.digital;
   prev.integer = v.integer;
-  if (init.k == 0) {
+  prev.str = v.str;
+  prev.wide = v.wide;
+  prev.cap = v.cap;
+  if (v.str ? init.text.empty() : init.k == 0) {
     v.start = prev;
   } else {
     Value s = em_.select(em_.first_cycle(pos), init, prev, pos);
@@ -1333,8 +1329,9 @@ void Lowering::program_instance(const Pou& pou, const std::string& path,
   // or output of the program; its source or sink is read in the
   // configuration's scope (the globals and direct variables).
   if (!globals_) globals_ = std::make_unique<Scope>();
-  std::vector<std::pair<Var*, const PouInstance::Connection*>> outputs;
+  std::vector<std::pair<Var*, std::unique_ptr<Expr>>> outputs;
   for (const PouInstance::Connection& c : connections) {
+    if (!c.text) continue;
     auto it = s.vars.find(upper(c.formal));
     const VarSection want = c.output ? VarSection::kOutput : VarSection::kInput;
     if (it == s.vars.end() || !it->second->decl || it->second->decl->section != want) {
@@ -1349,7 +1346,7 @@ void Lowering::program_instance(const Pou& pou, const std::string& path,
         d_.error(c.pos, "'" + c.formal + " =>' connects to a global variable or a direct variable (%QX0.0)");
         continue;
       }
-      outputs.emplace_back(it->second.get(), &c);
+      outputs.emplace_back(it->second.get(), std::move(e));
     } else {
       assign(*it->second, eval(*globals_, *e), c.pos);
     }
@@ -1368,10 +1365,7 @@ void Lowering::program_instance(const Pou& pou, const std::string& path,
     const Value fire = rising(read(*t, trigger_pos_), s.path + ".$single", trigger_pos_);
     guarded(fire, trigger_pos_, [&] { lower_body(s); });
   }
-  for (const auto& [v, c] : outputs) {
-    auto e = parse_st_expression(c->text->text, *c->text, d_);
-    if (e) store(*globals_, e->name, e->args, read(*v, c->pos), c->pos);
-  }
+  for (const auto& [v, e] : outputs) store(*globals_, e->name, e->args, read(*v, e->pos), e->pos);
   finalize(s);
 }
 

@@ -183,6 +183,12 @@ class Lowering {
   void begin_gathered(Var& v);
   void end_gathered(Var& v, SourcePos pos);
   bool gathered(const Var& v) const { return gathered_.count(&v) != 0; }
+  // A branch of a two-pass IF starts here: reading `v`'s outputs is refused
+  // only after a call noted in this branch (st_lowering.cpp, Split).
+  void gathered_branch_starts(const Var& v) {
+    auto g = gathered_.find(&v);
+    gathered_floor_[&v] = g == gathered_.end() ? 0 : g->second.size();
+  }
   size_t gathering() const { return gathered_.size(); }  // instances being gathered now
   bool fb_output_digital(const Var& v, const std::string& name) const;
 
@@ -228,6 +234,8 @@ class Lowering {
                      std::optional<uint32_t> str_cap = std::nullopt, bool wide = false);
   // A home shaped as `v` holds it (a number, a BOOL, a STRING or WSTRING of its length).
   LoopHome make_home_for(const Value& v, const std::string& stem, SourcePos pos);
+  // The home of variable `v` (its path, kind and string length).
+  LoopHome make_home_for(const Var& v, SourcePos pos);
   void set_home(const LoopHome& h, const Value& v, SourcePos pos);
   // Sets `v`'s home `h` to `v`'s value now, unless that is the home's own
   // value already; true when it set it.
@@ -333,7 +341,6 @@ class Lowering {
   std::optional<Value> step_member(Scope& s, const std::string& path, SourcePos pos);
   void step_times(Scope& s, const XmlElement& body, const sfc::Chart& chart, const sfc::HostLink& host);
   void stamp_step_times(Scope& s, const sfc::HostLink& host, bool entered_reads_zero);
-  std::map<const Scope*, Value> step_clock_;  // the chart's always-running timer's ET
   std::vector<std::string> produced_;           // FB output blocks made
   struct PathCond {
     Value cond;
@@ -346,6 +353,7 @@ class Lowering {
     std::vector<std::optional<Value>> placed;
   };
   std::map<const Var*, std::vector<GatheredCall>> gathered_;
+  std::map<const Var*, size_t> gathered_floor_;  // calls noted before the branch being lowered
   std::string trigger_;
   SourcePos trigger_pos_;
   EditorSemantics semantics_ = EditorSemantics::kMatiec;

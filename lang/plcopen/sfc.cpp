@@ -354,7 +354,10 @@ std::optional<Value> Lowering::step_member(Scope& s, const std::string& path, So
       if (auto v = t->second.find(step); v != t->second.end()) return v->second.now;
     }
   }
-  d_.error(pos, "'" + path + "': a step has .X (active) and .T (elapsed time), no ." + path.substr(dot + 1));
+  d_.error(pos, member == "T" ? "'" + path + "': rtplc did not see this step's .T written as `" + path.substr(0, dot) +
+                                  ".T` in the POU's text (a comment inside it?), so it has no elapsed time to read"
+                              : "'" + path + "': a step has .X (active) and .T (elapsed time), no ." +
+                                    path.substr(dot + 1));
   return constant(0, false);
 }
 
@@ -402,36 +405,46 @@ bool mentions_step_time(const Pou& pou, const XmlElement& chart, const std::stri
 // A step's elapsed time, as MatIEC keeps it: at the start of each scan an
 // active step's T grows by the scan's time, a step entered in the scan starts
 // at 0, a step left keeps its last T. Built for the steps whose `.T` the POU
-// mentions, before the conditions (which read T as the scan started), from
-// one always-running timer's ET `clock` (cycles times the period, exact on
-// the nanosecond grid): T = X ? clock - clock at entry : T at the end of the
-// last scan. After the chart (stamp_step_times) each step's entry is stamped
-// and T at the end of the scan, `<path>.step.<S>.T`, is 0 for a step entered
-// in it (MatIEC's order; its actions read that); under CODESYS's order, whose
-// actions and conditions run before the chart, T stays as the scan started.
+// mentions, before the conditions (which read T as the scan started):
+//   T = X ? T at the end of the last scan + dt : T at the end of the last scan
+// on the nanosecond grid, X the flag the scan started with. dt, the scan's
+// time, is the step of a timer that runs from 0 to an hour and starts again
+// (`.$sfc.clock`: TON(IN := NOT its Q)): ET - ET of the last scan, while it
+// grows (kept across the restart), so every figure stays small and exact.
+// After the chart (stamp_step_times) T at the end of the scan,
+// `<path>.step.<S>.T`, is 0 for a step entered in it; MatIEC's actions run
+// after the chart and read that, CODESYS's run before it and read T as the
+// conditions do.
 void Lowering::step_times(Scope& s, const XmlElement& body, const sfc::Chart& chart, const sfc::HostLink& host) {
   std::map<std::string, StepTime>& times = step_times_[&s];
-  Value clock;
+  Value dt;
   for (const sfc::Step& st : chart.steps) {
     const std::string up = upper(st.name);
     if (!mentions_step_time(*s.pou, body, up)) continue;
-    if (!clock.valid()) {
-      // 1e9 s (31 years) is never reached: ET counts on.
-      const std::vector<Value> outs = lower_iec(*iec::find_iec("TON"), s.path + ".$sfc.clock",
-                                                {constant(1, true), constant(1e9, false)}, chart.pos);
+    if (!dt.valid()) {
+      const std::string clock = s.path + ".$sfc.clock";
+      Value q, last, held;
+      q.ref = clock + ".Q";  // read before the timer: last scan's
+      q.digital = true;
+      const std::vector<Value> outs = lower_iec(*iec::find_iec("TON"), clock,
+                                                {em_.unary_not(q, chart.pos), constant(3600, false)}, chart.pos);
       if (outs.size() < 2) return;
-      clock = outs[1];
-      step_clock_[&s] = clock;
+      const Value et = outs[1];
+      last.ref = clock + ".last";
+      held.ref = s.path + ".$sfc.dt";
+      const Value grew = em_.binary(BinOp::kGt, et, last, chart.pos);
+      const Value step = on_time_grid(em_.binary(BinOp::kSub, et, last, chart.pos), 1e9, chart.pos);
+      em_.copy_as(em_.select(grew, step, held, chart.pos), held.ref, chart.pos);
+      em_.copy_as(et, last.ref, chart.pos);
+      dt = held;
     }
     const std::string base = s.path + ".step." + st.name;
-    Value flag;
+    Value flag, last;
     flag.ref = sfc::step_flag_block(host, st.name);  // a later block: the flag the scan started with
     flag.digital = true;
-    Value entered, last;
-    entered.ref = base + ".$entered";  // both made by stamp_step_times
-    last.ref = base + ".T";
-    const Value since = on_time_grid(em_.binary(BinOp::kSub, clock, entered, st.pos), 1e9, st.pos);
-    Value t = em_.select(flag, since, last, st.pos);
+    last.ref = base + ".T";  // made by stamp_step_times: the end of the last scan
+    const Value grown = on_time_grid(em_.binary(BinOp::kAdd, last, dt, st.pos), 1e9, st.pos);
+    Value t = em_.select(flag, grown, last, st.pos);
     t.time_type = iec::IecType::kTime;
     times[up] = StepTime{st.name, t};
     out_.variables.push_back(last.ref);
@@ -441,21 +454,16 @@ void Lowering::step_times(Scope& s, const XmlElement& body, const sfc::Chart& ch
 void Lowering::stamp_step_times(Scope& s, const sfc::HostLink& host, bool entered_reads_zero) {
   auto it = step_times_.find(&s);
   if (it == step_times_.end()) return;
-  const Value clock = step_clock_[&s];
   for (auto& [up, t] : it->second) {
     const std::string base = s.path + ".step." + t.step;
     Value flag;
     flag.ref = sfc::step_flag_block(host, t.step);
     flag.digital = true;
     const Value entering = rising(flag, base + ".$rise", SourcePos{});
-    Value stamp;
-    stamp.ref = base + ".$entered";
-    em_.copy_as(em_.select(entering, clock, stamp, SourcePos{}), stamp.ref, SourcePos{});
-    if (entered_reads_zero) {
-      t.now = em_.select(entering, constant(0, false), t.now, SourcePos{});
-      t.now.time_type = iec::IecType::kTime;
-    }
-    em_.copy_as(t.now, base + ".T", SourcePos{});
+    Value end = em_.select(entering, constant(0, false), t.now, SourcePos{});
+    end.time_type = iec::IecType::kTime;
+    em_.copy_as(end, base + ".T", SourcePos{});
+    if (entered_reads_zero) t.now = end;
   }
 }
 

@@ -112,9 +112,8 @@ std::vector<Tok> lex(std::string_view s, const XmlElement& origin, DiagnosticLis
         ++i;
         if ((prefix == "STRING" || prefix == "WSTRING") && i < s.size() && (s[i] == '\'' || s[i] == '"')) {
           // STRING#'text': a typed string literal, read as one.
-          size_t e = i + 1;
-          while (e < s.size() && s[e] != s[i]) e += s[e] == '$' ? 2u : 1u;
-          i = e >= s.size() ? s.size() : e + 1;
+          const size_t e = string_close(s, i);
+          i = e == std::string_view::npos ? s.size() : e + 1;
           t.t = Tok::T::kString;
           t.text.assign(s.substr(b, i - b));
           t.up = upper(t.text);
@@ -152,9 +151,8 @@ std::vector<Tok> lex(std::string_view s, const XmlElement& origin, DiagnosticLis
       t.t = Tok::T::kNumber;
     } else if (c == '\'' || c == '"') {
       // Up to the closing quote; `$'` (`$"`) and `$$` do not close it.
-      size_t e = i + 1;
-      while (e < s.size() && s[e] != c) e += s[e] == '$' ? 2u : 1u;
-      i = e >= s.size() ? s.size() : e + 1;
+      const size_t e = string_close(s, i);
+      i = e == std::string_view::npos ? s.size() : e + 1;
       t.t = Tok::T::kString;
     } else {
       static const char* const two[] = {":=", "=>", "<=", ">=", "<>", "**", ".."};
@@ -867,6 +865,14 @@ class Parser {
 };
 
 }  // namespace
+
+size_t string_close(std::string_view text, size_t open) {
+  for (size_t k = open + 1; k < text.size(); ++k) {
+    if (text[k] == '$') ++k;
+    else if (text[k] == text[open]) return k;
+  }
+  return std::string_view::npos;
+}
 
 size_t pragma_close(std::string_view text, size_t open) {
   int depth = 0;

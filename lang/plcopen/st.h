@@ -96,6 +96,9 @@ Block parse_st_range(std::string_view text, size_t begin, size_t end, const XmlE
 // The `}` closing the pragma that opens at `open` (a `{`), braces nested inside
 // it counted (Beremiz's `{{ C code }}`); npos when it never closes.
 size_t pragma_close(std::string_view text, size_t open);
+// The closing quote of the string literal that opens at `open` (`'` or `"`):
+// a `$` escapes the character after it (`$'`, `$$`). npos when it never closes.
+size_t string_close(std::string_view text, size_t open);
 
 // Names an ST text assigns (`x :=`, `=> x`), upper-cased, for the importer's
 // "written anywhere" pre-pass.

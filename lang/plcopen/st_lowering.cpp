@@ -616,8 +616,8 @@ struct StLowerer {
       // A located input the body writes too (MatIEC's: lasts until the next cycle).
       if ((v->role != Var::Role::kPlain && v->role != Var::Role::kInput) || (v->decl && v->decl->constant)) continue;
       const Value before = L.read(*v, pos);
-      Home h = make_home(v->path, v->digital, v->integer, pos, v->str ? std::optional<uint32_t>(v->cap) : std::nullopt,
-                         v->wide);
+      Home h;
+      static_cast<Lowering::LoopHome&>(h) = L.make_home_for(*v, pos);
       h.var = v;
       set_home(h, before, pos);
       v->cur = h.value;
@@ -910,6 +910,7 @@ struct StLowerer {
       sp.conds.push_back(c);
       if (dead || (c.is_const && c.k == 0)) continue;
       if (!c.is_const) L.push_path(c, false);
+      for (Var* v : gathered) L.gathered_branch_starts(*v);
       block(*bs[i], 0, sp.cut[i]);
       sp.state[i] = L.save();
       if (!c.is_const) {
@@ -922,6 +923,7 @@ struct StLowerer {
       L.restore(pre);
     }
     if (!dead) {
+      for (Var* v : gathered) L.gathered_branch_starts(*v);
       block(*bs.back(), 0, sp.cut.back());
       sp.state.back() = L.save();
     }

@@ -17,15 +17,7 @@
 namespace rtplc::lang::st {
 namespace {
 
-// The closing quote of the string literal opening at `open` (`'` or `"`); a
-// `$` escapes the character after it ($' $$). npos when it never closes.
-size_t string_close(std::string_view t, size_t open) {
-  for (size_t k = open + 1; k < t.size(); ++k) {
-    if (t[k] == '$') ++k;
-    else if (t[k] == t[open]) return k;
-  }
-  return std::string_view::npos;
-}
+using plcopen::string_close;
 
 using plcopen::BaseType;
 using plcopen::TypeRef;
@@ -161,7 +153,7 @@ class Reader {
     p.root.name = "st-file";
     size_t chart_elements = 0;
     for (const ChartText& c : charts_) chart_elements += 1 + c.actions.size();
-    p.root.children.reserve(bodies.size() + inits_.size() + chart_elements + connections_.size());
+    p.root.children.reserve(bodies.size() + marker_uses(p) + chart_elements + connections_.size());
     for (const auto& [b, e] : bodies) {
       XmlElement el;
       el.name = "ST";
@@ -191,7 +183,7 @@ class Reader {
         plcopen::NamedBody nb;
         nb.name = a.name;
         nb.pos = a.pos;
-        nb.body.language = plcopen::BodyLanguage::kSt;
+        nb.body.language = a.il ? plcopen::BodyLanguage::kIl : plcopen::BodyLanguage::kSt;
         nb.body.text = &p.root.children.back();
         nb.body.source = p.root.children.back().text;
         nb.body.pos = p.root.children.back().pos;
@@ -437,6 +429,26 @@ class Reader {
     const auto [end, ec] = std::from_chars(initial.data() + 1, initial.data() + initial.size(), index);
     if (ec != std::errc{} || end != initial.data() + initial.size() || index >= inits_.size()) return std::nullopt;
     return index;
+  }
+
+  // How many initial values name a marker: one declaration of several names
+  // (`a, b : ARRAY[0..1] OF INT := [1, 2];`) gives each the same one, and
+  // each is resolved into an element of its own.
+  static size_t marker_uses(const plcopen::Project& p) {
+    size_t n = 0;
+    auto vars = [&](const std::vector<plcopen::Variable>& vs) {
+      for (const plcopen::Variable& v : vs) n += !v.initial.empty() && v.initial[0] == kMarker ? 1u : 0u;
+    };
+    for (const plcopen::DataType& t : p.data_types) {
+      n += !t.initial.empty() && t.initial[0] == kMarker ? 1u : 0u;
+      vars(t.members);
+    }
+    for (const plcopen::Pou& u : p.pous) vars(u.vars);
+    for (const plcopen::Configuration& c : p.configurations) {
+      vars(c.globals);
+      for (const plcopen::Resource& r : c.resources) vars(r.globals);
+    }
+    return n;
   }
 
   // read() reserved the root's children for every one, so the bodies'
@@ -814,6 +826,10 @@ class Reader {
     if (k >= t_.size()) return fail(at, kind + " " + u.name + " is never closed by " + end);
     bodies.emplace_back(b, k);
     if (starts_chart(b, k)) {
+      if (u.type == plcopen::PouType::kFunction) {
+        return fail(b, "FUNCTION " + u.name + ": a function's body cannot be an SFC (a function keeps nothing "
+                       "between calls); make it a FUNCTION_BLOCK or PROGRAM");
+      }
       i_ = b;
       chart(p.pous.size(), k);
       if (!ok_) return;
@@ -843,11 +859,15 @@ class Reader {
     for (const char* op : kOps) op_word = op_word || w == op;
     bool il = i_ <= e && op_word;
     if (il) {
-      // The operand follows on the same line (or nothing: RET, NOT); not `:=`, `(` of a call or `;`.
+      // What follows is an operand (or, on the next line, the next
+      // instruction after RET or NOT), not the `:=`, `(`, `[`, `.` or `;` of
+      // an ST statement about a variable named like the operator.
       size_t k = i_;
-      while (k < e && (t_[k] == ' ' || t_[k] == '\t')) ++k;
-      il = k >= e || t_[k] == '\n' || t_[k] == '\r' || (t_[k] != ':' && t_[k] != ';' && t_[k] != '(' && t_[k] != '[' &&
-                                                         t_[k] != '.' && t_[k] != '=');
+      while (k < e && std::isspace(static_cast<unsigned char>(t_[k]))) ++k;
+      il = k >= e || (t_[k] != ':' && t_[k] != ';' && t_[k] != '(' && t_[k] != '[' && t_[k] != '.' && t_[k] != '=');
+      // An IL instruction ends with its line, an ST statement with `;`
+      // (`JMP next;` is ST's JMP).
+      for (size_t j = i_; il && j < e && t_[j] != '\n'; ++j) il = t_[j] != ';';
     }
     i_ = save;
     return il;
@@ -873,6 +893,7 @@ class Reader {
       std::string name;
       SourcePos pos;
       XmlElement holder;
+      bool il = false;  // its body is IL (is_il)
     };
     std::vector<Action> actions;
   };
@@ -880,11 +901,25 @@ class Reader {
   static bool chart_word(const std::string& w) {
     return w == "INITIAL_STEP" || w == "STEP" || w == "TRANSITION" || w == "ACTION";
   }
+  // The body [b, e) starts a chart: `INITIAL_STEP s :`, `STEP s :`,
+  // `ACTION a :` (not `:=`), or `TRANSITION` before a name, `(` or FROM;
+  // `step := step + 1;` (a variable named STEP) stays ST.
   bool starts_chart(size_t b, size_t e) {
     const size_t save = i_;
     i_ = b;
     const std::string w = word();
-    const bool chart = i_ <= e && chart_word(w);
+    bool chart = i_ <= e && chart_word(w);
+    if (chart) {
+      skip();
+      const bool name_next = i_ < e && (std::isalpha(static_cast<unsigned char>(t_[i_])) || t_[i_] == '_');
+      if (w == "TRANSITION") {
+        chart = name_next || (i_ < e && t_[i_] == '(');
+      } else {
+        word();
+        skip();
+        chart = name_next && i_ < e && t_[i_] == ':' && (i_ + 1 >= e || t_[i_ + 1] != '=');
+      }
+    }
     i_ = save;
     return chart;
   }
@@ -1012,8 +1047,10 @@ class Reader {
         if (accept(":=")) {
           skip();
           const size_t b = i_;
+          const size_t end_kw = keyword_at("END_TRANSITION", e);
           until_semicolon("the transition's condition");
           if (!ok_) return;
+          if (i_ > end_kw) return fail(b, "expected ';' after the transition's condition, before END_TRANSITION");
           size_t ce = i_ - 1;  // the ';'
           XmlElement st = element("ST", pos(b));
           st.children.push_back(text_holder("xhtml", b, ce));
@@ -1050,6 +1087,7 @@ class Reader {
         const size_t ae = keyword_at("END_ACTION", e);
         if (ae >= e) return fail(at, "ACTION " + a.name + " is never closed by END_ACTION");
         a.holder = text_holder("ST", b, ae);
+        a.il = is_il(b, ae);
         i_ = ae + std::string_view("END_ACTION").size();
         accept(";");
         c.actions.push_back(std::move(a));
@@ -1272,7 +1310,7 @@ class Reader {
           const size_t b = i_;
           size_t e = i_;
           int depth = 0;
-          while (e < t_.size() && !(depth == 0 && (t_[e] == ',' || t_[e] == ')'))) {
+          while (e < t_.size() && depth >= 0 && !(depth == 0 && (t_[e] == ',' || t_[e] == ')'))) {
             if (t_[e] == '(' || t_[e] == '[') ++depth;
             if (t_[e] == ')' || t_[e] == ']') --depth;
             if (t_[e] == '\'' || t_[e] == '"') {
@@ -1284,7 +1322,13 @@ class Reader {
           }
           size_t te = e;
           while (te > b && std::isspace(static_cast<unsigned char>(t_[te - 1]))) --te;
-          if (te == b) return fail(b, "expected the connection's " + std::string(c.output ? "sink" : "source"));
+          if (te == b || depth < 0 || e >= t_.size()) {
+            return fail(b, "expected the connection's " + std::string(c.output ? "sink" : "source") +
+                               ", then ',' or ')'");
+          }
+          for (const plcopen::PouInstance::Connection& other : pi.connections) {
+            if (plcopen::iequals(other.formal, c.formal)) return fail(c_at, "'" + c.formal + "' is connected twice");
+          }
           // Its text's element, found by the connection's place once read()
           // has put the holders where they stay.
           connections_.emplace(std::pair{c.pos.line, c.pos.col}, text_holder("ST", b, te));

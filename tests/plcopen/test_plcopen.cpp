@@ -811,15 +811,17 @@ TEST(Plcopen, maps_located_variables_to_channels) {
 }
 
 // Beremiz's hierarchical addresses (an extension's location, then the item):
-// processor 100 / 125 / 150 / 175 + the first level for X / W / D / L, device
-// the second, channel third * 256 + fourth (docs/plcopen.md, "Located variables").
+// processor 100 / 125 / 150 / 175 / 200 + the first level for X / W / D / L /
+// B, one address per form (docs/plcopen.md, "Located variables"): a.b is
+// d255.c<b>, a.b.c is d<b>.c<c>, a.b.c.d is d<b>.c<256 + 256c + d>.
 TEST(Plcopen, maps_hierarchical_addresses_to_their_own_processors) {
   const std::string src = project(
       kNs201, st_program("<inputVars>" + var("pm", "INT", "%IW0.1.1.2") + var("s1", "BOOL", "%IX2.0.3.4") +
-                             var("w2", "INT", "%IW0.0") + var("big", "DINT", "%ID1.2.3") + "</inputVars><outputVars>" +
-                             var("busy", "BOOL", "%QX0.1.0.0") + var("q", "LREAL", "%QL3.4.255.255") +
+                             var("w2", "INT", "%IW0.0") + var("w3", "INT", "%IW0.0.0") + var("w4", "INT", "%IW0.0.0.0") +
+                             var("big", "DINT", "%ID1.2.3") + var("b", "BYTE", "%IB0.7") + "</inputVars><outputVars>" +
+                             var("busy", "BOOL", "%QX0.1.0.0") + var("q", "LREAL", "%QL3.4.254.255") +
                              "</outputVars>",
-                         "busy := s1; q := INT_TO_LREAL(pm + w2) + DINT_TO_LREAL(big);"));
+                         "busy := s1; q := INT_TO_LREAL(pm + w2 + w3 + w4) + DINT_TO_LREAL(big) + BYTE_TO_LREAL(b);"));
   CompileResult r = compile_source(src);
   ASSERT_TRUE(r.ok()) << r.diags.render("t.xml", src);
   auto at = [&](const char* label) -> std::string {
@@ -830,11 +832,15 @@ TEST(Plcopen, maps_hierarchical_addresses_to_their_own_processors) {
     }
     return "none";
   };
-  EXPECT_EQ(at("pm"), "p125.d1.c258");
-  EXPECT_EQ(at("s1"), "p102.d0.c772");
-  EXPECT_EQ(at("w2"), "p125.d0.c0");
-  EXPECT_EQ(at("big"), "p151.d2.c768");
-  EXPECT_EQ(at("busy"), "p100.d1.c0");
+  EXPECT_EQ(at("pm"), "p125.d1.c514");   // 256 + 256 * 1 + 2
+  EXPECT_EQ(at("s1"), "p102.d0.c1028");  // 256 + 256 * 3 + 4
+  // Two, three and four levels that look alike are three channels.
+  EXPECT_EQ(at("w2"), "p125.d255.c0");
+  EXPECT_EQ(at("w3"), "p125.d0.c0");
+  EXPECT_EQ(at("w4"), "p125.d0.c256");
+  EXPECT_EQ(at("big"), "p151.d2.c3");
+  EXPECT_EQ(at("b"), "p200.d255.c7");
+  EXPECT_EQ(at("busy"), "p100.d1.c256");
   EXPECT_EQ(at("q"), "p178.d4.c65535");
   auto refused = [&](const char* address, const char* type) {
     const std::string bad = project(kNs201, st_program("<localVars>" + var("v", type, address) + "</localVars>", "v := v;"));
@@ -844,7 +850,8 @@ TEST(Plcopen, maps_hierarchical_addresses_to_their_own_processors) {
   EXPECT_NE(refused("%MW0.1.2", "INT").find("a memory address has one"), std::string::npos);
   EXPECT_NE(refused("%IX0.1.2.3.4", "BOOL").find("more than four levels"), std::string::npos);
   EXPECT_NE(refused("%IW25.0.0", "INT").find("first level above 24"), std::string::npos);
-  EXPECT_NE(refused("%IW0.256.0", "INT").find("a level above 255"), std::string::npos);
+  EXPECT_NE(refused("%IW0.255.0", "INT").find("second level above 254"), std::string::npos);
+  EXPECT_NE(refused("%IW0.1.255.0", "INT").find("third level above 254"), std::string::npos);
 }
 
 // TIME meeting numbers, as each editor's runtime converts (docs/plcopen.md,

@@ -780,7 +780,7 @@ TEST(StFile, an_entry_chooses_a_task_instance_or_program) {
 TEST(StFile, a_program_instance_connects_its_inputs_and_outputs) {
   const std::string src = R"(PROGRAM Main
 VAR_INPUT level : INT; limit : INT; END_VAR
-VAR_OUTPUT alarm : BOOL; twice : INT; END_VAR
+VAR_OUTPUT alarm : BOOL; twice : INT; spare : INT; END_VAR
   alarm := level > limit;
   twice := level * 2;
 END_PROGRAM
@@ -809,14 +809,30 @@ END_CONFIGURATION
     bad.replace(bad.find("level := g"), 10, connection);
     return first_error(bad);
   };
-  EXPECT_EQ(err("alarm := g"), "11:30: program Main has no VAR_INPUT 'alarm' to connect with :=");
+  EXPECT_EQ(err("spare := g"), "11:30: program Main has no VAR_INPUT 'spare' to connect with :=");
   EXPECT_EQ(err("level => g"), "11:30: program Main has no VAR_OUTPUT 'level' to connect with =>");
   EXPECT_EQ(err("level  g  "), "11:37: expected ':=' (an input's source) or '=>' (an output's sink) after 'level'");
-  EXPECT_EQ(err("twice => g + 1"), "11:30: 'twice =>' connects to a global variable or a direct variable (%QX0.0)");
+  EXPECT_EQ(err("spare => g + 1"), "11:30: 'spare =>' connects to a global variable or a direct variable (%QX0.0)");
+  EXPECT_EQ(err("limit := 1"), "11:42: 'limit' is connected twice");
+  EXPECT_EQ(err("level := g]"), "11:39: expected the connection's source, then ',' or ')'");
 }
 
 // MatIEC reads POU bodies in IL and ST from one file: a body whose first word
 // is an IL operator with its operand is IL (docs/st.md, "How it is read").
+// One declaration of several names with a structured initial value gives
+// each the same value (it was refused as a damaged marker).
+TEST(StFile, several_names_share_an_array_initial_value) {
+  const char* src = R"(PROGRAM P
+VAR a, b : ARRAY[0..1] OF INT := [1, 2]; s : INT; END_VAR
+  s := a[0] + a[1] * 10 + b[0] * 100 + b[1] * 1000;
+END_PROGRAM
+)";
+  FbdHarness h(src, 0.1, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("ab.st", src);
+  h.step();
+  EXPECT_EQ(h.value("P.s"), 2121);
+}
+
 TEST(StFile, a_body_in_il_is_read_as_il) {
   const char* src = R"(FUNCTION_BLOCK Acc
 VAR_INPUT x : INT; END_VAR

@@ -145,6 +145,33 @@ END_PROGRAM
   }
 }
 
+// T is built from the scan's time (a timer that restarts every hour), so it
+// stays exact across that restart and over long runs: 3,700 s at 100 ms is
+// scan 37,000, neither one early nor one late.
+TEST(StSfc, a_step_time_stays_exact_past_an_hour) {
+  const char* src = R"(PROGRAM P
+  INITIAL_STEP Wait: END_STEP
+  STEP Run: END_STEP
+  STEP Done: END_STEP
+  TRANSITION FROM Wait TO Run := TRUE; END_TRANSITION
+  TRANSITION FROM Run TO Done := Run.T >= T#3700s; END_TRANSITION
+END_PROGRAM
+)";
+  CompileOptions o;
+  o.semantics = EditorSemantics::kMatiec;
+  o.period_override = 0.1;
+  CompileResult r = compile_source(src, o);
+  ASSERT_TRUE(r.ok()) << r.diags.render("long.st", src);
+  TaskArena arena(*r.image);
+  int64_t entered_done = -1;
+  for (int64_t scan = 0; scan < 37005 && entered_done < 0; ++scan) {
+    execute_cycle(*r.image, arena);
+    if (testing::block_value(r, arena, "P.step.Done.X") == 1) entered_done = scan;
+  }
+  // Run entered in scan 0; its T is 0.1 s in scan 1, ..., 3,700 s in scan 37,000.
+  EXPECT_EQ(entered_done, 37000);
+}
+
 TEST(StSfc, simultaneous_branches_priorities_timed_actions_and_an_il_condition) {
   const char* src = R"(PROGRAM P
 VAR
@@ -274,6 +301,23 @@ END_PROGRAM
   for (size_t k = 0; k < want.size(); ++k) EXPECT_EQ(v[k], want[k]) << "scan " << k;
 }
 
+TEST(StSfc, an_action_body_in_il_is_read_as_il) {
+  const char* src = R"(PROGRAM P
+VAR n : INT; END_VAR
+  INITIAL_STEP S: Inc(N); END_STEP
+  ACTION Inc:
+    LD n
+    ADD 2
+    ST n
+  END_ACTION
+  TRANSITION FROM S TO S := FALSE; END_TRANSITION
+END_PROGRAM
+)";
+  const auto v = run(src, {"P.n"}, 3);
+  ASSERT_EQ(v.size(), 3u);
+  EXPECT_EQ(v[2][0], 6);
+}
+
 TEST(StSfc, mistakes_are_refused_at_their_place) {
   auto chart = [](const std::string& body) {
     return "PROGRAM P\nVAR go : BOOL; n : INT; END_VAR\n" + body + "END_PROGRAM\n";
@@ -299,10 +343,20 @@ TEST(StSfc, mistakes_are_refused_at_their_place) {
 ,
             "5:11: expected an expression, found ';'");
   EXPECT_EQ(first_error(chart("STEP S1: END_STEP\n")).substr(0, 40), "3:1: this SFC has no initial step (initi");
+  // A condition's missing ';' is named there, not read on into what follows.
+  EXPECT_EQ(first_error(chart("INITIAL_STEP S1: END_STEP\nTRANSITION FROM S1 TO S1 := go END_TRANSITION\n") +
+                        "PROGRAM Q VAR y : BOOL; END_VAR\nINITIAL_STEP U: END_STEP\n"
+                        "TRANSITION FROM U TO U := y; END_TRANSITION\nEND_PROGRAM\n"),
+            "4:29: expected ';' after the transition's condition, before END_TRANSITION");
+  // A function keeps nothing between calls: no chart.
+  EXPECT_EQ(first_error("FUNCTION F : BOOL\nINITIAL_STEP S: END_STEP\nEND_FUNCTION\n").substr(0, 54),
+            "2:1: FUNCTION F: a function's body cannot be an SFC (a");
+  // A variable named STEP is no chart (STEP is a keyword IEC reserves, but not here).
+  EXPECT_EQ(first_error("PROGRAM P VAR step : INT; END_VAR\nstep := step + 1;\nEND_PROGRAM\n"), "compiled");
   EXPECT_EQ(first_error("FUNCTION_BLOCK F\nINITIAL_STEP S: END_STEP\nTRANSITION FROM S TO S := TRUE; END_TRANSITION\n"
                         "END_FUNCTION_BLOCK\nPROGRAM P VAR f : F; END_VAR\nf(); f();\nEND_PROGRAM\n")
-                .substr(0, 61),
-            "6:6: 'f' is called twice in one cycle, and its body is an SFC");
+                .substr(0, 54),
+            "6:6: 'f' is called a second time here (in this cycle o");
   EXPECT_EQ(first_error(chart("INITIAL_STEP S1: END_STEP\nTRANSITION FROM S1 TO S1 go; END_TRANSITION\n")),
             "4:26: expected ':=' and the transition's condition");
 }

@@ -284,6 +284,30 @@ END_PROGRAM
   }
 }
 
+// A branch may read the instance before its own call: the last call's
+// outputs, whatever another branch called.
+TEST(StTimers, a_branch_reads_the_last_call_before_its_own) {
+  const char* src = R"(PROGRAM P
+VAR s : INT := 1; t : TON; x : INT; END_VAR
+CASE s OF
+1: t(IN := TRUE, PT := T#200ms); IF t.Q THEN s := 2; END_IF;
+2: IF t.Q THEN x := x + 1; END_IF; t(IN := FALSE); IF NOT t.Q THEN s := 1; END_IF;
+END_CASE;
+END_PROGRAM
+)";
+  FbdHarness h(src, 0.1, true, true);
+  ASSERT_TRUE(h.ok()) << h.result().diags.render("br.st", src);
+  // Cycles 0-2 in state 1 (Q in cycle 2); cycle 3 in state 2 reads Q = 1
+  // before its call: x 1; its call drops Q: state 1.
+  const double s_want[] = {1, 1, 2, 1, 1, 1, 2, 1};
+  const double x_want[] = {0, 0, 0, 1, 1, 1, 1, 2};
+  for (size_t k = 0; k < 8; ++k) {
+    h.step();
+    EXPECT_EQ(h.value("P.s"), s_want[k]) << k;
+    EXPECT_EQ(h.value("P.x"), x_want[k]) << k;
+  }
+}
+
 // Each branch's statements before its call feed that call's inputs, and the
 // variables they assign are merged with the rest of the branch as one IF.
 TEST(StTimers, statements_before_the_call_in_each_branch_feed_its_inputs) {
