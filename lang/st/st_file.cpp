@@ -976,7 +976,8 @@ class Reader {
     };
     struct TransitionText {
       size_t at = 0;
-      long priority = 0;
+      long priority = 0;        // 0 without PRIORITY, as MatIEC counts it
+      bool prioritised = false;
       std::vector<std::pair<std::string, size_t>> from, to;  // step name, where
       XmlElement condition;
     };
@@ -1032,6 +1033,7 @@ class Reader {
           while (i_ < e && std::isdigit(static_cast<unsigned char>(t_[i_])) && n < 1'000'000) n = n * 10 + (t_[i_++] - '0');
           if (i_ == n_at || n >= 1'000'000) return fail(n_at, "a transition's PRIORITY is a whole number from 0 to 999999");
           tr.priority = n;
+          tr.prioritised = true;
           expect(")", "after the transition's priority");
         }
         skip();
@@ -1105,10 +1107,19 @@ class Reader {
         return fail(steps[k].at, "step " + steps[k].name + " is declared twice");
       }
     }
-    std::vector<size_t> order(transitions.size());
-    for (size_t k = 0; k < order.size(); ++k) order[k] = k;
-    std::stable_sort(order.begin(), order.end(),
-                     [&](size_t a, size_t b) { return transitions[a].priority < transitions[b].priority; });
+    // The order transitions are tried in, as MatIEC lists them: one without
+    // a PRIORITY (counted as 0) goes last, one with goes before the first
+    // whose priority is larger.
+    std::vector<size_t> order;
+    for (size_t k = 0; k < transitions.size(); ++k) {
+      if (!transitions[k].prioritised) {
+        order.push_back(k);
+        continue;
+      }
+      auto it = order.begin();
+      while (it != order.end() && transitions[*it].priority <= transitions[k].priority) ++it;
+      order.insert(it, k);
+    }
     std::vector<std::vector<std::string>> into(steps.size());
     std::vector<XmlElement> transition_elements;
     for (size_t n = 0; n < order.size(); ++n) {

@@ -218,6 +218,25 @@ END_PROGRAM
   EXPECT_EQ(v[6][0], 5);
 }
 
+// MatIEC's list of transitions: without PRIORITY (counted as 0) appended,
+// with one inserted before the first listed with a larger number.
+TEST(StSfc, transitions_are_tried_in_matiecs_priority_order) {
+  auto first_taken = [](const std::string& transitions) {
+    const std::string src = "PROGRAM P\nINITIAL_STEP S: END_STEP\nSTEP A: END_STEP\nSTEP B: END_STEP\nSTEP C: END_STEP\n" +
+                            transitions + "END_PROGRAM\n";
+    const auto v = run(src, {"P.step.A.X", "P.step.B.X", "P.step.C.X"}, 1);
+    if (v.empty()) return std::string("none");
+    return std::string(v[0][0] == 1 ? "A" : v[0][1] == 1 ? "B" : v[0][2] == 1 ? "C" : "none");
+  };
+  const std::string to_a = "TRANSITION (PRIORITY := 1) FROM S TO A := TRUE; END_TRANSITION\n";
+  const std::string to_b = "TRANSITION FROM S TO B := TRUE; END_TRANSITION\n";
+  const std::string to_c = "TRANSITION (PRIORITY := 0) FROM S TO C := TRUE; END_TRANSITION\n";
+  EXPECT_EQ(first_taken(to_a + to_b), "A");  // file order: A, then B appended
+  EXPECT_EQ(first_taken(to_b + to_a), "B");  // B (0), then A (1) after it
+  EXPECT_EQ(first_taken(to_a + to_c), "C");  // C (0) goes before A (1)
+  EXPECT_EQ(first_taken(to_b + to_c), "B");  // C (0) after B (0): not before an equal
+}
+
 TEST(StSfc, a_chart_in_a_function_block_runs_per_instance) {
   const char* src = R"(FUNCTION_BLOCK Blinker
 VAR_INPUT go : BOOL; END_VAR
