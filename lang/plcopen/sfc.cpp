@@ -363,6 +363,15 @@ std::optional<Value> Lowering::step_member(Scope& s, const std::string& path, So
 
 namespace {
 
+// The flag of the chart's step `step` as a value (read before the chart's
+// blocks: the flag the scan started with; after: this scan's).
+Value step_flag(const sfc::HostLink& host, const std::string& step) {
+  Value x;
+  x.ref = sfc::step_flag_block(host, step);
+  x.digital = true;
+  return x;
+}
+
 // Whether `text` names `S.T` for step `step` (upper-case), as a word.
 bool mentions_step_time(std::string_view text, const std::string& step) {
   const std::string up = upper(std::string(text));
@@ -439,9 +448,8 @@ void Lowering::step_times(Scope& s, const XmlElement& body, const sfc::Chart& ch
       dt = held;
     }
     const std::string base = s.path + ".step." + st.name;
-    Value flag, last;
-    flag.ref = sfc::step_flag_block(host, st.name);  // a later block: the flag the scan started with
-    flag.digital = true;
+    const Value flag = step_flag(host, st.name);  // before the chart: the flag the scan started with
+    Value last;
     last.ref = base + ".T";  // made by stamp_step_times: the end of the last scan
     const Value grown = on_time_grid(em_.binary(BinOp::kAdd, last, dt, st.pos), 1e9, st.pos);
     Value t = em_.select(flag, grown, last, st.pos);
@@ -456,10 +464,7 @@ void Lowering::stamp_step_times(Scope& s, const sfc::HostLink& host, bool entere
   if (it == step_times_.end()) return;
   for (auto& [up, t] : it->second) {
     const std::string base = s.path + ".step." + t.step;
-    Value flag;
-    flag.ref = sfc::step_flag_block(host, t.step);
-    flag.digital = true;
-    const Value entering = rising(flag, base + ".$rise", SourcePos{});
+    const Value entering = rising(step_flag(host, t.step), base + ".$rise", SourcePos{});
     Value end = em_.select(entering, constant(0, false), t.now, SourcePos{});
     end.time_type = iec::IecType::kTime;
     em_.copy_as(end, base + ".T", SourcePos{});
@@ -689,11 +694,8 @@ void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
   auto step_flags = [&]() {
     // Step flags under the names a PLCopen user knows (and `rtplc sim` traces).
     for (const sfc::Step& st : chart.steps) {
-      Value x;
-      x.ref = sfc::step_flag_block(host, st.name);
-      x.digital = true;
       const std::string name = s.path + ".step." + st.name + ".X";
-      em.copy_as(x, name, st.pos);
+      em.copy_as(step_flag(host, st.name), name, st.pos);
       out_.variables.push_back(name);
     }
   };

@@ -260,12 +260,8 @@ struct StLowerer {
   // The standard FB instances this IF or CASE calls in two or more of its
   // branches, at most once in each: gathered (Lowering::begin_gathered).
   std::vector<Var*> gather(const Stmt& st) {
-    std::vector<const Block*> branches;
-    for (const auto& [c, body] : st.branches) branches.push_back(&body);
-    for (const CaseBranch& cb : st.cases) branches.push_back(&cb.body);
-    branches.push_back(&st.else_body);
     std::map<std::string, std::pair<int, int>> seen;  // name -> (branches calling it, most calls in one)
-    for (const Block* b : branches) {
+    for (const Block* b : bodies(st)) {
       std::map<std::string, int> n;
       count_calls(*b, n);
       for (const auto& [name, k] : n) {
@@ -787,27 +783,19 @@ struct StLowerer {
   };
   Split* split_ = nullptr;
 
+  // Assignments, calls, and IF and CASE of them: no loop, jump, label,
+  // RETURN, EXIT or CONTINUE anywhere in `b`.
   static bool flow_free(const Block& b) {
     for (const auto& st : b) {
-      switch (st->kind) {
-        case Stmt::Kind::kAssign:
-        case Stmt::Kind::kCall:
-          break;
-        case Stmt::Kind::kIf:
-          for (const auto& [c, body] : st->branches) {
-            if (!flow_free(body)) return false;
-          }
-          if (!flow_free(st->else_body)) return false;
-          break;
-        case Stmt::Kind::kCase:
-          for (const CaseBranch& cb : st->cases) {
-            if (!flow_free(cb.body)) return false;
-          }
-          if (!flow_free(st->else_body)) return false;
-          break;
-        default:
-          return false;
-      }
+      if (!flow_free_stmt(*st)) return false;
+    }
+    return true;
+  }
+  static bool flow_free_stmt(const Stmt& x) {
+    if (x.kind == Stmt::Kind::kAssign || x.kind == Stmt::Kind::kCall) return true;
+    if (x.kind != Stmt::Kind::kIf && x.kind != Stmt::Kind::kCase) return false;
+    for (const Block* b : bodies(x)) {
+      if (!flow_free(*b)) return false;
     }
     return true;
   }
@@ -843,12 +831,7 @@ struct StLowerer {
         if (all[n] != top[n]) return std::nullopt;  // called inside a nested statement too
       }
       for (size_t j = 0; j < cut; ++j) {
-        const Stmt& x = *(*b)[j];
-        if (x.kind != Stmt::Kind::kAssign && x.kind != Stmt::Kind::kCall && x.kind != Stmt::Kind::kIf &&
-            x.kind != Stmt::Kind::kCase) {
-          return std::nullopt;
-        }
-        if ((x.kind == Stmt::Kind::kIf || x.kind == Stmt::Kind::kCase) && !flow_free_stmt(x)) return std::nullopt;
+        if (!flow_free_stmt(*(*b)[j])) return std::nullopt;
       }
       cuts.push_back(cut);
     }
@@ -866,15 +849,6 @@ struct StLowerer {
       if (has_jumps(st->else_body) || has_jumps(st->body)) return true;
     }
     return false;
-  }
-  static bool flow_free_stmt(const Stmt& x) {
-    for (const auto& [c, body] : x.branches) {
-      if (!flow_free(body)) return false;
-    }
-    for (const CaseBranch& cb : x.cases) {
-      if (!flow_free(cb.body)) return false;
-    }
-    return flow_free(x.else_body);
   }
 
   // CASE branch i's condition: the selector matches one of its labels.

@@ -154,14 +154,7 @@ class Reader {
     size_t chart_elements = 0;
     for (const ChartText& c : charts_) chart_elements += 1 + c.actions.size();
     p.root.children.reserve(bodies.size() + marker_uses(p) + chart_elements + connections_.size());
-    for (const auto& [b, e] : bodies) {
-      XmlElement el;
-      el.name = "ST";
-      el.text = std::string(t_.substr(b, e - b));
-      el.pos = pos(b);
-      el.text_anchors.push_back({0, pos(b)});
-      p.root.children.push_back(std::move(el));
-    }
+    for (const auto& [b, e] : bodies) p.root.children.push_back(text_holder("ST", b, e));
     for (size_t k = 0; k < p.pous.size(); ++k) {
       plcopen::Body& body = p.pous[k].body;
       body.language = is_il(bodies[k].first, bodies[k].second) ? plcopen::BodyLanguage::kIl : plcopen::BodyLanguage::kSt;
@@ -1125,16 +1118,25 @@ class Reader {
     for (size_t n = 0; n < order.size(); ++n) {
       TransitionText& tr = transitions[order[n]];
       const std::string id = std::to_string(steps.size() + 1 + n);
+      // Each step a transition names, as its index; nullopt (reported) when undeclared.
+      auto step_of = [&](const std::pair<std::string, size_t>& named) -> std::optional<size_t> {
+        auto it = step_index.find(plcopen::upper(named.first));
+        if (it == step_index.end()) {
+          fail(named.second, "step " + named.first + " is not declared in this chart");
+          return std::nullopt;
+        }
+        return it->second;
+      };
       std::vector<std::string> from;
-      for (const auto& [sn, sat] : tr.from) {
-        auto it = step_index.find(plcopen::upper(sn));
-        if (it == step_index.end()) return fail(sat, "step " + sn + " is not declared in this chart");
-        from.push_back(std::to_string(it->second + 1));
+      for (const auto& named : tr.from) {
+        const auto k = step_of(named);
+        if (!k) return;
+        from.push_back(std::to_string(*k + 1));
       }
-      for (const auto& [sn, sat] : tr.to) {
-        auto it = step_index.find(plcopen::upper(sn));
-        if (it == step_index.end()) return fail(sat, "step " + sn + " is not declared in this chart");
-        into[it->second].push_back(id);
+      for (const auto& named : tr.to) {
+        const auto k = step_of(named);
+        if (!k) return;
+        into[*k].push_back(id);
       }
       XmlElement t = element("transition", pos(tr.at), {{"localId", id, pos(tr.at)}});
       t.children.push_back(connected(from, pos(tr.at)));
