@@ -248,11 +248,17 @@ bool read_sfc_graph(const XmlElement& body, const std::string& name, DiagnosticL
       const std::string dur = attr(a, "duration");
       if (!dur.empty()) {
         auto k = parse_literal(dur);
-        if (!k || *k < 0) {
-          diags.error(a.pos, "action duration '" + dur + "' is not a TIME literal");
+        const bool a_name = std::all_of(dur.begin(), dur.end(), [](char ch) {
+          return std::isalnum(static_cast<unsigned char>(ch)) || ch == '_' || ch == '.';
+        }) && (std::isalpha(static_cast<unsigned char>(dur[0])) || dur[0] == '_');
+        if (!k && a_name) {
+          u.duration_variable = dur;  // a TIME variable: read each cycle (lower_sfc)
+        } else if (!k || *k < 0) {
+          diags.error(a.pos, "action duration '" + dur + "' is not a TIME literal or a variable");
           return false;
+        } else {
+          u.duration = *k;
         }
-        u.duration = *k;
       }
       if (const XmlElement* r = a.child("reference")) {
         u.target = attr(*r, "name");
@@ -297,7 +303,17 @@ bool read_sfc_graph(const XmlElement& body, const std::string& name, DiagnosticL
     ca.pos = u.pos;
     ca.target = sfc_output_name(u.target);
     ca.target_pos = u.pos;
-    if (sfc::is_timed_qualifier(u.qualifier)) ca.seconds = u.duration;
+    if (sfc::is_timed_qualifier(u.qualifier) && !u.duration_variable.empty()) {
+      sfc::Signal d;
+      d.role = sfc::Signal::Role::kHost;
+      d.name = "$dur" + std::to_string(g->durations.size());
+      d.pos = u.pos;
+      chart.signals.push_back(d);
+      ca.time_signal = d.name;
+      g->durations.emplace_back(d.name, &u);
+    } else if (sfc::is_timed_qualifier(u.qualifier)) {
+      ca.seconds = u.duration;
+    }
     ca.time_pos = u.pos;
     chart.steps[u.step].actions.push_back(std::move(ca));
   }
@@ -691,6 +707,23 @@ void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
     }
     return !d_.has_errors();
   };
+  // Durations given by variables (`a(L, delay)`): each held, in seconds as
+  // rtplc keeps TIME, in a block `.$sfc.dur.<n>` the chart's timers read.
+  auto durations = [&]() -> bool {
+    for (size_t k = 0; k < g.durations.size(); ++k) {
+      const SfcActionUse& u = *g.durations[k].second;
+      const Value v = load(s, u.duration_variable, {}, u.pos);
+      if (d_.has_errors()) return false;
+      if (v.digital || v.str) {
+        d_.error(u.pos, "action duration '" + u.duration_variable + "' is not a TIME");
+        return false;
+      }
+      const std::string x = em.ref(v, u.pos);
+      host_blocks[g.durations[k].first] = static_cast<uint32_t>(
+          em.emit("scale", s.path + ".$sfc.dur." + std::to_string(k), u.pos, {x}, {1.0, 0.0}));
+    }
+    return true;
+  };
   auto step_flags = [&]() {
     // Step flags under the names a PLCopen user knows (and `rtplc sim` traces).
     for (const sfc::Step& st : chart.steps) {
@@ -704,7 +737,7 @@ void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
     // MatIEC's order: conditions, the chart (transitions, steps, the actions'
     // flags), the action bodies.
     step_times(s, body, chart, host);
-    if (!conditions()) return;
+    if (!conditions() || !durations()) return;
     const sfc::ChartIndex index = sfc::check_chart(chart, d_);
     if (d_.has_errors()) return;
     host.first_index = static_cast<uint32_t>(em.size());
@@ -734,6 +767,10 @@ void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
     condition_of[chart.transitions[i].condition.name] = kConditionBase + static_cast<uint32_t>(i);
     condition_block.push_back(s.path + ".$sfc.cond." + attr(*g.transitions[i], "localId"));
   }
+  for (size_t k = 0; k < g.durations.size(); ++k) {
+    condition_of[g.durations[k].first] = kConditionBase + static_cast<uint32_t>(condition_block.size());
+    condition_block.push_back(s.path + ".$sfc.dur." + std::to_string(k));
+  }
   host.first_index = 0;
   host.resolve = [&](const std::string& name) -> std::optional<uint32_t> {
     auto it = condition_of.find(name);
@@ -758,6 +795,7 @@ void Lowering::lower_sfc(Scope& s, const XmlElement& body) {
     }
   };
   step_times(s, body, chart, host);
+  if (!durations()) return;  // before the actions' part, whose timers read them
   append(0, split);
   if (!actions()) return;
   if (!conditions()) return;

@@ -21,6 +21,7 @@ namespace rtplc::lang::plcopen {
 struct SfcActionUse {
   std::string qualifier;
   double duration = 0;  // seconds: L, D, SD, DS, SL
+  std::string duration_variable;  // the duration given by a variable instead (`delay`, `a.b`)
   std::string target;   // a variable or an action name ("inline<id>@<block>" for an inline body)
   const XmlElement* inline_body = nullptr;
   SourcePos pos;
@@ -32,6 +33,9 @@ struct SfcGraph {
   std::vector<const XmlElement*> transitions;  // per chart transition, its <transition>
   std::vector<SfcActionUse> uses;              // in document order
   std::vector<std::string> targets;            // upper-case action targets, first use first
+  // Durations given by variables: the chart's host signal ("$dur<n>") and the
+  // use it is for (its duration_variable, pos).
+  std::vector<std::pair<std::string, const SfcActionUse*>> durations;
 };
 
 // Reads `body` (the <SFC> element) into `g`: steps, transitions with the steps

@@ -63,6 +63,9 @@ struct Action {
   SourcePos target_pos;
   std::optional<double> seconds;  // L, D, SD, DS and SL (is_timed_qualifier)
   SourcePos time_pos;
+  // A host's duration given by a variable (a PLCopen or .st chart's
+  // `a(L, delay)`): the kHost signal holding it in seconds; `seconds` unset.
+  std::string time_signal;
 };
 
 // The qualifiers that take a time (IEC 61131-3: L, D, SD, DS, SL).

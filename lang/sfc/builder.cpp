@@ -380,6 +380,12 @@ class Builder {
         const std::string base = "act." + st.name + "." + a.qualifier + "." + o.name;
         const std::string x = active(st.name);
         const double secs = a.seconds.value_or(0);
+        // The qualifier's on-delay: `time` for a constant duration, a TON
+        // on the host's signal for one given by a variable.
+        auto delay = [&](const std::string& name, const std::string& in) {
+          if (a.time_signal.empty()) emit("time", name, a.pos, {in}, {secs});
+          else emit("ton", name, a.pos, {in, a.time_signal});
+        };
         const std::string& q = a.qualifier;
         if (q == "N") {
           terms.push_back(x);
@@ -394,27 +400,27 @@ class Builder {
           emit("and", base, a.pos, {was_active(st.name), base + ".n"});
           terms.push_back(base);
         } else if (q == "L") {  // active and the time not yet elapsed
-          emit("time", base + ".t", a.pos, {x}, {secs});
+          delay(base + ".t", x);
           emit("not", base + ".n", a.pos, {base + ".t"});
           emit("and", base, a.pos, {x, base + ".n"});
           terms.push_back(base);
         } else if (q == "D") {  // active and the time elapsed
-          emit("time", base, a.pos, {x}, {secs});
+          delay(base, x);
           terms.push_back(base);
         } else if (q == "SD") {  // stored from the step, then delayed: time(latch)
           delayed_stored = true;
           latch(base + ".latch", x, out + ".clear", a.pos);
-          emit("time", base, a.pos, {base + ".latch"}, {secs});
+          delay(base, base + ".latch");
           terms.push_back(base);
         } else if (q == "DS") {  // delayed while the step lasts, then stored: latch(time)
           delayed_stored = true;
-          emit("time", base + ".t", a.pos, {x}, {secs});
+          delay(base + ".t", x);
           latch(base, base + ".t", out + ".clear", a.pos);
           terms.push_back(base);
         } else if (q == "SL") {  // stored from the step, limited: latch AND NOT time(latch)
           delayed_stored = true;
           latch(base + ".latch", x, out + ".clear", a.pos);
-          emit("time", base + ".t", a.pos, {base + ".latch"}, {secs});
+          delay(base + ".t", base + ".latch");
           emit("not", base + ".n", a.pos, {base + ".t"});
           emit("and", base, a.pos, {base + ".latch", base + ".n"});
           terms.push_back(base);

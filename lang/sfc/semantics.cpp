@@ -135,12 +135,12 @@ class Checker {
                    len(a.target));
         }
         const bool timed = is_timed_qualifier(a.qualifier);
-        if (timed && !a.seconds) {
+        if (timed && !a.seconds && a.time_signal.empty()) {
           d_.error(a.pos, "qualifier " + a.qualifier + " needs a time, e.g. '" + a.qualifier + " " +
                               a.target + " 5s'");
         } else if (!timed && a.seconds) {
           d_.error(a.time_pos, "qualifier " + a.qualifier + " takes no time (only L, D, SD, DS and SL do)");
-        } else if (timed && *a.seconds < 0) {
+        } else if (timed && a.seconds && *a.seconds < 0) {
           d_.error(a.time_pos, "an action time cannot be negative");
         }
         if (!seen.emplace(a.qualifier, a.target).second) {

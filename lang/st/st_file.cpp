@@ -3,6 +3,7 @@
 
 #include "lang/iec/iec_functions.h"
 #include "lang/plcopen/st.h"
+#include "lang/sfc/ast.h"
 
 #include <algorithm>
 #include <cmath>
@@ -1184,26 +1185,24 @@ class Reader {
         fail(q_at, "expected the action's qualifier (N, S, R, P, P0, P1, L, D, SD, DS, SL)");
         return a;
       }
-      if (accept(",")) {
+      // The timed qualifiers' duration first; what follows is indicators.
+      if (sfc::is_timed_qualifier(qualifier) && accept(",")) {
         skip();
         const size_t d_at = i_;
         size_t d = i_;
         while (d < t_.size() && t_[d] != ',' && t_[d] != ')') ++d;
         std::string duration(t_.substr(i_, d - i_));
         while (!duration.empty() && std::isspace(static_cast<unsigned char>(duration.back()))) duration.pop_back();
-        if (!plcopen::parse_literal(duration)) {
-          fail(d_at, "'" + duration + "': an action's duration here is a TIME literal (T#2s); a variable is not "
-                     "supported");
+        if (duration.empty()) {
+          fail(d_at, "expected the action's duration, a TIME literal (T#2s) or a TIME variable");
           return a;
         }
         a.attributes.push_back({"duration", duration, pos(d_at)});
         i_ = d;
       }
-      skip();
-      if (i_ < t_.size() && t_[i_] == ',') {
-        fail(i_, "indicator variables of an action association are not supported");
-        return a;
-      }
+      // Indicator variables (`a(N, done_flag)`): IEC shows them beside the
+      // action; they change nothing, and MatIEC's code ignores them too.
+      while (ok_ && accept(",")) name("an indicator variable");
       expect(")", "after the action's qualifier");
     }
     a.attributes.push_back({"qualifier", qualifier, p});
