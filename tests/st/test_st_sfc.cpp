@@ -14,6 +14,7 @@
 
 #include "blocks/image.h"
 #include "lang/compiler.h"
+#include "sched/program.h"
 #include "tests/st/first_error.h"
 #include "tests/support/block_value.h"
 
@@ -358,6 +359,48 @@ END_PROGRAM
   const auto v = run(src, {"P.n"}, 3);
   ASSERT_EQ(v.size(), 3u);
   EXPECT_EQ(v[2][0], 6);
+}
+
+// A swap keeps the active step and its elapsed time by name (the chart's
+// blocks are named by instance path, as PLCopen's): version 2 adds a step
+// after Run and changes the action, and goes on from where version 1 was.
+TEST(StSfc, a_swap_keeps_the_active_step_and_its_time) {
+  const char* v1 = R"(PROGRAM P
+VAR n : INT; END_VAR
+  INITIAL_STEP Wait: END_STEP
+  STEP Run: Inc(N); END_STEP
+  ACTION Inc: n := n + 1; END_ACTION
+  TRANSITION FROM Wait TO Run := TRUE; END_TRANSITION
+  TRANSITION FROM Run TO Wait := Run.T >= T#1s; END_TRANSITION
+END_PROGRAM
+)";
+  const char* v2 = R"(PROGRAM P
+VAR n : INT; END_VAR
+  INITIAL_STEP Wait: END_STEP
+  STEP Run: Inc(N); END_STEP
+  STEP Rest: END_STEP
+  ACTION Inc: n := n + 10; END_ACTION
+  TRANSITION FROM Wait TO Run := TRUE; END_TRANSITION
+  TRANSITION FROM Run TO Rest := Run.T >= T#1s; END_TRANSITION
+  TRANSITION FROM Rest TO Wait := TRUE; END_TRANSITION
+END_PROGRAM
+)";
+  CompileOptions o;
+  o.period_override = 0.1;
+  CompileResult a = compile_source(v1, o), b = compile_source(v2, o);
+  ASSERT_TRUE(a.ok() && b.ok()) << a.diags.render("v1.st", v1) << b.diags.render("v2.st", v2);
+  TaskArena old_arena(*a.image);
+  for (int k = 0; k < 4; ++k) execute_cycle(*a.image, old_arena);  // Run from scan 0: T 0.3 s, n 4
+  EXPECT_EQ(testing::block_value(a, old_arena, "P.n"), 4);
+  const sched::Migration m = sched::plan_migration(*a.image, *b.image);
+  TaskArena next(*b.image);
+  sched::apply_migration(m, old_arena, next);
+  execute_cycle(*b.image, next);  // Run still active, T 0.4 s: the new action
+  EXPECT_EQ(testing::block_value(b, next, "P.step.Run.X"), 1);
+  EXPECT_NEAR(testing::block_value(b, next, "P.step.Run.T"), 0.4, 1e-12);
+  EXPECT_EQ(testing::block_value(b, next, "P.n"), 14);
+  for (int k = 0; k < 6; ++k) execute_cycle(*b.image, next);  // T reaches 1 s: Rest, as version 2 says
+  EXPECT_EQ(testing::block_value(b, next, "P.step.Rest.X"), 1);
 }
 
 TEST(StSfc, mistakes_are_refused_at_their_place) {
