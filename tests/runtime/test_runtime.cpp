@@ -11,6 +11,8 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <memory>
 #include <thread>
 
 #include "kernel_rt/clock.h"
@@ -114,19 +116,34 @@ TEST(Runtime, an_overrunning_task_is_counted_and_does_not_disturb_a_higher_prior
   // The heavy task needs 1.3 periods per cycle: it overruns every time, yet with
   // the skipped releases it leaves the CPU idle part of the time (so the
   // kernel's RT throttling, which would stall every RT task, never kicks in).
+  // The measurement is the machine's of the moment: beside stress-ng under
+  // ThreadSanitizer it once came out a third slower than the task then ran,
+  // and the heavy task overran 10 cycles of 500. So the period shrinks until
+  // the heavy task does overrun (at most four tries), and the light task is
+  // judged in that run.
   const int64_t exec = rtplc::testing::measure_exec_ns(heavy);
-  const int64_t period_us = std::max<int64_t>(100, exec / 1300);
-  auto rt = fx.start(
-      "tasks:\n"
-      "  - {name: light, program: light.fbd, period: 1ms, priority: 40, cpu: " + c + "}\n"
-      "  - {name: heavy, program: heavy.fbd, period: " + std::to_string(period_us) +
-      "us, priority: 20, cpu: " + c + "}\n");
-  ASSERT_NE(rt, nullptr);
-  if (!rt->image().task_info(0).fifo || !rt->image().task_info(1).fifo) {
-    rt->stop();
-    GTEST_SKIP() << "the tasks did not get SCHED_FIFO: priorities mean nothing under SCHED_OTHER";
+  int64_t period_us = std::max<int64_t>(100, exec / 1300);
+  std::unique_ptr<Runtime> rt;
+  Span span;
+  for (int attempt = 0; attempt < 4; ++attempt, period_us = std::max<int64_t>(100, period_us * 6 / 10)) {
+    rt.reset();
+    rt = fx.start(
+        "tasks:\n"
+        "  - {name: light, program: light.fbd, period: 1ms, priority: 40, cpu: " + c + "}\n"
+        "  - {name: heavy, program: heavy.fbd, period: " + std::to_string(period_us) +
+        "us, priority: 20, cpu: " + c + "}\n");
+    ASSERT_NE(rt, nullptr);
+    if (!rt->image().task_info(0).fifo || !rt->image().task_info(1).fifo) {
+      rt->stop();
+      GTEST_SKIP() << "the tasks did not get SCHED_FIFO: priorities mean nothing under SCHED_OTHER";
+    }
+    span = run_then_stop(*rt, 1.5);
+    const CycleStats& h = stats_of(*rt, 1);
+    if (h.overruns() > h.cycles() / 2) break;
+    std::printf("note: the heavy task overran %llu of %llu cycles at %lld us; trying a shorter period\n",
+                static_cast<unsigned long long>(h.overruns()), static_cast<unsigned long long>(h.cycles()),
+                static_cast<long long>(period_us));
   }
-  const Span span = run_then_stop(*rt, 1.5);
   const CycleStats& light = stats_of(*rt, 0);
   const CycleStats& heavy_st = stats_of(*rt, 1);
   // The heavy task overran (nearly) every cycle, skipped releases, and went on.
