@@ -15,6 +15,13 @@
 
 namespace rtplc::lang::plcopen {
 
+// A word size's rank: W 1, D 2, L 3, B 4 (X 0). It numbers the analog
+// groups (processor p<rank>, W's p0), the memory devices (d<rank>) and the
+// hierarchical processors (100 + 25 * rank).
+static uint32_t size_rank(char size) {
+  return size == 'W' ? 1 : size == 'D' ? 2 : size == 'L' ? 3 : size == 'B' ? 4 : 0;
+}
+
 std::optional<Location> parse_location(const std::string& a, std::string* error) {
   Location l;
   auto bad = [&](const std::string& why) -> std::optional<Location> {
@@ -65,9 +72,7 @@ std::optional<Location> parse_location(const std::string& a, std::string* error)
     if (parts.size() == 4 && (parts[2] > 254 || parts[3] > 255)) {
       return bad("has a third level above 254 or a fourth above 255 (rtplc maps those)");
     }
-    const uint32_t base =
-        l.size == 'X' ? 100 : l.size == 'W' ? 125 : l.size == 'D' ? 150 : l.size == 'L' ? 175 : 200;
-    l.p = base + parts[0];
+    l.p = 100 + 25 * size_rank(l.size) + parts[0];
     l.d = parts.size() == 2 ? 255 : parts[1];
     l.c = parts.size() == 2 ? parts[1] : parts.size() == 3 ? parts[2] : 256 + 256 * parts[2] + parts[3];
     return l;
@@ -90,14 +95,11 @@ std::optional<Location> parse_location(const std::string& a, std::string* error)
     }
   } else {
     if (parts.size() != 1) return bad("needs one number, e.g. %IW2");
-    const uint32_t group = l.size == 'W' ? 0 : l.size == 'D' ? 2 : l.size == 'L' ? 3 : 4;
-    l.p = group;
+    const uint32_t rank = size_rank(l.size);
+    l.p = rank == 1 ? 0 : rank;  // W is p0 (p1 holds the bits)
     l.d = 0;
     l.c = parts[0];
-    if (l.area == 'M') {
-      l.d = l.size == 'W' ? 1 : l.size == 'D' ? 2 : l.size == 'L' ? 3 : 4;
-      l.c = parts[0];
-    }
+    if (l.area == 'M') l.d = rank;
   }
   return l;
 }

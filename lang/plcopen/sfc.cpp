@@ -388,9 +388,8 @@ Value step_flag(const sfc::HostLink& host, const std::string& step) {
   return x;
 }
 
-// Whether `text` names `S.T` for step `step` (upper-case), as a word.
-bool mentions_step_time(std::string_view text, const std::string& step) {
-  const std::string up = upper(std::string(text));
+// Whether `up` (upper-case text) names `S.T` for step `step` (upper-case), as a word.
+bool mentions_step_time(const std::string& up, const std::string& step) {
   auto word = [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; };
   for (size_t k = up.find(step); k != std::string::npos; k = up.find(step, k + 1)) {
     if (k > 0 && (word(up[k - 1]) || up[k - 1] == '.')) continue;
@@ -403,26 +402,26 @@ bool mentions_step_time(std::string_view text, const std::string& step) {
   }
   return false;
 }
-bool mentions_step_time(const XmlElement& e, const std::string& step) {
-  if (mentions_step_time(e.text, step)) return true;
-  for (const XmlAttribute& a : e.attributes) {
-    if (mentions_step_time(a.value, step)) return true;
-  }
-  for (const XmlElement& c : e.children) {
-    if (mentions_step_time(c, step)) return true;
-  }
-  return false;
+// Every text of `e` (its own, its attributes', its children's) appended to
+// `out`, each piece ended by '\x01' (neither blank nor a word's), so no
+// match spans two pieces.
+void chart_text(const XmlElement& e, std::string& out) {
+  (out += e.text) += '\x01';
+  for (const XmlAttribute& a : e.attributes) (out += a.value) += '\x01';
+  for (const XmlElement& c : e.children) chart_text(c, out);
 }
-bool mentions_step_time(const Pou& pou, const XmlElement& chart, const std::string& step) {
-  if (mentions_step_time(chart, step)) return true;
+// The chart's text and its POU's actions' and transitions', upper-case: where
+// a condition or action may name `S.T` (read once per chart).
+std::string chart_texts(const Pou& pou, const XmlElement& chart) {
+  std::string out;
+  chart_text(chart, out);
   for (const std::vector<NamedBody>* bodies : {&pou.actions, &pou.transitions}) {
     for (const NamedBody& b : *bodies) {
-      if (mentions_step_time(b.body.source, step) || (b.body.graph && mentions_step_time(*b.body.graph, step))) {
-        return true;
-      }
+      (out += b.body.source) += '\x01';
+      if (b.body.graph) chart_text(*b.body.graph, out);
     }
   }
-  return false;
+  return upper(out);
 }
 
 }  // namespace
@@ -442,10 +441,12 @@ bool mentions_step_time(const Pou& pou, const XmlElement& chart, const std::stri
 // conditions do.
 void Lowering::step_times(Scope& s, const XmlElement& body, const sfc::Chart& chart, const sfc::HostLink& host) {
   std::map<std::string, StepTime>& times = step_times_[&s];
+  const std::string texts = chart_texts(*s.pou, body);
+  const double ns = iec::time_grid(iec::IecType::kTime);  // TIME's grid
   Value dt;
   for (const sfc::Step& st : chart.steps) {
     const std::string up = upper(st.name);
-    if (!mentions_step_time(*s.pou, body, up)) continue;
+    if (!mentions_step_time(texts, up)) continue;
     if (!dt.valid()) {
       const std::string clock = s.path + ".$sfc.clock";
       Value q, last, held;
@@ -458,7 +459,7 @@ void Lowering::step_times(Scope& s, const XmlElement& body, const sfc::Chart& ch
       last.ref = clock + ".last";
       held.ref = s.path + ".$sfc.dt";
       const Value grew = em_.binary(BinOp::kGt, et, last, chart.pos);
-      const Value step = on_time_grid(em_.binary(BinOp::kSub, et, last, chart.pos), 1e9, chart.pos);
+      const Value step = on_time_grid(em_.binary(BinOp::kSub, et, last, chart.pos), ns, chart.pos);
       em_.copy_as(em_.select(grew, step, held, chart.pos), held.ref, chart.pos);
       em_.copy_as(et, last.ref, chart.pos);
       dt = held;
@@ -467,7 +468,7 @@ void Lowering::step_times(Scope& s, const XmlElement& body, const sfc::Chart& ch
     const Value flag = step_flag(host, st.name);  // before the chart: the flag the scan started with
     Value last;
     last.ref = base + ".T";  // made by stamp_step_times: the end of the last scan
-    const Value grown = on_time_grid(em_.binary(BinOp::kAdd, last, dt, st.pos), 1e9, st.pos);
+    const Value grown = on_time_grid(em_.binary(BinOp::kAdd, last, dt, st.pos), ns, st.pos);
     Value t = em_.select(flag, grown, last, st.pos);
     t.time_type = iec::IecType::kTime;
     times[up] = StepTime{st.name, t};
