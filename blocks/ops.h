@@ -157,6 +157,26 @@ inline constexpr uint32_t kStringFormats = 10;
 // The longest string a value may hold (its cap), in characters.
 inline constexpr uint32_t kMaxStringLength = 1024;
 
+// The opcodes whose semantics is one kernel over an accessor (blocks/kernels.inc),
+// with the prepared parameters (NP) and state doubles (NS) one instruction reads:
+// the interpreter dispatches them alike and the native code calls their kernels.
+#define RTPLC_KERNEL_OPS(X) \
+  X(Add, 1, 0) X(Sub, 1, 0) X(Mult, 1, 0) X(Div, 1, 0) X(Abs, 0, 0) \
+  X(Sqrt, 0, 0) X(Sin, 0, 0) X(Cos, 0, 0) X(Tan, 0, 0) X(Asin, 0, 0) \
+  X(Acos, 0, 0) X(Atan, 0, 0) X(Max, 0, 0) X(Min, 0, 0) X(Inv, 0, 0) \
+  X(Scale, 2, 0) X(And2, 0, 0) X(And3, 0, 0) X(Or2, 0, 0) X(Or3, 0, 0) \
+  X(Not, 0, 0) X(Exor, 0, 0) X(Time, 1, 1) X(Cnt, 1, 2) X(Lim, 2, 0) \
+  X(Dzon, 1, 0) X(Intg, 1, 0) X(Derv, 1, 2) X(Filt, 1, 0) X(Ldlg, 3, 1) \
+  X(Pi, 2, 1) X(Epi, 2, 1) X(Pid, 3, 3) X(Epid, 3, 3) X(Ramp, 1, 0) \
+  X(Amux, 0, 0) X(Gt, 0, 0) X(Ge, 0, 0) X(Lt, 0, 0) X(Le, 0, 0) \
+  X(Eq, 0, 0) X(Ne, 0, 0) X(ConstA, 1, 0) X(ConstD, 1, 0) X(D2a, 0, 0) \
+  X(A2d, 0, 0) X(Mod, 0, 0) X(Trunc, 0, 0) X(Round, 0, 0) X(Neg, 0, 0) \
+  X(Expt, 0, 0) X(Ln, 0, 0) X(Log, 0, 0) X(Exp, 0, 0) X(Wrap, 2, 0) \
+  X(Imul, 2, 0) X(Band, 2, 0) X(Bor, 2, 0) X(Bxor, 2, 0) X(Bnot, 2, 0) \
+  X(Shl, 2, 0) X(Shr, 2, 0) X(Rol, 2, 0) X(Ror, 2, 0) X(Rtrig, 0, 1) \
+  X(Ftrig, 0, 1) X(Sr, 0, 0) X(Rs, 0, 0) X(Ctu, 1, 2) X(Ctd, 1, 2) \
+  X(Updn, 0, 2) X(Ctud, 2, 1) X(Pidc, 8, 4)
+
 // Jmp, Jz, Jnz, Loop: instructions that choose the next run.
 bool op_is_branch(Op op);
 // The opcodes whose output is also their state (read back next cycle): the
