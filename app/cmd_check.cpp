@@ -11,6 +11,7 @@
 
 #include "app/arguments.h"
 #include "app/commands.h"
+#include "blocks/native.h"
 #include "blocks/registry.h"
 #include "common/files.h"
 #include "config/config.h"
@@ -36,6 +37,7 @@ struct CheckArgs {
   std::string entry;
   std::string semantics = "auto";
   std::string name;
+  std::string native_source;
 };
 
 // Prints diagnostics; returns true when the program compiled.
@@ -165,6 +167,16 @@ void run_compile(const CheckArgs& a) {
   }
   std::printf("%s -> %s (%zu bytes, %u blocks)\n", a.file.c_str(), out.c_str(),
               r.image->bytes().size(), r.image->header().n_instr);
+  if (!a.native_source.empty()) {
+    NativeStats st;
+    const std::string src = native_source(*r.image, &st);
+    if (Result<void> w = write_file_atomically(a.native_source, src, 0644); !w) {
+      std::fprintf(stderr, "rtplc compile: %s\n", w.error().c_str());
+      throw CLI::RuntimeError(kExitFailure);
+    }
+    std::printf("%s: the native code's C++ (%u runs compiled, %u left to the interpreter)\n",
+                a.native_source.c_str(), st.native_runs, st.interpreted_runs);
+  }
 }
 
 void run_blocks(const CheckArgs& a) {
@@ -267,6 +279,8 @@ void add_check_commands(CLI::App& app) {
       ->check(CLI::IsMember({"auto", "matiec", "codesys"}));
   compile->add_option("-o,--output", args->output, "image file (default: FILE with .img)");
   compile->add_flag("--werror", args->werror, "treat warnings as errors");
+  compile->add_option("--native-source", args->native_source,
+                      "also write the C++ a task with `native: true` compiles this image into (docs/st.md, \"Native code\")");
   compile->add_option("--period", args->period, "override stime: task period in seconds")
       ->check(positive_seconds());
   compile->callback([args] { run_compile(*args); });

@@ -74,31 +74,61 @@ namespace exec_generic {
 #if defined(RTPLC_HAVE_AVX2_EXECUTOR)
 namespace exec_avx2 {
 void execute_cycle_impl(const ExecContext& ctx) noexcept;  // executor_avx2.cpp
+uint64_t execute_runs_impl(const ExecContext& ctx, uint32_t first, uint32_t last) noexcept;
 }
 #endif
 
 namespace {
 
 using CycleFn = void (*)(const ExecContext&) noexcept;
+using RunsFn = uint64_t (*)(const ExecContext&, uint32_t, uint32_t) noexcept;
 
 // Chosen once, before main: the AVX2 body on CPUs that have it (about twice as
 // fast on wide runs), the baseline body otherwise. RTPLC_EXECUTOR=generic forces
 // the baseline, for comparison and for the tests that check both agree.
-CycleFn pick_executor() {
+bool pick_avx2() {
 #if defined(RTPLC_HAVE_AVX2_EXECUTOR)
   const char* force = std::getenv("RTPLC_EXECUTOR");
   const bool generic = force != nullptr && std::strcmp(force, "generic") == 0;
   __builtin_cpu_init();
-  if (!generic && __builtin_cpu_supports("avx2")) return exec_avx2::execute_cycle_impl;
+  return !generic && __builtin_cpu_supports("avx2");
+#else
+  return false;
 #endif
-  return exec_generic::execute_cycle_impl;
 }
 
-const CycleFn g_cycle = pick_executor();
+const bool g_avx2 = pick_avx2();
+#if defined(RTPLC_HAVE_AVX2_EXECUTOR)
+const CycleFn g_cycle = g_avx2 ? exec_avx2::execute_cycle_impl : exec_generic::execute_cycle_impl;
+const RunsFn g_runs = g_avx2 ? exec_avx2::execute_runs_impl : exec_generic::execute_runs_impl;
+#else
+const CycleFn g_cycle = exec_generic::execute_cycle_impl;
+const RunsFn g_runs = exec_generic::execute_runs_impl;
+#endif
+
+// The native code hands back the runs it does not compile (native_abi.h).
+uint64_t interpret_run(const void* context, uint32_t run) {
+  return g_runs(*static_cast<const ExecContext*>(context), run, run + 1);
+}
+
+void execute_native_cycle(const ExecContext& ctx) noexcept {
+  if (ctx.loop_fault != nullptr) *ctx.loop_fault = 0;
+  const RtplcNativeFrame frame{ctx.params, ctx.values,     ctx.state,     ctx.errors,
+                               ctx.loop_budget, ctx.loop_fault, &interpret_run, &ctx};
+  const uint64_t bad = ctx.native(&frame);
+  ++*ctx.cycles;
+  if (bad != 0) *ctx.total_errors += bad;
+}
 
 }  // namespace
 
-void execute_cycle(const ExecContext& ctx) noexcept { g_cycle(ctx); }
+void execute_cycle(const ExecContext& ctx) noexcept {
+  if (ctx.native != nullptr) {
+    execute_native_cycle(ctx);
+    return;
+  }
+  g_cycle(ctx);
+}
 
 bool executor_body_available(ExecutorBody body) {
 #if defined(RTPLC_HAVE_AVX2_EXECUTOR)
@@ -121,11 +151,6 @@ void execute_cycle_on(ExecutorBody body, const ExecContext& ctx) noexcept {
   exec_generic::execute_cycle_impl(ctx);
 }
 
-const char* executor_variant() {
-#if defined(RTPLC_HAVE_AVX2_EXECUTOR)
-  if (g_cycle == exec_avx2::execute_cycle_impl) return "avx2";
-#endif
-  return "baseline";
-}
+const char* executor_variant() { return g_avx2 ? "avx2" : "baseline"; }
 
 }  // namespace rtplc

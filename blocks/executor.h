@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "blocks/image.h"
+#include "blocks/native_abi.h"
 
 namespace rtplc {
 
@@ -56,13 +57,17 @@ struct ExecContext {
   uint64_t* cycles = nullptr;
   uint64_t loop_budget = kDefaultLoopBudget;
   uint32_t* loop_fault = nullptr;  // see TaskArena::loop_fault; written every cycle
+  // Native code compiled from this very image (blocks/native.h), or null: the
+  // interpreter runs the cycle. The object that loaded it must outlive the context.
+  RtplcNativeCycle native = nullptr;
 };
 
 ExecContext make_context(const TaskImage& image, TaskArena& arena);
 
 // Runs one cycle: the runs in schedule order, every run once unless a branch
 // chooses another (Jmp, Jz, Jnz forward; Loop backward, counted against
-// loop_budget). Never allocates, locks, throws or makes a system call.
+// loop_budget). Never allocates, locks, throws or makes a system call. With
+// ctx.native set the native code runs it, with the same results bit for bit.
 void execute_cycle(const ExecContext& ctx) noexcept;
 
 // Which interpreter body execute_cycle runs on this CPU: "avx2" or "baseline".

@@ -1,0 +1,199 @@
+// Native code (blocks/native.h) against the interpreter: every program of the ST
+// corpus and the examples, in every language, run cycle by cycle on the same
+// changing inputs, must leave the same arena bit for bit (values, state, error
+// counters, outputs); a runaway loop faults at the same Loop; what cannot be
+// compiled is a clear error.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "blocks/executor.h"
+#include "blocks/native.h"
+#include "lang/compiler.h"
+
+namespace rtplc {
+namespace {
+
+namespace fs = std::filesystem;
+
+const std::string kSource = RTPLC_SOURCE_DIR;
+
+bool same_bits(const std::vector<double>& a, const std::vector<double>& b) {
+  return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0);
+}
+
+// The first place two arenas differ, or empty.
+std::string difference(const TaskArena& x, const TaskArena& y) {
+  if (!same_bits(x.values, y.values)) {
+    for (size_t i = 0; i < x.values.size(); ++i) {
+      if (std::memcmp(&x.values[i], &y.values[i], sizeof(double)) != 0) {
+        return "value slot " + std::to_string(i) + ": " + std::to_string(x.values[i]) + " vs " +
+               std::to_string(y.values[i]);
+      }
+    }
+  }
+  if (!same_bits(x.state, y.state)) return "state";
+  if (!same_bits(x.io_out, y.io_out)) return "outputs";
+  if (x.errors != y.errors) return "error counters";
+  if (x.total_errors != y.total_errors) return "total errors";
+  if (x.loop_fault != y.loop_fault) return "loop fault";
+  if (x.cycles != y.cycles) return "cycles";
+  return {};
+}
+
+// Inputs that change every cycle: whole numbers, fractions, signs, 0/1, large.
+double input_value(uint64_t cycle, uint32_t k) {
+  static const double kValues[] = {0, 1, -1, 2.5, 100, -37, 1e6, 0.001, 7, 3, 65535, -0.5, 12, 1, 0, 42};
+  const uint64_t h = (cycle * 2654435761u + k * 40503u) >> 3;
+  return kValues[h % (sizeof kValues / sizeof kValues[0])];
+}
+
+void expect_same_as_interpreter(const std::string& file, uint32_t cycles) {
+  SCOPED_TRACE(file);
+  lang::CompileResult r = lang::compile_file(file, {});
+  ASSERT_TRUE(r.ok()) << "does not compile";
+  const TaskImage& img = *r.image;
+  auto native = compile_native(img);
+  ASSERT_TRUE(native.ok()) << native.error();
+  EXPECT_TRUE((*native)->compiled_from(img));
+  TaskArena interp(img), nat(img);
+  ExecContext ci = make_context(img, interp), cn = make_context(img, nat);
+  cn.native = (*native)->entry();
+  for (uint64_t c = 0; c < cycles; ++c) {
+    for (uint32_t k = 0; k < interp.io_in.size(); ++k) interp.io_in[k] = nat.io_in[k] = input_value(c, k);
+    execute_cycle(ci);
+    execute_cycle(cn);
+    const std::string d = difference(interp, nat);
+    ASSERT_TRUE(d.empty()) << "cycle " << c << ": " << d;
+  }
+}
+
+std::vector<std::string> files_in(const std::string& dir, std::initializer_list<const char*> extensions) {
+  std::vector<std::string> out;
+  for (const auto& e : fs::directory_iterator(dir)) {
+    for (const char* x : extensions) {
+      if (e.path().extension() == x) out.push_back(e.path().string());
+    }
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+TEST(Native, every_st_corpus_program_runs_as_the_interpreter_runs_it) {
+  int ran = 0;
+  for (const std::string& f : files_in(kSource + "/tests/st/corpus", {".st"})) {
+    if (!lang::compile_file(f, {}).ok()) continue;  // the corpus also seeds the fuzzer with refusals
+    expect_same_as_interpreter(f, 60);
+    ++ran;
+  }
+  EXPECT_GE(ran, 10);
+}
+
+TEST(Native, the_examples_in_every_language_run_as_the_interpreter_runs_them) {
+  for (const char* f : {"/examples/seed_pid.fbd", "/examples/flow_pidc.fbd", "/examples/tank.sfc",
+                        "/examples/plcopen_tank.xml", "/examples/filler_sfc.st", "/examples/median.st",
+                        "/examples/messages.st", "/examples/seed_loop.fbd"}) {
+    expect_same_as_interpreter(kSource + f, 200);
+  }
+}
+
+TEST(Native, a_runaway_loop_stops_at_the_same_loop_with_the_same_count) {
+  lang::CompileResult r = lang::compile_source(
+      "PROGRAM P\nVAR x : DINT; go AT %IX0.0 : BOOL; n AT %QD0 : DINT; END_VAR\n"
+      "x := 0;\nWHILE go OR x < 3 DO\n  x := x + 1;\nEND_WHILE;\nn := x;\nEND_PROGRAM\n",
+      {});
+  ASSERT_TRUE(r.ok());
+  auto native = compile_native(*r.image);
+  ASSERT_TRUE(native.ok()) << native.error();
+  TaskArena interp(*r.image), nat(*r.image);
+  interp.loop_budget = nat.loop_budget = 777;
+  ExecContext ci = make_context(*r.image, interp), cn = make_context(*r.image, nat);
+  cn.native = (*native)->entry();
+  execute_cycle(ci);
+  execute_cycle(cn);
+  EXPECT_EQ(interp.loop_fault, 0u);
+  EXPECT_EQ(nat.io_out[0], 3.0);
+  interp.io_in[0] = nat.io_in[0] = 1;  // go: the loop never ends
+  execute_cycle(ci);
+  execute_cycle(cn);
+  EXPECT_NE(nat.loop_fault, 0u);
+  EXPECT_EQ(difference(interp, nat), "");
+  EXPECT_EQ(nat.total_errors, 1u);
+}
+
+// A program long enough to be cut into several functions, with a loop longer
+// than one part (it must stay whole) and a runaway loop in a later part.
+TEST(Native, a_long_program_cut_into_parts_runs_and_faults_as_the_interpreter) {
+  std::string src = "PROGRAM Long\nVAR a AT %IW0 : INT; go AT %IX0.0 : BOOL; y AT %QD0 : DINT;\n"
+                    "x : DINT; r : REAL; i : INT; END_VAR\n";
+  for (int k = 0; k < 100; ++k) src += "IF a > " + std::to_string(k % 7) + " THEN x := x + 1; ELSE r := r * 0.5 + 1.0; END_IF;\n";
+  src += "i := 0;\nWHILE i < 3 OR go DO\n  i := i + 1;\n";
+  for (int k = 0; k < 100; ++k) src += "  x := (x * 3 + " + std::to_string(k) + ") MOD 10007;\n";
+  src += "END_WHILE;\n";
+  for (int k = 0; k < 100; ++k) src += "r := r + " + std::to_string(k) + ".5;\n";
+  src += "y := x;\nEND_PROGRAM\n";
+  lang::CompileResult r = lang::compile_source(src, {});
+  ASSERT_TRUE(r.ok());
+  const std::string code = native_source(*r.image);
+  size_t parts = 0;
+  for (size_t at = code.find("uint64_t part"); at != std::string::npos; at = code.find("uint64_t part", at + 1)) ++parts;
+  EXPECT_GE(parts, 3u) << "the program was not cut";
+  auto native = compile_native(*r.image);
+  ASSERT_TRUE(native.ok()) << native.error();
+  TaskArena interp(*r.image), nat(*r.image);
+  interp.loop_budget = nat.loop_budget = 50;
+  ExecContext ci = make_context(*r.image, interp), cn = make_context(*r.image, nat);
+  cn.native = (*native)->entry();
+  for (uint64_t c = 0; c < 30; ++c) {
+    for (uint32_t k = 0; k < interp.io_in.size(); ++k) interp.io_in[k] = nat.io_in[k] = input_value(c, k);
+    if (c >= 20) interp.io_in[1] = nat.io_in[1] = 1;  // go: the loop runs away
+    execute_cycle(ci);
+    execute_cycle(cn);
+    ASSERT_EQ(difference(interp, nat), "") << "cycle " << c;
+  }
+  EXPECT_NE(nat.loop_fault, 0u);
+}
+
+TEST(Native, a_missing_or_failing_compiler_is_a_clear_error) {
+  lang::CompileResult r = lang::compile_file(kSource + "/examples/median.st", {});
+  ASSERT_TRUE(r.ok());
+  NativeOptions none;
+  none.compiler = "/nonexistent/c++";
+  auto a = compile_native(*r.image, none);
+  ASSERT_FALSE(a.ok());
+  EXPECT_NE(a.error().find("needs a C++ compiler"), std::string::npos) << a.error();
+  EXPECT_NE(a.error().find("RTPLC_CXX"), std::string::npos) << a.error();
+  NativeOptions failing;
+  failing.compiler = "false";
+  auto b = compile_native(*r.image, failing);
+  ASSERT_FALSE(b.ok());
+  EXPECT_NE(b.error().find("exited with 1"), std::string::npos) << b.error();
+  NativeOptions nowhere;
+  nowhere.work_dir = "/nonexistent/dir";
+  auto c = compile_native(*r.image, nowhere);
+  ASSERT_FALSE(c.ok());
+  EXPECT_NE(c.error().find("cannot make a build folder in /nonexistent/dir"), std::string::npos) << c.error();
+}
+
+TEST(Native, leaves_nothing_behind_and_knows_its_image) {
+  const fs::path dir = fs::temp_directory_path() / ("rtplc-native-test-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  lang::CompileResult a = lang::compile_file(kSource + "/examples/median.st", {});
+  lang::CompileResult b = lang::compile_file(kSource + "/examples/seed_pid.fbd", {});
+  ASSERT_TRUE(a.ok() && b.ok());
+  NativeOptions opt;
+  opt.work_dir = dir.string();
+  auto n = compile_native(*a.image, opt);
+  ASSERT_TRUE(n.ok()) << n.error();
+  EXPECT_TRUE(fs::is_empty(dir)) << "the build folder was not removed";
+  EXPECT_TRUE((*n)->compiled_from(*a.image));
+  EXPECT_FALSE((*n)->compiled_from(*b.image));
+  EXPECT_GT((*n)->stats().native_runs, 0u);
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace rtplc
