@@ -9,6 +9,7 @@
 
 #include "app/arguments.h"
 #include "app/commands.h"
+#include "blocks/native.h"
 #include "io/drivers/sim/plant.h"
 #include "sim/sim_loop.h"
 #include "lang/compiler.h"
@@ -32,6 +33,7 @@ struct SimArgs {
   bool quiet = false;
   bool allow_unstable = false;
   bool plant_given = false;  // --plant, --plant-input or --plant-output on the command line
+  bool native = false;
 };
 
 io::SetpointStep parse_step(const std::string& s, double duration) {
@@ -103,6 +105,21 @@ void run_sim(const SimArgs& a) {
   opt.probes = r.program.variables;
   opt.file = a.file;  // PLCopen: every variable of the program instances
   for (const std::string& s : a.steps) opt.steps.push_back(parse_step(s, a.duration));
+  std::shared_ptr<const NativeCode> native;
+  if (a.native) {
+    auto n = compile_native(*r.image);
+    if (!n) {
+      std::fprintf(stderr, "rtplc sim: --native: %s\n", n.error().c_str());
+      throw CLI::RuntimeError(kExitFailure);
+    }
+    native = *n;
+    opt.native = native->entry();
+    if (!a.quiet) {
+      const NativeStats& st = native->stats();
+      std::printf("native code: %u runs compiled, %u left to the interpreter, %.0f ms to compile\n",
+                  st.native_runs, st.interpreted_runs, st.compile_ms);
+    }
+  }
 
   const bool open_loop = io::runs_open_loop(*r.image, opt);
   if (!a.quiet && open_loop) {
@@ -210,6 +227,9 @@ void add_sim_command(CLI::App& app) {
   sim->add_flag("--allow-unstable", a->allow_unstable,
                 "a diverging loop is reported but is not an error (exit 0)");
   sim->add_flag("--realtime", a->realtime, "pace cycles to the wall clock");
+  sim->add_flag("--native", a->native,
+                "run the program as native code, compiled with the machine's C++ compiler, as a task\n"
+                "with `native: true` runs (docs/st.md, \"Native code\")");
   sim->add_flag("-q,--quiet", a->quiet, "print nothing but errors");
   sim->callback([a] { run_sim(*a); });
 }

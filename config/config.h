@@ -98,6 +98,8 @@ struct TaskConfig {
   // stops into its safe outputs (docs/st.md, "Loops").
   uint64_t loop_budget = kDefaultLoopBudget;
   SourcePos loop_budget_pos;
+  // Run the program as native code (blocks/native.h, docs/st.md "Native code").
+  bool native = false;
   std::vector<SafeOutput> safe_outputs;
   std::vector<OnBadPolicy> on_bad;  // outputs not listed: hold
   // Retained block state (docs/runtime.md, "Retained block state"): every

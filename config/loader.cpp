@@ -377,6 +377,9 @@ void parse_task(YamlReader& r, const YAML::Node& node, SourcePos list_pos, Runti
     t.loop_budget_pos = x->pos;
     if (auto v = r.integer(*x)) t.loop_budget = static_cast<uint64_t>(*v);
   }
+  if (const Field* x = f.get("native")) {
+    if (auto v = r.boolean(*x)) t.native = *v;
+  }
   t.retain_pos = t.pos;
   if (const Field* x = f.get("retain")) parse_retain(r, *x, t);
   if (const Field* x = f.get("on_bad")) parse_on_bad(r, *x, t);

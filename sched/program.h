@@ -12,6 +12,7 @@
 
 #include "blocks/executor.h"
 #include "blocks/image.h"
+#include "blocks/native.h"
 #include "blocks/status.h"
 #include "io/process_image.h"
 #include "sched/state_snapshot.h"
@@ -74,6 +75,8 @@ struct LoadedProgram {
 
   TaskImage image;
   TaskArena arena;
+  // The image as native code (task key `native`), or null: the interpreter runs it.
+  std::shared_ptr<const NativeCode> native;
   StatusLane lane;  // the statuses of the arena's values (blocks/status.h)
   std::vector<InputGroup> inputs;
   // The task's output region index of each image output. When it is the

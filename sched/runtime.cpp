@@ -454,10 +454,18 @@ Result<std::unique_ptr<LoadedProgram>> Runtime::make_program(uint32_t t, TaskIma
                                                               std::string source, std::string file,
                                                               const LoadedProgram* running,
                                                               const std::vector<std::string>& drop_outputs) {
+  // Native code is compiled first, outside the lock: it takes the compiler's time.
+  std::shared_ptr<const NativeCode> native;
+  if (config_.tasks[t].native) {
+    auto n = compile_native(image);
+    if (!n) return make_error("task '" + config_.tasks[t].name + "' (native: true): " + n.error());
+    native = std::move(*n);
+  }
   // New set-points of a swap take their value under the lock set_value() holds.
   std::lock_guard setpoints(setpoint_mu_);
   auto p = std::make_unique<LoadedProgram>();
   p->image = std::move(image);
+  p->native = std::move(native);
   p->arena.resize_for(p->image);
   p->lane.resize_for(p->image);
   // A swapped-in program retains the blocks its task's `retain` selects; a

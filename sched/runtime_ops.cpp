@@ -500,7 +500,7 @@ std::string Runtime::status() const {
     s += "  task " + t->params().name + ": " +
          io::task_state_name(static_cast<io::TaskState>(ti.state.load())) + ", " +
          t->active().file + " (program " + ProgramStore::hash_of(t->active().source) + ", " +
-         origins_[t->index()] + "), period " + fmt_ms(t->params().period_ns) + ", " +
+         origins_[t->index()] + (t->active().native ? ", native code" : "") + "), period " + fmt_ms(t->params().period_ns) + ", " +
          (ti.fifo ? "FIFO " + std::to_string(ti.priority) : std::string("OTHER")) + ", " +
          std::to_string(st->cycles()) + " cycles, " + std::to_string(st->overruns()) +
          " overruns, " + std::to_string(ti.swaps.load()) + " swaps, " +
@@ -573,12 +573,13 @@ std::string Runtime::status_json() const {
     s += fmt::format(
         "{}\n    {{\"name\": {}, \"state\": \"{}\", \"file\": {}, \"program\": \"{}\", \"origin\": {}, "
         "\"period_ns\": {}, \"policy\": \"{}\", \"priority\": {}, \"cycles\": {}, \"overruns\": {}, "
-        "\"swaps\": {}, \"block_errors\": {}, \"last_block_error\": {}{}}}",
+        "\"swaps\": {}, \"block_errors\": {}, \"last_block_error\": {}, \"native\": {}{}}}",
         first ? "" : ",", json_text(t->params().name),
         io::task_state_name(static_cast<io::TaskState>(ti.state.load())), json_text(t->active().file),
         ProgramStore::hash_of(t->active().source), json_text(origins_[t->index()]), t->params().period_ns,
         ti.fifo ? "FIFO" : "OTHER", ti.fifo ? ti.priority : 0, st->cycles(), st->overruns(), ti.swaps.load(),
-        ti.block_errors.load(), last_error.empty() ? "null" : json_text(last_error), steps_json(*t));
+        ti.block_errors.load(), last_error.empty() ? "null" : json_text(last_error),
+        t->active().native ? "true" : "false", steps_json(*t));
     first = false;
   }
   s += first ? "]\n}\n" : "\n  ]\n}\n";

@@ -129,6 +129,7 @@ void Task::write_outputs(LoadedProgram& p, bool safe) noexcept {
   const uint32_t k = image_.begin_write(region_);
   double* slot = image_.values(region_, k);
   ExecContext ctx = make_context(p.image, p.arena);
+  if (p.native != nullptr) ctx.native = p.native->entry();
   if (!safe && p.outputs_in_place) {
     // The executor writes the outputs straight into the snapshot being built
     // (atomic release stores, see blocks/executor_body.inc and io/process_image.h).

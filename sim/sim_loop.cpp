@@ -219,6 +219,7 @@ Result<SimTrace> run_closed_loop(const TaskImage& image, Plant& plant, const Sim
   plant.reset();
   arena.loop_budget = opt.loop_budget;
   ExecContext ctx = make_context(image, arena);
+  ctx.native = opt.native;
   const auto cycles = static_cast<uint64_t>(std::floor(opt.duration / dt + 1e-9)) + 1;
   tr.rows.reserve(cycles);
   const int64_t start = now_ns();

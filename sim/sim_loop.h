@@ -38,6 +38,8 @@ struct SimOptions {
   std::vector<std::string> probes;
   std::string file;  // the program's source, for positioned errors (a runaway loop)
   uint64_t loop_budget = kDefaultLoopBudget;
+  // Native code compiled from this image (blocks/native.h), or null.
+  RtplcNativeCycle native = nullptr;
 };
 
 struct SimTrace {

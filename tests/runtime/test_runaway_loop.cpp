@@ -143,14 +143,17 @@ const char* kFixedSt = R"(PROGRAM Main
 END_PROGRAM
 )";
 
-TEST(RunawayLoop, an_st_while_that_never_ends_stops_its_task_and_a_swap_restarts_it_keeping_state) {
+// `native`: the task's `native` key (blocks/native.h): the same loop, budget,
+// fault and swap as native code.
+void st_while_that_never_ends(bool native) {
   RuntimeFixture fx;
   const std::string file = fx.write("spin.st", kSpinSt);
-  auto rt = fx.start(
-      "tasks:\n"
-      "  - {name: spin, program: spin.st, period: 10ms, safe_outputs: {count: -1}}\n"
-      "drivers:\n  - kind: sim\n");
+  auto rt = fx.start(std::string("tasks:\n"
+                                 "  - {name: spin, program: spin.st, period: 10ms, safe_outputs: {count: -1}") +
+                     (native ? ", native: true" : "") + "}\n"
+                     "drivers:\n  - kind: sim\n");
   ASSERT_NE(rt, nullptr);
+  EXPECT_EQ(rt->status().find("native code") != std::string::npos, native) << rt->status();
   ASSERT_TRUE(eventually([&] { return rtplc::testing::channel_value(*rt, "count") == 5.0; }));
   ASSERT_TRUE(rt->set_value("spin", 1));
   ASSERT_TRUE(eventually([&] {
@@ -170,8 +173,16 @@ TEST(RunawayLoop, an_st_while_that_never_ends_stops_its_task_and_a_swap_restarts
   EXPECT_LT(swapped->find("Main.total", kept), swapped->find("reset:")) << *swapped;
   ASSERT_TRUE(eventually([&] { return rtplc::testing::channel_value(*rt, "count") == 1000.0; }));
   EXPECT_EQ(static_cast<io::TaskState>(rt->image().task_info(0).state.load()), io::TaskState::kRunning);
+  // The swapped-in program runs as native code too.
+  EXPECT_EQ(rt->status().find("native code") != std::string::npos, native) << rt->status();
   rt->stop();
 }
+
+TEST(RunawayLoop, an_st_while_that_never_ends_stops_its_task_and_a_swap_restarts_it_keeping_state) {
+  st_while_that_never_ends(false);
+}
+
+TEST(RunawayLoop, the_same_as_native_code) { st_while_that_never_ends(true); }
 
 }  // namespace
 }  // namespace rtplc::sched
