@@ -487,6 +487,13 @@ Result<std::shared_ptr<const NativeCode>> compile_native(const TaskImage& image,
                                    "-shared",       "-fno-trapping-math", "-ffp-contract=off", "-fno-exceptions",
                                    "-fno-rtti",     "-fvisibility=hidden", "-w",         "-o",
                                    so_path,         src_path};
+#if defined(__x86_64__)
+  // SSE4.1 rounds in one instruction (trunc, nearbyint: every integer step and
+  // array index) where plain x86-64 calls libm: 40% of the loop benchmark's
+  // time. The same IEEE results; the library is built for this very machine.
+  __builtin_cpu_init();
+  if (__builtin_cpu_supports("sse4.1")) args.insert(args.begin() + 1, "-msse4.1");
+#endif
   std::vector<char*> argv;
   for (std::string& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);

@@ -103,7 +103,7 @@ const KeySpec kTaskKeys[] = {
      "Run the program as native code: rtplc translates its image into C++ and compiles it "
      "with the machine's C++ compiler (`c++`, or RTPLC_CXX) when the task starts and before "
      "each swap, and refuses either if that fails. The results are the interpreter's, bit "
-     "for bit; a loop-heavy program runs two to three times faster (docs/st.md, \"Native code\"). "
+     "for bit; a loop-heavy program runs three to four times faster (docs/st.md, \"Native code\"). "
      "Needs a C++ compiler on the machine."},
     {"safe_outputs", ValueType::kLabelMap, false, kNoMin, kNoMax, nullptr, "every output 0",
      "`LABEL: value` for the outputs of a stopped task; outputs not listed go to 0."},
