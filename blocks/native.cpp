@@ -2,13 +2,17 @@
 // native.h for the design, docs/st.md "Native code" for the user's side).
 #include "blocks/native.h"
 
+#include <dirent.h>
 #include <dlfcn.h>
+#include <sched.h>
+#include <signal.h>
 #include <fcntl.h>
 #include <spawn.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cctype>
 #include <cerrno>
 #include <chrono>
 #include <cstdio>
@@ -99,6 +103,7 @@ class Translator {
 
   // Returns true when the run was translated, false when handed back.
   bool run(uint32_t ri, const Run& r) {
+    run_ = ri;
     const Op op = r.op;
     const uint32_t n = r.end - r.begin;
     if (const KernelShape* k = kernel_shape(op); k != nullptr) {
@@ -189,11 +194,14 @@ class Translator {
     const uint32_t n_in = op_input_count(r.op);
     for (uint32_t x = n_in; x < 3; ++x) a[x] = 0;
     // An input only a constant writes is that constant, so the C++ compiler can
-    // fold it (a MOD 2 becomes a test of the low bit).
+    // fold it (a MOD 2 becomes a test of the low bit) -- when the constant has
+    // surely run before this read in the cycle: a read of a later block reads
+    // the slot's last value (0 in the first cycle, the old program's after a
+    // swap, the retained one after a restart).
     std::string lits;
     unsigned mask = 0;
     for (uint32_t x = 0; x < 3; ++x) {
-      const bool lit = x < n_in && constant_[a[x]];
+      const bool lit = x < n_in && constant_[a[x]] && constant_run_[a[x]] < run_ && !skippable_[constant_run_[a[x]]];
       if (lit) mask |= 1u << x;
       lits += ", " + (lit ? literal(constant_value_[a[x]]) : std::string("0.0"));
     }
@@ -205,9 +213,28 @@ class Translator {
   // every read is that constant (the arena still gets it, written by the const).
   void find_constant_slots() {
     const uint32_t n_values = img_.header().n_values;
+    const uint32_t n_runs = img_.header().n_runs;
     std::vector<uint32_t> writers(n_values, 0);
     constant_.assign(n_values, false);
     constant_value_.assign(n_values, 0.0);
+    constant_run_.assign(n_values, 0);
+    // Runs a forward branch may jump over: not surely run in every cycle.
+    std::vector<int32_t> over(n_runs + 1, 0);
+    for (uint32_t ri = 0; ri < n_runs; ++ri) {
+      const Run& r = img_.runs()[ri];
+      if (!op_is_branch(r.op)) continue;
+      const uint32_t t = code_[r.begin].out;
+      if (t > ri + 1) {
+        ++over[ri + 1];
+        --over[t];
+      }
+    }
+    skippable_.assign(n_runs, false);
+    int32_t depth = 0;
+    for (uint32_t ri = 0; ri < n_runs; ++ri) {
+      depth += over[ri];
+      skippable_[ri] = depth > 0;
+    }
     std::vector<uint32_t> const_writer(n_values, UINT32_MAX);
     auto wrote = [&](uint64_t slot, uint32_t count, uint32_t instr) {
       for (uint64_t x = slot; x < slot + count && x < n_values; ++x) {
@@ -234,7 +261,8 @@ class Translator {
         }
       }
     }
-    for (const Run& r : img_.runs()) {
+    for (uint32_t ri = 0; ri < n_runs; ++ri) {
+      const Run& r = img_.runs()[ri];
       if (r.op != Op::ConstA && r.op != Op::ConstD) continue;
       const bool affine = (r.flags & kRunAffine) != 0;
       const bool uniform = affine && (r.flags & kRunUniformParams) != 0;
@@ -246,6 +274,7 @@ class Translator {
         const double v = params_[param];
         constant_[out] = true;
         constant_value_[out] = r.op == Op::ConstD ? (v != 0.0 ? 1.0 : 0.0) : v;
+        constant_run_[out] = ri;
       }
     }
   }
@@ -268,6 +297,9 @@ class Translator {
   const TaskImage& img_;
   std::vector<bool> constant_;
   std::vector<double> constant_value_;
+  std::vector<uint32_t> constant_run_;  // the run of the slot's one ConstA
+  std::vector<bool> skippable_;         // per run: a forward branch may jump over it
+  uint32_t run_ = 0;                    // the run being translated
   std::span<const Instr> code_;
   std::span<const double> params_;
   std::string& globals_;
@@ -280,7 +312,14 @@ class WorkDir {
  public:
   explicit WorkDir(std::string path) : path_(std::move(path)) {}
   ~WorkDir() {
-    for (const char* f : {"task.cpp", "task.so", "compiler.log"}) ::unlink((path_ + "/" + f).c_str());
+    // Whatever the compiler left there too (a wrapper's temporary files).
+    if (DIR* d = ::opendir(path_.c_str())) {
+      while (const dirent* e = ::readdir(d)) {
+        const std::string n = e->d_name;
+        if (n != "." && n != "..") ::unlink((path_ + "/" + n).c_str());
+      }
+      ::closedir(d);
+    }
     ::rmdir(path_.c_str());
   }
   std::string file(const char* name) const { return path_ + "/" + name; }
@@ -407,7 +446,14 @@ std::string native_source(const TaskImage& image, NativeStats* stats) {
   }
   const uint64_t fp = image_fingerprint(image);
   std::string src;
-  src += "// Native code rtplc generated for the task image \"" + std::string(image.name()) + "\" (" + hex64(fp) +
+  // Nothing of the image's text goes into the source but this name, cut to
+  // characters that cannot end the comment: an image file or a file name with a
+  // newline in it must not become code.
+  std::string name;
+  for (const char c : image.name().substr(0, 64)) {
+    name += std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '.' || c == '-' ? c : '_';
+  }
+  src += "// Native code rtplc generated for the task image " + name + " (" + hex64(fp) +
          "): compiled, loaded and removed by rtplc.\n";
   src += "#include <bit>\n#include <cmath>\n#include <cstdint>\n";
   src += kit_text(native_kit::kAbi);
@@ -468,6 +514,12 @@ Result<std::shared_ptr<const NativeCode>> compile_native(const TaskImage& image,
   }
   // mkdtemp makes a new folder only we may enter: nothing in it can be a link
   // someone else planted.
+  // A folder others may write to without the sticky bit would let them put
+  // another folder in ours' place between the compile and the load.
+  struct stat bs {};
+  if (::stat(base.c_str(), &bs) == 0 && (bs.st_mode & S_IWOTH) != 0 && (bs.st_mode & S_ISVTX) == 0) {
+    return make_error("native code: " + base + " is writable by anyone and not sticky; set TMPDIR to a safe folder");
+  }
   std::string templ = base + "/rtplc-native-XXXXXX";
   if (::mkdtemp(templ.data()) == nullptr) {
     return make_error("native code: cannot make a build folder in " + base + ": " + std::strerror(errno));
@@ -487,6 +539,12 @@ Result<std::shared_ptr<const NativeCode>> compile_native(const TaskImage& image,
                                    "-shared",       "-fno-trapping-math", "-ffp-contract=off", "-fno-exceptions",
                                    "-fno-rtti",     "-fvisibility=hidden", "-w",         "-o",
                                    so_path,         src_path};
+  // The C++ compiler may compute these at compile time, correctly rounded, or
+  // rewrite pow(x, 2) as x*x; the interpreter calls the C library, which is not
+  // always correctly rounded. The same call at run time gives the same bits.
+  for (const char* f : {"sin", "cos", "tan", "asin", "acos", "atan", "log", "log10", "exp", "pow"}) {
+    args.insert(args.begin() + 1, std::string("-fno-builtin-") + f);
+  }
 #if defined(__x86_64__)
   // SSE4.1 rounds in one instruction (trunc, nearbyint: every integer step and
   // array index) where plain x86-64 calls libm: 40% of the loop benchmark's
@@ -503,29 +561,72 @@ Result<std::shared_ptr<const NativeCode>> compile_native(const TaskImage& image,
   posix_spawn_file_actions_addopen(&fa, 0, "/dev/null", O_RDONLY, 0);
   posix_spawn_file_actions_addopen(&fa, 1, log_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_NOFOLLOW, 0600);
   posix_spawn_file_actions_adddup2(&fa, 1, 2);
+  // The compiler starts with no signal blocked and every signal at its default
+  // (the runtime's control thread blocks SIGTERM and ignores SIGPIPE), at the
+  // normal scheduling policy whatever thread asks, in a process group of its
+  // own so a timeout stops the driver and the compiler it runs.
+  posix_spawnattr_t attr;
+  posix_spawnattr_init(&attr);
+  sigset_t none, defaults;
+  sigemptyset(&none);
+  sigfillset(&defaults);
+  sigdelset(&defaults, SIGKILL);
+  sigdelset(&defaults, SIGSTOP);
+  posix_spawnattr_setsigmask(&attr, &none);
+  posix_spawnattr_setsigdefault(&attr, &defaults);
+  sched_param normal{};
+  posix_spawnattr_setschedpolicy(&attr, SCHED_OTHER);
+  posix_spawnattr_setschedparam(&attr, &normal);
+  posix_spawnattr_setpgroup(&attr, 0);
+  posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF | POSIX_SPAWN_SETSCHEDULER |
+                                      POSIX_SPAWN_SETPGROUP);
   const auto t0 = std::chrono::steady_clock::now();
   pid_t pid = 0;
-  const int rc = ::posix_spawnp(&pid, compiler.c_str(), &fa, nullptr, argv.data(), environ);
+  const int rc = ::posix_spawnp(&pid, compiler.c_str(), &fa, &attr, argv.data(), environ);
   posix_spawn_file_actions_destroy(&fa);
+  posix_spawnattr_destroy(&attr);
   if (rc != 0) {
     return make_error("native code needs a C++ compiler: cannot run `" + compiler + "` (" + std::strerror(rc) +
                       "); install g++, or name one in RTPLC_CXX");
   }
   int status = 0;
-  while (::waitpid(pid, &status, 0) < 0) {
-    if (errno != EINTR) return make_error(std::string("native code: waiting for the compiler: ") + std::strerror(errno));
+  bool timed_out = false;
+  for (;;) {
+    const pid_t w = ::waitpid(pid, &status, WNOHANG);
+    if (w == pid) break;
+    if (w < 0 && errno != EINTR) {
+      return make_error(std::string("native code: waiting for the compiler: ") + std::strerror(errno));
+    }
+    if (!timed_out && std::chrono::steady_clock::now() - t0 > std::chrono::duration<double>(options.timeout_s)) {
+      ::kill(-pid, SIGKILL);  // the group: the driver and what it runs
+      timed_out = true;
+    }
+    ::usleep(20'000);
   }
   stats.compile_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  if (timed_out) {
+    return make_error("native code: `" + compiler + "` took more than " + std::to_string(options.timeout_s) +
+                      " s and was stopped; run this task on the interpreter (native: false)");
+  }
   if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
     const std::string why = WIFEXITED(status) ? "exited with " + std::to_string(WEXITSTATUS(status))
                                               : "was killed by signal " + std::to_string(WTERMSIG(status));
     return make_error("native code: `" + compiler + "` " + why + " on the generated source:\n" +
-                      head_of(log_path, 20) + "(`rtplc native --emit` prints that source)");
+                      head_of(log_path, 20) + "(`rtplc compile FILE --native-source F.cpp` writes that source)");
   }
-  void* handle = ::dlopen(so_path.c_str(), RTLD_NOW | RTLD_LOCAL);
+  // Load the very file checked here: ours, a plain file, not a link.
+  const int so_fd = ::open(so_path.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC);
+  struct stat so {};
+  if (so_fd < 0 || ::fstat(so_fd, &so) != 0 || !S_ISREG(so.st_mode) || so.st_uid != ::geteuid()) {
+    if (so_fd >= 0) ::close(so_fd);
+    return make_error("native code: the compiled library is missing or not the compiler's own file");
+  }
+  void* handle = ::dlopen(("/proc/self/fd/" + std::to_string(so_fd)).c_str(), RTLD_NOW | RTLD_LOCAL);
+  ::close(so_fd);
   if (handle == nullptr) {
     const char* e = ::dlerror();
-    return make_error(std::string("native code: the compiled library does not load: ") + (e ? e : "?"));
+    return make_error(std::string("native code: the compiled library does not load (is ") + base +
+                      " mounted noexec? set TMPDIR): " + (e ? e : "?"));
   }
   const uint64_t fp = image_fingerprint(image);
   const auto* tag = static_cast<const char*>(::dlsym(handle, "rtplc_native_tag"));

@@ -1,5 +1,5 @@
 // Native code for a task image (docs/st.md, "Native code"): the verified image
-// translated into one C++ function, compiled by the machine's C++ compiler into a
+// translated into C++ functions, compiled by the machine's C++ compiler into a
 // shared library and loaded, so a loop-heavy program runs at the speed MatIEC's
 // and CODESYS's compiled code runs, instead of paying the interpreter's dispatch
 // for every instruction of every iteration.
@@ -32,8 +32,10 @@ struct NativeOptions {
   // The C++ compiler: empty means $RTPLC_CXX, else `c++` from PATH.
   std::string compiler;
   // Where the private build folder is made (and removed): empty means $TMPDIR,
-  // else /tmp.
+  // else /tmp. It must allow executing the library (not mounted noexec).
   std::string work_dir;
+  // A compile that takes longer is stopped and refused.
+  double timeout_s = 600;
 };
 
 // What the translation made of an image.
@@ -69,7 +71,7 @@ class NativeCode {
 // The image's identity for native code: FNV-1a over all its bytes.
 uint64_t image_fingerprint(const TaskImage& image);
 
-// The C++ source generated for `image` (what `rtplc native --emit` prints).
+// The C++ source generated for `image` (what `rtplc compile --native-source` writes).
 std::string native_source(const TaskImage& image, NativeStats* stats = nullptr);
 
 // Generates, compiles and loads the native code of `image`. Errors name what

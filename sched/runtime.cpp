@@ -453,10 +453,12 @@ bool Runtime::create_drivers(const config::RuntimeConfig& cfg, DiagnosticList& c
 Result<std::unique_ptr<LoadedProgram>> Runtime::make_program(uint32_t t, TaskImage image,
                                                               std::string source, std::string file,
                                                               const LoadedProgram* running,
-                                                              const std::vector<std::string>& drop_outputs) {
-  // Native code is compiled first, outside the lock: it takes the compiler's time.
+                                                              const std::vector<std::string>& drop_outputs,
+                                                              bool compile_native_code) {
+  // Native code is compiled first, outside the lock: it takes the compiler's
+  // time. Not for `rtplc check` nor a swap's check: only code that will run.
   std::shared_ptr<const NativeCode> native;
-  if (config_.tasks[t].native) {
+  if (config_.tasks[t].native && compile_native_code && !options_.check_only) {
     auto n = compile_native(image);
     if (!n) return make_error("task '" + config_.tasks[t].name + "' (native: true): " + n.error());
     native = std::move(*n);

@@ -232,7 +232,8 @@ class Runtime {
   Result<std::unique_ptr<LoadedProgram>> make_program(uint32_t task, TaskImage image,
                                                       std::string source, std::string file,
                                                       const LoadedProgram* running,
-                                                      const std::vector<std::string>& drop_outputs = {});
+                                                      const std::vector<std::string>& drop_outputs = {},
+                                                      bool compile_native_code = true);
   // What a set-point a swap adds starts at: its retained value if that fits its
   // kind and `setpoints` limits, else its init value; an init value that does
   // not fit refuses the program. Caller holds setpoint_mu_.

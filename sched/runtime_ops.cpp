@@ -302,7 +302,8 @@ Result<std::string> Runtime::swap_check(const std::string& task, const std::stri
   if (!r.ok()) return make_error("would not swap, the program has errors:\n" + r.diags.render(file_label, source));
   // The same plan a swap makes (channels, set-points, outputs left out, state
   // carried over), then dropped: nothing enters the image, the store or the task.
-  auto next = make_program(t->index(), std::move(*r.image), source, file_label, &t->active(), drop_outputs);
+  auto next = make_program(t->index(), std::move(*r.image), source, file_label, &t->active(), drop_outputs,
+                           /*compile_native_code=*/false);
   if (!next) return make_error("would not swap: " + next.error());
   const LoadedProgram& p = **next;
   std::string out = "task " + task + ": " + file_label + " compiles and verifies (" +

@@ -5,8 +5,11 @@
 // compiled is a clear error.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -49,6 +52,29 @@ double input_value(uint64_t cycle, uint32_t k) {
   static const double kValues[] = {0, 1, -1, 2.5, 100, -37, 1e6, 0.001, 7, 3, 65535, -0.5, 12, 1, 0, 42};
   const uint64_t h = (cycle * 2654435761u + k * 40503u) >> 3;
   return kValues[h % (sizeof kValues / sizeof kValues[0])];
+}
+
+// Inputs that are any double: what shows a libm call that differs in its last bit.
+double any_value(uint64_t cycle, uint32_t k) {
+  uint64_t x = (cycle + 1) * 6364136223846793005ull + (k + 1) * 1442695040888963407ull;
+  x ^= x >> 29;
+  return 0.001 + static_cast<double>(x >> 11) * 0x1p-53 * 1000.0;
+}
+
+void expect_same(const TaskImage& img, uint32_t cycles, double (*input)(uint64_t, uint32_t) = input_value) {
+  auto native = compile_native(img);
+  ASSERT_TRUE(native.ok()) << native.error();
+  EXPECT_TRUE((*native)->compiled_from(img));
+  TaskArena interp(img), nat(img);
+  ExecContext ci = make_context(img, interp), cn = make_context(img, nat);
+  cn.native = (*native)->entry();
+  for (uint64_t c = 0; c < cycles; ++c) {
+    for (uint32_t k = 0; k < interp.io_in.size(); ++k) interp.io_in[k] = nat.io_in[k] = input(c, k);
+    execute_cycle(ci);
+    execute_cycle(cn);
+    const std::string d = difference(interp, nat);
+    ASSERT_TRUE(d.empty()) << "cycle " << c << ": " << d;
+  }
 }
 
 void expect_same_as_interpreter(const std::string& file, uint32_t cycles) {
@@ -98,6 +124,69 @@ TEST(Native, the_examples_in_every_language_run_as_the_interpreter_runs_them) {
                         "/examples/messages.st", "/examples/seed_loop.fbd"}) {
     expect_same_as_interpreter(kSource + f, 200);
   }
+}
+
+// The C library's sin, log, pow... are not always correctly rounded; the C++
+// compiler's own evaluation of them at compile time is, and it rewrites
+// pow(x, 2) as x*x. Native code must call the library as the interpreter does.
+TEST(Native, the_maths_functions_give_the_interpreters_bits) {
+  lang::CompileResult r = lang::compile_source(
+      "PROGRAM M\nVAR x AT %ID0 : LREAL; q AT %QD0 : LREAL; k : LREAL := 748265.3704754404;\n"
+      "a, b, c, d, e, f, g, h, i : LREAL; END_VAR\n"
+      "a := EXPT(x, 2.0); b := EXPT(x, -1.0); c := LN(x); d := LOG(x); e := SIN(x); f := COS(x);\n"
+      "g := TAN(x) + ATAN(x) + ASIN(x / 1000.0) + ACOS(x / 1000.0); h := EXP(x / 100.0);\n"
+      "i := LN(k) + SIN(k) + EXPT(k, 0.5) + EXP(k / 100000.0);\n"
+      "q := a + b + c + d + e + f + g + h + i;\nEND_PROGRAM\n",
+      {});
+  ASSERT_TRUE(r.ok());
+  expect_same(*r.image, 3000, any_value);
+}
+
+// A block reading a constant that comes later in the schedule reads last
+// cycle's value (0 in the first cycle): not the constant.
+TEST(Native, a_constant_read_before_it_runs_is_not_taken_for_the_constant) {
+  lang::CompileResult fbd = lang::compile_source(
+      "%%\nstime(0.1)\nF1 = intg(F2, 1)\nF2 = const(1)\nF3 = add(F1, F2, 1)\ndao(F3, p0, d0, c0, \"OUT\")\nEND\n%%\n",
+      {});
+  ASSERT_TRUE(fbd.ok());
+  expect_same(*fbd.image, 20);
+  // A constant under an IF that is not taken has not run either.
+  lang::CompileResult st = lang::compile_source(
+      "PROGRAM C\nVAR go AT %IX0.0 : BOOL; n AT %QD0 : DINT; k : DINT; i : INT; END_VAR\n"
+      "FOR i := 1 TO 3 DO IF go THEN k := 7; END_IF; n := n + k MOD 5; END_FOR;\nEND_PROGRAM\n",
+      {});
+  ASSERT_TRUE(st.ok());
+  expect_same(*st.image, 40);
+}
+
+// Nothing of the image's text becomes code: a name with a newline in it stays
+// in its comment.
+TEST(Native, an_image_name_is_never_compiled_as_code) {
+  lang::CompileOptions opt;
+  opt.name = "x\n#error this line must not be compiled\n";
+  lang::CompileResult r = lang::compile_source("PROGRAM P\nVAR n AT %QW0 : INT; END_VAR\nn := n + 1;\nEND_PROGRAM\n", opt);
+  ASSERT_TRUE(r.ok());
+  ASSERT_NE(std::string(r.image->name()).find('\n'), std::string::npos) << "the name lost its newline";
+  auto n = compile_native(*r.image);
+  EXPECT_TRUE(n.ok()) << n.error();
+  EXPECT_EQ(native_source(*r.image).find("#error"), std::string::npos);
+}
+
+TEST(Native, a_compiler_that_does_not_finish_is_stopped) {
+  const fs::path dir = fs::temp_directory_path() / ("rtplc-native-slow-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const std::string slow = (dir / "slow-c++").string();
+  std::ofstream(slow) << "#!/bin/sh\nsleep 30\n";
+  fs::permissions(slow, fs::perms::owner_all);
+  lang::CompileResult r = lang::compile_file(kSource + "/examples/median.st", {});
+  ASSERT_TRUE(r.ok());
+  NativeOptions opt;
+  opt.compiler = slow;
+  opt.timeout_s = 0.5;
+  auto n = compile_native(*r.image, opt);
+  ASSERT_FALSE(n.ok());
+  EXPECT_NE(n.error().find("was stopped"), std::string::npos) << n.error();
+  fs::remove_all(dir);
 }
 
 TEST(Native, a_runaway_loop_stops_at_the_same_loop_with_the_same_count) {
