@@ -591,6 +591,7 @@ Result<std::shared_ptr<const NativeCode>> compile_native(const TaskImage& image,
   }
   int status = 0;
   bool timed_out = false;
+  uint32_t polls = 0;
   for (;;) {
     const pid_t w = ::waitpid(pid, &status, WNOHANG);
     if (w == pid) break;
@@ -602,6 +603,7 @@ Result<std::shared_ptr<const NativeCode>> compile_native(const TaskImage& image,
       timed_out = true;
     }
     ::usleep(20'000);
+    if (options.while_waiting && ++polls % 5 == 0) options.while_waiting();
   }
   stats.compile_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   if (timed_out) {

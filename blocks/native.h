@@ -19,6 +19,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -36,6 +37,9 @@ struct NativeOptions {
   std::string work_dir;
   // A compile that takes longer is stopped and refused.
   double timeout_s = 600;
+  // Called about every 100 ms while the compiler runs, on the calling thread
+  // (the runtime's control thread goes on with its housekeeping).
+  std::function<void()> while_waiting;
 };
 
 // What the translation made of an image.

@@ -172,7 +172,7 @@ TEST(Native, an_image_name_is_never_compiled_as_code) {
   EXPECT_EQ(native_source(*r.image).find("#error"), std::string::npos);
 }
 
-TEST(Native, a_compiler_that_does_not_finish_is_stopped) {
+TEST(Native, a_compiler_that_does_not_finish_is_stopped_and_the_caller_goes_on_meanwhile) {
   const fs::path dir = fs::temp_directory_path() / ("rtplc-native-slow-" + std::to_string(::getpid()));
   fs::create_directories(dir);
   const std::string slow = (dir / "slow-c++").string();
@@ -183,9 +183,12 @@ TEST(Native, a_compiler_that_does_not_finish_is_stopped) {
   NativeOptions opt;
   opt.compiler = slow;
   opt.timeout_s = 0.5;
+  int ticks = 0;  // the runtime's housekeeping goes on meanwhile
+  opt.while_waiting = [&ticks] { ++ticks; };
   auto n = compile_native(*r.image, opt);
   ASSERT_FALSE(n.ok());
   EXPECT_NE(n.error().find("was stopped"), std::string::npos) << n.error();
+  EXPECT_GE(ticks, 2);
   fs::remove_all(dir);
 }
 
