@@ -81,20 +81,7 @@ void expect_same_as_interpreter(const std::string& file, uint32_t cycles) {
   SCOPED_TRACE(file);
   lang::CompileResult r = lang::compile_file(file, {});
   ASSERT_TRUE(r.ok()) << "does not compile";
-  const TaskImage& img = *r.image;
-  auto native = compile_native(img);
-  ASSERT_TRUE(native.ok()) << native.error();
-  EXPECT_TRUE((*native)->compiled_from(img));
-  TaskArena interp(img), nat(img);
-  ExecContext ci = make_context(img, interp), cn = make_context(img, nat);
-  cn.native = (*native)->entry();
-  for (uint64_t c = 0; c < cycles; ++c) {
-    for (uint32_t k = 0; k < interp.io_in.size(); ++k) interp.io_in[k] = nat.io_in[k] = input_value(c, k);
-    execute_cycle(ci);
-    execute_cycle(cn);
-    const std::string d = difference(interp, nat);
-    ASSERT_TRUE(d.empty()) << "cycle " << c << ": " << d;
-  }
+  expect_same(*r.image, cycles);
 }
 
 std::vector<std::string> files_in(const std::string& dir, std::initializer_list<const char*> extensions) {
