@@ -206,7 +206,7 @@ void run_swap(const ClientArgs& a) {
                "to load FILE, leave out --rollback",
            kExitUsage);
     }
-    auto r = sched::control_request(socket_for(a), "rollback " + a.task + drop_word(a));
+    auto r = sched::control_request(socket_for(a), "rollback " + a.task + drop_word(a), "", sched::kSwapAnswerMs);
     if (!r) fail_client("rtplc swap --rollback", r.error());
     std::fputs(r->c_str(), stdout);
     return;
@@ -228,7 +228,7 @@ void run_swap(const ClientArgs& a) {
   }
   auto r = sched::control_request(socket_for(a),
                                   std::string(a.check ? "swap-check " : "swap ") + a.task + " " + label + " " + std::to_string(text->size()) + drop_word(a),
-                                  *text, 60000);
+                                  *text, sched::kSwapAnswerMs);
   if (!r) fail_client("rtplc swap", r.error());
   std::fputs(r->c_str(), stdout);
   // The runtime's answer says when the file's stime differs from the task's

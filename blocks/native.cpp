@@ -310,22 +310,32 @@ class Translator {
 // Removes the private build folder and what is in it, whatever happened.
 class WorkDir {
  public:
-  explicit WorkDir(std::string path) : path_(std::move(path)) {}
+  explicit WorkDir(std::string path)
+      : path_(std::move(path)), fd_(::open(path_.c_str(), O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC)) {}
   ~WorkDir() {
-    // Whatever the compiler left there too (a wrapper's temporary files).
-    if (DIR* d = ::opendir(path_.c_str())) {
-      while (const dirent* e = ::readdir(d)) {
-        const std::string n = e->d_name;
-        if (n != "." && n != "..") ::unlink((path_ + "/" + n).c_str());
+    // Through the folder's own descriptor, opened when it was made: had it been
+    // replaced by a link since, nothing outside it is touched. Whatever the
+    // compiler left is removed too (a wrapper's files, one level of folders).
+    if (fd_ >= 0) {
+      if (DIR* d = ::fdopendir(::dup(fd_))) {
+        while (const dirent* e = ::readdir(d)) {
+          const std::string n = e->d_name;
+          if (n == "." || n == "..") continue;
+          if (::unlinkat(fd_, n.c_str(), 0) != 0) ::unlinkat(fd_, n.c_str(), AT_REMOVEDIR);
+        }
+        ::closedir(d);
       }
-      ::closedir(d);
+      ::close(fd_);
     }
     ::rmdir(path_.c_str());
   }
+  WorkDir(const WorkDir&) = delete;
+  WorkDir& operator=(const WorkDir&) = delete;
   std::string file(const char* name) const { return path_ + "/" + name; }
 
  private:
   std::string path_;
+  int fd_;
 };
 
 Result<void> write_new_file(const std::string& path, const std::string& text) {
@@ -514,11 +524,17 @@ Result<std::shared_ptr<const NativeCode>> compile_native(const TaskImage& image,
   }
   // mkdtemp makes a new folder only we may enter: nothing in it can be a link
   // someone else planted.
-  // A folder others may write to without the sticky bit would let them put
-  // another folder in ours' place between the compile and the load.
+  // Someone else who may rename entries of the base folder could put another
+  // folder in ours' place between writing the source and loading the library:
+  // the base must be root's or ours, and writable by others only when sticky.
   struct stat bs {};
-  if (::stat(base.c_str(), &bs) == 0 && (bs.st_mode & S_IWOTH) != 0 && (bs.st_mode & S_ISVTX) == 0) {
-    return make_error("native code: " + base + " is writable by anyone and not sticky; set TMPDIR to a safe folder");
+  if (::stat(base.c_str(), &bs) == 0) {
+    const bool owner_ok = bs.st_uid == 0 || bs.st_uid == ::geteuid();
+    const bool others_write = (bs.st_mode & (S_IWGRP | S_IWOTH)) != 0;
+    if (!owner_ok || (others_write && (bs.st_mode & S_ISVTX) == 0)) {
+      return make_error("native code: " + base + " is not a safe place to build in (another user's, or writable by "
+                        "others and not sticky); set TMPDIR to a folder of root's or the runtime's own");
+    }
   }
   std::string templ = base + "/rtplc-native-XXXXXX";
   if (::mkdtemp(templ.data()) == nullptr) {
@@ -585,27 +601,50 @@ Result<std::shared_ptr<const NativeCode>> compile_native(const TaskImage& image,
   const int rc = ::posix_spawnp(&pid, compiler.c_str(), &fa, &attr, argv.data(), environ);
   posix_spawn_file_actions_destroy(&fa);
   posix_spawnattr_destroy(&attr);
-  if (rc != 0) {
+  if (rc == ENOENT || rc == EACCES || rc == ENOEXEC) {
     return make_error("native code needs a C++ compiler: cannot run `" + compiler + "` (" + std::strerror(rc) +
                       "); install g++, or name one in RTPLC_CXX");
   }
+  if (rc != 0) return make_error("native code: cannot start `" + compiler + "`: " + std::strerror(rc));
   int status = 0;
-  bool timed_out = false;
+  bool timed_out = false, aborted = false;
   uint32_t polls = 0;
+  // Stops the compiler's whole group and reaps the driver.
+  auto stop_compiler = [&] {
+    ::kill(-pid, SIGKILL);
+    while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+    }
+  };
   for (;;) {
     const pid_t w = ::waitpid(pid, &status, WNOHANG);
     if (w == pid) break;
     if (w < 0 && errno != EINTR) {
-      return make_error(std::string("native code: waiting for the compiler: ") + std::strerror(errno));
+      const int err = errno;
+      stop_compiler();
+      return make_error(std::string("native code: waiting for the compiler: ") + std::strerror(err));
     }
-    if (!timed_out && std::chrono::steady_clock::now() - t0 > std::chrono::duration<double>(options.timeout_s)) {
-      ::kill(-pid, SIGKILL);  // the group: the driver and what it runs
+    if (std::chrono::steady_clock::now() - t0 > std::chrono::duration<double>(options.timeout_s)) {
       timed_out = true;
+      stop_compiler();
+      break;
     }
     ::usleep(20'000);
-    if (options.while_waiting && ++polls % 5 == 0) options.while_waiting();
+    if (options.while_waiting && ++polls % 5 == 0) {
+      bool go_on = false;
+      try {
+        go_on = options.while_waiting();
+      } catch (...) {
+        go_on = false;
+      }
+      if (!go_on) {
+        aborted = true;
+        stop_compiler();
+        break;
+      }
+    }
   }
   stats.compile_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  if (aborted) return make_error("native code: the compile was stopped (the runtime is stopping)");
   if (timed_out) {
     return make_error("native code: `" + compiler + "` took more than " + std::to_string(options.timeout_s) +
                       " s and was stopped; run this task on the interpreter (native: false)");
@@ -616,14 +655,16 @@ Result<std::shared_ptr<const NativeCode>> compile_native(const TaskImage& image,
     return make_error("native code: `" + compiler + "` " + why + " on the generated source:\n" +
                       head_of(log_path, 20) + "(`rtplc compile FILE --native-source F.cpp` writes that source)");
   }
-  // Load the very file checked here: ours, a plain file, not a link.
+  // The library: ours, a plain file, not a link (in a folder only we may enter).
   const int so_fd = ::open(so_path.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC);
   struct stat so {};
   if (so_fd < 0 || ::fstat(so_fd, &so) != 0 || !S_ISREG(so.st_mode) || so.st_uid != ::geteuid()) {
     if (so_fd >= 0) ::close(so_fd);
     return make_error("native code: the compiled library is missing or not the compiler's own file");
   }
-  void* handle = ::dlopen(("/proc/self/fd/" + std::to_string(so_fd)).c_str(), RTLD_NOW | RTLD_LOCAL);
+  // By its path, which is new for every compile: the loader takes a path it
+  // has loaded before for that library (a /proc/self/fd/N path comes back).
+  void* handle = ::dlopen(so_path.c_str(), RTLD_NOW | RTLD_LOCAL);
   ::close(so_fd);
   if (handle == nullptr) {
     const char* e = ::dlerror();

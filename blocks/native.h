@@ -29,17 +29,23 @@
 
 namespace rtplc {
 
+// How long a compile may take before it is stopped: a 12,000-block program
+// takes 30 s on a 2-core VM; slower targets get ten times that.
+inline constexpr double kNativeCompileTimeoutS = 300;
+
 struct NativeOptions {
   // The C++ compiler: empty means $RTPLC_CXX, else `c++` from PATH.
   std::string compiler;
   // Where the private build folder is made (and removed): empty means $TMPDIR,
   // else /tmp. It must allow executing the library (not mounted noexec).
   std::string work_dir;
-  // A compile that takes longer is stopped and refused.
-  double timeout_s = 600;
+  // A compile that takes longer is stopped and refused (the clients of a swap
+  // wait a little longer: sched/control.h kSwapAnswerMs).
+  double timeout_s = kNativeCompileTimeoutS;
   // Called about every 100 ms while the compiler runs, on the calling thread
-  // (the runtime's control thread goes on with its housekeeping).
-  std::function<void()> while_waiting;
+  // (the runtime's control thread goes on with its housekeeping); false stops
+  // the compile (the runtime is stopping).
+  std::function<bool()> while_waiting;
 };
 
 // What the translation made of an image.

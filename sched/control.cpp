@@ -90,13 +90,13 @@ Result<Header> parse_header(const std::string& line) {
 
 ControlServer::ControlServer(Runtime& rt, Log log) : rt_(rt), log_(std::move(log)), api_(rt.api()) {
   api_.set_log(log_);
-  rt_.set_tick_log(log_);
+  rt_.set_tick_log(log_, [this] { return quit_.load(std::memory_order_acquire); });
 }
 
 ControlServer::~ControlServer() {
   stop();
   api_.set_log(nullptr);
-  rt_.set_tick_log(nullptr);
+  rt_.set_tick_log(nullptr, nullptr);
 }
 
 Result<void> ControlServer::start(const std::string& path) {

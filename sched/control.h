@@ -73,6 +73,10 @@ class ControlServer {
 // owned by anyone but root or us, so the path is trusted), else the default.
 std::string control_socket_of(const std::string& name, const std::string& socket_override);
 
+// How long a client waits for a swap's or a rollback's answer: the runtime may
+// be compiling native code (blocks/native.h, at most kNativeCompileTimeoutS).
+inline constexpr int kSwapAnswerMs = 360'000;
+
 // Client side. Sends one request and returns the runtime's answer object
 // (ok or not); an error only when no whole answer came (the socket is not
 // there, the runtime died mid-answer, the time ran out).

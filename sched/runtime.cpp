@@ -460,12 +460,13 @@ Result<std::unique_ptr<LoadedProgram>> Runtime::make_program(uint32_t t, TaskIma
   std::shared_ptr<const NativeCode> native;
   if (config_.tasks[t].native && compile_native_code && !options_.check_only) {
     // The housekeeping goes on while the compiler runs (seconds for a large
-    // program): retained state and set-points saved, driver events logged. This
-    // is the control thread (or the start, before it runs); tick() never
-    // makes a program, and no lock is held here.
+    // program): retained state and set-points saved, driver events logged. On
+    // the control thread only (a swap, a rollback); tick() never makes a program,
+    // and no lock is held here. A stop of the runtime stops the compile.
     NativeOptions opt;
     opt.while_waiting = [this] {
       if (tick_log_) tick(tick_log_);
+      return !(stopping_ && stopping_());
     };
     auto n = compile_native(image, opt);
     if (!n) return make_error("task '" + config_.tasks[t].name + "' (native: true): " + n.error());

@@ -181,9 +181,13 @@ class Runtime {
   // The control thread's housekeeping, a few times a second: the heartbeat in
   // the image, and the drivers' queued events to `log(error, line)`.
   void tick(const std::function<void(bool, const std::string&)>& log);
-  // Where the ticks a native compile makes log (make_program): the control
-  // server's log while it exists (set before its thread starts, cleared after).
-  void set_tick_log(std::function<void(bool, const std::string&)> log) { tick_log_ = std::move(log); }
+  // The ticks a native compile makes (make_program): where they log, and
+  // whether the runtime is stopping (the compile is then stopped). The control
+  // server's, set before its thread starts and cleared after it ended.
+  void set_tick_log(std::function<void(bool, const std::string&)> log, std::function<bool()> stopping) {
+    tick_log_ = std::move(log);
+    stopping_ = std::move(stopping);
+  }
 
   const std::string& name() const { return name_; }
   const std::string& socket_path() const { return socket_path_; }
@@ -330,6 +334,7 @@ class Runtime {
   std::vector<std::string> restore_lines_;       // said at start
   std::string persist_error_said_;
   std::function<void(bool, const std::string&)> tick_log_;
+  std::function<bool()> stopping_;
   std::string stop_state_error_;
 };
 

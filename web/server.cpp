@@ -296,7 +296,7 @@ void WebConsole::api(const httplib::Request& req, httplib::Response& res, const 
       args["lines"] = v;
     }
   }
-  auto answer = ask(s, op, args, payload, op == "swap" || op == "swap_check" ? 60000 : 10000);
+  auto answer = ask(s, op, args, payload, op == "swap" || op == "rollback" ? sched::kSwapAnswerMs : op == "swap_check" ? 60000 : 10000);
   if (!answer) return fail(res, 502, "unreachable", answer.error());
   if (answer->value("ok", false)) return reply(res, 200, *answer);
   const std::string code = (*answer)["error"].value("code", "refused");

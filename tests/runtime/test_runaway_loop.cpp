@@ -173,8 +173,13 @@ void st_while_that_never_ends(bool native) {
   EXPECT_LT(swapped->find("Main.total", kept), swapped->find("reset:")) << *swapped;
   ASSERT_TRUE(eventually([&] { return rtplc::testing::channel_value(*rt, "count") == 1000.0; }));
   EXPECT_EQ(static_cast<io::TaskState>(rt->image().task_info(0).state.load()), io::TaskState::kRunning);
-  // The swapped-in program runs as native code too.
+  // The swapped-in program runs as native code too, swap after swap.
   EXPECT_EQ(rt->status().find("native code") != std::string::npos, native) << rt->status();
+  for (int k = 0; k < 2; ++k) {
+    auto again = rt->swap("spin", kFixedSt, fx.write("fixed.st", kFixedSt));
+    ASSERT_TRUE(again) << "swap " << k + 2 << ": " << again.error();
+  }
+  EXPECT_TRUE(eventually([&] { return rtplc::testing::channel_value(*rt, "count") == 1000.0; }));
   rt->stop();
 }
 

@@ -7,6 +7,7 @@
 
 #include <unistd.h>
 
+#include <chrono>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -171,11 +172,22 @@ TEST(Native, a_compiler_that_does_not_finish_is_stopped_and_the_caller_goes_on_m
   opt.compiler = slow;
   opt.timeout_s = 0.5;
   int ticks = 0;  // the runtime's housekeeping goes on meanwhile
-  opt.while_waiting = [&ticks] { ++ticks; };
+  opt.while_waiting = [&ticks] {
+    ++ticks;
+    return true;
+  };
   auto n = compile_native(*r.image, opt);
   ASSERT_FALSE(n.ok());
   EXPECT_NE(n.error().find("was stopped"), std::string::npos) << n.error();
   EXPECT_GE(ticks, 2);
+  // A runtime that stops stops the compile at once, whatever the time limit.
+  opt.timeout_s = 60;
+  const auto t0 = std::chrono::steady_clock::now();
+  opt.while_waiting = [] { return false; };
+  auto m = compile_native(*r.image, opt);
+  ASSERT_FALSE(m.ok());
+  EXPECT_NE(m.error().find("the runtime is stopping"), std::string::npos) << m.error();
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(25)) << "the compiler was waited for";
   fs::remove_all(dir);
 }
 
@@ -255,6 +267,22 @@ TEST(Native, a_missing_or_failing_compiler_is_a_clear_error) {
   auto c = compile_native(*r.image, nowhere);
   ASSERT_FALSE(c.ok());
   EXPECT_NE(c.error().find("cannot make a build folder in /nonexistent/dir"), std::string::npos) << c.error();
+}
+
+// Several libraries live at once (tasks, a swap's new program beside the
+// running one), each its own.
+TEST(Native, two_libraries_loaded_at_once_are_each_their_own) {
+  lang::CompileResult a = lang::compile_file(kSource + "/examples/median.st", {});
+  lang::CompileResult b = lang::compile_file(kSource + "/examples/seed_pid.fbd", {});
+  ASSERT_TRUE(a.ok() && b.ok());
+  auto na = compile_native(*a.image);
+  auto nb = compile_native(*b.image);
+  auto na2 = compile_native(*a.image);
+  ASSERT_TRUE(na.ok() && nb.ok() && na2.ok()) << (na.ok() ? "" : na.error()) << (nb.ok() ? "" : nb.error())
+                                              << (na2.ok() ? "" : na2.error());
+  EXPECT_NE((*na)->entry(), (*nb)->entry());
+  EXPECT_TRUE((*nb)->compiled_from(*b.image));
+  expect_same(*b.image, 20);
 }
 
 TEST(Native, leaves_nothing_behind_and_knows_its_image) {
