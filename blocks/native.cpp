@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "blocks/ops.h"
+#include "common/files.h"
 
 extern char** environ;
 
@@ -94,7 +95,30 @@ std::string native_tag(uint64_t fingerprint) {
   return "rtplc-native abi " + std::to_string(RTPLC_NATIVE_ABI) + " image " + hex64(fingerprint);
 }
 
-// Writes the code of one run. `label_of` says which runs are branch targets.
+// Per run index: how many branches pass over it without landing on it. A
+// forward jump s -> t passes s+1 .. t-1 (those runs may not run this cycle);
+// with `loops`, a backward Loop s -> t passes t+1 .. s too (code it repeats).
+std::vector<int32_t> passed_over(const TaskImage& image, bool loops) {
+  const uint32_t n_runs = image.header().n_runs;
+  const auto runs = image.runs();
+  const auto code = image.code();
+  std::vector<int32_t> count(n_runs + 1, 0);  // differences first, then their sums
+  for (uint32_t s = 0; s < n_runs; ++s) {
+    if (!op_is_branch(runs[s].op)) continue;
+    const uint32_t t = code[runs[s].begin].out;
+    if (t <= s && !loops) continue;
+    const uint32_t lo = t > s ? s + 1 : t + 1, hi = t > s ? t - 1 : s;
+    if (lo <= hi) {
+      ++count[lo];
+      --count[hi + 1];
+    }
+  }
+  for (uint32_t i = 1; i <= n_runs; ++i) count[i] += count[i - 1];
+  count.pop_back();
+  return count;
+}
+
+// Writes the code of one run into `body`; tables it needs go to `globals`.
 class Translator {
  public:
   Translator(const TaskImage& image, std::string& globals, std::string& body)
@@ -220,22 +244,9 @@ class Translator {
     constant_value_.assign(n_values, 0.0);
     constant_run_.assign(n_values, 0);
     // Runs a forward branch may jump over: not surely run in every cycle.
-    std::vector<int32_t> over(n_runs + 1, 0);
-    for (uint32_t ri = 0; ri < n_runs; ++ri) {
-      const Run& r = img_.runs()[ri];
-      if (!op_is_branch(r.op)) continue;
-      const uint32_t t = code_[r.begin].out;
-      if (t > ri + 1) {
-        ++over[ri + 1];
-        --over[t];
-      }
-    }
+    const std::vector<int32_t> over = passed_over(img_, false);
     skippable_.assign(n_runs, false);
-    int32_t depth = 0;
-    for (uint32_t ri = 0; ri < n_runs; ++ri) {
-      depth += over[ri];
-      skippable_[ri] = depth > 0;
-    }
+    for (uint32_t ri = 0; ri < n_runs; ++ri) skippable_[ri] = over[ri] > 0;
     std::vector<uint32_t> const_writer(n_values, UINT32_MAX);
     auto wrote = [&](uint64_t slot, uint32_t count, uint32_t instr) {
       for (uint64_t x = slot; x < slot + count && x < n_values; ++x) {
@@ -342,16 +353,9 @@ class WorkDir {
 Result<void> write_new_file(const std::string& path, const std::string& text) {
   const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0600);
   if (fd < 0) return make_error("cannot create " + path + ": " + std::strerror(errno));
-  size_t done = 0;
-  while (done < text.size()) {
-    const ssize_t w = ::write(fd, text.data() + done, text.size() - done);
-    if (w < 0 && errno == EINTR) continue;
-    if (w <= 0) {
-      const int err = errno;
-      ::close(fd);
-      return make_error("cannot write " + path + ": " + std::strerror(err));
-    }
-    done += static_cast<size_t>(w);
+  if (const int err = write_fully(fd, text.data(), text.size()); err != 0) {
+    ::close(fd);
+    return make_error("cannot write " + path + ": " + std::strerror(err));
   }
   if (::close(fd) != 0) return make_error("cannot write " + path + ": " + std::strerror(errno));
   return {};
@@ -390,26 +394,13 @@ constexpr uint32_t kPartSize = 256;
 std::vector<uint32_t> part_starts(const TaskImage& image) {
   const uint32_t n_runs = image.header().n_runs;
   const auto runs = image.runs();
-  const auto code = image.code();
-  // crossing[b] > 0: some branch passes the boundary between runs b - 1 and b.
-  std::vector<int32_t> delta(n_runs + 2, 0);
-  for (uint32_t s = 0; s < n_runs; ++s) {
-    if (!op_is_branch(runs[s].op)) continue;
-    const uint32_t t = code[runs[s].begin].out;
-    // Forward s -> t passes boundaries s+1 .. t-1 (t itself may be a part's end);
-    // backward s -> t (a loop) passes t+1 .. s.
-    const uint32_t lo = t > s ? s + 1 : t + 1, hi = t > s ? t - 1 : s;
-    if (lo <= hi) {
-      ++delta[lo];
-      --delta[hi + 1];
-    }
-  }
+  // A part may start at run b when no branch passes over b: a jump landing on b
+  // lands on the previous part's end label, and a loop back to b stays whole.
+  const std::vector<int32_t> crossing = passed_over(image, true);
   std::vector<uint32_t> starts = {0};
-  int32_t crossing = 0;
   uint32_t size = 0;
   for (uint32_t b = 0; b < n_runs; ++b) {
-    crossing += delta[b];
-    if (b > 0 && crossing == 0 && size >= kPartSize) {
+    if (b > 0 && crossing[b] == 0 && size >= kPartSize) {
       starts.push_back(b);
       size = 0;
     }
@@ -523,11 +514,10 @@ Result<std::shared_ptr<const NativeCode>> compile_native(const TaskImage& image,
     const char* t = std::getenv("TMPDIR");
     base = t != nullptr && *t != '\0' ? t : "/tmp";
   }
-  // mkdtemp makes a new folder only we may enter: nothing in it can be a link
-  // someone else planted.
-  // Someone else who may rename entries of the base folder could put another
-  // folder in ours' place between writing the source and loading the library:
-  // the base must be root's or ours, and writable by others only when sticky.
+  // mkdtemp makes a new folder only we may enter. Someone else who may rename
+  // entries of the base folder could still put another folder in ours' place
+  // between writing the source and loading the library: the base must be
+  // root's or ours, and writable by others only when sticky.
   struct stat bs {};
   if (::stat(base.c_str(), &bs) == 0) {
     const bool owner_ok = bs.st_uid == 0 || bs.st_uid == ::geteuid();
