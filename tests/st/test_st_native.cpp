@@ -11,6 +11,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -62,18 +63,49 @@ double any_value(uint64_t cycle, uint32_t k) {
   return 0.001 + static_cast<double>(x >> 11) * 0x1p-53 * 1000.0;
 }
 
-void expect_same(const TaskImage& img, uint32_t cycles, double (*input)(uint64_t, uint32_t) = input_value) {
-  auto native = compile_native(img);
-  ASSERT_TRUE(native.ok()) << native.error();
-  EXPECT_TRUE((*native)->compiled_from(img));
-  TaskArena interp(img), nat(img);
-  ExecContext ci = make_context(img, interp), cn = make_context(img, nat);
-  cn.native = (*native)->entry();
-  for (uint64_t c = 0; c < cycles; ++c) {
-    for (uint32_t k = 0; k < interp.io_in.size(); ++k) interp.io_in[k] = nat.io_in[k] = input(c, k);
+// The interpreter and the image's native code side by side, each on its own
+// arena, given the same inputs. `ok` is false (with the failure reported) when
+// the native code could not be made.
+struct SideBySide {
+  SideBySide(const TaskImage& img, uint64_t loop_budget = kDefaultLoopBudget) : interp(img), nat(img) {
+    auto n = compile_native(img);
+    ok = n.ok();
+    if (!ok) {
+      ADD_FAILURE() << n.error();
+      return;
+    }
+    code = *n;
+    EXPECT_TRUE(code->compiled_from(img));
+    interp.loop_budget = nat.loop_budget = loop_budget;
+    ci = make_context(img, interp);
+    cn = make_context(img, nat);
+    cn.native = code->entry();
+  }
+  SideBySide(const SideBySide&) = delete;
+  SideBySide& operator=(const SideBySide&) = delete;
+  void input(uint32_t k, double v) { interp.io_in[k] = nat.io_in[k] = v; }
+  void inputs(uint64_t cycle, double (*value)(uint64_t, uint32_t)) {
+    for (uint32_t k = 0; k < interp.io_in.size(); ++k) input(k, value(cycle, k));
+  }
+  // One cycle of each; where their arenas then differ, or empty.
+  std::string cycle() {
     execute_cycle(ci);
     execute_cycle(cn);
-    const std::string d = difference(interp, nat);
+    return difference(interp, nat);
+  }
+
+  bool ok = false;
+  std::shared_ptr<const NativeCode> code;
+  TaskArena interp, nat;
+  ExecContext ci, cn;
+};
+
+void expect_same(const TaskImage& img, uint32_t cycles, double (*input)(uint64_t, uint32_t) = input_value) {
+  SideBySide two(img);
+  ASSERT_TRUE(two.ok);
+  for (uint64_t c = 0; c < cycles; ++c) {
+    two.inputs(c, input);
+    const std::string d = two.cycle();
     ASSERT_TRUE(d.empty()) << "cycle " << c << ": " << d;
   }
 }
@@ -197,22 +229,15 @@ TEST(Native, a_runaway_loop_stops_at_the_same_loop_with_the_same_count) {
       "x := 0;\nWHILE go OR x < 3 DO\n  x := x + 1;\nEND_WHILE;\nn := x;\nEND_PROGRAM\n",
       {});
   ASSERT_TRUE(r.ok());
-  auto native = compile_native(*r.image);
-  ASSERT_TRUE(native.ok()) << native.error();
-  TaskArena interp(*r.image), nat(*r.image);
-  interp.loop_budget = nat.loop_budget = 777;
-  ExecContext ci = make_context(*r.image, interp), cn = make_context(*r.image, nat);
-  cn.native = (*native)->entry();
-  execute_cycle(ci);
-  execute_cycle(cn);
-  EXPECT_EQ(interp.loop_fault, 0u);
-  EXPECT_EQ(nat.io_out[0], 3.0);
-  interp.io_in[0] = nat.io_in[0] = 1;  // go: the loop never ends
-  execute_cycle(ci);
-  execute_cycle(cn);
-  EXPECT_NE(nat.loop_fault, 0u);
-  EXPECT_EQ(difference(interp, nat), "");
-  EXPECT_EQ(nat.total_errors, 1u);
+  SideBySide two(*r.image, 777);
+  ASSERT_TRUE(two.ok);
+  EXPECT_EQ(two.cycle(), "");
+  EXPECT_EQ(two.interp.loop_fault, 0u);
+  EXPECT_EQ(two.nat.io_out[0], 3.0);
+  two.input(0, 1);  // go: the loop never ends
+  EXPECT_EQ(two.cycle(), "");
+  EXPECT_NE(two.nat.loop_fault, 0u);
+  EXPECT_EQ(two.nat.total_errors, 1u);
 }
 
 // A program long enough to be cut into several functions, with a loop longer
@@ -232,20 +257,14 @@ TEST(Native, a_long_program_cut_into_parts_runs_and_faults_as_the_interpreter) {
   size_t parts = 0;
   for (size_t at = code.find("uint64_t part"); at != std::string::npos; at = code.find("uint64_t part", at + 1)) ++parts;
   EXPECT_GE(parts, 3u) << "the program was not cut";
-  auto native = compile_native(*r.image);
-  ASSERT_TRUE(native.ok()) << native.error();
-  TaskArena interp(*r.image), nat(*r.image);
-  interp.loop_budget = nat.loop_budget = 50;
-  ExecContext ci = make_context(*r.image, interp), cn = make_context(*r.image, nat);
-  cn.native = (*native)->entry();
+  SideBySide two(*r.image, 50);
+  ASSERT_TRUE(two.ok);
   for (uint64_t c = 0; c < 30; ++c) {
-    for (uint32_t k = 0; k < interp.io_in.size(); ++k) interp.io_in[k] = nat.io_in[k] = input_value(c, k);
-    if (c >= 20) interp.io_in[1] = nat.io_in[1] = 1;  // go: the loop runs away
-    execute_cycle(ci);
-    execute_cycle(cn);
-    ASSERT_EQ(difference(interp, nat), "") << "cycle " << c;
+    two.inputs(c, input_value);
+    if (c >= 20) two.input(1, 1);  // go: the loop runs away
+    ASSERT_EQ(two.cycle(), "") << "cycle " << c;
   }
-  EXPECT_NE(nat.loop_fault, 0u);
+  EXPECT_NE(two.nat.loop_fault, 0u);
 }
 
 TEST(Native, a_missing_or_failing_compiler_is_a_clear_error) {
