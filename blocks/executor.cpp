@@ -73,14 +73,12 @@ namespace exec_generic {
 
 #if defined(RTPLC_HAVE_AVX2_EXECUTOR)
 namespace exec_avx2 {
-void execute_cycle_impl(const ExecContext& ctx) noexcept;  // executor_avx2.cpp
-uint64_t execute_runs_impl(const ExecContext& ctx, uint32_t first, uint32_t last) noexcept;
+uint64_t execute_runs_impl(const ExecContext& ctx, uint32_t first, uint32_t last) noexcept;  // executor_avx2.cpp
 }
 #endif
 
 namespace {
 
-using CycleFn = void (*)(const ExecContext&) noexcept;
 using RunsFn = uint64_t (*)(const ExecContext&, uint32_t, uint32_t) noexcept;
 
 // Chosen once, before main: the AVX2 body on CPUs that have it (about twice as
@@ -99,10 +97,8 @@ bool pick_avx2() {
 
 const bool g_avx2 = pick_avx2();
 #if defined(RTPLC_HAVE_AVX2_EXECUTOR)
-const CycleFn g_cycle = g_avx2 ? exec_avx2::execute_cycle_impl : exec_generic::execute_cycle_impl;
 const RunsFn g_runs = g_avx2 ? exec_avx2::execute_runs_impl : exec_generic::execute_runs_impl;
 #else
-const CycleFn g_cycle = exec_generic::execute_cycle_impl;
 const RunsFn g_runs = exec_generic::execute_runs_impl;
 #endif
 
@@ -111,11 +107,18 @@ uint64_t interpret_run(const void* context, uint32_t run) {
   return g_runs(*static_cast<const ExecContext*>(context), run, run + 1);
 }
 
-void execute_native_cycle(const ExecContext& ctx) noexcept {
-  if (ctx.loop_fault != nullptr) *ctx.loop_fault = 0;
+uint64_t run_native(const ExecContext& ctx) noexcept {
   const RtplcNativeFrame frame{ctx.params, ctx.values,     ctx.state,     ctx.errors,
                                ctx.loop_budget, ctx.loop_fault, &interpret_run, &ctx};
-  const uint64_t bad = ctx.native(&frame);
+  return ctx.native(&frame);
+}
+
+// One cycle: the loop fault cleared, the program run (by a body or as native
+// code), the cycle and its failures counted.
+template <class Program>
+void run_cycle(const ExecContext& ctx, Program program) noexcept {
+  if (ctx.loop_fault != nullptr) *ctx.loop_fault = 0;
+  const uint64_t bad = program();
   ++*ctx.cycles;
   if (bad != 0) *ctx.total_errors += bad;
 }
@@ -123,11 +126,7 @@ void execute_native_cycle(const ExecContext& ctx) noexcept {
 }  // namespace
 
 void execute_cycle(const ExecContext& ctx) noexcept {
-  if (ctx.native != nullptr) {
-    execute_native_cycle(ctx);
-    return;
-  }
-  g_cycle(ctx);
+  run_cycle(ctx, [&ctx] { return ctx.native != nullptr ? run_native(ctx) : g_runs(ctx, 0, ctx.n_runs); });
 }
 
 bool executor_body_available(ExecutorBody body) {
@@ -141,14 +140,12 @@ bool executor_body_available(ExecutorBody body) {
 }
 
 void execute_cycle_on(ExecutorBody body, const ExecContext& ctx) noexcept {
+  RunsFn runs = exec_generic::execute_runs_impl;
 #if defined(RTPLC_HAVE_AVX2_EXECUTOR)
-  if (body == ExecutorBody::kAvx2 && executor_body_available(body)) {
-    exec_avx2::execute_cycle_impl(ctx);
-    return;
-  }
+  if (body == ExecutorBody::kAvx2 && executor_body_available(body)) runs = exec_avx2::execute_runs_impl;
 #endif
   (void)body;
-  exec_generic::execute_cycle_impl(ctx);
+  run_cycle(ctx, [&ctx, runs] { return runs(ctx, 0, ctx.n_runs); });
 }
 
 const char* executor_variant() { return g_avx2 ? "avx2" : "baseline"; }
